@@ -1,0 +1,66 @@
+"""``scara-ident``: the project's command line, one module per subcommand.
+
+Each subcommand module defines ``add_parser(subparsers)`` (registering its
+``argparse`` sub-parser, with ``help`` and ``description``) and
+``run(args) -> int`` (the exit status). :func:`main` only dispatches.
+"""
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+from collections.abc import Sequence
+
+__all__ = ['SUBCOMMANDS', 'main']
+
+#: Subcommand name -> module under ``scara_ident_ros.cli``.
+SUBCOMMANDS: dict[str, str] = {
+    'run': 'run',
+    'play': 'play',
+    'compare': 'compare',
+    'train': 'train',
+    'evaluate': 'evaluate',
+    'tables': 'tables',
+}
+
+
+class CliError(Exception):
+    """A user-facing error: printed as one line, exit status 2, no traceback."""
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """Return the top-level parser with every available subcommand registered."""
+    parser = argparse.ArgumentParser(
+        prog='scara-ident',
+        description='Online and offline identification of robot inverse dynamics '
+                    'with FFMW/FFW/FFS networks (scara_ident_ros).')
+    subparsers = parser.add_subparsers(dest='command', metavar='COMMAND', required=True)
+    for module_name in SUBCOMMANDS.values():
+        try:
+            module = importlib.import_module(f'{__name__}.{module_name}')
+        except ModuleNotFoundError as exc:
+            if exc.name != f'{__name__}.{module_name}':
+                raise
+            continue
+        module.add_parser(subparsers)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the ``scara-ident`` console script."""
+    from scara_ident_ros.rosenv import ensure_local_dds
+
+    ensure_local_dds()
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return int(args.func(args) or 0)
+    except CliError as exc:
+        print(f'scara-ident {args.command}: error: {exc}', file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        return 130
+
+
+if __name__ == '__main__':
+    sys.exit(main())
