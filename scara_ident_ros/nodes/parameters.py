@@ -1,0 +1,100 @@
+"""Declare a node's parameters once, from a table of :class:`ParamSpec`.
+
+Each parameter gets a descriptor (description with its unit, numeric range,
+read-only flag) and is validated when declared (overrides from ``-p`` or a
+``--params-file``) and whenever it is set later; a bad value raises
+:class:`~scara_ident_ros.nodes.runtime.ConfigError` naming the parameter.
+"""
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescriptor,
+                                SetParametersResult)
+from rclpy.exceptions import ParameterException
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+
+from scara_ident_ros.nodes.runtime import ConfigError
+
+__all__ = ['ParamSpec', 'declare_parameters']
+
+
+@dataclass(frozen=True)
+class ParamSpec:
+    """One parameter: name, default (its type is the parameter's type) and rules."""
+
+    name: str
+    default: Any
+    description: str
+    unit: str = ''
+    min: float | None = None  # inclusive
+    max: float | None = None  # inclusive
+    choices: tuple[str, ...] | None = None
+    read_only: bool = True
+
+    def descriptor(self) -> ParameterDescriptor:
+        """Return the ROS descriptor shown by ``ros2 param describe``."""
+        text = self.description + (f' [{self.unit}]' if self.unit else '')
+        if self.choices:
+            text += f" (one of: {', '.join(self.choices)})"
+        descriptor = ParameterDescriptor(description=text, read_only=self.read_only)
+        if self.min is not None or self.max is not None:
+            low = self.min if self.min is not None else -1e308
+            high = self.max if self.max is not None else 1e308
+            if isinstance(self.default, bool):
+                pass
+            elif isinstance(self.default, int):
+                descriptor.integer_range = [IntegerRange(
+                    from_value=int(max(low, -2**63)), to_value=int(min(high, 2**63 - 1)))]
+            elif isinstance(self.default, float):
+                descriptor.floating_point_range = [
+                    FloatingPointRange(from_value=float(low), to_value=float(high))]
+        return descriptor
+
+    def check(self, value: Any) -> str | None:
+        """Return why ``value`` is not acceptable, or None if it is."""
+        if self.choices is not None and value not in self.choices:
+            return f"must be one of {', '.join(self.choices)}, got {value!r}"
+        if isinstance(value, (int, float)) and not isinstance(value, bool):
+            if self.min is not None and value < self.min:
+                return f'must be >= {self.min}, got {value}'
+            if self.max is not None and value > self.max:
+                return f'must be <= {self.max}, got {value}'
+        return None
+
+
+def declare_parameters(node: Node, specs: Sequence[ParamSpec]) -> dict[str, Any]:
+    """Declare ``specs`` on ``node`` and return their values by name.
+
+    Raises
+    ------
+    ConfigError
+        If an override has the wrong type or fails a spec's rule; the message
+        names the parameter.
+    """
+    by_name = {spec.name: spec for spec in specs}
+
+    def on_set(parameters: list[Parameter]) -> SetParametersResult:
+        for parameter in parameters:
+            spec = by_name.get(parameter.name)
+            reason = spec.check(parameter.value) if spec is not None else None
+            if reason is not None:
+                return SetParametersResult(successful=False,
+                                           reason=f"parameter '{parameter.name}' {reason}")
+        return SetParametersResult(successful=True)
+
+    node.add_on_set_parameters_callback(on_set)
+    values: dict[str, Any] = {}
+    for spec in specs:
+        try:
+            values[spec.name] = node.declare_parameter(
+                spec.name, spec.default, spec.descriptor()).value
+        except ParameterException as exc:
+            raise ConfigError(f"parameter '{spec.name}': {exc}") from None
+        reason = spec.check(values[spec.name])
+        if reason is not None:
+            raise ConfigError(f"parameter '{spec.name}' {reason}")
+    return values
