@@ -1,0 +1,40 @@
+"""The whole identification graph, for machines with a full ROS 2 Jazzy install.
+
+``ros2 launch scara_ident_ros identification.launch.py [bag:=PATH] [sim:=true]``
+starts what ``scara-ident run`` starts: the simulated SCARA (unless ``sim:=false``,
+e.g. with a real robot or ``scara-ident play``), three identifiers side by side
+(FFMW, FFW, FFS in the namespaces /ffmw, /ffw, /ffs, all fed by /joint_states) and
+the MCAP recorder.
+"""
+from launch import LaunchDescription
+from launch.actions import DeclareLaunchArgument
+from launch.conditions import IfCondition
+from launch.substitutions import LaunchConfiguration, PathJoinSubstitution
+from launch_ros.actions import Node
+from launch_ros.substitutions import FindPackageShare
+
+METHODS = ('ffmw', 'ffw', 'ffs')
+
+
+def generate_launch_description():
+    config = PathJoinSubstitution([FindPackageShare('scara_ident_ros'), 'config'])
+    actions = [
+        DeclareLaunchArgument('bag', default_value='scara_ident_run',
+                              description='Directory of the MCAP bag to record'),
+        DeclareLaunchArgument('sim', default_value='true',
+                              description='Start the simulated SCARA'),
+        Node(package='scara_ident_ros', executable='scara_sim', name='scara_sim',
+             parameters=[PathJoinSubstitution([config, 'scara_sim.yaml'])],
+             condition=IfCondition(LaunchConfiguration('sim'))),
+        Node(package='scara_ident_ros', executable='recorder', name='recorder',
+             parameters=[PathJoinSubstitution([config, 'recorder.yaml']),
+                         {'output': LaunchConfiguration('bag')}]),
+    ]
+    for method in METHODS:
+        actions.append(Node(
+            package='scara_ident_ros', executable='identifier', name='identifier',
+            namespace=method,
+            parameters=[PathJoinSubstitution([config, 'identifier.yaml']),
+                        {'method': method}],
+            remappings=[('joint_states', '/joint_states')]))
+    return LaunchDescription(actions)
