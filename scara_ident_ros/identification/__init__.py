@@ -6,5 +6,12 @@ Pure numpy, no rclpy: the ``identifier`` node converts messages and calls
 from __future__ import annotations
 
 from scara_ident_ros.identification.differentiator import METHODS, Differentiator
+from scara_ident_ros.identification.joint_map import JointMap
+from scara_ident_ros.identification.sample_check import (DEFAULT_MAX_GAP_NS, Sample,
+                                                         SampleCheck)
+from scara_ident_ros.identification.skip_reason import SkipReason
 
-__all__ = ['Differentiator', 'METHODS']
+__all__ = [
+    'DEFAULT_MAX_GAP_NS', 'Differentiator', 'JointMap', 'METHODS', 'Sample', 'SampleCheck',
+    'SkipReason',
+]

@@ -1,0 +1,145 @@
+"""Validate one joint-state sample and bring it into the configured joint order.
+
+A sample either passes every check and comes out as a :class:`Sample` in joint order, or is
+rejected with a :class:`SkipReason` and changes no state at all: a rejected sample can never
+reach the network or the differentiator.
+"""
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import NamedTuple, Union
+
+import numpy as np
+from numpy.typing import NDArray
+
+from scara_ident_ros.identification.joint_map import JointMap
+from scara_ident_ros.identification.skip_reason import SkipReason
+
+__all__ = ['FloatArrayLike', 'Sample', 'SampleCheck', 'DEFAULT_MAX_GAP_NS']
+
+FloatArrayLike = Union[Sequence[float], NDArray[np.float64]]
+"""A message array: a list, an ``array.array('d')`` (what rclpy gives) or an ndarray."""
+
+DEFAULT_MAX_GAP_NS = 20_000_000  # ns: 20 missed samples at 1 kHz
+
+
+class Sample(NamedTuple):
+    """One accepted sample, in the configured joint order.
+
+    Attributes
+    ----------
+    stamp_ns : int
+        Time of the sample, integer nanoseconds.
+    position : ndarray of shape (n_joints,)
+        q, rad or m.
+    velocity : ndarray of shape (n_joints,)
+        q', rad/s or m/s.
+    effort : ndarray of shape (n_joints,) or None
+        Measured joint effort, N·m or N; None if the message carried none.
+    gap : bool
+        The clock jumped by more than the maximum gap since the previous accepted sample:
+        the sample is good but starts a new history (derivatives must restart).
+    """
+
+    stamp_ns: int
+    position: NDArray[np.float64]
+    velocity: NDArray[np.float64]
+    effort: NDArray[np.float64] | None
+    gap: bool
+
+
+class SampleCheck:
+    """Checks of the stamp, the array lengths, the names and the values of each sample.
+
+    Parameters
+    ----------
+    joint_map : JointMap
+        The joint order; if it has none yet, the first valid sample's names are adopted.
+    need_effort : bool
+        Reject samples without effort (``NO_EFFORT``); set when the effort is learnt from.
+        Without it an empty effort is accepted (``Sample.effort`` is None), but a non-empty one
+        must still have the right length and be finite.
+    max_gap_ns : int
+        A clock jump larger than this (ns), forwards or backwards, marks a sample as ``gap``.
+        Smaller steps backwards are rejected as ``STAMP_BACKWARDS``.
+
+    Notes
+    -----
+    Checks run in this order, and the first that fails names the reason: stamp (repeated,
+    backwards), presence (``NO_VELOCITY``, ``NO_POSITION``, ``NO_EFFORT``), lengths, names
+    (see :meth:`JointMap.permutation`), finiteness. Stamps are compared with the last
+    *accepted* sample only.
+    """
+
+    def __init__(self, joint_map: JointMap, *, need_effort: bool = True,
+                 max_gap_ns: int = DEFAULT_MAX_GAP_NS) -> None:
+        if max_gap_ns <= 0:
+            raise ValueError(f'max_gap_ns must be positive, got {max_gap_ns}')
+        self.joint_map = joint_map
+        self.need_effort = need_effort
+        self.max_gap_ns = int(max_gap_ns)
+        self._last_stamp: int | None = None
+
+    @property
+    def last_stamp_ns(self) -> int | None:
+        """Stamp of the last accepted sample (ns), None before the first or after a reset."""
+        return self._last_stamp
+
+    def reset(self) -> None:
+        """Forget the last stamp: the next valid sample is accepted whatever its time."""
+        self._last_stamp = None
+
+    def check(self, stamp_ns: int, names: Sequence[str], position: FloatArrayLike,
+              velocity: FloatArrayLike, effort: FloatArrayLike = ()) -> Sample | SkipReason:
+        """Validate one sample.
+
+        Parameters
+        ----------
+        stamp_ns : int
+            Time of the sample, integer nanoseconds.
+        names : sequence of str of length m
+            Joint names, in message order.
+        position, velocity : array_like of shape (m,)
+            q (rad or m) and q' (rad/s or m/s) in message order.
+        effort : array_like of shape (m,) or (0,)
+            Joint effort (N·m or N) in message order; empty if not measured.
+
+        Returns
+        -------
+        Sample or SkipReason
+            The sample in joint order, or why it was rejected (and then nothing changed).
+        """
+        gap = False
+        last = self._last_stamp
+        if last is not None:
+            dt = stamp_ns - last
+            if dt == 0:
+                return SkipReason.STAMP_REPEATED
+            if dt < 0 and dt >= -self.max_gap_ns:
+                return SkipReason.STAMP_BACKWARDS
+            gap = dt > self.max_gap_ns or dt < 0
+        m = len(names)
+        if len(velocity) == 0:
+            return SkipReason.NO_VELOCITY
+        if len(position) == 0:
+            return SkipReason.NO_POSITION
+        has_effort = len(effort) != 0
+        if not has_effort and self.need_effort:
+            return SkipReason.NO_EFFORT
+        if len(position) != m or len(velocity) != m or (has_effort and len(effort) != m):
+            return SkipReason.LENGTH_MISMATCH
+        perm = self.joint_map.permutation(names)
+        if isinstance(perm, SkipReason):
+            return perm
+        raw = np.empty((3 if has_effort else 2, m))
+        raw[0] = position
+        raw[1] = velocity
+        if has_effort:
+            raw[2] = effort
+        if not np.isfinite(raw).all():
+            return SkipReason.NON_FINITE
+        if self.joint_map.names is None:
+            self.joint_map.adopt(names)
+        self._last_stamp = stamp_ns
+        values = raw[:, perm]
+        return Sample(stamp_ns, values[0], values[1], values[2] if has_effort else None, gap)

@@ -1,0 +1,122 @@
+"""Tests of the validation of one joint-state sample."""
+from __future__ import annotations
+
+import array
+import math
+
+import numpy as np
+import pytest
+
+from scara_ident_ros.identification import JointMap, Sample, SampleCheck, SkipReason
+
+NAMES = ['joint1', 'joint2', 'joint3']
+T0 = 1_000_000_000_000  # ns
+MS = 1_000_000  # ns
+
+
+def make_check(need_effort: bool = True, names: list[str] | None = NAMES) -> SampleCheck:
+    return SampleCheck(JointMap(names, n_joints=3), need_effort=need_effort,
+                       max_gap_ns=50 * MS)
+
+
+def good(check: SampleCheck, stamp: int) -> Sample:
+    sample = check.check(stamp, NAMES, [1.0, 2.0, 3.0], [4.0, 5.0, 6.0], [7.0, 8.0, 9.0])
+    assert isinstance(sample, Sample)
+    return sample
+
+
+def test_a_good_sample_in_joint_order() -> None:
+    sample = good(make_check(), T0)
+    assert sample.stamp_ns == T0 and not sample.gap
+    assert sample.position.tolist() == [1.0, 2.0, 3.0]
+    assert sample.velocity.tolist() == [4.0, 5.0, 6.0]
+    assert sample.effort is not None and sample.effort.tolist() == [7.0, 8.0, 9.0]
+
+
+def test_reordered_message_is_mapped_by_name() -> None:
+    check = make_check()
+    sample = check.check(T0, ['joint3', 'joint1', 'joint2'], array.array('d', [3, 1, 2]),
+                         np.array([6.0, 4.0, 5.0]), (9.0, 7.0, 8.0))
+    assert isinstance(sample, Sample)
+    assert sample.position.tolist() == [1.0, 2.0, 3.0]
+    assert sample.velocity.tolist() == [4.0, 5.0, 6.0]
+    assert sample.effort is not None and sample.effort.tolist() == [7.0, 8.0, 9.0]
+
+
+NAN, INF = math.nan, math.inf
+
+
+@pytest.mark.parametrize('names, position, velocity, effort, reason', [
+    (NAMES, [1, NAN, 3], [4, 5, 6], [7, 8, 9], SkipReason.NON_FINITE),
+    (NAMES, [1, 2, 3], [4, 5, INF], [7, 8, 9], SkipReason.NON_FINITE),
+    (NAMES, [1, 2, 3], [4, 5, 6], [-INF, 8, 9], SkipReason.NON_FINITE),
+    (NAMES, [1, 2, 3], [], [7, 8, 9], SkipReason.NO_VELOCITY),
+    (NAMES, [], [4, 5, 6], [7, 8, 9], SkipReason.NO_POSITION),
+    (NAMES, [1, 2, 3], [4, 5, 6], [], SkipReason.NO_EFFORT),
+    (NAMES, [1, 2], [4, 5, 6], [7, 8, 9], SkipReason.LENGTH_MISMATCH),
+    (NAMES, [1, 2, 3], [4, 5, 6, 0], [7, 8, 9], SkipReason.LENGTH_MISMATCH),
+    (NAMES, [1, 2, 3], [4, 5, 6], [7, 8], SkipReason.LENGTH_MISMATCH),
+    (['joint1', 'joint2', 'jointX'], [1, 2, 3], [4, 5, 6], [7, 8, 9], SkipReason.UNKNOWN_JOINT),
+    (['joint1', 'joint2'], [1, 2], [4, 5], [7, 8], SkipReason.MISSING_JOINT),
+    (['joint1', 'joint1', 'joint3'], [1, 2, 3], [4, 5, 6], [7, 8, 9],
+     SkipReason.DUPLICATE_JOINT),
+])
+def test_rejections_leave_no_trace(names: list[str], position: list[float],
+                                   velocity: list[float], effort: list[float],
+                                   reason: SkipReason) -> None:
+    check = make_check()
+    good(check, T0)
+    assert check.check(T0 + MS, names, position, velocity, effort) is reason
+    assert check.last_stamp_ns == T0
+    sample = good(check, T0 + MS)  # the same stamp is still free
+    assert not sample.gap
+
+
+def test_stamps_must_increase() -> None:
+    check = make_check()
+    good(check, T0)
+    assert check.check(T0, NAMES, [1, 2, 3], [4, 5, 6], [7, 8, 9]) is SkipReason.STAMP_REPEATED
+    assert check.check(T0 - 1, NAMES, [1, 2, 3], [4, 5, 6],
+                       [7, 8, 9]) is SkipReason.STAMP_BACKWARDS
+    assert check.check(T0 - 50 * MS, NAMES, [1, 2, 3], [4, 5, 6],
+                       [7, 8, 9]) is SkipReason.STAMP_BACKWARDS
+    assert not good(check, T0 + 1).gap
+
+
+def test_a_clock_jump_either_way_is_a_gap() -> None:
+    check = make_check()
+    good(check, T0)
+    assert not good(check, T0 + 50 * MS).gap  # exactly max_gap: still continuous
+    assert good(check, T0 + 101 * MS).gap
+    assert not good(check, T0 + 102 * MS).gap
+    assert good(check, T0).gap  # a simulator restarted: a jump back of more than max_gap
+    assert not good(check, T0 + MS).gap
+    check.reset()
+    assert not good(check, T0 - 10**12).gap  # after a reset, any time is a fresh start
+
+
+def test_effort_is_optional_when_not_learning_but_checked_when_present() -> None:
+    check = make_check(need_effort=False)
+    sample = check.check(T0, NAMES, [1, 2, 3], [4, 5, 6], [])
+    assert isinstance(sample, Sample) and sample.effort is None
+    assert check.check(T0 + MS, NAMES, [1, 2, 3], [4, 5, 6], [7, NAN, 9]) is \
+        SkipReason.NON_FINITE
+    assert check.check(T0 + MS, NAMES, [1, 2, 3], [4, 5, 6], [7]) is \
+        SkipReason.LENGTH_MISMATCH
+
+
+def test_joint_order_adopted_from_the_first_valid_message_only() -> None:
+    check = make_check(names=None)
+    assert check.check(T0, ['b', 'a', 'c'], [1, 2, NAN], [4, 5, 6],
+                       [7, 8, 9]) is SkipReason.NON_FINITE
+    assert check.joint_map.names is None
+    assert check.check(T0, ['a', 'b'], [1, 2], [4, 5], [7, 8]) is SkipReason.JOINT_COUNT
+    assert isinstance(check.check(T0, ['c', 'a', 'b'], [1, 2, 3], [4, 5, 6], [7, 8, 9]), Sample)
+    assert check.joint_map.names == ('c', 'a', 'b')
+    sample = check.check(T0 + MS, ['a', 'b', 'c'], [2, 3, 1], [5, 6, 4], [8, 9, 7])
+    assert isinstance(sample, Sample) and sample.position.tolist() == [1.0, 2.0, 3.0]
+
+
+def test_max_gap_must_be_positive() -> None:
+    with pytest.raises(ValueError, match='max_gap_ns'):
+        SampleCheck(JointMap(NAMES), max_gap_ns=0)
