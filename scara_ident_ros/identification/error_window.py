@@ -1,0 +1,165 @@
+"""Prediction error statistics over a sliding window of the latest samples.
+
+Per joint: the mean squared error (MSE) of the a-priori predictions over the last ``W``
+samples, and the normalised MSE (NMSE): the MSE divided by the variance of that joint's
+measured effort over the same samples. The NMSE is free of units and of the effort's scale,
+so joints (N·m and N) and robots can be compared; NMSE = 1 is no better than predicting the
+window's mean effort.
+
+The paper's online figure, "the error over the last 100 samples", is ``recent(100).mse``.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+__all__ = ['ErrorStats', 'ErrorWindow', 'PAPER_WINDOW']
+
+PAPER_WINDOW = 100  # samples: the paper's "error over the last 100 samples"
+
+
+@dataclass(frozen=True)
+class ErrorStats:
+    """Error statistics over a window of samples.
+
+    Attributes
+    ----------
+    mse : ndarray of shape (n_joints,)
+        Mean squared prediction error per joint, (N·m)² or N²; NaN when ``count`` is 0.
+    nmse : ndarray of shape (n_joints,)
+        ``mse`` divided by the (population) variance of the joint's measured effort over the
+        same samples; NaN where that variance is 0.
+    mse_total : float
+        Mean of ``mse`` over the joints (mixing units, as the paper's figures do).
+    nmse_total : float
+        Mean of ``nmse`` over the joints where it is defined; NaN if it is nowhere.
+    count : int
+        Number of samples the statistics cover.
+    """
+
+    mse: NDArray[np.float64]
+    nmse: NDArray[np.float64]
+    mse_total: float
+    nmse_total: float
+    count: int
+
+
+class ErrorWindow:
+    """Sliding-window MSE and NMSE per joint, updated in O(n_joints) per sample.
+
+    Parameters
+    ----------
+    n_joints : int
+        Number of joints n.
+    window : int
+        Number of latest samples W the running statistics cover.
+
+    Notes
+    -----
+    Running sums of the squared errors and of the effort's first two moments are updated
+    per sample (add the new sample, subtract the one leaving the window) and recomputed
+    exactly from the ring buffer each time it wraps, so rounding drift cannot build up: the
+    cost is O(W n) once per W samples, O(n) amortised. The effort moments are taken about a
+    reference effort (the first sample's, then the window mean at each recompute), so the
+    variance does not cancel catastrophically when an effort has a large mean, such as a
+    gravity load.
+    """
+
+    def __init__(self, n_joints: int, window: int = 1000) -> None:
+        if n_joints < 1 or window < 1:
+            raise ValueError(f'need n_joints >= 1 and window >= 1, got {n_joints}, {window}')
+        self.n_joints = int(n_joints)
+        self.window = int(window)
+        # Ring buffer, one row per sample: squared error, effort - ref, (effort - ref) ** 2.
+        self._rows = np.zeros((self.window, 3, self.n_joints))
+        self.reset()
+
+    @property
+    def count(self) -> int:
+        """Number of samples in the window, at most ``window``."""
+        return self._count
+
+    def reset(self) -> None:
+        """Empty the window."""
+        self._rows[:] = 0.0  # a zero row leaving the window subtracts nothing
+        self._sums = np.zeros((3, self.n_joints))
+        self._ref: NDArray[np.float64] | None = None  # effort the moments are taken about
+        self._count = 0
+        self._head = 0  # ring slot the next sample goes to
+
+    def update(self, effort: ArrayLike, predicted: ArrayLike) -> None:
+        """Add one sample.
+
+        Parameters
+        ----------
+        effort : array_like of shape (n_joints,)
+            Measured joint effort, N·m or N.
+        predicted : array_like of shape (n_joints,)
+            The prediction of that effort, same units.
+        """
+        y = np.asarray(effort, dtype=np.float64)
+        if self._ref is None:
+            self._ref = y.copy()
+        row = self._rows[self._head]
+        self._sums -= row
+        error = y - predicted
+        np.multiply(error, error, out=row[0])
+        np.subtract(y, self._ref, out=row[1])
+        np.multiply(row[1], row[1], out=row[2])
+        self._sums += row
+        self._count = min(self._count + 1, self.window)
+        self._head += 1
+        if self._head == self.window:
+            self._head = 0
+            self._recompute()
+
+    def snapshot(self) -> ErrorStats:
+        """Return the statistics over the whole window (the last ``count`` samples)."""
+        c = self._count
+        if c == 0:
+            return _stats(np.full(self.n_joints, np.nan), np.zeros(self.n_joints), 0)
+        mse, mean, mean_sq = self._sums / c  # rounding may leave sums of squares at -0
+        return _stats(np.maximum(mse, 0.0), np.maximum(mean_sq - mean * mean, 0.0), c)
+
+    def recent(self, k: int = PAPER_WINDOW) -> ErrorStats:
+        """Return the statistics over the last ``k`` samples, computed exactly, O(k n).
+
+        Parameters
+        ----------
+        k : int
+            Number of latest samples, at most ``window``; fewer are used while the window
+            holds fewer.
+
+        Raises
+        ------
+        ValueError
+            If ``k`` is not in 1..window.
+        """
+        if not 1 <= k <= self.window:
+            raise ValueError(f'k must be in 1..{self.window}, got {k}')
+        k = min(k, self._count)
+        if k == 0:
+            return _stats(np.full(self.n_joints, np.nan), np.zeros(self.n_joints), 0)
+        rows = self._rows[np.arange(self._head - k, self._head) % self.window]
+        return _stats(rows[:, 0].mean(axis=0), rows[:, 1].var(axis=0), k)
+
+    def _recompute(self) -> None:
+        """Re-centre the (full) ring buffer on its mean effort and recompute the sums."""
+        assert self._ref is not None
+        shift = self._rows[:, 1].mean(axis=0)
+        self._ref = self._ref + shift
+        self._rows[:, 1] -= shift
+        np.multiply(self._rows[:, 1], self._rows[:, 1], out=self._rows[:, 2])
+        self._sums = self._rows.sum(axis=0)
+
+
+def _stats(mse: NDArray[np.float64], var: NDArray[np.float64], count: int) -> ErrorStats:
+    """Assemble :class:`ErrorStats` from per-joint MSE and effort variance."""
+    defined = var > 0.0
+    nmse = np.full_like(mse, np.nan)
+    np.divide(mse, var, out=nmse, where=defined)
+    nmse_total = float(nmse[defined].mean()) if defined.any() else float('nan')
+    return ErrorStats(mse=mse, nmse=nmse, mse_total=float(mse.mean()), nmse_total=nmse_total,
+                      count=count)
