@@ -8,11 +8,14 @@ from __future__ import annotations
 from scara_ident_ros.identification.differentiator import METHODS, Differentiator
 from scara_ident_ros.identification.error_window import PAPER_WINDOW, ErrorStats, ErrorWindow
 from scara_ident_ros.identification.joint_map import JointMap
+from scara_ident_ros.identification.online_identifier import (Counts, EffortModel,
+                                                              OnlineIdentifier, StepResult)
 from scara_ident_ros.identification.sample_check import (DEFAULT_MAX_GAP_NS, Sample,
                                                          SampleCheck)
 from scara_ident_ros.identification.skip_reason import SkipReason
 
 __all__ = [
-    'DEFAULT_MAX_GAP_NS', 'Differentiator', 'ErrorStats', 'ErrorWindow', 'JointMap', 'METHODS',
-    'PAPER_WINDOW', 'Sample', 'SampleCheck', 'SkipReason',
+    'Counts', 'DEFAULT_MAX_GAP_NS', 'Differentiator', 'EffortModel', 'ErrorStats', 'ErrorWindow',
+    'JointMap', 'METHODS', 'OnlineIdentifier', 'PAPER_WINDOW', 'Sample', 'SampleCheck',
+    'SkipReason', 'StepResult',
 ]
