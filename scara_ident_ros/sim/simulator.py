@@ -1,0 +1,361 @@
+"""Fixed-rate simulation of the SCARA tracking an excitation under computed-torque control.
+
+Each sample k at time t_k = k·dt:
+
+1. the sensors read q and q' (true state plus optional Gaussian noise);
+2. the controller computes τ_k from the readings and the desired q, q', q'' at t_k, clipped
+   to the effort limits; τ_k and the disturbance T_d(t_k) are held over [t_k, t_k + dt)
+   (zero-order hold, like a digital drive);
+3. the sample reports the readings, the true acceleration
+   q''_k = M⁻¹ (τ_k − T_d − C q' − F − G) at the true state, and τ_k plus optional noise;
+4. the true state is integrated to t_{k+1} by ``substeps`` classical RK4 steps.
+
+The per-sample work runs on plain Python floats (see ``ScaraModel.*_single``): at 4 RK4
+substeps one sample costs a few tens of microseconds, so a 1 kHz node keeps up.
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, fields
+from typing import Any
+
+import numpy as np
+
+from scara_ident_ros.dynamics.model import ScaraModel
+from scara_ident_ros.dynamics.params import (N_JOINTS, ParamError, ScaraParams, _check_keys,
+                                             _integer, _scalar, _vector4)
+from scara_ident_ros.sim.controller import ComputedTorqueController
+from scara_ident_ros.sim.trajectory import FourierTrajectory
+
+__all__ = ['DISTURBANCES', 'SimConfig', 'SimSample', 'SimRecord', 'Simulator']
+
+#: Kinds of disturbance T_d (eq. 6): none, a sinusoid per joint with a random phase, or
+#: Gauss-Markov (first-order low-pass) random torques.
+DISTURBANCES = ('none', 'sinusoid', 'random')
+
+_CHUNK = 1024          # desired-trajectory samples evaluated per vectorised batch
+
+
+@dataclass(frozen=True)
+class SimConfig:
+    """Settings of a simulation run, validated on construction.
+
+    Attributes
+    ----------
+    dt : float
+        Sample period (s), > 0 and a whole number of nanoseconds.
+    substeps : int
+        RK4 steps per sample, >= 1.
+    kp, kd : tuple of 4 float
+        Controller gains (1/s², 1/s); a scalar applies to every joint.
+    noise_q, noise_qd, noise_effort : tuple of 4 float
+        Standard deviation of the Gaussian measurement noise on the reported positions
+        (rad, m), velocities (rad/s, m/s) and efforts (N·m, N); a scalar applies to every
+        joint. The controller sees the noisy positions and velocities; the state does not.
+    disturbance : str
+        Kind of disturbance T_d, one of :data:`DISTURBANCES`.
+    disturbance_amplitude : tuple of 4 float
+        Amplitude (sinusoid) or standard deviation (random) of T_d (N·m, N).
+    disturbance_frequency_hz : float
+        Frequency of the sinusoid, or bandwidth of the random disturbance (Hz).
+    model_mismatch : float
+        Relative error in [0, 1) of the controller's model parameters (see
+        ``ScaraParams.perturbed``); 0 gives the controller the true model.
+    seed : int
+        Seed of the noise, disturbance and mismatch draws, >= 0.
+    """
+
+    dt: float = 1e-3                                             # s
+    substeps: int = 4
+    kp: tuple[float, ...] = (400.0, 400.0, 400.0, 400.0)         # 1/s², ωn = 20 rad/s
+    kd: tuple[float, ...] = (40.0, 40.0, 40.0, 40.0)             # 1/s, critically damped
+    noise_q: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)            # rad, rad, m, rad
+    noise_qd: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)           # rad/s, rad/s, m/s, rad/s
+    noise_effort: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)       # N·m, N·m, N, N·m
+    disturbance: str = 'none'
+    disturbance_amplitude: tuple[float, ...] = (2.0, 1.0, 5.0, 0.1)  # N·m, N·m, N, N·m
+    disturbance_frequency_hz: float = 0.5                        # Hz
+    model_mismatch: float = 0.0
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        set_ = object.__setattr__
+        set_(self, 'dt', _scalar('dt', self.dt, minimum=0.0))
+        if abs(self.dt * 1e9 - round(self.dt * 1e9)) > 1e-3:
+            raise ParamError(f'dt must be a whole number of nanoseconds, got {self.dt!r}')
+        set_(self, 'substeps', _integer('substeps', self.substeps, minimum=1))
+        for name in ('kp', 'kd'):
+            set_(self, name, _vector4(name, getattr(self, name), minimum=0.0,
+                                      allow_scalar=True))
+        for name in ('noise_q', 'noise_qd', 'noise_effort', 'disturbance_amplitude'):
+            set_(self, name, _vector4(name, getattr(self, name), minimum=0.0, strict=False,
+                                      allow_scalar=True))
+        if self.disturbance not in DISTURBANCES:
+            raise ParamError(f'disturbance must be one of {", ".join(DISTURBANCES)}, '
+                             f'got {self.disturbance!r}')
+        set_(self, 'disturbance_frequency_hz',
+             _scalar('disturbance_frequency_hz', self.disturbance_frequency_hz, minimum=0.0))
+        set_(self, 'model_mismatch',
+             _scalar('model_mismatch', self.model_mismatch, minimum=0.0, strict=False))
+        if self.model_mismatch >= 1.0:
+            raise ParamError(f'model_mismatch must be < 1, got {self.model_mismatch!r}')
+        set_(self, 'seed', _integer('seed', self.seed, minimum=0))
+
+    @property
+    def dt_ns(self) -> int:
+        """Sample period in integer nanoseconds."""
+        return round(self.dt * 1e9)
+
+    @classmethod
+    def from_dict(cls, mapping: Mapping[str, Any]) -> SimConfig:
+        """Build a configuration from a mapping; missing names take the defaults.
+
+        Raises
+        ------
+        ParamError
+            For a non-mapping, unknown names or invalid values.
+        """
+        return cls(**_check_keys(cls, mapping, cls.__name__))
+
+    def to_dict(self) -> dict[str, Any]:
+        """Return the settings as plain Python values (lists for the per-joint ones)."""
+        return {f.name: (list(v) if isinstance(v := getattr(self, f.name), tuple) else v)
+                for f in fields(self)}
+
+
+@dataclass(frozen=True)
+class SimSample:
+    """One sample of the simulated robot.
+
+    Attributes
+    ----------
+    stamp_ns : int
+        Time of the sample, k · dt (ns).
+    q, qd : ndarray of shape (4,)
+        Measured positions (rad, rad, m, rad) and velocities (rad/s, m/s), with noise if any.
+    qdd : ndarray of shape (4,)
+        True accelerations at the sample (rad/s², m/s²).
+    effort : ndarray of shape (4,)
+        Applied (clipped) efforts held over the step, with measurement noise if any
+        (N·m, N·m, N, N·m).
+    """
+
+    stamp_ns: int
+    q: np.ndarray
+    qd: np.ndarray
+    qdd: np.ndarray
+    effort: np.ndarray
+
+
+@dataclass(frozen=True)
+class SimRecord:
+    """n consecutive samples as arrays.
+
+    Attributes
+    ----------
+    stamp_ns : ndarray of shape (n,), int64
+        Sample times (ns).
+    q, qd, qdd, effort : ndarray of shape (n, 4)
+        As in :class:`SimSample`.
+    """
+
+    stamp_ns: np.ndarray
+    q: np.ndarray
+    qd: np.ndarray
+    qdd: np.ndarray
+    effort: np.ndarray
+
+    def __len__(self) -> int:
+        return int(self.stamp_ns.shape[0])
+
+
+class Simulator:
+    """The SCARA plant, its computed-torque controller, sensors and disturbance.
+
+    Parameters
+    ----------
+    params : ScaraParams
+        The true robot.
+    trajectory : FourierTrajectory
+        Desired motion; the state starts on it at t = 0.
+    config : SimConfig, optional
+        Simulation settings; default ``SimConfig()``.
+
+    Attributes
+    ----------
+    model : ScaraModel
+        The plant's model.
+    controller : ComputedTorqueController
+        The controller, with the true or a perturbed model.
+    """
+
+    def __init__(self, params: ScaraParams, trajectory: FourierTrajectory,
+                 config: SimConfig | None = None) -> None:
+        self.params = params
+        self.trajectory = trajectory
+        self.config = SimConfig() if config is None else config
+        cfg = self.config
+        self.model = ScaraModel(params)
+        noise_seed, disturbance_seed, mismatch_seed = np.random.SeedSequence(cfg.seed).spawn(3)
+        self._noise_seed = noise_seed
+        self._disturbance_seed = disturbance_seed
+        controller_params = params
+        if cfg.model_mismatch > 0.0:
+            controller_params = params.perturbed(
+                cfg.model_mismatch, seed=int(mismatch_seed.generate_state(1)[0]))
+        self.controller = ComputedTorqueController(ScaraModel(controller_params), cfg.kp,
+                                                   cfg.kd, effort_max=params.effort_max)
+        self._dt_ns = cfg.dt_ns
+        self._h = cfg.dt / cfg.substeps
+        self._noisy = any(cfg.noise_q) or any(cfg.noise_qd) or any(cfg.noise_effort)
+        self._noise_std = np.array(cfg.noise_q + cfg.noise_qd + cfg.noise_effort)
+        self.reset()
+
+    # -- state --------------------------------------------------------------------------------
+
+    def reset(self) -> None:
+        """Go back to t = 0 on the trajectory and restart the random streams."""
+        cfg = self.config
+        self._k = 0
+        q, qd, _ = self.trajectory.evaluate(0.0)
+        self._q = tuple(q.tolist())
+        self._qd = tuple(qd.tolist())
+        self._noise_rng = np.random.default_rng(self._noise_seed)
+        rng = np.random.default_rng(self._disturbance_seed)
+        amplitude = cfg.disturbance_amplitude
+        self._phase = tuple(rng.uniform(0.0, 2.0 * math.pi, N_JOINTS).tolist())
+        self._dist_rng = rng
+        self._dist = (tuple((np.array(amplitude) * rng.standard_normal(N_JOINTS)).tolist())
+                      if cfg.disturbance == 'random' else (0.0,) * N_JOINTS)
+        self._alpha = math.exp(-2.0 * math.pi * cfg.disturbance_frequency_hz * cfg.dt)
+        self._chunk_start = 0
+        self._desired: list[tuple[list[float], list[float], list[float]]] = []
+
+    @property
+    def stamp_ns(self) -> int:
+        """Stamp of the next sample (ns)."""
+        return self._k * self._dt_ns
+
+    @property
+    def state(self) -> tuple[np.ndarray, np.ndarray]:
+        """True (noise-free) positions and velocities of the next sample, two (4,) arrays."""
+        return np.array(self._q), np.array(self._qd)
+
+    def disturbance(self) -> np.ndarray:
+        """Disturbance T_d acting over the next step, shape (4,) (N·m, N)."""
+        return np.array(self._disturbance_now())
+
+    # -- stepping -----------------------------------------------------------------------------
+
+    def step(self) -> SimSample:
+        """Produce the sample at the current time and advance the state by dt.
+
+        Returns
+        -------
+        SimSample
+            Readings, true acceleration and applied effort at the sample.
+        """
+        stamp, q, qd, qdd, effort = self._advance()
+        return SimSample(stamp, np.array(q), np.array(qd), np.array(qdd), np.array(effort))
+
+    def simulate(self, n: int) -> SimRecord:
+        """Run ``n`` samples: the same numbers as ``n`` calls of :meth:`step`.
+
+        Parameters
+        ----------
+        n : int
+            Number of samples, >= 0.
+
+        Returns
+        -------
+        SimRecord
+            Arrays of shape (n,) and (n, 4).
+        """
+        n = _integer('n', n, minimum=0)
+        rows = [self._advance() for _ in range(n)]
+        stamps = np.array([row[0] for row in rows], dtype=np.int64)
+        columns = [np.array([row[i] for row in rows], dtype=float).reshape(n, N_JOINTS)
+                   for i in range(1, 5)]
+        return SimRecord(stamps, *columns)
+
+    # -- internals ----------------------------------------------------------------------------
+
+    def _desired_at(self, k: int) -> tuple[list[float], list[float], list[float]]:
+        """Desired q, q', q'' at sample k, from a vectorised batch evaluated ahead."""
+        index = k - self._chunk_start
+        if not 0 <= index < len(self._desired):
+            self._chunk_start = k
+            times = (k + np.arange(_CHUNK)) * self._dt_ns * 1e-9
+            q, qd, qdd = self.trajectory.evaluate(times)
+            self._desired = list(zip(q.tolist(), qd.tolist(), qdd.tolist()))
+            index = 0
+        return self._desired[index]
+
+    def _disturbance_now(self) -> tuple[float, ...]:
+        cfg = self.config
+        if cfg.disturbance == 'sinusoid':
+            w_t = 2.0 * math.pi * cfg.disturbance_frequency_hz * self._k * self._dt_ns * 1e-9
+            return tuple(a * math.sin(w_t + p)
+                         for a, p in zip(cfg.disturbance_amplitude, self._phase))
+        return self._dist
+
+    def _advance(self) -> tuple[int, tuple[float, ...], tuple[float, ...],
+                                tuple[float, ...], tuple[float, ...]]:
+        """One sample: read, control, report, integrate. Plain floats throughout."""
+        k = self._k
+        q, qd = self._q, self._qd
+        q_des, qd_des, qdd_des = self._desired_at(k)
+        if self._noisy:
+            z = (self._noise_rng.standard_normal(3 * N_JOINTS) * self._noise_std).tolist()
+            q_meas = (q[0] + z[0], q[1] + z[1], q[2] + z[2], q[3] + z[3])
+            qd_meas = (qd[0] + z[4], qd[1] + z[5], qd[2] + z[6], qd[3] + z[7])
+        else:
+            z = None
+            q_meas, qd_meas = q, qd
+        tau = self.controller.compute_single(q_meas, qd_meas, q_des, qd_des, qdd_des)
+        if self.config.disturbance == 'none':
+            net = tau
+        else:
+            d = self._disturbance_now()
+            net = (tau[0] - d[0], tau[1] - d[1], tau[2] - d[2], tau[3] - d[3])
+        fd = self.model.forward_dynamics_single
+        qdd = fd(q, qd, net)
+        self._q, self._qd = _rk4(fd, q, qd, qdd, net, self._h, self.config.substeps)
+        if self.config.disturbance == 'random':
+            alpha = self._alpha
+            gain = math.sqrt(1.0 - alpha * alpha)
+            xi = self._dist_rng.standard_normal(N_JOINTS).tolist()
+            self._dist = tuple(alpha * d_i + gain * a_i * x_i for d_i, a_i, x_i
+                               in zip(self._dist, self.config.disturbance_amplitude, xi))
+        if z is not None:
+            effort = (tau[0] + z[8], tau[1] + z[9], tau[2] + z[10], tau[3] + z[11])
+        else:
+            effort = tau
+        self._k = k + 1
+        return k * self._dt_ns, q_meas, qd_meas, qdd, effort
+
+
+def _rk4(fd: Any, q: tuple[float, ...], v: tuple[float, ...], a: tuple[float, ...],
+         tau: tuple[float, ...], h: float, substeps: int
+         ) -> tuple[tuple[float, ...], tuple[float, ...]]:
+    """Integrate q' = v, v' = fd(q, v, tau) over ``substeps`` RK4 steps of length h.
+
+    ``a`` is fd(q, v, tau) at the start, reused as the first stage.
+    """
+    hh, h6 = 0.5 * h, h / 6.0
+    for step in range(substeps):
+        if step:
+            a = fd(q, v, tau)
+        v2 = (v[0] + hh * a[0], v[1] + hh * a[1], v[2] + hh * a[2], v[3] + hh * a[3])
+        q2 = (q[0] + hh * v[0], q[1] + hh * v[1], q[2] + hh * v[2], q[3] + hh * v[3])
+        a2 = fd(q2, v2, tau)
+        v3 = (v[0] + hh * a2[0], v[1] + hh * a2[1], v[2] + hh * a2[2], v[3] + hh * a2[3])
+        q3 = (q[0] + hh * v2[0], q[1] + hh * v2[1], q[2] + hh * v2[2], q[3] + hh * v2[3])
+        a3 = fd(q3, v3, tau)
+        v4 = (v[0] + h * a3[0], v[1] + h * a3[1], v[2] + h * a3[2], v[3] + h * a3[3])
+        q4 = (q[0] + h * v3[0], q[1] + h * v3[1], q[2] + h * v3[2], q[3] + h * v3[3])
+        a4 = fd(q4, v4, tau)
+        q = tuple(q[i] + h6 * (v[i] + 2.0 * (v2[i] + v3[i]) + v4[i]) for i in range(4))
+        v = tuple(v[i] + h6 * (a[i] + 2.0 * (a2[i] + a3[i]) + a4[i]) for i in range(4))
+    return q, v
