@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from typing import cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -190,4 +191,4 @@ class Differentiator:
             np.multiply(fit[:, j - 1], fit[:, 1], out=fit[:, j])
         normal = fit[:, :p + 1].T @ fit  # (p + 1, p + 1 + n): [B'B | B'V]
         coef = np.linalg.solve(normal[:, :p + 1], normal[:, p + 1:])  # (p + 1, n)
-        return coef[1] / (span * NS)
+        return cast(NDArray[np.float64], coef[1] / (span * NS))

@@ -104,7 +104,7 @@ class ErrorWindow:
             self._ref = y.copy()
         row = self._rows[self._head]
         self._sums -= row
-        error = y - predicted
+        error = np.subtract(y, predicted)
         np.multiply(error, error, out=row[0])
         np.subtract(y, self._ref, out=row[1])
         np.multiply(row[1], row[1], out=row[2])

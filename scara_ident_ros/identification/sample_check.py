@@ -7,7 +7,7 @@ reach the network or the differentiator.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import NamedTuple, Union
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -17,7 +17,7 @@ from scara_ident_ros.identification.skip_reason import SkipReason
 
 __all__ = ['FloatArrayLike', 'Sample', 'SampleCheck', 'DEFAULT_MAX_GAP_NS']
 
-FloatArrayLike = Union[Sequence[float], NDArray[np.float64]]
+FloatArrayLike = Sequence[float] | NDArray[np.float64]
 """A message array: a list, an ``array.array('d')`` (what rclpy gives) or an ndarray."""
 
 DEFAULT_MAX_GAP_NS = 20_000_000  # ns: 20 missed samples at 1 kHz

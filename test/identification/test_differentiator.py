@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 import pytest
@@ -23,12 +24,12 @@ def uneven_stamps(count: int, seed: int = 0) -> NDArray[np.int64]:
 
 def run(diff: Differentiator, stamps: NDArray[np.int64],
         velocity: NDArray[np.float64]) -> list[NDArray[np.float64] | None]:
-    return [diff.update(int(t), v) for t, v in zip(stamps, velocity)]
+    return [diff.update(int(t), v) for t, v in zip(stamps, velocity, strict=True)]
 
 
 def seconds(stamps: NDArray[np.int64]) -> NDArray[np.float64]:
     """Time since ``T0`` in s (exact integer difference first)."""
-    return (stamps - T0) * 1e-9
+    return (stamps - T0).astype(np.float64) * 1e-9
 
 
 @pytest.mark.parametrize('method', METHODS)
@@ -77,7 +78,7 @@ def test_polynomial_fit_is_exact_on_a_polynomial_of_its_degree(degree: int) -> N
     ('polynomial', {'window': 9, 'degree': 1}),
     ('polynomial', {'window': 9, 'degree': 2}),
 ])
-def test_delay_matches_the_documented_value(method: str, options: dict[str, float]) -> None:
+def test_delay_matches_the_documented_value(method: str, options: dict[str, Any]) -> None:
     stamps = T0 + PERIOD_NS * np.arange(1, 801)
     t = seconds(stamps)
     c = 4.0  # q'' = c t: a ramp, whose estimate lags by the delay
@@ -147,15 +148,16 @@ def test_a_refused_update_leaves_the_state_unchanged(method: str) -> None:
     ref = run(Differentiator(method, window=4), stamps, velocity)
     diff = Differentiator(method, window=4)
     out = []
-    for k, (t, v) in enumerate(zip(stamps, velocity)):
+    for k, (t, v) in enumerate(zip(stamps, velocity, strict=True)):
         if k > 5:
             with pytest.raises(ValueError, match='does not follow'):
                 diff.update(int(stamps[k - 1]), v + 1.0)  # repeated stamp
             with pytest.raises(ValueError, match='shape'):
                 diff.update(int(t), np.ones(3))  # joint count changed
         out.append(diff.update(int(t), v))
-    for a, b in zip(out, ref):
-        assert (a is None and b is None) or np.array_equal(a, b)
+    for a, b in zip(out, ref, strict=True):
+        assert (a is None and b is None) or (a is not None and b is not None
+                                             and np.array_equal(a, b))
 
 
 def test_vectorised_over_any_joint_count() -> None:

@@ -50,7 +50,7 @@ def test_no_drift_after_errors_shrink_by_orders_of_magnitude() -> None:
     effort = rng.normal(size=(1000, 2))
     scale = np.where(np.arange(1000) < 300, 1e4, 1e-4)[:, np.newaxis]  # learning converged
     predicted = effort + scale * rng.normal(size=(1000, 2))
-    for y, p in zip(effort, predicted):
+    for y, p in zip(effort, predicted, strict=True):
         errors.update(y, p)
     mse, nmse = brute(effort[-window:], predicted[-window:])
     stats = errors.snapshot()

@@ -4,6 +4,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from itertools import pairwise
 
 import numpy as np
 import pytest
@@ -41,7 +42,7 @@ class RecordingModel:
     def partial_fit(self, X: NDArray[np.float64], Y: NDArray[np.float64]) -> None:
         assert X.ndim == 2 and Y.ndim == 2
         self.events.append(('fit', X.copy(), Y.copy()))
-        for x, y in zip(X, Y):
+        for x, y in zip(X, Y, strict=True):
             self.weights -= self.rate * np.outer(x @ self.weights.T - y, x)
 
     def fits(self) -> list[tuple[NDArray[np.float64], NDArray[np.float64]]]:
@@ -93,9 +94,10 @@ def test_hostile_stream() -> None:
 
     def bad(k: int, field_: int, value: float) -> tuple[list[str], list[float], list[float],
                                                         list[float]]:
-        msg = message(k)
-        msg[field_][2] = value
-        return msg
+        """Sample k with joint3's position (1), velocity (2) or effort (3) set to value."""
+        names, *values = message(k)
+        values[field_ - 1][2] = value
+        return names, values[0], values[1], values[2]
 
     names, q, qd, eff = message(0)
     feed(T0, (names, q, qd, eff), SkipReason.WARMING_UP)
@@ -139,8 +141,7 @@ def test_hostile_stream() -> None:
 
     # The model learnt from exactly the good samples, in order, in joint order, all finite.
     fits = model.fits()
-    assert len(fits) == len(good)
-    for (x, y), k in zip(fits, good):
+    for (x, y), k in zip(fits, good, strict=True):
         assert x.shape == (1, 3 * N) and y.shape == (1, N)
         assert np.isfinite(x).all() and np.isfinite(y).all()
         np.testing.assert_allclose(x[0], expected_x(k), rtol=1e-9)
@@ -149,21 +150,21 @@ def test_hostile_stream() -> None:
 
 
 def test_predictions_are_a_priori() -> None:
-    model = RecordingModel(rate=0.05)
+    model = RecordingModel(rate=0.005)
     ident = make(model)
     results = [ident.process(T0 + k * MS, *message(k)) for k in range(30)]
     kinds = [kind for kind, _, _ in model.events]
     assert kinds == ['predict', 'fit'] * 29  # each prediction before the step learning it
-    for k, result in enumerate(results[1:], start=1):
+    for k, result in enumerate(results[1:], start=1):  # results[0] is warming up
         (_, x_pred, weights), (_, x_fit, _) = model.events[2 * k - 2:2 * k]
         np.testing.assert_array_equal(x_pred, x_fit[0])
         assert result.effort is not None
         # The prediction is the one made with the weights from before learning this sample.
-        np.testing.assert_array_equal(result.effort, weights @ x_pred)
+        np.testing.assert_allclose(result.effort, x_pred @ weights.T, rtol=1e-13)
     # Learning did change the weights from one prediction to the next: an a-posteriori
     # prediction would have differed, so the check above has teeth.
     weights_seen = [w for kind, _, w in model.events if kind == 'predict']
-    assert all(not np.allclose(a, b) for a, b in zip(weights_seen, weights_seen[1:]))
+    assert all(not np.allclose(a, b) for a, b in pairwise(weights_seen))
     errors = [(r.effort - state(k)[2]) ** 2 for k, r in enumerate(results) if r.effort is not None]
     stats = ident.error_stats()
     np.testing.assert_allclose(stats.mse, np.mean(errors, axis=0), rtol=1e-12)
@@ -194,7 +195,7 @@ def test_reordered_messages_train_the_same_as_ordered_ones() -> None:
     rng = np.random.default_rng(3)
     for k in range(20):
         ra = a.process(T0 + k * MS, *message(k))
-        rb = b.process(T0 + k * MS, *message(k, order=rng.permutation(N)))
+        rb = b.process(T0 + k * MS, *message(k, order=rng.permutation(N).tolist()))
         assert ra.reason is rb.reason
         if ra.effort is not None:
             np.testing.assert_array_equal(ra.effort, rb.effort)
