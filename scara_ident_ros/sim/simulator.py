@@ -30,9 +30,9 @@ from scara_ident_ros.sim.trajectory import FourierTrajectory
 
 __all__ = ['DISTURBANCES', 'SimConfig', 'SimSample', 'SimRecord', 'Simulator']
 
-#: Kinds of disturbance T_d (eq. 6): none, a sinusoid per joint with a random phase, or
-#: Gauss-Markov (first-order low-pass) random torques.
-DISTURBANCES = ('none', 'sinusoid', 'random')
+#: Kinds of disturbance T_d (eq. 6): a sinusoid per joint with a random phase, or
+#: Gauss-Markov (first-order low-pass) random efforts.
+DISTURBANCES = ('sinusoid', 'random')
 
 _CHUNK = 1024          # desired-trajectory samples evaluated per vectorised batch
 
@@ -49,14 +49,15 @@ class SimConfig:
         RK4 steps per sample, >= 1.
     kp, kd : tuple of 4 float
         Controller gains (1/s², 1/s); a scalar applies to every joint.
-    noise_q, noise_qd, noise_effort : tuple of 4 float
+    position_noise, velocity_noise, effort_noise : tuple of 4 float
         Standard deviation of the Gaussian measurement noise on the reported positions
         (rad, m), velocities (rad/s, m/s) and efforts (N·m, N); a scalar applies to every
         joint. The controller sees the noisy positions and velocities; the state does not.
-    disturbance : str
-        Kind of disturbance T_d, one of :data:`DISTURBANCES`.
-    disturbance_amplitude : tuple of 4 float
-        Amplitude (sinusoid) or standard deviation (random) of T_d (N·m, N).
+    disturbance : float
+        Size of the disturbance T_d as a fraction in [0, 1] of each joint's effort limit:
+        amplitude of the sinusoid or standard deviation of the random efforts; 0 = off.
+    disturbance_kind : str
+        Kind of disturbance, one of :data:`DISTURBANCES`.
     disturbance_frequency_hz : float
         Frequency of the sinusoid, or bandwidth of the random disturbance (Hz).
     model_mismatch : float
@@ -70,11 +71,11 @@ class SimConfig:
     substeps: int = 4
     kp: tuple[float, ...] = (400.0, 400.0, 400.0, 400.0)         # 1/s², ωn = 20 rad/s
     kd: tuple[float, ...] = (40.0, 40.0, 40.0, 40.0)             # 1/s, critically damped
-    noise_q: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)            # rad, rad, m, rad
-    noise_qd: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)           # rad/s, rad/s, m/s, rad/s
-    noise_effort: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)       # N·m, N·m, N, N·m
-    disturbance: str = 'none'
-    disturbance_amplitude: tuple[float, ...] = (2.0, 1.0, 5.0, 0.1)  # N·m, N·m, N, N·m
+    position_noise: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)     # rad, rad, m, rad
+    velocity_noise: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)     # rad/s, rad/s, m/s, rad/s
+    effort_noise: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)       # N·m, N·m, N, N·m
+    disturbance: float = 0.0                                     # fraction of effort_max
+    disturbance_kind: str = 'sinusoid'
     disturbance_frequency_hz: float = 0.5                        # Hz
     model_mismatch: float = 0.0
     seed: int = 0
@@ -88,12 +89,17 @@ class SimConfig:
         for name in ('kp', 'kd'):
             set_(self, name, _vector4(name, getattr(self, name), minimum=0.0,
                                       allow_scalar=True))
-        for name in ('noise_q', 'noise_qd', 'noise_effort', 'disturbance_amplitude'):
+        for name in ('position_noise', 'velocity_noise', 'effort_noise'):
             set_(self, name, _vector4(name, getattr(self, name), minimum=0.0, strict=False,
                                       allow_scalar=True))
-        if self.disturbance not in DISTURBANCES:
-            raise ParamError(f'disturbance must be one of {", ".join(DISTURBANCES)}, '
+        set_(self, 'disturbance',
+             _scalar('disturbance', self.disturbance, minimum=0.0, strict=False))
+        if self.disturbance > 1.0:
+            raise ParamError(f'disturbance must be <= 1 (a fraction of effort_max), '
                              f'got {self.disturbance!r}')
+        if self.disturbance_kind not in DISTURBANCES:
+            raise ParamError(f'disturbance_kind must be one of {", ".join(DISTURBANCES)}, '
+                             f'got {self.disturbance_kind!r}')
         set_(self, 'disturbance_frequency_hz',
              _scalar('disturbance_frequency_hz', self.disturbance_frequency_hz, minimum=0.0))
         set_(self, 'model_mismatch',
@@ -208,8 +214,11 @@ class Simulator:
                                                    cfg.kd, effort_max=params.effort_max)
         self._dt_ns = cfg.dt_ns
         self._h = cfg.dt / cfg.substeps
-        self._noisy = any(cfg.noise_q) or any(cfg.noise_qd) or any(cfg.noise_effort)
-        self._noise_std = np.array(cfg.noise_q + cfg.noise_qd + cfg.noise_effort)
+        self._noisy = any(cfg.position_noise + cfg.velocity_noise + cfg.effort_noise)
+        self._noise_std = np.array(cfg.position_noise + cfg.velocity_noise
+                                   + cfg.effort_noise)
+        self._kind = cfg.disturbance_kind if cfg.disturbance > 0.0 else 'none'
+        self._amplitude = tuple(cfg.disturbance * e for e in params.effort_max)  # N·m, N
         self.reset()
 
     # -- state --------------------------------------------------------------------------------
@@ -223,11 +232,11 @@ class Simulator:
         self._qd = tuple(qd.tolist())
         self._noise_rng = np.random.default_rng(self._noise_seed)
         rng = np.random.default_rng(self._disturbance_seed)
-        amplitude = cfg.disturbance_amplitude
         self._phase = tuple(rng.uniform(0.0, 2.0 * math.pi, N_JOINTS).tolist())
         self._dist_rng = rng
-        self._dist = (tuple((np.array(amplitude) * rng.standard_normal(N_JOINTS)).tolist())
-                      if cfg.disturbance == 'random' else (0.0,) * N_JOINTS)
+        self._dist = (tuple((np.array(self._amplitude) * rng.standard_normal(N_JOINTS))
+                            .tolist())
+                      if self._kind == 'random' else (0.0,) * N_JOINTS)
         self._alpha = math.exp(-2.0 * math.pi * cfg.disturbance_frequency_hz * cfg.dt)
         self._chunk_start = 0
         self._desired: list[tuple[list[float], list[float], list[float]]] = []
@@ -293,11 +302,10 @@ class Simulator:
         return self._desired[index]
 
     def _disturbance_now(self) -> tuple[float, ...]:
-        cfg = self.config
-        if cfg.disturbance == 'sinusoid':
-            w_t = 2.0 * math.pi * cfg.disturbance_frequency_hz * self._k * self._dt_ns * 1e-9
-            return tuple(a * math.sin(w_t + p)
-                         for a, p in zip(cfg.disturbance_amplitude, self._phase))
+        if self._kind == 'sinusoid':
+            w_t = (2.0 * math.pi * self.config.disturbance_frequency_hz
+                   * self._k * self._dt_ns * 1e-9)                             # rad
+            return tuple(a * math.sin(w_t + p) for a, p in zip(self._amplitude, self._phase))
         return self._dist
 
     def _advance(self) -> tuple[int, tuple[float, ...], tuple[float, ...],
@@ -314,7 +322,7 @@ class Simulator:
             z = None
             q_meas, qd_meas = q, qd
         tau = self.controller.compute_single(q_meas, qd_meas, q_des, qd_des, qdd_des)
-        if self.config.disturbance == 'none':
+        if self._kind == 'none':
             net = tau
         else:
             d = self._disturbance_now()
@@ -322,12 +330,12 @@ class Simulator:
         fd = self.model.forward_dynamics_single
         qdd = fd(q, qd, net)
         self._q, self._qd = _rk4(fd, q, qd, qdd, net, self._h, self.config.substeps)
-        if self.config.disturbance == 'random':
+        if self._kind == 'random':
             alpha = self._alpha
             gain = math.sqrt(1.0 - alpha * alpha)
             xi = self._dist_rng.standard_normal(N_JOINTS).tolist()
             self._dist = tuple(alpha * d_i + gain * a_i * x_i for d_i, a_i, x_i
-                               in zip(self._dist, self.config.disturbance_amplitude, xi))
+                               in zip(self._dist, self._amplitude, xi))
         if z is not None:
             effort = (tau[0] + z[8], tau[1] + z[9], tau[2] + z[10], tau[3] + z[11])
         else:

@@ -13,8 +13,9 @@ from scara_ident_ros.sim.trajectory import make_trajectory
 
 PARAMS = ScaraParams()
 TRAJ = make_trajectory('standard', PARAMS, seed=7)
-NOISY = SimConfig(noise_q=1e-4, noise_qd=1e-3, noise_effort=(0.5, 0.2, 0.5, 0.02),
-                  disturbance='random', seed=5)
+NOISY = SimConfig(position_noise=1e-4, velocity_noise=1e-3,
+                  effort_noise=(0.5, 0.2, 0.5, 0.02), disturbance=0.01,
+                  disturbance_kind='random', seed=5)
 
 
 def test_step_returns_a_sample_starting_on_the_trajectory() -> None:
@@ -95,7 +96,8 @@ def test_integration_is_converged() -> None:
 def test_disturbance_enters_eq6_on_the_left() -> None:
     """M q'' + C q' + F + G + T_d = tau, so tau − ID(q, q', q'') = T_d."""
     for kind in ('sinusoid', 'random'):
-        sim = Simulator(PARAMS, TRAJ, SimConfig(disturbance=kind, seed=3))
+        sim = Simulator(PARAMS, TRAJ, SimConfig(disturbance=0.01, disturbance_kind=kind,
+                                                seed=3))
         model = ScaraModel(PARAMS)
         dist, residual = [], []
         for _ in range(300):
@@ -103,7 +105,13 @@ def test_disturbance_enters_eq6_on_the_left() -> None:
             s = sim.step()
             residual.append(s.effort - model.inverse_dynamics(s.q, s.qd, s.qdd))
         np.testing.assert_allclose(residual, dist, atol=1e-9)
-        assert np.abs(dist).max() > 0.05
+        peak, amplitude = np.abs(dist).max(axis=0), 0.01 * np.array(PARAMS.effort_max)
+        if kind == 'sinusoid':          # 0.3 s of a 0.5 Hz sine spans at least 54 degrees
+            assert np.all(peak <= amplitude * (1 + 1e-12)) and np.all(peak > 0.4 * amplitude)
+        else:
+            assert np.all(peak > 0.0) and np.all(peak < 6.0 * amplitude)
+    sim = Simulator(PARAMS, TRAJ, SimConfig(disturbance=0.0, disturbance_kind='random'))
+    np.testing.assert_array_equal(sim.disturbance(), 0.0)
 
 
 def test_noise_is_on_the_readings_not_on_the_state() -> None:
@@ -133,8 +141,12 @@ def test_efforts_never_exceed_the_limits() -> None:
     ({'substeps': 2.5}, 'substeps must be an integer'),
     ({'kp': -5.0}, r'kp\[0\] must be > 0'),
     ({'kd': (1.0, 2.0)}, 'kd must have 4 values'),
-    ({'noise_q': -1e-3}, r'noise_q\[0\] must be >= 0'),
-    ({'disturbance': 'gusts'}, 'disturbance must be one of none, sinusoid, random'),
+    ({'position_noise': -1e-3}, r'position_noise\[0\] must be >= 0'),
+    ({'effort_noise': (0.1, 0.1, 0.1)}, 'effort_noise must have 4 values'),
+    ({'disturbance': -0.1}, 'disturbance must be >= 0'),
+    ({'disturbance': 1.5}, 'disturbance must be <= 1'),
+    ({'disturbance': 'random'}, 'disturbance must be a number'),
+    ({'disturbance_kind': 'gusts'}, 'disturbance_kind must be one of sinusoid, random'),
     ({'disturbance_frequency_hz': 0.0}, 'disturbance_frequency_hz must be > 0'),
     ({'model_mismatch': 1.0}, 'model_mismatch must be < 1'),
     ({'seed': -1}, 'seed must be >= 0'),
