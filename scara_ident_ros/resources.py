@@ -19,14 +19,10 @@ def share_dir() -> Path:
     """Return the package's share directory (the one holding ``config/``)."""
     candidates: list[Path] = []
     try:
-        from ament_index_python.packages import (PackageNotFoundError,
-                                                 get_package_share_directory)
-        try:
-            candidates.append(Path(get_package_share_directory(PACKAGE)))
-        except PackageNotFoundError:
-            pass
-    except ImportError:
-        pass
+        from ament_index_python.packages import get_package_share_directory
+        candidates.append(Path(get_package_share_directory(PACKAGE)))
+    except (ImportError, LookupError, OSError, ValueError):
+        pass  # no ament index (pip install or source checkout), or not listed in it
     candidates.append(Path(sys.prefix) / 'share' / PACKAGE)
     candidates.append(Path(__file__).resolve().parent.parent)  # source checkout
     for candidate in candidates:

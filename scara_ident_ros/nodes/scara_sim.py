@@ -1,2 +1,164 @@
-def main(args=None):
-    print('hello')
+"""``scara_sim``: the simulated SCARA, publishing ``/joint_states`` in real time.
+
+The physics (Lagrangian model, excitation, computed-torque controller, RK4) live in
+:mod:`scara_ident_ros.sim`; this node only paces the simulator against absolute
+deadlines and converts each sample to a ``sensor_msgs/JointState``:
+``position`` (rad, m), ``velocity`` (rad/s, m/s) and ``effort`` (N·m, N) = the
+torque/force actually applied, ``header.stamp`` = simulated time.
+"""
+from __future__ import annotations
+
+import sys
+import threading
+import time
+
+from rclpy.experimental import EventsExecutor
+from rclpy.node import Node
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import JointState
+
+from scara_ident_ros.dynamics import ParamError, ScaraParams
+from scara_ident_ros.nodes.messages import NS_PER_S, joint_state, ns_to_stamp
+from scara_ident_ros.nodes.parameters import ParamSpec, declare_parameters
+from scara_ident_ros.nodes.runtime import POLL_PERIOD, ConfigError, run_node
+from scara_ident_ros.pacer import DeadlinePacer
+from scara_ident_ros.resources import config_path
+from scara_ident_ros.sim import PRESETS, SimConfig, Simulator, make_trajectory
+
+__all__ = ['ScaraSimNode', 'main', 'JOINT_STATES_TOPIC', 'CLOCK_TOPIC']
+
+JOINT_STATES_TOPIC = 'joint_states'
+CLOCK_TOPIC = '/clock'
+QOS_DEPTH = 1000  # messages: one second of history at 1 kHz
+STATS_PERIOD = 10.0  # seconds between statistics log lines
+
+PARAMETERS = (
+    ParamSpec('robot_config', '', 'YAML file of the robot parameters; empty: the installed '
+              'config/scara.yaml'),
+    ParamSpec('joint_names', ['joint1', 'joint2', 'joint3', 'joint4'],
+              'Joint names on the wire, in the order joint1..joint4'),
+    ParamSpec('rate_hz', 1000.0, 'Sample rate; simulated time advances 1/rate_hz per sample',
+              'Hz', min=1.0, max=100_000.0),
+    ParamSpec('real_time_factor', 1.0, 'Simulated seconds per wall-clock second; '
+              '0 runs as fast as possible', min=0.0, max=1000.0),
+    ParamSpec('duration', 0.0, 'Simulated time after which the node stops; 0 runs forever',
+              's', min=0.0),
+    ParamSpec('trajectory', 'standard', 'Excitation preset (finite Fourier series)',
+              choices=tuple(PRESETS)),
+    ParamSpec('seed', 0, 'Seed of the excitation and of the measurement noise', min=0),
+    ParamSpec('substeps', 4, 'RK4 integration steps per sample', min=1, max=100),
+    ParamSpec('position_noise', 0.0, 'Std of measurement noise on q (rad or m)', min=0.0),
+    ParamSpec('velocity_noise', 0.0, 'Std of measurement noise on qd (rad/s or m/s)', min=0.0),
+    ParamSpec('effort_noise', 0.0, 'Std of measurement noise on effort (N·m or N)', min=0.0),
+    ParamSpec('disturbance', 0.0, 'Amplitude of the disturbance torque T_d of eq. 6, as a '
+              'fraction of each joint effort limit; 0 is off', min=0.0, max=1.0),
+    ParamSpec('stamp_origin', 'wall', "Simulated time zero: 'wall' = the wall-clock time at "
+              "start (stamps comparable with other nodes' clocks), 'zero' = 0",
+              choices=('wall', 'zero')),
+    ParamSpec('publish_clock', False, 'Also publish the simulated time on /clock'),
+    ParamSpec('wait_for_subscribers', 0, 'Before the first sample, wait until this many '
+              'subscribers are matched on joint_states (0: start at once)', min=0),
+    ParamSpec('wait_timeout', 30.0, 'Longest wait for those subscribers', 's', min=0.0),
+    ParamSpec('frame_id', '', 'header.frame_id of the published JointState'),
+)
+
+
+class ScaraSimNode(Node):
+    """Publish the simulated SCARA's joint states against absolute deadlines."""
+
+    def __init__(self) -> None:
+        super().__init__('scara_sim')
+        self.settings = declare_parameters(self, PARAMETERS)
+        s = self.settings
+        try:
+            path = s['robot_config'] or str(config_path('scara.yaml'))
+            params = ScaraParams.from_yaml(path)
+            names = tuple(s['joint_names'])
+            if len(names) != 4 or len(set(names)) != 4:
+                raise ConfigError(f"parameter 'joint_names' must be 4 distinct names, "
+                                  f'got {list(names)}')
+            self.period_ns = round(NS_PER_S / s['rate_hz'])
+            config = SimConfig(
+                dt=self.period_ns / NS_PER_S, substeps=s['substeps'], seed=s['seed'],
+                position_noise=s['position_noise'], velocity_noise=s['velocity_noise'],
+                effort_noise=s['effort_noise'], disturbance=s['disturbance'])
+            trajectory = make_trajectory(s['trajectory'], params, seed=s['seed'])
+            self.simulator = Simulator(params, trajectory, config)
+        except (ParamError, OSError) as exc:
+            raise ConfigError(str(exc)) from None
+        self.names = names
+        self.origin_ns = (time.time_ns() // 1_000_000 * 1_000_000
+                          if s['stamp_origin'] == 'wall' else 0)
+        self.limit = (round(s['duration'] * NS_PER_S / self.period_ns)
+                      if s['duration'] > 0 else None)
+        qos = QoSProfile(depth=QOS_DEPTH, reliability=ReliabilityPolicy.RELIABLE)
+        self.publisher = self.create_publisher(JointState, JOINT_STATES_TOPIC, qos)
+        self.clock_publisher = (self.create_publisher(Clock, CLOCK_TOPIC, 10)
+                                if s['publish_clock'] else None)
+        self.pacer = DeadlinePacer(self.period_ns, real_time_factor=s['real_time_factor'])
+        self.get_logger().info(
+            f'simulating {path} at {s["rate_hz"]:g} Hz, trajectory {s["trajectory"]!r}, '
+            f'seed {s["seed"]}, publishing {self.publisher.topic_name}')
+
+    def publish_next(self) -> None:
+        """Advance the simulator one sample and publish it."""
+        sample = self.simulator.step()
+        stamp_ns = self.origin_ns + sample.stamp_ns
+        self.publisher.publish(joint_state(
+            stamp_ns, self.names, position=sample.q, velocity=sample.qd,
+            effort=sample.effort, frame_id=self.settings['frame_id']))
+        if self.clock_publisher is not None:
+            self.clock_publisher.publish(Clock(clock=ns_to_stamp(stamp_ns)))
+
+    def loop(self, executor: EventsExecutor, stop: threading.Event) -> None:
+        """Publish on absolute deadlines until ``stop`` is set or the duration is reached."""
+        if not self.wait_for_subscribers(executor, stop):
+            return
+        self.pacer.restart()
+        next_stats = time.monotonic() + STATS_PERIOD
+        published = 0
+        while not stop.is_set():
+            due = self.pacer.wait(POLL_PERIOD)
+            if self.limit is not None:
+                due = min(due, self.limit - published)
+            for _ in range(due):
+                self.publish_next()
+            published += due
+            executor.spin_once(timeout_sec=0)
+            if self.limit is not None and published >= self.limit:
+                break
+            if time.monotonic() >= next_stats:
+                next_stats += STATS_PERIOD
+                self.log_stats(published)
+        self.log_stats(published)
+
+    def wait_for_subscribers(self, executor: EventsExecutor, stop: threading.Event) -> bool:
+        """Wait for ``wait_for_subscribers`` matched subscribers; False if stopped meanwhile."""
+        wanted = self.settings['wait_for_subscribers']
+        deadline = time.monotonic() + self.settings['wait_timeout']
+        while self.publisher.get_subscription_count() < wanted:
+            if stop.is_set():
+                return False
+            if time.monotonic() > deadline:
+                self.get_logger().warning(
+                    f'only {self.publisher.get_subscription_count()} of {wanted} subscribers '
+                    f'after {self.settings["wait_timeout"]:g} s; starting anyway')
+                break
+            executor.spin_once(timeout_sec=0.05)
+        return True
+
+    def log_stats(self, published: int) -> None:
+        """Log how many samples were published and how many were late."""
+        self.get_logger().info(
+            f'published {published} samples ({published * self.period_ns / NS_PER_S:.3f} s '
+            f'simulated), {self.pacer.late} late by more than one period')
+
+
+def main(args: list[str] | None = None) -> None:
+    """Console script ``scara_sim``."""
+    sys.exit(run_node('scara_sim', ScaraSimNode, args))
+
+
+if __name__ == '__main__':
+    main()
