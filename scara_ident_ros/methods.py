@@ -1,0 +1,109 @@
+"""The paper's three identification methods and their default hyperparameters.
+
+One table used by the identifier node, ``scara-ident compare``, ``train`` and
+``tables``, so that every part of the project means the same thing by "FFMW".
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from scara_ident_ros.nn import FeedForwardNet
+
+__all__ = ['Method', 'METHODS', 'method', 'make_network', 'limit_scaling']
+
+
+@dataclass(frozen=True)
+class Method:
+    """A network of the paper: its hidden activation and online-learning defaults.
+
+    Attributes
+    ----------
+    name : str
+        Key used on the command line and in parameters (``'ffmw'``).
+    label : str
+        Name in the paper (``'FFMW'``).
+    activation : str
+        Hidden activation, a key of :data:`scara_ident_ros.nn.ACTIVATIONS`.
+    learning_rate, momentum : float
+        Defaults of online learning (``partial_fit``), chosen by the documented search
+        of ``scara-ident compare`` on training data only.
+    weight_scale : float
+        Initial spread of the hidden units' net input.
+    """
+
+    name: str
+    label: str
+    activation: str
+    learning_rate: float
+    momentum: float
+    weight_scale: float = 2.0
+
+
+METHODS: dict[str, Method] = {
+    'ffmw': Method('ffmw', 'FFMW', 'mslog', learning_rate=0.05, momentum=0.9),
+    'ffw': Method('ffw', 'FFW', 'slog', learning_rate=0.05, momentum=0.9),
+    'ffs': Method('ffs', 'FFS', 'sigmoid', learning_rate=0.05, momentum=0.9),
+}
+
+
+def method(name: str) -> Method:
+    """Return the method called ``name`` (case-insensitive).
+
+    Raises
+    ------
+    ValueError
+        If there is no such method; the message lists the known ones.
+    """
+    try:
+        return METHODS[name.lower()]
+    except KeyError:
+        raise ValueError(f'unknown method {name!r}; known: {", ".join(METHODS)}') from None
+
+
+def make_network(name: str, n_joints: int, *, n_hidden: int = 40, seed: int = 0,
+                 learning_rate: float | None = None, momentum: float | None = None,
+                 k: float | None = None, a: float | None = None,
+                 b: float | None = None) -> FeedForwardNet:
+    """Build the (3·n_joints)-n_hidden-n_joints network of method ``name``.
+
+    Hyperparameters left as None take the method's defaults (:data:`METHODS`) and, for
+    k, a, b, the activation's (MSLOG: 2.5, 5, 5).
+    """
+    spec = method(name)
+    return FeedForwardNet(
+        3 * n_joints, n_hidden, n_joints, spec.activation, seed=seed, k=k, a=a, b=b,
+        weight_scale=spec.weight_scale,
+        learning_rate=spec.learning_rate if learning_rate is None else learning_rate,
+        momentum=spec.momentum if momentum is None else momentum)
+
+
+def limit_scaling(position_min: ArrayLike, position_max: ArrayLike, velocity_max: ArrayLike,
+                  acceleration_max: ArrayLike,
+                  effort_max: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray,
+                                                  np.ndarray]:
+    """Input and output ranges of the network from a robot's joint limits.
+
+    Parameters
+    ----------
+    position_min, position_max : array_like of shape (n,)
+        Joint position limits (rad or m).
+    velocity_max, acceleration_max, effort_max : array_like of shape (n,)
+        Symmetric limits of velocity (rad/s, m/s), acceleration (rad/s², m/s²) and
+        effort (N·m, N).
+
+    Returns
+    -------
+    x_min, x_max : ndarray of shape (3n,)
+        Input ranges in the order [q, q', q''].
+    y_min, y_max : ndarray of shape (n,)
+        Output ranges.
+    """
+    qd = np.abs(np.asarray(velocity_max, float))
+    qdd = np.abs(np.asarray(acceleration_max, float))
+    tau = np.abs(np.asarray(effort_max, float))
+    x_min = np.concatenate([np.asarray(position_min, float), -qd, -qdd])
+    x_max = np.concatenate([np.asarray(position_max, float), qd, qdd])
+    return x_min, x_max, -tau, tau
