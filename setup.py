@@ -26,6 +26,10 @@ setup(
     entry_points={
         'console_scripts': [
             'scara_sim = scara_ident_ros.nodes.scara_sim:main',
+            'identifier = scara_ident_ros.nodes.identifier:main',
+            'recorder = scara_ident_ros.nodes.recorder:main',
+            'player = scara_ident_ros.nodes.player:main',
+            'scara-ident = scara_ident_ros.cli:main',
         ],
     },
 )

@@ -7,6 +7,7 @@ read-only flag) and is validated when declared (overrides from ``-p`` or a
 """
 from __future__ import annotations
 
+import array
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -34,13 +35,16 @@ class ParamSpec:
     max: float | None = None  # inclusive
     choices: tuple[str, ...] | None = None
     read_only: bool = True
+    items: type | None = None  # element type of a list parameter (str or float)
 
     def descriptor(self) -> ParameterDescriptor:
         """Return the ROS descriptor shown by ``ros2 param describe``."""
         text = self.description + (f' [{self.unit}]' if self.unit else '')
         if self.choices:
             text += f" (one of: {', '.join(self.choices)})"
-        descriptor = ParameterDescriptor(description=text, read_only=self.read_only)
+        # An empty list has no ROS type of its own: let the override decide, check items.
+        descriptor = ParameterDescriptor(description=text, read_only=self.read_only,
+                                         dynamic_typing=self.default == [])
         if self.min is not None or self.max is not None:
             low = self.min if self.min is not None else -1e308
             high = self.max if self.max is not None else 1e308
@@ -56,6 +60,12 @@ class ParamSpec:
 
     def check(self, value: Any) -> str | None:
         """Return why ``value`` is not acceptable, or None if it is."""
+        if self.items is not None:
+            if not isinstance(value, (list, tuple, array.array)) or not all(
+                    isinstance(item, self.items) or (self.items is float
+                                                     and isinstance(item, int))
+                    for item in value):
+                return f'must be a list of {self.items.__name__}, got {value!r}'
         if self.choices is not None and value not in self.choices:
             return f"must be one of {', '.join(self.choices)}, got {value!r}"
         if isinstance(value, (int, float)) and not isinstance(value, bool):

@@ -1,0 +1,296 @@
+"""``identifier``: learns a robot's inverse dynamics online from ``joint_states``.
+
+For every ``sensor_msgs/JointState`` it predicts the joint efforts from (q, q', q'')
+*before* learning from that sample (an honest a-priori prediction), publishes the
+prediction on ``identified_torque`` (same joint names, ``effort`` = predicted
+torque/force, ``header.stamp`` = the input's stamp), then learns from it
+(``partial_fit``). All of that is :class:`~scara_ident_ros.identification.OnlineIdentifier`;
+this node converts messages, publishes, checkpoints and logs.
+
+``identification_mse`` (``std_msgs/Float64MultiArray``) carries the windowed errors,
+``data = [mse_1 .. mse_n, mse_total, nmse_1 .. nmse_n, nmse_total]`` with
+``layout.dim[0]`` labelled ``metric:mse,nmse`` (size 2) and ``layout.dim[1]``
+labelled ``joint:<name_1>,...,<name_n>,total`` (size n + 1). MSE is in (N·m)² or N²;
+NMSE is MSE divided by the variance of that joint's effort over the same window.
+"""
+from __future__ import annotations
+
+import json
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from rclpy.node import Node
+from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64MultiArray, MultiArrayDimension
+
+from scara_ident_ros.dynamics import ParamError, ScaraParams
+from scara_ident_ros.identification import (METHODS as DIFFERENTIATORS, Differentiator,
+                                            OnlineIdentifier, SkipReason)
+from scara_ident_ros.methods import METHODS, limit_scaling, make_network
+from scara_ident_ros.nn import FeedForwardNet, ModelFormatError
+from scara_ident_ros.nodes.messages import joint_state, stamp_to_ns
+from scara_ident_ros.nodes.parameters import ParamSpec, declare_parameters
+from scara_ident_ros.nodes.runtime import ConfigError, run_node
+from scara_ident_ros.resources import config_path
+
+__all__ = ['IdentifierNode', 'main', 'JOINT_STATES_TOPIC', 'TORQUE_TOPIC', 'MSE_TOPIC']
+
+JOINT_STATES_TOPIC = 'joint_states'
+TORQUE_TOPIC = 'identified_torque'
+MSE_TOPIC = 'identification_mse'
+QOS_DEPTH = 5000  # messages: 5 s at 1 kHz may queue before any is dropped
+STATS_PERIOD = 10.0  # s between statistics log lines
+WARN_PERIOD = 5.0  # s between two warnings about skipped samples
+
+PARAMETERS = (
+    ParamSpec('method', 'ffmw', 'Network: FFMW (MSLOG), FFW (SLOG) or FFS (sigmoid)',
+              choices=tuple(METHODS)),
+    ParamSpec('joint_names', [], 'Joints to identify, in this order; empty: the joints of '
+              'the first valid message (or of the warm-start model)', items=str),
+    ParamSpec('hidden_units', 40, 'Hidden units of the network', min=1, max=10_000),
+    ParamSpec('seed', 0, 'Seed of the initial weights', min=0),
+    ParamSpec('learning_rate', 0.0, "Online learning rate; 0: the method's default",
+              min=0.0, max=10.0),
+    ParamSpec('momentum', -1.0, "Online momentum in [0, 1); negative: the method's default",
+              min=-1.0, max=0.999),
+    ParamSpec('k', 2.5, 'MSLOG gain K (ffmw only)'),
+    ParamSpec('a', 5.0, 'MSLOG divisor a in z = (x·v − b)/a (ffmw only)'),
+    ParamSpec('b', 5.0, 'MSLOG offset b (ffmw only)'),
+    ParamSpec('learn', True, 'Learn online; false: predict only'),
+    ParamSpec('model_path', '', 'Warm-start from this saved model (.npz); empty: fresh'),
+    ParamSpec('save_path', '', 'Save the model here periodically and on shutdown; empty: '
+              'never'),
+    ParamSpec('checkpoint_period', 60.0, 'Seconds between checkpoints to save_path; 0: only '
+              'on shutdown', 's', min=0.0),
+    ParamSpec('mse_window', 1000, 'Samples in the windowed MSE', min=100),
+    ParamSpec('mse_rate_hz', 10.0, 'Rate of identification_mse', 'Hz', min=0.01, max=1000.0),
+    ParamSpec('differentiator', 'lowpass', 'How acceleration is estimated from velocity',
+              choices=tuple(DIFFERENTIATORS)),
+    ParamSpec('cutoff_hz', 50.0, 'Cut-off of the lowpass differentiator', 'Hz', min=0.1),
+    ParamSpec('window', 7, 'Samples of the polynomial differentiator', min=3, max=101),
+    ParamSpec('max_gap', 0.02, 'A larger gap between stamps restarts the differentiator',
+              's', min=0.0),
+    ParamSpec('robot_config', '', "Robot YAML whose joint limits scale the network's inputs "
+              'and outputs; empty: the installed config/scara.yaml'),
+    ParamSpec('position_min', [], 'Per-joint position lower limits (rad or m); with the four '
+              'below, replaces robot_config for another robot', items=float),
+    ParamSpec('position_max', [], 'Per-joint position upper limits (rad or m)', items=float),
+    ParamSpec('velocity_max', [], 'Per-joint |velocity| limits (rad/s or m/s)', items=float),
+    ParamSpec('acceleration_max', [], 'Per-joint |acceleration| limits (rad/s² or m/s²)',
+              items=float),
+    ParamSpec('effort_max', [], 'Per-joint |effort| limits (N·m or N)', items=float),
+    ParamSpec('stats_file', '', 'Write the final counters and errors here as JSON on '
+              'shutdown; empty: never'),
+)
+LIMIT_NAMES = ('position_min', 'position_max', 'velocity_max', 'acceleration_max',
+               'effort_max')
+
+
+class IdentifierNode(Node):
+    """Subscribe ``joint_states``; publish a-priori torque predictions and their error."""
+
+    def __init__(self) -> None:
+        super().__init__('identifier')
+        self.settings = s = declare_parameters(self, PARAMETERS)
+        self.limits = self._limits()
+        self.network: FeedForwardNet | None = None
+        self.core: OnlineIdentifier | None = None
+        names = list(s['joint_names'])
+        if s['model_path']:
+            self.network = self._load(s['model_path'])
+            saved = [str(n) for n in self.network.metadata.get('joint_names', [])]
+            if names and saved and sorted(names) != sorted(saved):
+                raise ConfigError(f"model {s['model_path']} was trained for joints {saved}, "
+                                  f"not joint_names {names}")
+            names = names or saved
+            if names and len(names) != self.network.n_outputs:
+                raise ConfigError(f"model {s['model_path']} has {self.network.n_outputs} "
+                                  f'outputs, not {len(names)} joints')
+        if names:
+            self._build(names)
+        self.stats_started = time.monotonic()
+        self.max_lag_ns = 0  # ns, since the last statistics line
+        self.worst_lag_ns = 0  # ns, since start
+        self.last_warning = 0.0
+        qos = QoSProfile(depth=QOS_DEPTH, history=HistoryPolicy.KEEP_LAST,
+                         reliability=ReliabilityPolicy.RELIABLE)
+        self.torque_publisher = self.create_publisher(JointState, TORQUE_TOPIC, qos)
+        self.mse_publisher = self.create_publisher(Float64MultiArray, MSE_TOPIC, 10)
+        self.subscription = self.create_subscription(
+            JointState, JOINT_STATES_TOPIC, self.on_joint_state, qos)
+        self.create_timer(1.0 / s['mse_rate_hz'], self.publish_mse)
+        self.create_timer(STATS_PERIOD, self.log_stats)
+        if s['save_path'] and s['checkpoint_period'] > 0:
+            self.create_timer(s['checkpoint_period'], self.checkpoint)
+        self.get_logger().info(
+            f"{s['method'].upper()} identifier on {self.subscription.topic_name} → "
+            f'{self.torque_publisher.topic_name}, joints '
+            f"{names or '(from the first message)'}, learning {'on' if s['learn'] else 'off'}")
+
+    # ------------------------------------------------------------------ configuration
+    def _limits(self) -> dict[str, Any] | None:
+        """Joint limits by joint name from explicit parameters or the robot config."""
+        s = self.settings
+        given = [name for name in LIMIT_NAMES if len(s[name])]
+        if given:
+            lengths = {len(s[name]) for name in LIMIT_NAMES}
+            if len(given) != len(LIMIT_NAMES) or len(lengths) != 1:
+                raise ConfigError('parameters ' + ', '.join(LIMIT_NAMES) +
+                                  ' must all be given, with one value per joint')
+            if not s['joint_names'] or len(s['joint_names']) != lengths.pop():
+                raise ConfigError('explicit joint limits need joint_names with one name per '
+                                  'limit value')
+            return {'names': list(s['joint_names']),
+                    **{name: np.asarray(s[name], float) for name in LIMIT_NAMES}}
+        try:
+            robot = ScaraParams.from_yaml(s['robot_config'] or config_path('scara.yaml'))
+        except (ParamError, OSError) as exc:
+            raise ConfigError(str(exc)) from None
+        return {'names': list(robot.joint_names),
+                **{name: robot.array(name) for name in LIMIT_NAMES}}
+
+    def _load(self, path: str) -> FeedForwardNet:
+        try:
+            network = FeedForwardNet.load(path)
+        except (ModelFormatError, OSError) as exc:
+            raise ConfigError(f'cannot warm-start: {exc}') from None
+        s = self.settings
+        if s['learning_rate'] > 0:
+            network.learning_rate = s['learning_rate']
+        if s['momentum'] >= 0:
+            network.momentum = s['momentum']
+        return network
+
+    def _build(self, names: list[str]) -> bool:
+        """Create the network (unless warm-started) and the online core for ``names``."""
+        s = self.settings
+        if self.network is None:
+            order = self._limit_order(names)
+            if order is None:
+                return False
+            ffmw = s['method'] == 'ffmw'
+            self.network = make_network(
+                s['method'], len(names), n_hidden=s['hidden_units'], seed=s['seed'],
+                learning_rate=s['learning_rate'] or None,
+                momentum=s['momentum'] if s['momentum'] >= 0 else None,
+                k=s['k'] if ffmw else None, a=s['a'] if ffmw else None,
+                b=s['b'] if ffmw else None)
+            self.network.set_scaling(*limit_scaling(
+                *(self.limits[name][order] for name in LIMIT_NAMES)))
+        self.network.metadata['joint_names'] = np.array(names)
+        self.network.metadata['method'] = np.array(s['method'])
+        differentiator = Differentiator(s['differentiator'], cutoff_hz=s['cutoff_hz'],
+                                        window=s['window'])
+        self.core = OnlineIdentifier(
+            self.network, joint_names=names, differentiator=differentiator,
+            mse_window=s['mse_window'], learn=s['learn'],
+            max_gap_ns=round(s['max_gap'] * 1e9))
+        self.names = names
+        return True
+
+    def _limit_order(self, names: list[str]) -> np.ndarray | None:
+        """Indices of ``names`` among the limits' joints, or None (logged) if some lack limits."""
+        known = self.limits['names']
+        missing = [name for name in names if name not in known]
+        if missing:
+            self._warn(f'no joint limits for {missing} (limits are known for {known}): set '
+                       'robot_config or position_min, position_max, velocity_max, '
+                       'acceleration_max, effort_max and joint_names')
+            return None
+        return np.array([known.index(name) for name in names])
+
+    # ------------------------------------------------------------------ per sample
+    def on_joint_state(self, msg: JointState) -> None:
+        """Predict, publish, learn: one input sample."""
+        if self.core is None:
+            names = list(msg.name)
+            if not names or len(set(names)) != len(names) or not self._build(names):
+                return
+        stamp_ns = stamp_to_ns(msg.header.stamp)
+        result = self.core.process(stamp_ns, msg.name, msg.position, msg.velocity, msg.effort)
+        if result.effort is None:
+            if result.reason is not SkipReason.WARMING_UP:
+                self._warn(f'skipped a sample ({result.reason.value}); '
+                           f'{sum(self.core.counts.skipped.values())} so far')
+            return
+        self.torque_publisher.publish(joint_state(stamp_ns, self.names, effort=result.effort,
+                                                  frame_id=msg.header.frame_id))
+        lag_ns = time.time_ns() - stamp_ns
+        if lag_ns > self.max_lag_ns:
+            self.max_lag_ns = lag_ns
+            self.worst_lag_ns = max(self.worst_lag_ns, lag_ns)
+
+    def _warn(self, text: str) -> None:
+        now = time.monotonic()
+        if now - self.last_warning >= WARN_PERIOD:
+            self.last_warning = now
+            self.get_logger().warning(text)
+
+    # ------------------------------------------------------------------ periodic
+    def publish_mse(self) -> None:
+        """Publish the windowed per-joint and overall MSE and NMSE."""
+        if self.core is None or self.core.errors.count == 0:
+            return
+        stats = self.core.error_stats()
+        n = len(self.names)
+        msg = Float64MultiArray()
+        msg.layout.dim = [
+            MultiArrayDimension(label='metric:mse,nmse', size=2, stride=2 * (n + 1)),
+            MultiArrayDimension(label='joint:' + ','.join([*self.names, 'total']),
+                                size=n + 1, stride=n + 1)]
+        msg.data = [*stats.mse.tolist(), float(stats.mse_total),
+                    *stats.nmse.tolist(), float(stats.nmse_total)]
+        self.mse_publisher.publish(msg)
+
+    def summary(self) -> dict[str, Any]:
+        """Counters and errors so far, as plain data."""
+        if self.core is None:
+            return {'method': self.settings['method'], 'processed': 0}
+        counts = self.core.counts
+        stats = self.core.error_stats()
+        return {
+            'method': self.settings['method'], 'joint_names': self.names,
+            'processed': counts.processed, 'predicted': counts.predicted,
+            'learned': counts.learned,
+            'skipped': {reason.value: n for reason, n in counts.skipped.items() if n},
+            'mse': stats.mse.tolist(), 'nmse': stats.nmse.tolist(),
+            'mse_total': float(stats.mse_total), 'nmse_total': float(stats.nmse_total),
+            'max_lag_ms': self.worst_lag_ns / 1e6,
+        }
+
+    def log_stats(self) -> None:
+        """Log counters, skipped samples by reason, lag and the windowed error."""
+        info = self.summary()
+        if info['processed']:
+            self.get_logger().info(
+                f"processed {info['processed']}, learned {info['learned']}, skipped "
+                f"{info['skipped'] or 0}, max lag {self.max_lag_ns / 1e6:.2f} ms, windowed MSE "
+                f"{info['mse_total']:.4g}, NMSE {info['nmse_total']:.4g}")
+        self.max_lag_ns = 0
+
+    def checkpoint(self) -> None:
+        """Save the model to ``save_path`` (atomically)."""
+        path = self.settings['save_path']
+        if path and self.network is not None and self.core is not None:
+            Path(path).parent.mkdir(parents=True, exist_ok=True)
+            self.network.save(path)
+
+    def close(self) -> None:
+        """On shutdown: last checkpoint, final statistics."""
+        self.checkpoint()
+        self.log_stats()
+        if self.settings['stats_file']:
+            Path(self.settings['stats_file']).write_text(json.dumps(self.summary(), indent=1))
+
+
+def main(args: list[str] | None = None) -> None:
+    """Console script ``identifier``."""
+    sys.exit(run_node('identifier', IdentifierNode, args))
+
+
+if __name__ == '__main__':
+    main()
