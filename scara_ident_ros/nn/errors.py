@@ -1,0 +1,9 @@
+"""Exceptions of the networks package."""
+from __future__ import annotations
+
+__all__ = ['ModelFormatError']
+
+
+class ModelFormatError(ValueError):
+    """A file is not a network saved by `FeedForwardNet.save`, has another format version,
+    or is corrupt. The message names the path and what is wrong with it."""

@@ -1,0 +1,185 @@
+"""The frame shared by offline training algorithms: stop rules, validation, history.
+
+An algorithm supplies a `TrainingStep`; `run_training` iterates it, records a `FitHistory`,
+and stops at the error goal, the iteration limit, when the validation error has failed to
+improve ``max_fail`` times in a row, when the algorithm cannot go on, or when the callback
+asks to. When validation data are given, the network ends with the weights of the best
+validation error seen, whatever the reason for stopping (as MATLAB's ``train`` does).
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Callable, Protocol
+
+import numpy as np
+import numpy.typing as npt
+
+if TYPE_CHECKING:
+    from scara_ident_ros.nn.network import FeedForwardNet
+
+__all__ = [
+    'STOP_CALLBACK',
+    'STOP_DIVERGED',
+    'STOP_GOAL',
+    'STOP_ITERATIONS',
+    'STOP_MU_MAX',
+    'STOP_VALIDATION',
+    'FitHistory',
+    'StopTraining',
+    'TrainingStep',
+    'run_training',
+]
+
+FloatArray = npt.NDArray[np.float64]
+
+STOP_GOAL = 'goal'  #: the training MSE reached the goal
+STOP_ITERATIONS = 'iterations'  #: the iteration limit was reached
+STOP_VALIDATION = 'validation'  #: the validation MSE failed to improve max_fail times in a row
+STOP_MU_MAX = 'mu_max'  #: Levenberg–Marquardt's damping exceeded its maximum
+STOP_DIVERGED = 'diverged'  #: a step made the error infinite or NaN (weights kept from before)
+STOP_CALLBACK = 'callback'  #: the callback returned True
+
+
+class StopTraining(Exception):
+    """Raised by a `TrainingStep` that cannot go on; ``reason`` is one of the STOP_ names."""
+
+    def __init__(self, reason: str) -> None:
+        super().__init__(reason)
+        self.reason = reason
+
+
+@dataclass
+class FitHistory:
+    """What an offline training run did.
+
+    All errors are mean squared errors of the *scaled* outputs (each output mapped to
+    [-1, 1] by the network's output scaling), averaged over samples and outputs: the
+    quantity compared with ``goal``. Multiply by (range/2)² of an output for physical units.
+
+    Attributes
+    ----------
+    algorithm : str
+        ``'lm'`` or ``'gd'``.
+    mse : list of float, length iterations + 1
+        Training MSE before training (index 0) and after each iteration.
+    val_mse : list of float or None
+        Validation MSE at the same points, or None without validation data.
+    time : list of float, length iterations
+        Wall time of each iteration in seconds (the callback excluded).
+    mu : list of float
+        Levenberg–Marquardt damping of each accepted step; empty for ``'gd'``.
+    stop_reason : str
+        One of 'goal', 'iterations', 'validation', 'mu_max', 'diverged', 'callback'.
+    iterations : int
+        Iterations done.
+    best_iteration : int
+        The iteration whose weights the network holds at the end (the last one without
+        validation data; the one of the lowest validation MSE with them).
+    """
+
+    algorithm: str
+    mse: list[float] = field(default_factory=list)
+    val_mse: list[float] | None = None
+    time: list[float] = field(default_factory=list)
+    mu: list[float] = field(default_factory=list)
+    stop_reason: str = ''
+    iterations: int = 0
+    best_iteration: int = 0
+
+    @property
+    def final_mse(self) -> float:
+        """Training MSE of the weights the network holds at the end."""
+        return self.mse[self.best_iteration]
+
+
+class TrainingStep(Protocol):
+    """One offline training algorithm, bound to a network and its scaled data."""
+
+    def start(self, history: FitHistory) -> float:
+        """Prepare (keeping ``history`` to record into); return the current training MSE."""
+
+    def step(self) -> float:
+        """Change the network's weights by one iteration; return the new training MSE.
+
+        Raises `StopTraining` when no step can be made.
+        """
+
+
+Callback = Callable[[FitHistory], 'bool | None']
+
+
+def run_training(net: FeedForwardNet, algorithm: str, step: TrainingStep, *,
+                 iterations: int, goal: float,
+                 validation: tuple[FloatArray, FloatArray] | None,
+                 max_fail: int, callback: Callback | None) -> FitHistory:
+    """Iterate ``step`` under the stop rules of the module docstring.
+
+    Parameters
+    ----------
+    net : FeedForwardNet
+        The network ``step`` trains; read for validation errors and best-weight restore.
+    algorithm : str
+        Name recorded in the history.
+    step : TrainingStep
+        The algorithm.
+    iterations : int
+        Iteration limit (>= 0).
+    goal : float
+        Stop as soon as the training MSE is <= goal.
+    validation : (X_scaled, Y_scaled) or None
+        Scaled validation inputs (n, n_inputs) and outputs (n, n_outputs).
+    max_fail : int
+        Consecutive validation failures that stop training.
+    callback : callable or None
+        Called with the history after each iteration; returning True stops training.
+
+    Returns
+    -------
+    FitHistory
+    """
+    history = FitHistory(algorithm=algorithm)
+    history.mse.append(step.start(history))
+    best_params: FloatArray | None = None
+    best_val = math.inf
+    fails = 0
+    if validation is not None:
+        history.val_mse = [net._mse_scaled(*validation)]
+        best_val = history.val_mse[0]
+        best_params = net.get_params()
+    reason = STOP_GOAL if history.mse[0] <= goal else ''
+    while not reason:
+        if history.iterations >= iterations:
+            reason = STOP_ITERATIONS
+            break
+        start = time.perf_counter()
+        try:
+            mse = step.step()
+        except StopTraining as stop:
+            reason = stop.reason
+            break
+        history.iterations += 1
+        history.mse.append(mse)
+        if validation is not None and history.val_mse is not None:
+            val = net._mse_scaled(*validation)
+            history.val_mse.append(val)
+            if val < best_val:
+                best_val, fails = val, 0
+                best_params = net.get_params()
+                history.best_iteration = history.iterations
+            else:
+                fails += 1
+        else:
+            history.best_iteration = history.iterations
+        history.time.append(time.perf_counter() - start)
+        if mse <= goal:
+            reason = STOP_GOAL
+        elif validation is not None and fails >= max_fail:
+            reason = STOP_VALIDATION
+        elif callback is not None and callback(history):
+            reason = STOP_CALLBACK
+    history.stop_reason = reason
+    if best_params is not None:
+        net.set_params(best_params)
+    return history
