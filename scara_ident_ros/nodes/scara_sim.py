@@ -88,8 +88,7 @@ class ScaraSimNode(Node):
         except (ParamError, OSError) as exc:
             raise ConfigError(str(exc)) from None
         self.names = names
-        self.origin_ns = (time.time_ns() // 1_000_000 * 1_000_000
-                          if s['stamp_origin'] == 'wall' else 0)
+        self.origin_ns = 0  # set when the first sample is published (stamp_origin wall)
         self.limit = (round(s['duration'] * NS_PER_S / self.period_ns)
                       if s['duration'] > 0 else None)
         qos = QoSProfile(depth=QOS_DEPTH, reliability=ReliabilityPolicy.RELIABLE)
@@ -115,6 +114,10 @@ class ScaraSimNode(Node):
         """Publish on absolute deadlines until ``stop`` is set or the duration is reached."""
         if not self.wait_for_subscribers(executor, stop):
             return
+        # Time zero is now, not at start-up: waiting for subscribers must not put the
+        # wall-clock stamps behind the wall clock.
+        if self.settings['stamp_origin'] == 'wall':
+            self.origin_ns = time.time_ns() // 1_000_000 * 1_000_000
         self.pacer.restart()
         next_stats = time.monotonic() + STATS_PERIOD
         published = 0
