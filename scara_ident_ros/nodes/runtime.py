@@ -79,7 +79,8 @@ def run_node(name: str, factory: Callable[[], Node], args: list[str] | None = No
         try:
             node = factory()
         except (ConfigError, ParameterException, ValueError) as exc:
-            print(f'{name}: error: {exc}', file=sys.stderr)
+            message = ' '.join(str(exc).split())  # one line, even for a YAML parser's report
+            print(f'{name}: error: {message}', file=sys.stderr)
             return 2
         executor = EventsExecutor()
         executor.add_node(node)
