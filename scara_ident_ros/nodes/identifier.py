@@ -103,9 +103,11 @@ class IdentifierNode(Node):
         if s['model_path']:
             self.network = self._load(s['model_path'])
             saved = [str(n) for n in self.network.metadata.get('joint_names', [])]
-            if names and saved and sorted(names) != sorted(saved):
-                raise ConfigError(f"model {s['model_path']} was trained for joints {saved}, "
-                                  f"not joint_names {names}")
+            # The network's inputs and outputs are in the saved order: another order would
+            # feed each joint's values to another joint's weights.
+            if names and saved and names != saved:
+                raise ConfigError(f"model {s['model_path']} was trained for joints {saved} "
+                                  f'(in that order), not joint_names {names}')
             names = names or saved
             if names and len(names) != self.network.n_outputs:
                 raise ConfigError(f"model {s['model_path']} has {self.network.n_outputs} "
