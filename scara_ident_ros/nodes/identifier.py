@@ -102,6 +102,11 @@ class IdentifierNode(Node):
         names = list(s['joint_names'])
         if s['model_path']:
             self.network = self._load(s['model_path'])
+            activation = METHODS[s['method']].activation
+            if self.network.activation != activation:
+                raise ConfigError(f"model {s['model_path']} has {self.network.activation} "
+                                  f"hidden units, not the {activation} of method "
+                                  f"{s['method']}: set method to the model's")
             saved = [str(n) for n in self.network.metadata.get('joint_names', [])]
             # The network's inputs and outputs are in the saved order: another order would
             # feed each joint's values to another joint's weights.
