@@ -1,0 +1,214 @@
+"""The paper's figures from our data, as PNG files (matplotlib, Agg backend).
+
+=============  ==============================================  ==========================
+paper          content                                         function
+=============  ==============================================  ==========================
+Figs 6–13      measured vs identified torque of each link       :func:`plot_torque`
+               (FFMW: 6–9, FFS: 10–13; we also draw FFW)
+Fig. 14        offline training MSE against iteration           :func:`plot_training_mse`
+Fig. 15        online error against time                        :func:`plot_online_error`
+=============  ==============================================  ==========================
+
+Each figure is ``WIDTH_IN`` inches wide at ``DPI`` dots per inch, so its size in pixels is
+known in advance (no tight bounding box). Long series are thinned to at most
+``MAX_POINTS`` points per line by taking every k-th sample.
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = ['DPI', 'MAX_POINTS', 'WIDTH_IN', 'effort_unit', 'figure_size_px', 'plot_online_error',
+           'plot_torque', 'plot_training_mse']
+
+DPI = 100  # dots per inch
+WIDTH_IN = 10.0  # inches
+MAX_POINTS = 4000  # points per line
+_PANEL_IN = 1.9  # inches per joint panel of the torque figures
+_COLOURS = {'FFMW': 'tab:blue', 'FFW': 'tab:orange', 'FFS': 'tab:green', 'LS': 'tab:gray'}
+
+#: The SCARA's joints (scara-model.md): joint3 is prismatic (N), the others revolute (N·m).
+_SCARA_UNITS = {'joint1': 'N·m', 'joint2': 'N·m', 'joint3': 'N', 'joint4': 'N·m'}
+
+
+def effort_unit(name: str, names: Sequence[str]) -> str:
+    """Unit of a joint's effort: the SCARA's if ``names`` are its joints, else 'N·m or N'."""
+    if sorted(names) == sorted(_SCARA_UNITS) and name in _SCARA_UNITS:
+        return _SCARA_UNITS[name]
+    return 'N·m or N'
+
+
+def figure_size_px(kind: str, n_joints: int = 0) -> tuple[int, int]:
+    """Width and height in pixels of a figure of ``kind`` ('torque', 'training', 'online')."""
+    return (round(WIDTH_IN * DPI), round(_height_in(kind, n_joints) * DPI))
+
+
+def _height_in(kind: str, n_joints: int) -> float:
+    if kind == 'torque':
+        return 1.2 + _PANEL_IN * max(n_joints, 1)
+    if kind == 'training':
+        return 5.0
+    if kind == 'online':
+        return 6.5
+    raise ValueError(f'unknown figure kind {kind!r}')
+
+
+def _pyplot():  # type: ignore[no-untyped-def]
+    import matplotlib
+    matplotlib.use('Agg', force=True)
+    import matplotlib.pyplot as plt
+    return plt
+
+
+def _thin(*arrays: NDArray[np.float64]) -> list[NDArray[np.float64]]:
+    count = arrays[0].shape[0]
+    step = max(1, math.ceil(count / MAX_POINTS))
+    return [a[::step] for a in arrays]
+
+
+def _save(fig, path: Path) -> Path:  # type: ignore[no-untyped-def]
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=DPI, format='png')
+    _pyplot().close(fig)
+    return path
+
+
+def plot_torque(path: Path, time_s: NDArray[np.float64], measured: NDArray[np.float64],
+                predicted: NDArray[np.float64], names: Sequence[str], *, title: str,
+                predicted_label: str = 'identified') -> Path:
+    """Measured against identified effort, one panel per joint (Figs 6–13 of the paper).
+
+    Parameters
+    ----------
+    path : Path
+        PNG file to write; its size is ``figure_size_px('torque', n)``.
+    time_s : ndarray of shape (N,)
+        Time of each sample, s.
+    measured, predicted : ndarray of shape (N, n)
+        Measured and identified efforts (N·m or N).
+    names : sequence of str of length n
+        Joint names, used as panel titles.
+    title : str
+        Figure title.
+    predicted_label : str
+        Legend entry of the prediction.
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
+    plt = _pyplot()
+    n = len(names)
+    fig, axes = plt.subplots(n, 1, figsize=(WIDTH_IN, _height_in('torque', n)), sharex=True,
+                             squeeze=False, layout='constrained')
+    t, y, y_hat = _thin(np.asarray(time_s, float), np.asarray(measured, float),
+                        np.asarray(predicted, float))
+    for j, (ax, name) in enumerate(zip(axes[:, 0], names)):
+        ax.plot(t, y[:, j], color='black', linewidth=1.0, label='measured')
+        ax.plot(t, y_hat[:, j], color='tab:red', linewidth=0.8, linestyle='--',
+                label=predicted_label)
+        ax.set_ylabel(f'{name} ({effort_unit(name, names)})')
+        ax.grid(True, alpha=0.3)
+        if j == 0:
+            ax.legend(loc='upper right', fontsize='small')
+    axes[-1, 0].set_xlabel('time (s)')
+    fig.suptitle(title)
+    return _save(fig, path)
+
+
+def plot_training_mse(path: Path, curves: Mapping[str, Sequence[Sequence[float]]], *,
+                      title: str, goal: float | None = None) -> Path:
+    """Training MSE against iteration for each method, log scale (Fig. 14 of the paper).
+
+    Parameters
+    ----------
+    path : Path
+        PNG file to write; its size is ``figure_size_px('training')``.
+    curves : mapping of str to sequences of sequences of float
+        Method label (``'FFMW'``) to one MSE curve per seed (``FitHistory.mse``: before
+        training, then after each iteration), in the networks' scaled output units. The
+        median over seeds is drawn bold, each seed thin.
+    title : str
+        Figure title.
+    goal : float, optional
+        Training goal, drawn as a horizontal line.
+
+    Returns
+    -------
+    Path
+    """
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(WIDTH_IN, _height_in('training', 0)), layout='constrained')
+    for label, runs in curves.items():
+        colour = _COLOURS.get(label)
+        runs = [np.asarray(r, float) for r in runs if len(r)]
+        if not runs:
+            continue
+        for run in runs:
+            ax.plot(np.arange(run.shape[0]), run, color=colour, linewidth=0.6, alpha=0.35)
+        length = min(r.shape[0] for r in runs)
+        median = np.median(np.vstack([r[:length] for r in runs]), axis=0)
+        ax.plot(np.arange(length), median, color=colour, linewidth=2.0,
+                label=f'{label} (median of {len(runs)})')
+    if goal is not None:
+        ax.axhline(goal, color='black', linestyle=':', linewidth=1.0, label=f'goal {goal:g}')
+    ax.set_yscale('log')
+    ax.set_xlabel('iteration')
+    ax.set_ylabel('training MSE (outputs scaled to [-1, 1])')
+    ax.grid(True, which='both', alpha=0.3)
+    ax.legend(loc='upper right')
+    ax.set_title(title)
+    return _save(fig, path)
+
+
+def plot_online_error(path: Path,
+                      curves: Mapping[str, tuple[NDArray[np.float64], NDArray[np.float64],
+                                                 NDArray[np.float64]]], *,
+                      title: str, mse_window: int, nmse_window: int,
+                      units: str = '(N·m)² and N²') -> Path:
+    """Online error against time for each method, log scale (Fig. 15 of the paper).
+
+    Parameters
+    ----------
+    path : Path
+        PNG file to write; its size is ``figure_size_px('online')``.
+    curves : mapping of str to (time_s (N,), mse (N,), nmse (N,))
+        Method label to the time (s) and the windowed MSE (mean over joints) and NMSE of
+        its a-priori predictions (see :func:`~scara_ident_ros.offline.online_results.
+        rolling_errors`).
+    title : str
+        Figure title.
+    mse_window, nmse_window : int
+        Windows (samples) of the two curves, for the axis labels.
+    units : str
+        Unit of the MSE axis.
+
+    Returns
+    -------
+    Path
+    """
+    plt = _pyplot()
+    fig, (top, bottom) = plt.subplots(2, 1, figsize=(WIDTH_IN, _height_in('online', 0)),
+                                      sharex=True, layout='constrained')
+    for label, (time_s, mse, nmse) in curves.items():
+        colour = _COLOURS.get(label)
+        t, e, ne = _thin(np.asarray(time_s, float), np.asarray(mse, float),
+                         np.asarray(nmse, float))
+        top.plot(t, e, color=colour, linewidth=1.0, label=label)
+        bottom.plot(t, ne, color=colour, linewidth=1.0, label=label)
+    top.set_yscale('log')
+    bottom.set_yscale('log')
+    top.set_ylabel(f'MSE, last {mse_window} samples\n{units}')
+    bottom.set_ylabel(f'normalised MSE,\nlast {nmse_window} samples')
+    bottom.set_xlabel('time (s)')
+    for ax in (top, bottom):
+        ax.grid(True, which='both', alpha=0.3)
+        ax.legend(loc='upper right')
+    fig.suptitle(title)
+    return _save(fig, path)
