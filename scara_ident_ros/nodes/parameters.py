@@ -42,9 +42,11 @@ class ParamSpec:
         text = self.description + (f' [{self.unit}]' if self.unit else '')
         if self.choices:
             text += f" (one of: {', '.join(self.choices)})"
-        # An empty list has no ROS type of its own: let the override decide, check items.
-        descriptor = ParameterDescriptor(description=text, read_only=self.read_only,
-                                         dynamic_typing=self.default == [])
+        # An empty list has no ROS type of its own, and `-p rate_hz:=1000` is an integer
+        # where a float is declared: let the override decide the type, then check it.
+        descriptor = ParameterDescriptor(
+            description=text, read_only=self.read_only,
+            dynamic_typing=self.default == [] or isinstance(self.default, float))
         if self.min is not None or self.max is not None:
             low = self.min if self.min is not None else -1e308
             high = self.max if self.max is not None else 1e308
@@ -60,6 +62,9 @@ class ParamSpec:
 
     def check(self, value: Any) -> str | None:
         """Return why ``value`` is not acceptable, or None if it is."""
+        if isinstance(self.default, float) and (
+                isinstance(value, bool) or not isinstance(value, (int, float))):
+            return f'must be a number, got {value!r}'
         if self.items is not None:
             if not isinstance(value, (list, tuple, array.array)) or not all(
                     isinstance(item, self.items) or (self.items is float
@@ -107,4 +112,6 @@ def declare_parameters(node: Node, specs: Sequence[ParamSpec]) -> dict[str, Any]
         reason = spec.check(values[spec.name])
         if reason is not None:
             raise ConfigError(f"parameter '{spec.name}' {reason}")
+        if isinstance(spec.default, float):
+            values[spec.name] = float(values[spec.name])
     return values

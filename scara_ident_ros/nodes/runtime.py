@@ -3,7 +3,7 @@
 Every node runs in its own process on an :class:`rclpy.experimental.EventsExecutor`
 driven by ``spin_once`` in a loop: in the Jazzy wheels it costs about a quarter of
 the CPU of the default executor at 1 kHz (see ``benchmarks/bench_executor.py``),
-while its ``spin()`` fired a 1 ms timer only once and ignored Ctrl-C.
+while its ``spin()`` fired a 1 ms timer at most once and ignored Ctrl-C.
 
 SIGINT and SIGTERM set a stop flag that the loop checks at least every
 :data:`POLL_PERIOD`; the node is then closed (``close()`` if it has one: flush

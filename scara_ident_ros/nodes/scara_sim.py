@@ -8,10 +8,14 @@ torque/force actually applied, ``header.stamp`` = simulated time.
 """
 from __future__ import annotations
 
+import json
 import sys
 import threading
 import time
 
+from pathlib import Path
+
+from rclpy.duration import Duration
 from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
@@ -32,6 +36,7 @@ JOINT_STATES_TOPIC = 'joint_states'
 CLOCK_TOPIC = '/clock'
 QOS_DEPTH = 1000  # messages: one second of history at 1 kHz
 STATS_PERIOD = 10.0  # seconds between statistics log lines
+ACK_TIMEOUT = 5.0  # seconds the last samples may take to be acknowledged at shutdown
 
 PARAMETERS = (
     ParamSpec('robot_config', '', 'YAML file of the robot parameters; empty: the installed '
@@ -60,6 +65,8 @@ PARAMETERS = (
     ParamSpec('wait_for_subscribers', 0, 'Before the first sample, wait until this many '
               'subscribers are matched on joint_states (0: start at once)', min=0),
     ParamSpec('wait_timeout', 30.0, 'Longest wait for those subscribers', 's', min=0.0),
+    ParamSpec('stats_file', '', 'Write the final counters here as JSON on shutdown; empty: '
+              'never'),
     ParamSpec('frame_id', '', 'header.frame_id of the published JointState'),
 )
 
@@ -95,6 +102,7 @@ class ScaraSimNode(Node):
         self.publisher = self.create_publisher(JointState, JOINT_STATES_TOPIC, qos)
         self.clock_publisher = (self.create_publisher(Clock, CLOCK_TOPIC, 10)
                                 if s['publish_clock'] else None)
+        self.published = 0
         self.pacer = DeadlinePacer(self.period_ns, real_time_factor=s['real_time_factor'])
         self.get_logger().info(
             f'simulating {path} at {s["rate_hz"]:g} Hz, trajectory {s["trajectory"]!r}, '
@@ -120,21 +128,19 @@ class ScaraSimNode(Node):
             self.origin_ns = time.time_ns() // 1_000_000 * 1_000_000
         self.pacer.restart()
         next_stats = time.monotonic() + STATS_PERIOD
-        published = 0
         while not stop.is_set():
             due = self.pacer.wait(POLL_PERIOD)
             if self.limit is not None:
-                due = min(due, self.limit - published)
+                due = min(due, self.limit - self.published)
             for _ in range(due):
                 self.publish_next()
-            published += due
+            self.published += due
             executor.spin_once(timeout_sec=0)
-            if self.limit is not None and published >= self.limit:
+            if self.limit is not None and self.published >= self.limit:
                 break
             if time.monotonic() >= next_stats:
                 next_stats += STATS_PERIOD
-                self.log_stats(published)
-        self.log_stats(published)
+                self.log_stats()
 
     def wait_for_subscribers(self, executor: EventsExecutor, stop: threading.Event) -> bool:
         """Wait for ``wait_for_subscribers`` matched subscribers; False if stopped meanwhile."""
@@ -151,11 +157,22 @@ class ScaraSimNode(Node):
             executor.spin_once(timeout_sec=0.05)
         return True
 
-    def log_stats(self, published: int) -> None:
+    def log_stats(self) -> None:
         """Log how many samples were published and how many were late."""
         self.get_logger().info(
-            f'published {published} samples ({published * self.period_ns / NS_PER_S:.3f} s '
-            f'simulated), {self.pacer.late} late by more than one period')
+            f'published {self.published} samples '
+            f'({self.published * self.period_ns / NS_PER_S:.3f} s simulated), '
+            f'{self.pacer.late} late by more than one period')
+
+    def close(self) -> None:
+        """On shutdown: let subscribers acknowledge the tail, then final statistics."""
+        self.publisher.wait_for_all_acked(Duration(seconds=ACK_TIMEOUT))
+        self.log_stats()
+        if self.settings['stats_file']:
+            Path(self.settings['stats_file']).write_text(json.dumps(
+                {'published': self.published, 'late': self.pacer.late,
+                 'first_stamp_ns': self.origin_ns if self.published else None,
+                 'period_ns': self.period_ns}, indent=1))
 
 
 def main(args: list[str] | None = None) -> None:

@@ -105,7 +105,9 @@ def test_wall_stamps_start_when_the_first_sample_is_published(listener: Listener
 def test_duration_stops_the_node_after_exactly_that_many_samples(
         listener: Listener) -> None:
     messages = listener.subscribe(JointState, JOINT_STATES_TOPIC)
-    with NodeProcess(MODULE, ['-p', 'wait_for_subscribers:=1', '-p', 'duration:=0.5']) as node:
+    # An integer where a float is declared (rate_hz:=1000) is accepted.
+    with NodeProcess(MODULE, ['-p', 'wait_for_subscribers:=1', '-p', 'duration:=0.5',
+                              '-p', 'rate_hz:=1000']) as node:
         listener.spin_until(node.exited, EXIT_TIMEOUT)
         output = node.wait(EXIT_TIMEOUT)
     listener.spin_until(lambda: len(messages) > 500, 1.0)  # anything still in flight
@@ -144,7 +146,7 @@ BAD_INPUTS = {
     # id: (ros args, robot_config YAML text or None, text the error line must contain)
     'negative rate': (['-p', 'rate_hz:=-100.0'], None, "'rate_hz'"),
     'zero rate': (['-p', 'rate_hz:=0.0'], None, "'rate_hz'"),
-    'integer rate': (['-p', 'rate_hz:=500'], None, "'rate_hz'"),
+    'text rate': (['-p', 'rate_hz:=fast'], None, "'rate_hz'"),
     'unknown preset': (['-p', 'trajectory:=wild'], None, "'trajectory'"),
     'negative mass': ([], 'm2: -5.0\n', 'm2'),
     'unknown field': ([], 'mass1: 8.0\n', 'mass1'),
