@@ -1,0 +1,177 @@
+"""``scara-ident run``: the whole identification graph in one command.
+
+Starts, as separate processes, the MCAP recorder, three identifiers side by side
+(FFMW, FFW, FFS in the namespaces ``/ffmw``, ``/ffw``, ``/ffs``, all fed by
+``/joint_states``) and the simulated SCARA; the simulator waits until the
+identifiers and the recorder are subscribed, publishes ``--duration`` seconds of
+samples at 1 kHz and stops; the others then drain their queues and are stopped
+with SIGINT (identifiers save their models, the recorder closes the bag). A summary
+compares what was published with what was processed and recorded. Unless
+``--no-report``, the run's tables and figures are then produced from the bag
+(``scara-ident tables``).
+
+Output directory layout (``--out DIR``)::
+
+    DIR/bag/            the MCAP rosbag2 bag (or --bag PATH)
+    DIR/models/M.npz    each method's network at the end of the run
+    DIR/logs/*.log      each process's output
+    DIR/stats/*.json    each process's final counters
+    DIR/summary.json    the summary printed at the end
+    DIR/report/         tables and figures (report.md)
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from scara_ident_ros.cli import CliError
+from scara_ident_ros.methods import METHODS
+from scara_ident_ros.process_graph import NodeProcess, ProcessGraph
+
+__all__ = ['add_parser', 'run', 'bag_message_counts']
+
+STARTUP_TIMEOUT = 60.0  # s allowed for the processes to start and discover each other
+DRAIN_TIME = 1.0  # s the consumers get to drain their queues after the last sample
+
+
+def add_parser(subparsers: argparse._SubParsersAction) -> None:
+    """Register ``scara-ident run``."""
+    parser = subparsers.add_parser(
+        'run', help='run simulator, three identifiers and the recorder; summarise',
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument('--duration', type=float, default=60.0,
+                        help='seconds of simulated samples at 1 kHz (default: 60)')
+    parser.add_argument('--out', type=Path, default=Path('out/run'),
+                        help='output directory (default: out/run)')
+    parser.add_argument('--bag', type=Path, default=None,
+                        help='bag directory to record (default: OUT/bag); must not exist')
+    parser.add_argument('--methods', nargs='+', default=list(METHODS), choices=list(METHODS),
+                        help='identifiers to run side by side (default: all three)')
+    parser.add_argument('--trajectory', default='standard', help='excitation preset')
+    parser.add_argument('--seed', type=int, default=0, help='excitation seed')
+    parser.add_argument('--no-report', dest='report', action='store_false',
+                        help='skip the tables and figures at the end')
+    parser.set_defaults(func=run)
+
+
+def bag_message_counts(bag: Path) -> dict[str, int]:
+    """Messages per topic from a rosbag2 bag's ``metadata.yaml`` (empty if unreadable)."""
+    try:
+        info = yaml.safe_load((bag / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
+        return {entry['topic_metadata']['name']: int(entry['message_count'])
+                for entry in info['topics_with_message_count']}
+    except (OSError, KeyError, TypeError, yaml.YAMLError):
+        return {}
+
+
+def _read_json(path: Path) -> dict[str, Any]:
+    try:
+        return json.loads(path.read_text())
+    except (OSError, ValueError):
+        return {}
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the graph, print the summary, produce the report; return the exit status."""
+    if args.duration <= 0:
+        raise CliError(f'--duration must be > 0, got {args.duration}')
+    out: Path = args.out
+    bag: Path = args.bag or out / 'bag'
+    if bag.exists():
+        raise CliError(f'{bag} exists already, not overwriting (choose another --out or --bag)')
+    stats, models = out / 'stats', out / 'models'
+    for directory in (stats, models):
+        directory.mkdir(parents=True, exist_ok=True)
+
+    graph = ProcessGraph(out / 'logs')
+    graph.start(NodeProcess('recorder', 'scara_ident_ros.nodes.recorder', [
+        '-p', f'output:={bag}', '-p', f'stats_file:={stats / "recorder.json"}']))
+    for name in args.methods:
+        graph.start(NodeProcess(name, 'scara_ident_ros.nodes.identifier', [
+            '-r', f'__ns:=/{name}', '-r', 'joint_states:=/joint_states',
+            '-p', f'method:={name}', '-p', f'save_path:={models / name}.npz',
+            '-p', f'stats_file:={stats / name}.json']))
+    sim = graph.start(NodeProcess('scara_sim', 'scara_ident_ros.nodes.scara_sim', [
+        '-p', f'duration:={args.duration}', '-p', f'trajectory:={args.trajectory}',
+        '-p', f'seed:={args.seed}', '-p', f'wait_for_subscribers:={len(args.methods) + 1}',
+        '-p', f'wait_timeout:={STARTUP_TIMEOUT}', '-p', f'stats_file:={stats / "scara_sim.json"}']))
+    print(f'scara-ident run: {args.duration:g} s at 1 kHz, identifiers '
+          f'{", ".join(m.upper() for m in args.methods)}, recording {bag}', flush=True)
+    started = time.monotonic()
+    try:
+        while sim.returncode is None and not graph.failed():
+            time.sleep(0.5)
+            if time.monotonic() - started > args.duration * 3 + STARTUP_TIMEOUT:
+                print('scara-ident run: the simulator is far behind real time; stopping',
+                      flush=True)
+                break
+        time.sleep(DRAIN_TIME)
+    except KeyboardInterrupt:
+        print('scara-ident run: interrupted, stopping the graph', flush=True)
+    finally:
+        codes = graph.stop_all()
+    failed = {name: code for name, code in codes.items() if code != 0}
+    summary = _summary(args.methods, stats, bag, out, codes)
+    (out / 'summary.json').write_text(json.dumps(summary, indent=1))
+    _print_summary(summary)
+    if failed:
+        for name in failed:
+            print(f'--- {name} exited with {failed[name]}; log {out / "logs" / name}.log:')
+            print(graph.log_text(next(n for n in graph.nodes if n.name == name))[-2000:])
+        return 1
+    if args.report:
+        from scara_ident_ros.cli.tables import make_report
+        report = make_report([bag], out / 'report', methods=args.methods)
+        print(f'scara-ident run: report in {report}')
+    return 0
+
+
+def _summary(methods: list[str], stats: Path, bag: Path, out: Path,
+             codes: dict[str, int]) -> dict[str, Any]:
+    sim = _read_json(stats / 'scara_sim.json')
+    recorder = _read_json(stats / 'recorder.json')
+    counts = bag_message_counts(bag)
+    rows = {}
+    for name in methods:
+        info = _read_json(stats / f'{name}.json')
+        rows[name] = {
+            'processed': info.get('processed'), 'learned': info.get('learned'),
+            'skipped': info.get('skipped'), 'mse_total': info.get('mse_total'),
+            'nmse_total': info.get('nmse_total'), 'mse': info.get('mse'),
+            'nmse': info.get('nmse'),
+            'published': info.get('predicted'),
+            'recorded': counts.get(f'/{name}/identified_torque'),
+            'model': str(out / 'models' / f'{name}.npz'),
+        }
+    return {'bag': str(bag), 'exit_codes': codes,
+            'joint_states': {'published': sim.get('published'), 'late': sim.get('late'),
+                             'recorded': counts.get('/joint_states')},
+            'recorder': recorder, 'methods': rows}
+
+
+def _fmt(value: Any) -> str:
+    if value is None:
+        return '–'
+    if isinstance(value, float):
+        return f'{value:.4g}'
+    return str(value)
+
+
+def _print_summary(summary: dict[str, Any]) -> None:
+    js = summary['joint_states']
+    print(f"\n/joint_states: published {_fmt(js['published'])}, recorded "
+          f"{_fmt(js['recorded'])}, late {_fmt(js['late'])}")
+    print('\n| method | processed | learned | skipped | identified_torque published '
+          '| recorded | final MSE (windowed) | final NMSE |')
+    print('|---|---|---|---|---|---|---|---|')
+    for name, row in summary['methods'].items():
+        print(f"| {name.upper()} | {_fmt(row['processed'])} | {_fmt(row['learned'])} | "
+              f"{_fmt(row['skipped'] or 0)} | {_fmt(row['published'])} | "
+              f"{_fmt(row['recorded'])} | {_fmt(row['mse_total'])} | "
+              f"{_fmt(row['nmse_total'])} |")
+    print()
