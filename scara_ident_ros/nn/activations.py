@@ -97,7 +97,8 @@ def logistic(z: npt.ArrayLike) -> FloatArray:
     """
     z = np.asarray(z, dtype=np.float64)
     e = np.exp(-np.abs(z))  # in (0, 1]: never overflows
-    return np.where(z >= 0.0, 1.0 / (1.0 + e), e / (1.0 + e))
+    result: FloatArray = np.where(z >= 0.0, 1.0 / (1.0 + e), e / (1.0 + e))
+    return result
 
 
 def logistic_derivative(z: npt.ArrayLike) -> FloatArray:

@@ -91,18 +91,20 @@ def normal_equations(net: FeedForwardNet, xs: FloatArray, ys: FloatArray, *,
         x_chunk = xs[start:start + chunk]
         n = x_chunk.shape[0]
         layers = net._forward(x_chunk, derivative=True)
+        g = layers.g
+        assert g is not None
         r = layers.y
         r -= ys[start:start + chunk]
         sse += float(np.vdot(r, r))
         xt[:n, :n_in] = x_chunk
         ht[:n, :n_hid] = layers.h
-        np.multiply(xt[:n, :, None], layers.g[:, None, :], out=z[:n])
+        np.multiply(xt[:n, :, None], g[:, None, :], out=z[:n])
         z_flat = z[:n].reshape(n, n_h)
         ztz += z_flat.T @ z_flat  # numpy hands Aᵀ·A to BLAS syrk
         zht += z_flat.T @ ht[:n]
         hth += ht[:n].T @ ht[:n]
         back = r @ W
-        back *= layers.g
+        back *= g
         jtr_V += xt[:n].T @ back
         jtr_W += r.T @ ht[:n]
     B = W.T @ W

@@ -77,6 +77,10 @@ class FeedForwardNet:
     -----
     Before `set_scaling` or `fit`, inputs and outputs are taken as already scaled
     (identity scaling), `predict` works, and `partial_fit` refuses to learn.
+
+    Not thread-safe: single-sample `predict` and `partial_fit` share preallocated buffers.
+    Call one network from one thread at a time (a ROS callback group that is mutually
+    exclusive does that).
     """
 
     def __init__(self, n_inputs: int, n_hidden: int, n_outputs: int,
@@ -146,7 +150,7 @@ class FeedForwardNet:
         self._y_inv_gain = np.empty(n_out)
         self._load_scaling_constants()
         self._step: Callable[[FloatArray, FloatArray], FloatArray] = self._step_unscaled
-        self._online_step = self._build_online_step()
+        self._predict_one, self._online_step = self._build_single_sample_path()
 
     # ----------------------------------------------------------------------------- properties
     @property
@@ -197,7 +201,7 @@ class FeedForwardNet:
     @learning_rate.setter
     def learning_rate(self, value: float) -> None:
         self._learning_rate = _check_rate('learning_rate', value)
-        self._online_step = self._build_online_step()
+        self._predict_one, self._online_step = self._build_single_sample_path()
         if self._scaling_set:
             self._step = self._online_step
 
@@ -209,7 +213,7 @@ class FeedForwardNet:
     @momentum.setter
     def momentum(self, value: float) -> None:
         self._momentum = _check_momentum(value)
-        self._online_step = self._build_online_step()
+        self._predict_one, self._online_step = self._build_single_sample_path()
         if self._scaling_set:
             self._step = self._online_step
 
@@ -261,7 +265,7 @@ class FeedForwardNet:
         np.copyto(self._theta, theta)
 
     def reset_momentum(self) -> None:
-        """Forget the momentum of `partial_fit` (done by `fit` and `set_params` users)."""
+        """Forget the momentum of `partial_fit`; `fit` does it, `set_params` does not."""
         self._velocity.fill(0.0)
 
     def _initialise_weights(self) -> None:
@@ -400,6 +404,7 @@ class FeedForwardNet:
         for start in range(0, xs.shape[0], _DEFAULT_CHUNK):
             x_chunk = xs[start:start + _DEFAULT_CHUNK]
             layers = self._forward(x_chunk, theta, derivative=True)
+            assert layers.g is not None
             r = layers.y - ys[start:start + _DEFAULT_CHUNK]
             sse += float(np.vdot(r, r))
             back = r @ W
@@ -423,11 +428,11 @@ class FeedForwardNet:
         ndarray of shape (n_samples, n_outputs) or (n_outputs,)
         """
         x = np.asarray(X, dtype=np.float64)
-        single = x.ndim == 1
-        xs = self._check_inputs(x[None, :] if single else x, 'X')
-        y = self._y_scaling.inverse_transform(self._predict_scaled(
+        if x.ndim == 1 and x.shape[0] == self._n_in:
+            return self._predict_one(x)
+        xs = self._check_inputs(x, 'X')
+        return self._y_scaling.inverse_transform(self._predict_scaled(
             self._x_scaling.transform(xs)))
-        return y[0] if single else y
 
     def jacobian(self, X: npt.ArrayLike) -> FloatArray:
         """Return the Jacobian of the scaled outputs with respect to the packed weights.
@@ -496,6 +501,8 @@ class FeedForwardNet:
         y = np.asarray(Y, dtype=np.float64)
         if x.ndim == 1 and x.shape[0] == self._n_in and y.shape == (self._n_out,):
             return self._step(x, y)
+        if x.shape == (1, self._n_in) and y.shape == (1, self._n_out):
+            return self._step(x[0], y[0])[None, :]
         x = self._check_inputs(x, 'X')
         y = self._check_outputs(y, x.shape[0])
         errors = np.empty_like(y)
@@ -509,11 +516,13 @@ class FeedForwardNet:
                            'set_scaling(x_min, x_max, y_min, y_max) with the physical '
                            'ranges (e.g. the robot limits) or fit(...) first')
 
-    def _build_online_step(self) -> Callable[[FloatArray, FloatArray], FloatArray]:
-        """Return the per-sample step: preallocated buffers, no temporaries but the result.
+    def _build_single_sample_path(self) -> tuple[Callable[[FloatArray], FloatArray],
+                                                 Callable[[FloatArray, FloatArray], FloatArray]]:
+        """Return ``predict_one(x)`` and ``step(x, y)`` for single samples.
 
-        Buffers and weights are closed over as locals; everything the step reads is updated
-        in place (weights, scaling constants), learning rate and momentum by rebuilding it.
+        Preallocated buffers, no temporaries but the returned array. Buffers and weights are
+        closed over as locals; everything they read is updated in place (weights, scaling
+        constants), learning rate and momentum by rebuilding them.
         """
         n_in, n_hid, n_out = self._n_in, self._n_hid, self._n_out
         n_terms = self._t_offset.shape[0]
@@ -545,7 +554,7 @@ class FeedForwardNet:
         multiply, add, subtract, dot, tanh = np.multiply, np.add, np.subtract, np.dot, np.tanh
         limit = math.inf
 
-        def step(x: FloatArray, y: FloatArray) -> FloatArray:
+        def forward(x: FloatArray) -> None:
             multiply(x, x_gain, out=x_part)
             add(x_part, x_offset, out=x_part)
             dot(xt, Vt, out=p)  # p/(2a)
@@ -555,6 +564,14 @@ class FeedForwardNet:
             if h_const:
                 add(h, h_const, out=h)
             dot(Wt, ht, out=y_hat)
+
+        def predict_one(x: FloatArray) -> FloatArray:
+            forward(x)
+            y = subtract(y_hat, y_offset)
+            return multiply(y, y_inv_gain, out=y)
+
+        def step(x: FloatArray, y: FloatArray) -> FloatArray:
+            forward(x)
             multiply(y, y_gain, out=e)
             add(e, y_offset, out=e)
             subtract(e, y_hat, out=e)  # scaled a-priori error
@@ -575,7 +592,7 @@ class FeedForwardNet:
             add(theta, velocity, out=theta)
             return error
 
-        return step
+        return predict_one, step
 
     # ----------------------------------------------------------------------- offline training
     def fit(self, X: npt.ArrayLike, Y: npt.ArrayLike, *, algorithm: str = 'lm',

@@ -26,6 +26,7 @@ __all__ = [
     'STOP_ITERATIONS',
     'STOP_MU_MAX',
     'STOP_VALIDATION',
+    'Callback',
     'FitHistory',
     'StopTraining',
     'TrainingStep',
@@ -107,6 +108,7 @@ class TrainingStep(Protocol):
         """
 
 
+#: ``callback(history)`` after each iteration; a true result stops training.
 Callback = Callable[[FitHistory], 'bool | None']
 
 

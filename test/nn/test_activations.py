@@ -78,4 +78,5 @@ def test_network_hidden_layer_is_the_table_activation(name: str) -> None:
     Vt, _ = net._unpack(net.get_params())
     z = (xs @ Vt[:5] + Vt[5] - b) / a
     np.testing.assert_allclose(layers.h, ACTIVATIONS[name](z, k), atol=1e-14)
+    assert layers.g is not None
     np.testing.assert_allclose(layers.g, DERIVATIVES[name](z, k) / a, atol=1e-14)

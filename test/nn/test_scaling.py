@@ -11,7 +11,7 @@ def test_maps_range_to_unit_interval_and_back() -> None:
     scaling = MinMaxScaling(np.array([-2.0, 0.0, 5.0]), np.array([2.0, 10.0, 5.0]))
     x = np.array([[-2.0, 0.0, 5.0], [2.0, 10.0, 5.0], [0.0, 2.5, 5.0]])
     s = scaling.transform(x)
-    np.testing.assert_allclose(s, [[-1, -1, 0], [1, 1, 0], [0, -0.5, 0]])
+    np.testing.assert_allclose(s, np.array([[-1, -1, 0], [1, 1, 0], [0, -0.5, 0]], float))
     np.testing.assert_allclose(scaling.inverse_transform(s), x)
 
 
