@@ -1,0 +1,38 @@
+"""The paper's comparison, reproduced on plain arrays: Table 2 and 3 analogs, LS reference.
+
+Pure numpy (no rclpy). ``scara-ident compare`` feeds these functions with simulated data,
+``scara-ident tables`` with recorded bags; both produce the same rows and tables.
+
+Modules, one concept each:
+
+``datasets``         X = [q, q', q''], Y = efforts, stamps; from the simulator or any arrays
+``errors``           MSE and normalised MSE (MSE / effort variance) per joint
+``rows``             `ResultRow` (one model on one data set), `summarise` over seeds
+``hyperparameters``  the per-method grid search of online-learning settings
+``offline``          Table 2 analog: LM training from several seeds
+``online``           Table 3 analog: per-sample learning over a stream
+``reference``        the model-based least-squares row
+``tables``           rows to Markdown and CSV, the paper's numbers beside ours
+"""
+from __future__ import annotations
+
+from scara_ident_ros.experiments.datasets import (ACCELERATIONS, Dataset, Evaluations,
+                                                  dataset_from_record, estimate_acceleration,
+                                                  make_dataset, simulate_dataset,
+                                                  simulate_record)
+from scara_ident_ros.experiments.errors import effort_errors, recent_errors
+from scara_ident_ros.experiments.rows import REFERENCE, ResultRow, Spread, Summary, summarise
+from scara_ident_ros.experiments.tables import (PAPER_ITERATIONS, PAPER_NOTE, PAPER_SAMPLES,
+                                                PAPER_TABLE2, PAPER_TABLE3, format_spread,
+                                                format_value, joint_markdown,
+                                                offline_markdown, online_markdown,
+                                                paper_ranking, ranking, read_csv, write_csv)
+
+__all__ = [
+    'ACCELERATIONS', 'Dataset', 'Evaluations', 'PAPER_ITERATIONS', 'PAPER_NOTE',
+    'PAPER_SAMPLES', 'PAPER_TABLE2', 'PAPER_TABLE3', 'REFERENCE', 'ResultRow', 'Spread',
+    'Summary', 'dataset_from_record', 'effort_errors', 'estimate_acceleration',
+    'format_spread', 'format_value', 'joint_markdown', 'make_dataset', 'offline_markdown',
+    'online_markdown', 'paper_ranking', 'ranking', 'read_csv', 'recent_errors',
+    'simulate_dataset', 'simulate_record', 'summarise', 'write_csv',
+]
