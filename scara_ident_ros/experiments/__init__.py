@@ -21,6 +21,17 @@ from scara_ident_ros.experiments.datasets import (ACCELERATIONS, Dataset, Evalua
                                                   make_dataset, simulate_dataset,
                                                   simulate_record)
 from scara_ident_ros.experiments.errors import effort_errors, recent_errors
+from scara_ident_ros.experiments.hyperparameters import (DEFAULT_GRID, QUICK_GRID, Grid,
+                                                         Hyperparameters, Scaling,
+                                                         SearchResult, Trial, best_of,
+                                                         build_network, search)
+from scara_ident_ros.experiments.offline import (DEFAULT_GOAL, OfflineFit, fit_offline,
+                                                 goal_iteration, offline_rows, run_offline)
+from scara_ident_ros.experiments.online import (DEFAULT_WINDOW, OnlineTrace, learn_online,
+                                                online_rows, run_online, stream_data_names)
+from scara_ident_ros.experiments.reference import (ReferenceFit, fit_reference,
+                                                   online_reference_rows, predict_reference,
+                                                   reference_rows)
 from scara_ident_ros.experiments.rows import REFERENCE, ResultRow, Spread, Summary, summarise
 from scara_ident_ros.experiments.tables import (PAPER_ITERATIONS, PAPER_NOTE, PAPER_SAMPLES,
                                                 PAPER_TABLE2, PAPER_TABLE3, format_spread,
@@ -29,10 +40,15 @@ from scara_ident_ros.experiments.tables import (PAPER_ITERATIONS, PAPER_NOTE, PA
                                                 paper_ranking, ranking, read_csv, write_csv)
 
 __all__ = [
-    'ACCELERATIONS', 'Dataset', 'Evaluations', 'PAPER_ITERATIONS', 'PAPER_NOTE',
-    'PAPER_SAMPLES', 'PAPER_TABLE2', 'PAPER_TABLE3', 'REFERENCE', 'ResultRow', 'Spread',
-    'Summary', 'dataset_from_record', 'effort_errors', 'estimate_acceleration',
-    'format_spread', 'format_value', 'joint_markdown', 'make_dataset', 'offline_markdown',
-    'online_markdown', 'paper_ranking', 'ranking', 'read_csv', 'recent_errors',
-    'simulate_dataset', 'simulate_record', 'summarise', 'write_csv',
+    'ACCELERATIONS', 'DEFAULT_GOAL', 'DEFAULT_GRID', 'DEFAULT_WINDOW', 'Dataset', 'Evaluations',
+    'Grid', 'Hyperparameters', 'OfflineFit', 'OnlineTrace', 'PAPER_ITERATIONS', 'PAPER_NOTE',
+    'PAPER_SAMPLES', 'PAPER_TABLE2', 'PAPER_TABLE3', 'QUICK_GRID', 'REFERENCE', 'ReferenceFit',
+    'ResultRow', 'Scaling', 'SearchResult', 'Spread', 'Summary', 'Trial', 'best_of',
+    'build_network', 'dataset_from_record', 'effort_errors', 'estimate_acceleration',
+    'fit_offline', 'fit_reference', 'format_spread', 'format_value', 'goal_iteration',
+    'joint_markdown', 'learn_online', 'make_dataset', 'offline_markdown', 'offline_rows',
+    'online_markdown', 'online_reference_rows', 'online_rows', 'paper_ranking',
+    'predict_reference', 'ranking', 'read_csv', 'recent_errors', 'reference_rows',
+    'run_offline', 'run_online', 'search', 'simulate_dataset', 'simulate_record',
+    'stream_data_names', 'summarise', 'write_csv',
 ]
