@@ -1,0 +1,455 @@
+"""``scara-ident compare``: the paper's comparison of FFMW, FFW and FFS on simulated data.
+
+Data (simulator core, 1 kHz, no noise, no disturbance unless the code is changed):
+
+* a training run on one random excitation (``--train-seed``) and a held-out run on another
+  (``--test-seed``), both of the ``--preset`` kind;
+* offline (Table 2 analog): ``--samples`` samples drawn at random from the first
+  ``--train-seconds`` of the training run, inputs q, q', and the simulator's *true* q''
+  (``--acceleration estimated`` uses q'' estimated from q' instead);
+* online (Table 3 analog): the first ``--online-seconds`` of the training run as a stream,
+  q'' estimated from q' by the identifier's differentiator (low-pass, 50 Hz);
+* hyperparameters: per method, a grid search of learning rate, momentum and initial weight
+  scale on the first ``--search-seconds`` of the stream (training data only), see
+  :mod:`scara_ident_ros.experiments.hyperparameters`; the choice is used by both tables.
+
+Every network is trained from ``--seeds`` seeds of its initial weights; tables show the median
+and [min–max] over seeds. A least-squares fit of the SCARA's linear-in-parameters model is the
+model-based reference row.
+
+Writes to ``--out DIR``: ``tables.md`` (what is printed), ``table2.csv`` and ``table3.csv``
+(one line per method, seed and data set), ``search.csv`` (every grid point's score) and
+``conditions.json`` (sizes, seeds, settings, timings, versions).
+
+Wall time of the default run on the 2-core development machine shared with other jobs: see
+the module constant ``DEFAULT_WALL_TIME``; ``--quick`` runs in seconds (for tests).
+"""
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import math
+import os
+import platform
+import subprocess
+import sys
+import time
+from collections.abc import Sequence
+from importlib.metadata import PackageNotFoundError, version
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from scara_ident_ros.cli import CliError
+from scara_ident_ros.dynamics import ScaraParams
+from scara_ident_ros.experiments import (DEFAULT_GOAL, DEFAULT_GRID, DEFAULT_WINDOW,
+                                         PAPER_ITERATIONS, PAPER_NOTE, QUICK_GRID,
+                                         Dataset, Grid, Hyperparameters, ResultRow,
+                                         SearchResult, dataset_from_record, joint_markdown,
+                                         offline_markdown, online_markdown,
+                                         online_reference_rows, paper_ranking, ranking,
+                                         reference_rows, run_offline, run_online, search,
+                                         simulate_record, stream_data_names, summarise,
+                                         write_csv)
+from scara_ident_ros.identification import PAPER_WINDOW
+from scara_ident_ros.methods import METHODS, limit_scaling
+from scara_ident_ros.methods import method as method_spec
+from scara_ident_ros.sim import PRESETS
+
+__all__ = ['DEFAULTS', 'DEFAULT_WALL_TIME', 'QUICK', 'add_parser', 'main', 'run']
+
+#: Settings of the default run (each is a command-line option of the same name).
+DEFAULTS: dict[str, Any] = {
+    'seeds': 5, 'train_seconds': 60.0, 'test_seconds': 20.0, 'online_seconds': 60.0,
+    'search_seconds': 8.0, 'iterations': PAPER_ITERATIONS, 'samples': 1000,
+    'window': DEFAULT_WINDOW,
+}
+#: Settings of ``--quick`` (explicit options still win).
+QUICK: dict[str, Any] = {
+    'seeds': 2, 'train_seconds': 4.0, 'test_seconds': 2.0, 'online_seconds': 4.0,
+    'search_seconds': 2.0, 'iterations': 5, 'samples': 200, 'window': 1000,
+}
+#: Measured wall time of ``scara-ident compare`` with the defaults (see the module docstring).
+DEFAULT_WALL_TIME = 'not yet measured'
+
+HELD_OUT = 'held-out'
+
+
+def add_parser(subparsers: argparse._SubParsersAction) -> None:
+    """Register ``scara-ident compare``."""
+    parser = subparsers.add_parser(
+        'compare', help="reproduce the paper's Tables 2 and 3 on simulated data",
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    d = DEFAULTS
+    parser.add_argument('--seeds', type=int, default=None,
+                        help=f'network seeds 0..N-1 per method (default {d["seeds"]})')
+    parser.add_argument('--train-seconds', type=float, default=None,
+                        help=f'training run used offline, s (default {d["train_seconds"]:g})')
+    parser.add_argument('--test-seconds', type=float, default=None,
+                        help=f'held-out run, s (default {d["test_seconds"]:g})')
+    parser.add_argument('--online-seconds', type=float, default=None,
+                        help=f'online stream, s at 1 kHz (default {d["online_seconds"]:g})')
+    parser.add_argument('--search-seconds', type=float, default=None,
+                        help='start of the stream used by the hyperparameter search, s '
+                             f'(default {d["search_seconds"]:g})')
+    parser.add_argument('--iterations', type=int, default=None,
+                        help=f'LM iterations (default {d["iterations"]}, as the paper)')
+    parser.add_argument('--samples', type=int, default=None,
+                        help=f'training samples for LM (default {d["samples"]})')
+    parser.add_argument('--goal', type=float, default=DEFAULT_GOAL,
+                        help='LM goal: training MSE of outputs scaled to [-1, 1] '
+                             f'(default {DEFAULT_GOAL:g})')
+    parser.add_argument('--window', type=int, default=None,
+                        help='samples of the longer online error window '
+                             f'(default {d["window"]})')
+    parser.add_argument('--acceleration', choices=('true', 'estimated'), default='true',
+                        help="q'' of the offline data: the simulator's or estimated from q' "
+                             '(default true)')
+    parser.add_argument('--methods', nargs='+', choices=list(METHODS), default=list(METHODS),
+                        help='methods to compare (default all three)')
+    parser.add_argument('--preset', choices=sorted(PRESETS), default='standard',
+                        help='excitation preset (default standard)')
+    parser.add_argument('--train-seed', type=int, default=0,
+                        help='excitation seed of the training run (default 0)')
+    parser.add_argument('--test-seed', type=int, default=1,
+                        help='excitation seed of the held-out run (default 1)')
+    parser.add_argument('--no-search', dest='search', action='store_false',
+                        help='skip the grid search; use the METHODS defaults')
+    parser.add_argument('--quick', action='store_true',
+                        help='tiny sizes for tests: ' + ', '.join(
+                            f'{k.replace("_", "-")} {v:g}' for k, v in QUICK.items()))
+    parser.add_argument('--out', type=Path, default=Path('out/compare'),
+                        help='output directory (default out/compare)')
+    parser.set_defaults(func=run)
+
+
+def _settings(args: argparse.Namespace) -> dict[str, Any]:
+    base = QUICK if args.quick else DEFAULTS
+    s = {k: (getattr(args, k) if getattr(args, k) is not None else v) for k, v in base.items()}
+    for key in ('train_seconds', 'test_seconds', 'online_seconds', 'search_seconds'):
+        if not (math.isfinite(s[key]) and s[key] > 0.0):
+            raise CliError(f'--{key.replace("_", "-")} must be > 0, got {s[key]}')
+    for key in ('seeds', 'iterations', 'samples', 'window'):
+        if s[key] < 1:
+            raise CliError(f'--{key} must be >= 1, got {s[key]}')
+    if s['search_seconds'] > s['online_seconds']:
+        raise CliError('--search-seconds must not exceed --online-seconds (the search uses '
+                       'the start of the stream)')
+    if not args.goal >= 0.0:
+        raise CliError(f'--goal must be >= 0, got {args.goal}')
+    if args.train_seed == args.test_seed:
+        raise CliError('--train-seed and --test-seed must differ (held-out data must be '
+                       'another excitation)')
+    s['grid'] = QUICK_GRID if args.quick else DEFAULT_GRID
+    s['search_seeds'] = (0,) if args.quick else (0, 1)
+    return s
+
+
+def _log(message: str) -> None:
+    print(f'compare: {message}', file=sys.stderr, flush=True)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the comparison, print the tables, write the files; return the exit status."""
+    s = _settings(args)
+    started = time.perf_counter()
+    timings: dict[str, float] = {}
+    params = ScaraParams()
+    seeds = list(range(s['seeds']))
+    methods = list(args.methods)
+
+    tick = time.perf_counter()
+    run_seconds = max(s['train_seconds'], s['online_seconds'])
+    try:
+        train_rec = simulate_record(params, seconds=run_seconds, seed=args.train_seed,
+                                    preset=args.preset)
+        test_rec = simulate_record(params, seconds=s['test_seconds'], seed=args.test_seed,
+                                   preset=args.preset)
+    except ValueError as exc:
+        raise CliError(str(exc)) from None
+    offline_pool = dataset_from_record(train_rec, acceleration=args.acceleration,
+                                       name='train').head(s['train_seconds'])
+    offline_train = offline_pool.subsample(s['samples'], seed=args.train_seed)
+    offline_test = dataset_from_record(test_rec, acceleration=args.acceleration,
+                                       name=HELD_OUT)
+    stream = dataset_from_record(train_rec, acceleration='estimated',
+                                 name='stream').head(s['online_seconds'])
+    online_test = dataset_from_record(test_rec, acceleration='estimated', name=HELD_OUT)
+    segment = stream.head(s['search_seconds'], name='search')
+    window = min(s['window'], len(stream))
+    timings['simulation'] = time.perf_counter() - tick
+    _log(f'simulated {len(train_rec)} + {len(test_rec)} samples in '
+         f'{timings["simulation"]:.1f} s')
+    scaling = limit_scaling(params.position_min, params.position_max, params.velocity_max,
+                            params.acceleration_max, params.effort_max)
+
+    tick = time.perf_counter()
+    searches: list[SearchResult] = []
+    hyper: dict[str, Hyperparameters] = {}
+    for name in methods:
+        if args.search:
+            result = search(name, segment.X, segment.Y, scaling=scaling, grid=s['grid'],
+                            seeds=s['search_seeds'])
+            searches.append(result)
+            hyper[name] = result.best
+            _log(f'search {method_spec(name).label}: {result.best}')
+        else:
+            hyper[name] = Hyperparameters.defaults(name)
+    timings['search'] = time.perf_counter() - tick
+
+    tick = time.perf_counter()
+    offline = run_offline(offline_train.X, offline_train.Y,
+                          {HELD_OUT: (offline_test.X, offline_test.Y)}, methods=methods,
+                          seeds=seeds, iterations=s['iterations'], goal=args.goal,
+                          hyperparameters=hyper, progress=_log)
+    offline += reference_rows(offline_train.X, offline_train.Y,
+                              {HELD_OUT: (offline_test.X, offline_test.Y)},
+                              coulomb_eps=params.coulomb_eps)
+    timings['offline'] = time.perf_counter() - tick
+
+    tick = time.perf_counter()
+    online = run_online(stream.X, stream.Y, {HELD_OUT: (online_test.X, online_test.Y)},
+                        scaling=scaling, methods=methods, seeds=seeds, hyperparameters=hyper,
+                        window=window, progress=_log)
+    online += online_reference_rows(stream.X, stream.Y,
+                                    {HELD_OUT: (online_test.X, online_test.Y)},
+                                    window=window, coulomb_eps=params.coulomb_eps)
+    timings['online'] = time.perf_counter() - tick
+    timings['total'] = time.perf_counter() - started
+
+    conditions = _conditions(args, s, params, seeds, methods, hyper, searches, timings,
+                             {'offline training pool': offline_pool,
+                              'offline training (LM)': offline_train,
+                              'offline held-out': offline_test, 'online stream': stream,
+                              'online held-out': online_test, 'search segment': segment},
+                             window)
+    text = _report(offline, online, searches, hyper, conditions, window)
+    print(text, end='')
+    out: Path = args.out
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        names = list(params.joint_names)
+        write_csv(out / 'table2.csv', offline, joint_names=names)
+        write_csv(out / 'table3.csv', online, joint_names=names)
+        _write_search_csv(out / 'search.csv', searches)
+        (out / 'tables.md').write_text(text, encoding='utf-8')
+        (out / 'conditions.json').write_text(json.dumps(conditions, indent=1) + '\n',
+                                             encoding='utf-8')
+    except OSError as exc:
+        raise CliError(f'cannot write to {out}: {exc.strerror or exc}') from None
+    _log(f'wrote {out}/tables.md, table2.csv, table3.csv, search.csv, conditions.json '
+         f'({timings["total"]:.0f} s)')
+    return 0
+
+
+# ------------------------------------------------------------------------------- report
+def _report(offline: list[ResultRow], online: list[ResultRow], searches: list[SearchResult],
+            hyper: dict[str, Hyperparameters], conditions: dict[str, Any], window: int) -> str:
+    summaries = summarise(offline + online)
+    labels = [method_spec(m).label for m in hyper]
+    c = conditions
+    short, long = stream_data_names(window, PAPER_WINDOW)
+    parts = ['# scara-ident compare: the paper\'s Tables 2 and 3 on simulated data\n',
+             f'Simulated SCARA at 1 kHz, `{c["preset"]}` excitations, no noise or '
+             f'disturbance; training run seed {c["train_seed"]}, held-out run seed '
+             f'{c["test_seed"]}; networks 12-40-4 from seeds {c["seeds"]}; cells are '
+             'median [min–max] over seeds. MSE is the mean over the 4 joints of the '
+             'per-joint MSE in physical units ((N·m)², N²); NMSE is the mean over joints of '
+             'MSE_j / var(effort_j), var over the same samples.\n',
+             f'Wall time {c["timings_s"]["total"]:.0f} s.\n']
+    parts += ['## Hyperparameters\n', _search_markdown(searches, hyper)]
+    sizes = c['data']
+    parts += [
+        '## Table 2 analog: offline, Levenberg–Marquardt\n',
+        f'{sizes["offline training (LM)"]["samples"]} training samples drawn from the first '
+        f'{c["train_seconds"]:g} s of the training run; held-out: '
+        f'{sizes["offline held-out"]["samples"]} samples ({c["test_seconds"]:g} s). '
+        f"q'' is the {_acceleration_text(c['offline_acceleration'])}. "
+        f'{c["iterations"]} iterations each. Goal: training MSE of the outputs scaled to '
+        f'[-1, 1] by the training data\'s min–max (as MATLAB\'s mapminmax) <= {c["goal"]:g}; '
+        "'goal reached' gives the runs reaching it and the iterations they needed. LS: "
+        'least squares on the 14 base parameters, fitted on the same samples.\n',
+        offline_markdown(summaries, test=HELD_OUT), 'Held-out NMSE per joint:\n',
+        joint_markdown(summaries, table='offline', data=HELD_OUT),
+        _ranking_text(summaries, 'offline', [('train', 'mse_mean', 'training MSE'),
+                                             (HELD_OUT, 'nmse_mean', 'held-out NMSE')],
+                      labels),
+        '## Table 3 analog: online, one back-propagation step per sample\n',
+        f'Stream: the first {c["online_seconds"]:g} s of the training run '
+        f'({sizes["online stream"]["samples"]} samples), q\'\' estimated from q\' (low-pass '
+        'differentiator, 50 Hz, as the identifier node); scaling from the robot\'s joint '
+        'limits. Each sample is predicted before it is learnt; '
+        f'`{short}` is the paper\'s "error over the last {PAPER_WINDOW} samples", '
+        f'`{long}` the last {window} samples; held-out: predict-only on the held-out run '
+        'after the stream. LS: least squares fitted on the stream before the windows.\n',
+        online_markdown(summaries, short=short, long=long, test=HELD_OUT),
+        'Held-out NMSE per joint:\n',
+        joint_markdown(summaries, table='online', data=HELD_OUT),
+        _ranking_text(summaries, 'online', [(short, 'mse_mean', f'{short} MSE'),
+                                            (HELD_OUT, 'nmse_mean', 'held-out NMSE')],
+                      labels),
+        f'**Paper\'s numbers.** {PAPER_NOTE}\n\n',
+        '## Conditions\n', _conditions_markdown(c)]
+    return '\n'.join(parts)
+
+
+def _acceleration_text(kind: str) -> str:
+    return ("simulator's true acceleration" if kind == 'true'
+            else 'estimate from q\' (low-pass differentiator, 50 Hz)')
+
+
+def _ranking_text(summaries: Sequence[Any], table: str,
+                  criteria: Sequence[tuple[str, str, str]], labels: Sequence[str]) -> str:
+    paper = [m for m in paper_ranking(table) if m in labels]
+    lines = [f'Paper\'s ranking ({"Table 2" if table == "offline" else "Table 3"}): '
+             f'{" < ".join(paper)}.']
+    for data, key, text in criteria:
+        order = ranking(summaries, table=table, data=data, key=key, methods=labels)
+        if not order:
+            continue
+        if table == 'offline':
+            verdict = ("the paper's ranking holds" if order == paper
+                       else "the paper's ranking does not hold")
+        else:
+            verdict = ('FFMW is best, as in the paper' if order[0] == 'FFMW'
+                       else 'FFMW is not best')
+        lines.append(f'Measured by median {text}: {" < ".join(order)}: {verdict}.')
+    return '\n'.join(f'- {line}' for line in lines) + '\n'
+
+
+def _search_markdown(searches: list[SearchResult], hyper: dict[str, Hyperparameters]) -> str:
+    chosen = '\n'.join(f'- {method_spec(m).label}: {h}' for m, h in hyper.items())
+    if not searches:
+        return ('No search (`--no-search`): the METHODS defaults.\n\n' + chosen + '\n')
+    first = searches[0]
+    grid = _grid_of(searches)
+    head = (f'Grid search per method on the first {first.n_samples} samples of the training '
+            f'stream (training data only): each grid point learns the segment online from '
+            f'seeds {list(first.seeds)}; score = the worst over these seeds of the joint-mean '
+            f'NMSE of the a-priori predictions over the last {first.n_scored} samples '
+            f'(inf = diverged). Grid: learning_rate '
+            f'{list(grid.learning_rate)} × momentum {list(grid.momentum)} × weight_scale '
+            f'{list(grid.weight_scale)} = {grid.size} points. `*` marks the choice.\n\n')
+    labels = [method_spec(r.method).label for r in searches]
+    lines = ['| learning_rate | momentum | weight_scale | ' + ' | '.join(labels) + ' |',
+             '|---|---|---|' + '---|' * len(labels)]
+    for i, point in enumerate(searches[0].trials):
+        h = point.hyperparameters
+        cells = []
+        for r in searches:
+            trial = r.trials[i]
+            mark = '*' if trial.hyperparameters == r.best and math.isfinite(trial.score) else ''
+            cells.append(f'{mark}{trial.score:.3g}' if math.isfinite(trial.score) else 'inf')
+        lines.append(f'| {h.learning_rate:g} | {h.momentum:g} | {h.weight_scale:g} | '
+                     + ' | '.join(cells) + ' |')
+    return head + '\n'.join(lines) + '\n\nChosen (used by both tables):\n\n' + chosen + '\n'
+
+
+def _grid_of(searches: list[SearchResult]) -> Grid:
+    points = [t.hyperparameters for t in searches[0].trials]
+    return Grid(tuple(dict.fromkeys(p.learning_rate for p in points)),
+                tuple(dict.fromkeys(p.momentum for p in points)),
+                tuple(dict.fromkeys(p.weight_scale for p in points)))
+
+
+def _write_search_csv(path: Path, searches: list[SearchResult]) -> None:
+    with open(path, 'w', newline='', encoding='utf-8') as stream:
+        writer = csv.writer(stream, lineterminator='\n')
+        seeds = list(searches[0].seeds) if searches else []
+        writer.writerow(['method', 'learning_rate', 'momentum', 'weight_scale', 'score',
+                         *(f'score_seed{seed}' for seed in seeds), 'diverged', 'chosen',
+                         'seconds'])
+        for r in searches:
+            for t in r.trials:
+                h = t.hyperparameters
+                writer.writerow([method_spec(r.method).label, h.learning_rate, h.momentum,
+                                 h.weight_scale, repr(t.score), *map(repr, t.scores),
+                                 t.diverged, h == r.best, f'{t.seconds:.3f}'])
+
+
+# --------------------------------------------------------------------------- conditions
+def _conditions(args: argparse.Namespace, s: dict[str, Any], params: ScaraParams,
+                seeds: list[int], methods: list[str], hyper: dict[str, Hyperparameters],
+                searches: list[SearchResult], timings: dict[str, float],
+                data: dict[str, Dataset], window: int) -> dict[str, Any]:
+    return {
+        'options': {k: (str(v) if isinstance(v, Path) else v) for k, v in vars(args).items()
+                    if k not in ('func', 'command')},
+        'quick': bool(args.quick),
+        'preset': args.preset, 'train_seed': args.train_seed, 'test_seed': args.test_seed,
+        'seeds': seeds, 'methods': [method_spec(m).label for m in methods],
+        'train_seconds': s['train_seconds'], 'test_seconds': s['test_seconds'],
+        'online_seconds': s['online_seconds'], 'search_seconds': s['search_seconds'],
+        'iterations': s['iterations'], 'samples': s['samples'], 'goal': args.goal,
+        'goal_units': 'training MSE of outputs scaled to [-1, 1] by the training min-max',
+        'online_window': window, 'paper_window': PAPER_WINDOW,
+        'offline_acceleration': args.acceleration, 'online_acceleration': 'estimated',
+        'differentiator': 'lowpass, cutoff 50 Hz (identifier default)',
+        'offline_scaling': 'min-max of the LM training samples',
+        'online_scaling': 'robot joint limits (methods.limit_scaling)',
+        'network': '12-40-4', 'sample_rate_hz': 1000.0,
+        'simulation': 'SimConfig() defaults: no noise, no disturbance, no model mismatch',
+        'data': {name: {'samples': len(d), 'seconds': round(d.seconds, 3),
+                        'acceleration': d.acceleration} for name, d in data.items()},
+        'search': None if not searches else {
+            'grid': {'learning_rate': list(_grid_of(searches).learning_rate),
+                     'momentum': list(_grid_of(searches).momentum),
+                     'weight_scale': list(_grid_of(searches).weight_scale)},
+            'segment_samples': searches[0].n_samples,
+            'scored_samples': searches[0].n_scored, 'seeds': list(searches[0].seeds),
+            'score': 'worst over seeds of the joint-mean NMSE of the a-priori predictions '
+                     'over the scored samples'},
+        'hyperparameters': {method_spec(m).label: {'learning_rate': h.learning_rate,
+                                                   'momentum': h.momentum,
+                                                   'weight_scale': h.weight_scale}
+                            for m, h in hyper.items()},
+        'timings_s': {k: round(v, 2) for k, v in timings.items()},
+        'versions': _versions(),
+        'machine': {'platform': platform.platform(), 'cpus': os.cpu_count()},
+    }
+
+
+def _conditions_markdown(c: dict[str, Any]) -> str:
+    lines = ['- options: ' + ', '.join(f'{k}={v}' for k, v in c['options'].items()),
+             f'- data: ' + '; '.join(f'{k} {v["samples"]} samples ({v["seconds"]:g} s, '
+                                     f'q\'\' {v["acceleration"]})'
+                                     for k, v in c['data'].items()),
+             f'- seeds {c["seeds"]}; LM {c["iterations"]} iterations, goal {c["goal"]:g} '
+             f'({c["goal_units"]})',
+             '- timings (s): ' + ', '.join(f'{k} {v:g}' for k, v in c['timings_s'].items()),
+             '- versions: ' + ', '.join(f'{k} {v}' for k, v in c['versions'].items()),
+             f'- machine: {c["machine"]["platform"]}, {c["machine"]["cpus"]} CPUs']
+    return '\n'.join(lines) + '\n'
+
+
+def _versions() -> dict[str, str]:
+    import scipy
+
+    versions = {'python': platform.python_version(), 'numpy': np.__version__,
+                'scipy': scipy.__version__}
+    try:
+        versions['scara_ident_ros'] = version('scara_ident_ros')
+    except PackageNotFoundError:  # run from the source tree
+        versions['scara_ident_ros'] = 'source tree'
+    try:
+        commit = subprocess.run(['git', 'rev-parse', '--short', 'HEAD'], capture_output=True,
+                                text=True, timeout=5, cwd=Path(__file__).parent,
+                                check=False).stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        commit = ''
+    if commit:
+        versions['git'] = commit
+    return versions
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run ``scara-ident compare`` with ``argv`` (for ``python -m``)."""
+    from scara_ident_ros.cli import main as cli_main
+
+    return cli_main(['compare', *(sys.argv[1:] if argv is None else argv)])
+
+
+if __name__ == '__main__':
+    sys.exit(main())
