@@ -1,0 +1,14 @@
+"""The one exception of the bag package."""
+from __future__ import annotations
+
+__all__ = ['BagError']
+
+
+class BagError(Exception):
+    """A bag cannot be read, written or recovered.
+
+    The message is one line that says what went wrong and where (the path, and the
+    file offset or message number when known), e.g.
+    ``'/data/run1: no metadata.yaml (not a rosbag2 bag; if the recorder was killed,
+    recover it with recover_bag())'``.
+    """
