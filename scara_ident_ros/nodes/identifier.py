@@ -197,6 +197,7 @@ class IdentifierNode(Node):
             mse_window=s['mse_window'], learn=s['learn'],
             max_gap_ns=round(s['max_gap'] * 1e9))
         self.names = names
+        self.torque_msg = joint_state(0, names, effort=np.zeros(len(names)))
         return True
 
     def _limit_order(self, names: list[str]) -> np.ndarray | None:
@@ -224,8 +225,11 @@ class IdentifierNode(Node):
                 self._warn(f'skipped a sample ({result.reason.value}); '
                            f'{sum(self.core.counts.skipped.values())} so far')
             return
-        self.torque_publisher.publish(joint_state(stamp_ns, self.names, effort=result.effort,
-                                                  frame_id=msg.header.frame_id))
+        out = self.torque_msg  # reused: publish() serialises it before returning
+        out.header.stamp = msg.header.stamp
+        out.header.frame_id = msg.header.frame_id
+        out.effort = result.effort.tolist()
+        self.torque_publisher.publish(out)
         lag_ns = time.time_ns() - stamp_ns
         if lag_ns > self.max_lag_ns:
             self.max_lag_ns = lag_ns
