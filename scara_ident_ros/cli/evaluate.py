@@ -1,0 +1,64 @@
+"""``scara-ident evaluate``: errors of a saved network on the joint states of a bag.
+
+Loads a model written by ``scara-ident train`` or by an identifier (FeedForwardNet.save),
+reads the bag's JointState messages, maps them to the model's joints BY NAME (metadata
+joint_names; a model without names needs a bag with as many joints, taken in message
+order), builds the network inputs as the identifier does (q'' from q' by the 50 Hz
+low-pass differentiator, bad and warm-up samples dropped) and prints, as a Markdown table,
+each joint's MSE ((N·m)² or N²) and normalised MSE (MSE / variance of the joint's effort
+over the evaluated samples; 1 = no better than the mean effort). Typical use: a model
+trained on one run evaluated on another (held-out) run.
+"""
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from scara_ident_ros.cli import CliError
+
+__all__ = ['add_parser', 'run']
+
+
+def add_parser(subparsers: argparse._SubParsersAction) -> None:
+    """Register ``scara-ident evaluate``."""
+    parser = subparsers.add_parser(
+        'evaluate', help='per-joint MSE and NMSE of a saved network on a bag',
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument('model', type=Path, metavar='MODEL', help='model file (.npz)')
+    parser.add_argument('bag', type=Path, metavar='BAG',
+                        help='rosbag2 bag directory (MCAP or sqlite3) or .mcap file')
+    parser.add_argument('--topic', default=None,
+                        help='JointState topic (default: the only one, or /joint_states)')
+    parser.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Evaluate and print the table."""
+    from scara_ident_ros.bag import BagError
+    from scara_ident_ros.offline.evaluation import (ModelMismatch, errors_markdown, evaluate,
+                                                    load_model, model_joint_names,
+                                                    model_method)
+    from scara_ident_ros.offline.recording import RecordingError, load_recording, skipped_text
+
+    try:
+        network = load_model(args.model)
+    except ModelMismatch as exc:
+        raise CliError(str(exc)) from None
+    names = model_joint_names(network)
+    n = network.n_outputs
+    try:
+        recording = load_recording(args.bag, topic=args.topic, joints=names)
+    except (BagError, RecordingError) as exc:
+        raise CliError(str(exc)) from None
+    samples = recording.samples
+    if len(samples.names) != n:
+        raise CliError(f'{args.model} is a model of {n} joints, but {args.bag} '
+                       f'{recording.topic} has {len(samples.names)}: {list(samples.names)}')
+    method = model_method(network).upper()
+    mapping = 'mapped by name' if names is not None else 'in message order (model has no names)'
+    print(f'{method} model {args.model} on {args.bag} {recording.topic}: '
+          f'{len(samples.data)} samples over {samples.data.seconds:.1f} s, joints {mapping} '
+          f'(skipped: {skipped_text(samples)})\n')
+    stats = evaluate(network, samples.data.X, samples.data.Y)
+    print(errors_markdown(samples.names, {args.bag.name or str(args.bag): stats}))
+    return 0

@@ -1,0 +1,118 @@
+"""A saved network checked against a recording, evaluated, and its errors as a table.
+
+Public API::
+
+    ModelMismatch                                   one-line error (ValueError)
+    load_model(path) -> FeedForwardNet              a network file of ours, for inverse dynamics
+    model_joint_names(network) -> tuple | None      ``metadata['joint_names']``, checked
+    model_method(network) -> str                    method key from metadata or activation
+    evaluate(network, X, Y) -> ErrorStats           per-joint MSE and NMSE
+    errors_markdown(names, results) -> str          joints as rows, data sets as columns
+"""
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+import numpy as np
+import numpy.typing as npt
+
+from scara_ident_ros.experiments.errors import effort_errors
+from scara_ident_ros.experiments.tables import format_value
+from scara_ident_ros.identification import ErrorStats
+from scara_ident_ros.methods import METHODS
+from scara_ident_ros.nn import FeedForwardNet, ModelFormatError
+from scara_ident_ros.offline.figures import effort_unit
+
+__all__ = ['ModelMismatch', 'errors_markdown', 'evaluate', 'load_model', 'model_joint_names',
+           'model_method']
+
+
+class ModelMismatch(ValueError):
+    """A network file cannot be used with a recording (one-line message)."""
+
+
+def load_model(path: Path) -> FeedForwardNet:
+    """Read a network saved by ``FeedForwardNet.save`` that maps [q, q', q''] to efforts.
+
+    Raises
+    ------
+    ModelMismatch
+        If the file is missing, not a network of ours (another format, corrupt), or its
+        sizes are not 3n inputs for n outputs.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise ModelMismatch(f'{path}: no such model file')
+    try:
+        network = FeedForwardNet.load(path)
+    except ModelFormatError as exc:
+        raise ModelMismatch(' '.join(str(exc).split())) from None
+    except (OSError, ValueError, KeyError, EOFError) as exc:
+        raise ModelMismatch(f'{path}: not a scara-ident model file '
+                            f'({type(exc).__name__}: {" ".join(str(exc).split())})') from None
+    if network.n_inputs != 3 * network.n_outputs:
+        raise ModelMismatch(f'{path}: a network with {network.n_inputs} inputs and '
+                            f'{network.n_outputs} outputs is not an inverse-dynamics model '
+                            '(3n inputs [q, qd, qdd] for n joint efforts)')
+    names = model_joint_names(network)
+    if names is not None and len(names) != network.n_outputs:
+        raise ModelMismatch(f'{path}: metadata names {len(names)} joints {list(names)} but the '
+                            f'network has {network.n_outputs} outputs')
+    return network
+
+
+def model_joint_names(network: FeedForwardNet) -> tuple[str, ...] | None:
+    """The joints the network was trained for, in output order, or None if not recorded."""
+    names = network.metadata.get('joint_names')
+    if names is None:
+        return None
+    return tuple(str(name) for name in np.atleast_1d(names))
+
+
+def model_method(network: FeedForwardNet) -> str:
+    """The method key: ``metadata['method']`` if recorded, else from the activation."""
+    method = network.metadata.get('method')
+    if method is not None and str(method) in METHODS:
+        return str(method)
+    for key, spec in METHODS.items():
+        if spec.activation == network.activation:
+            return key
+    return network.activation
+
+
+def evaluate(network: FeedForwardNet, X: npt.ArrayLike, Y: npt.ArrayLike) -> ErrorStats:
+    """Per-joint MSE and NMSE of the network's predictions of Y (N, n) from X (N, 3n)."""
+    return effort_errors(Y, network.predict(np.asarray(X, dtype=np.float64)))
+
+
+def errors_markdown(names: Sequence[str], results: Mapping[str, ErrorStats]) -> str:
+    """A Markdown table: one row per joint (and their mean), MSE and NMSE per data set.
+
+    Parameters
+    ----------
+    names : sequence of str of length n
+        Joint names, in the order of the statistics.
+    results : mapping of str to ErrorStats
+        Data set name (e.g. ``'train'``) to its statistics.
+    """
+    header = ['joint']
+    for data, stats in results.items():
+        header += [f'{data} MSE', f'{data} NMSE']
+    rows = []
+    for j, name in enumerate(names):
+        unit = effort_unit(name, names)
+        cells = [f'{name} ({unit})']
+        for stats in results.values():
+            cells += [format_value(float(stats.mse[j])), format_value(float(stats.nmse[j]))]
+        rows.append(cells)
+    mean = ['mean']
+    for stats in results.values():
+        mean += [format_value(stats.mse_total), format_value(stats.nmse_total)]
+    rows.append(mean)
+    counts = ', '.join(f'{data}: {stats.count} samples' for data, stats in results.items())
+    lines = ['| ' + ' | '.join(header) + ' |', '|' + '|'.join('---' for _ in header) + '|']
+    lines += ['| ' + ' | '.join(cells) + ' |' for cells in rows]
+    units = ('MSE in (N·m)² or N² per joint (the mean mixes units); '
+             'NMSE = MSE / variance of the joint\'s effort.')
+    return '\n'.join(lines) + f'\n\n{counts}. {units}\n'

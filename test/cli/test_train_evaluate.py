@@ -1,0 +1,227 @@
+"""``scara-ident train`` and ``evaluate`` on bags written by other tools, and every bad input."""
+from __future__ import annotations
+
+import re
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from scara_ident_ros.cli import main
+from scara_ident_ros.identification import OnlineIdentifier
+from scara_ident_ros.methods import METHODS
+from scara_ident_ros.nn import FeedForwardNet
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'offline'))
+from fake_bags import (synthetic_states, write_bare_mcap,  # noqa: E402  (not a package)
+                       write_rosbag)
+
+
+def run_cli(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str, str]:
+    code = main([str(a) for a in argv])
+    captured = capsys.readouterr()
+    return code, captured.out, captured.err
+
+
+def table_rows(text: str) -> dict[str, list[str]]:
+    """Rows of the Markdown tables in ``text``: first cell -> the other cells."""
+    rows = {}
+    for line in text.splitlines():
+        if line.startswith('| '):
+            cells = [c.strip() for c in line.strip('|').split('|')]
+            if cells[0] != 'joint':  # the header
+                rows[cells[0]] = cells[1:]
+    return rows
+
+
+@pytest.fixture(scope='module')
+def bags(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    root = tmp_path_factory.mktemp('bags')
+    two = synthetic_states(2, 10.0, seed=1, rate_hz=200.0)
+    six = synthetic_states(6, 2.0, seed=2)
+    return {
+        # joints in another order inside the messages: mapped back by name
+        'sqlite2': write_rosbag(root / 'two_sqlite', two, storage='sqlite3', order=[1, 0]),
+        'sqlite2b': write_rosbag(root / 'two_other', synthetic_states(2, 2.0, seed=1,
+                                                                      rate_hz=500.0)),
+        'mcap6': write_bare_mcap(root / 'six.mcap', six),
+        'mcap6_bag': write_rosbag(root / 'six_bag', six, storage='mcap',
+                                  topic='/robot/joint_states'),
+    }
+
+
+def test_train_then_evaluate_two_joints_sqlite(bags: dict[str, Path], tmp_path: Path,
+                                               capsys: pytest.CaptureFixture[str]) -> None:
+    model = tmp_path / 'models' / 'ffmw.npz'
+    code, out, err = run_cli(capsys, 'train', bags['sqlite2'], '--method', 'ffmw',
+                             '--iterations', '30', '--out', model)
+    assert code == 0, err
+    assert '/30 mse ' in err and 'stopped:' in err  # the progress bar, on stderr
+    assert 'training on 1599, validating on 400' in out  # 10 s at 200 Hz less one warm-up
+    rows = table_rows(out)
+    assert set(rows) == {'joint1 (N·m or N)', 'joint2 (N·m or N)', 'mean'}
+    assert float(rows['mean'][1]) < 0.05  # training NMSE
+    network = FeedForwardNet.load(model)
+    # the joint order of the first message (joint2 first), kept in the model
+    assert list(network.metadata['joint_names']) == ['joint2', 'joint1']
+    assert str(network.metadata['method']) == 'ffmw'
+    assert network.activation == METHODS['ffmw'].activation
+    assert network.scaling_set
+
+    code, out, err = run_cli(capsys, 'evaluate', model, bags['sqlite2b'])
+    assert code == 0, err
+    assert 'FFMW model' in out and 'mapped by name' in out
+    rows = table_rows(out)  # the bag has joint1 first: mapped to the model's order by name
+    assert list(rows) == ['joint2 (N·m or N)', 'joint1 (N·m or N)', 'mean']
+    assert all(np.isfinite(float(cell)) for row in rows.values() for cell in row)
+    assert float(rows['mean'][1]) < 0.2  # another run of the same robot, 500 Hz
+
+
+def test_identifier_warm_starts_from_a_trained_model(bags: dict[str, Path], tmp_path: Path,
+                                                     capsys: pytest.CaptureFixture[str]
+                                                     ) -> None:
+    model = tmp_path / 'ffs.npz'
+    code, _, err = run_cli(capsys, 'train', bags['sqlite2'], '--method', 'ffs',
+                           '--algorithm', 'gd', '--iterations', '5', '--out', model)
+    assert code == 0, err
+    network = FeedForwardNet.load(model)
+    names = [str(n) for n in network.metadata['joint_names']]
+    # what the identifier node does with model_path: names from the metadata, learn on
+    online = OnlineIdentifier(network, joint_names=names)
+    states = synthetic_states(2, 0.05, seed=1)
+    for i in range(states.stamp_ns.shape[0]):
+        online.process(int(states.stamp_ns[i]), states.names, states.position[i],
+                       states.velocity[i], states.effort[i])
+    assert online.counts.learned == states.stamp_ns.shape[0] - 1
+
+
+def test_six_joints_bare_mcap_with_joint_selection(bags: dict[str, Path], tmp_path: Path,
+                                                   capsys: pytest.CaptureFixture[str]) -> None:
+    model = tmp_path / 'ffw.npz'
+    code, out, err = run_cli(capsys, 'train', bags['mcap6'], '--method', 'ffw',
+                             '--iterations', '8', '--samples', '500', '--seed', '3',
+                             '--joints', 'joint5', 'joint2', 'joint6', '--out', model)
+    assert code == 0, err
+    assert 'training on 500' in out
+    network = FeedForwardNet.load(model)
+    assert (network.n_inputs, network.n_outputs) == (9, 3)
+    assert list(network.metadata['joint_names']) == ['joint5', 'joint2', 'joint6']
+    # evaluated on the 6-joint bag directory under another topic: the model's 3 joints
+    code, out, err = run_cli(capsys, 'evaluate', model, bags['mcap6_bag'])
+    assert code == 0, err
+    assert list(table_rows(out)) == ['joint5 (N·m or N)', 'joint2 (N·m or N)',
+                                     'joint6 (N·m or N)', 'mean']
+    # all six joints by default
+    code, out, err = run_cli(capsys, 'train', bags['mcap6_bag'], '--method', 'ffmw',
+                             '--iterations', '3', '--validation-fraction', '0',
+                             '--out', tmp_path / 'six.npz')
+    assert code == 0, err
+    assert FeedForwardNet.load(tmp_path / 'six.npz').n_outputs == 6
+    assert 'validation' not in table_rows(out).get('mean', [''])[0]
+
+
+def _assert_one_line_error(code: int, out: str, err: str, pattern: str) -> None:
+    assert code == 2
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    assert re.search(pattern, lines[0]), lines[0]
+
+
+def _bad_bags(root: Path) -> dict[str, tuple[Path, str]]:
+    """Bags that cannot be trained on, and what their error line must say."""
+    states = synthetic_states(2, 1.0)
+    full = write_bare_mcap(root / 'full.mcap', states)
+    truncated = root / 'truncated.mcap'
+    truncated.write_bytes(full.read_bytes()[:full.stat().st_size // 2])
+    corrupt = root / 'corrupt.mcap'
+    corrupt.write_bytes(b'\x89MCAP0\r\n' + bytes(range(256)) * 20 + b'\x89MCAP0\r\n')
+    garbage_bag = root / 'garbage_bag'
+    garbage_bag.mkdir()
+    (garbage_bag / 'metadata.yaml').write_text('rosbag2_bagfile_information: [not, a, bag\n')
+    few = write_rosbag(root / 'few', synthetic_states(2, 0.01))  # 10 messages
+    return {
+        'missing': (root / 'nope', r'nope.*does not exist'),
+        'truncated': (truncated, r'truncated'),
+        'corrupt': (corrupt, r'corrupt\.mcap'),
+        'garbage_bag': (garbage_bag, r'garbage_bag'),
+        'few': (few, r'few.*9 usable samples of 10 messages.*need at least 20'),
+    }
+
+
+def test_bad_bags_give_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    bad = _bad_bags(tmp_path)
+    for name, (bag, pattern) in bad.items():
+        _assert_one_line_error(*run_cli(capsys, 'train', bag, '--method', 'ffmw', '--out',
+                                        tmp_path / f'{name}.npz'), pattern)
+        assert not (tmp_path / f'{name}.npz').exists()
+    # a topic that is not there, and a joint no message has
+    bag = write_rosbag(tmp_path / 'ok', synthetic_states(2, 0.2))
+    _assert_one_line_error(*run_cli(capsys, 'train', bag, '--method', 'ffs', '--topic', '/x',
+                                    '--out', tmp_path / 'm.npz'), r'/x .*/joint_states')
+    _assert_one_line_error(*run_cli(capsys, 'train', bag, '--method', 'ffs', '--joints',
+                                    'joint1', 'elbow', '--out', tmp_path / 'm.npz'),
+                           r'no joint elbow \(its joints: joint1, joint2\)')
+
+
+def test_no_joint_state_topic_lists_the_topics(tmp_path: Path,
+                                               capsys: pytest.CaptureFixture[str]) -> None:
+    states = synthetic_states(2, 0.1)
+    from rosbags.rosbag2 import Writer
+    from rosbags.typesys import Stores, get_typestore
+    store = get_typestore(Stores.ROS2_HUMBLE)
+    bag = tmp_path / 'floats'
+    with Writer(bag, version=8) as writer:
+        conn = writer.add_connection('/temperature', 'std_msgs/msg/Float64', typestore=store)
+        for stamp in states.stamp_ns[:5].tolist():
+            msg = store.types['std_msgs/msg/Float64'](data=1.0)
+            writer.write(conn, stamp, store.serialize_cdr(msg, 'std_msgs/msg/Float64'))
+    _assert_one_line_error(*run_cli(capsys, 'train', bag, '--method', 'ffmw', '--out',
+                                    tmp_path / 'm.npz'),
+                           r'no sensor_msgs/msg/JointState topic.*/temperature')
+    _assert_one_line_error(*run_cli(capsys, 'evaluate', tmp_path / 'm.npz', bag),
+                           r'm\.npz: no such model file')
+
+
+def test_bad_models_give_one_line(bags: dict[str, Path], tmp_path: Path,
+                                  capsys: pytest.CaptureFixture[str]) -> None:
+    text = tmp_path / 'notes.npz'
+    text.write_text('not a model\n')
+    _assert_one_line_error(*run_cli(capsys, 'evaluate', text, bags['sqlite2']), r'notes\.npz')
+    other = tmp_path / 'other.npz'
+    np.savez(other, weights=np.zeros(3))
+    _assert_one_line_error(*run_cli(capsys, 'evaluate', other, bags['sqlite2']), r'other\.npz')
+    # a network that is not 3n -> n
+    odd = FeedForwardNet(5, 4, 2)
+    odd.save(tmp_path / 'odd.npz')
+    _assert_one_line_error(*run_cli(capsys, 'evaluate', tmp_path / 'odd.npz', bags['sqlite2']),
+                           r'5 inputs and 2 outputs is not an inverse-dynamics model')
+    # a 6-joint model without names on a 2-joint bag; a named one whose joints are absent
+    six = FeedForwardNet(18, 4, 6)
+    six.save(tmp_path / 'six.npz')
+    _assert_one_line_error(*run_cli(capsys, 'evaluate', tmp_path / 'six.npz', bags['sqlite2']),
+                           r'model of 6 joints, but .* has 2')
+    six.metadata['joint_names'] = np.array([f'joint{i + 1}' for i in range(6)])
+    six.save(tmp_path / 'six_named.npz')
+    _assert_one_line_error(*run_cli(capsys, 'evaluate', tmp_path / 'six_named.npz',
+                                    bags['sqlite2']),
+                           r'no joint joint3, joint4, joint5, joint6 \(its joints: joint2, '
+                           r'joint1\)')
+
+
+def test_bad_options_give_one_line(bags: dict[str, Path], tmp_path: Path,
+                                   capsys: pytest.CaptureFixture[str]) -> None:
+    for option, value in (('--validation-fraction', '1.0'), ('--iterations', '0')):
+        _assert_one_line_error(*run_cli(capsys, 'train', bags['sqlite2'], '--method', 'ffw',
+                                        option, value, '--out', tmp_path / 'm.npz'), option)
+    _assert_one_line_error(*run_cli(capsys, 'train', bags['sqlite2'], '--method', 'ffw',
+                                    '--out', tmp_path), r'is a directory')
+
+
+@pytest.mark.parametrize('command', ['train', 'evaluate'])
+def test_help_explains(command: str, capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as exit_info:
+        main([command, '--help'])
+    assert exit_info.value.code == 0
+    text = capsys.readouterr().out
+    assert 'JointState' in text and 'BAG' in text
