@@ -13,6 +13,7 @@ Public API::
     OnlinePredictions                              method, names, stamp_ns, measured, predicted
     pair_by_stamp(stamp_ns, effort, pred_stamp_ns, predicted) -> (i_meas, i_pred)
     rolling_errors(measured, predicted, window) -> (mse (N,), nmse (N,))
+    prediction_rows(predictions) -> list[ResultRow]    the Table 3 analog's rows
     read_online_predictions(bag, method, measured) -> OnlinePredictions | None
     read_identifier_mse(bag, method) -> (log_time_ns (M,), data (M, k)) | None
 """
@@ -25,11 +26,20 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
+from scara_ident_ros.experiments.errors import effort_errors, recent_errors
+from scara_ident_ros.experiments.online import DEFAULT_WINDOW, stream_data_names
+from scara_ident_ros.experiments.rows import ResultRow
+from scara_ident_ros.identification import PAPER_WINDOW
+from scara_ident_ros.methods import method as method_spec
+
 if TYPE_CHECKING:
     from scara_ident_ros.offline.dataset import JointStateArrays
 
-__all__ = ['OnlinePredictions', 'pair_by_stamp', 'read_identifier_mse',
-           'read_online_predictions', 'rolling_errors', 'torque_topic', 'mse_topic']
+__all__ = ['STREAM_ALL', 'OnlinePredictions', 'mse_topic', 'pair_by_stamp', 'prediction_rows',
+           'read_identifier_mse', 'read_online_predictions', 'rolling_errors', 'torque_topic']
+
+#: ``data`` name of the rows over the whole run.
+STREAM_ALL = 'stream-all'
 
 
 def torque_topic(method: str) -> str:
@@ -155,6 +165,27 @@ def rolling_errors(measured: NDArray[np.float64], predicted: NDArray[np.float64]
     nmse = np.full(count, np.nan)
     np.divide(ratio.sum(axis=1), n_defined, out=nmse, where=n_defined > 0)
     return mse.mean(axis=1), nmse
+
+
+def prediction_rows(predictions: OnlinePredictions, *, window: int = DEFAULT_WINDOW,
+                    paper_window: int = PAPER_WINDOW) -> list[ResultRow]:
+    """The Table 3 analog's rows of one identifier: errors of its a-priori predictions.
+
+    Named like :func:`scara_ident_ros.experiments.online.online_rows`: over the last
+    ``paper_window`` samples (the paper's "error over the last 100 samples", computed by
+    ``ErrorWindow.recent``), the last ``window`` samples, and :data:`STREAM_ALL`, the whole
+    run. ``iterations`` is the number of paired samples, ``seed`` None (one run).
+    """
+    label = method_spec(predictions.method).label
+    y, y_hat = predictions.measured, predictions.predicted
+    extra = dict(iterations=int(y.shape[0]), note=f'{predictions.n_published} published, '
+                                                   f'{predictions.n_unmatched} unmatched')
+    short, long = stream_data_names(window, paper_window)
+    return [ResultRow.from_stats(stats, table='online', method=label, seed=None, data=data,
+                                 **extra)  # type: ignore[arg-type]
+            for data, stats in ((short, recent_errors(y, y_hat, paper_window)),
+                                (long, effort_errors(y[-window:], y_hat[-window:])),
+                                (STREAM_ALL, effort_errors(y, y_hat)))]
 
 
 def read_online_predictions(bag: Path, method: str,
