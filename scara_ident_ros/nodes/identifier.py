@@ -28,8 +28,9 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 
 from scara_ident_ros.dynamics import ParamError, ScaraParams
-from scara_ident_ros.identification import (METHODS as DIFFERENTIATORS, Differentiator,
-                                            OnlineIdentifier, SkipReason)
+from scara_ident_ros.identification import (METHODS as DIFFERENTIATORS, Counts,
+                                            Differentiator, JointMap, OnlineIdentifier,
+                                            SampleCheck, SkipReason)
 from scara_ident_ros.methods import METHODS, limit_scaling, make_network
 from scara_ident_ros.nn import FeedForwardNet, ModelFormatError
 from scara_ident_ros.nodes.messages import joint_state, stamp_to_ns
@@ -99,6 +100,7 @@ class IdentifierNode(Node):
         self.limits = self._limits()
         self.network: FeedForwardNet | None = None
         self.core: OnlineIdentifier | None = None
+        self.early = Counts()  # samples rejected before the first valid one (no joints yet)
         names = list(s['joint_names'])
         if s['model_path']:
             self.network = self._load(s['model_path'])
@@ -214,10 +216,8 @@ class IdentifierNode(Node):
     # ------------------------------------------------------------------ per sample
     def on_joint_state(self, msg: JointState) -> None:
         """Predict, publish, learn: one input sample."""
-        if self.core is None:
-            names = list(msg.name)
-            if not names or len(set(names)) != len(names) or not self._build(names):
-                return
+        if self.core is None and not self._build_from(msg):
+            return
         stamp_ns = stamp_to_ns(msg.header.stamp)
         result = self.core.process(stamp_ns, msg.name, msg.position, msg.velocity, msg.effort)
         if result.effort is None:
@@ -234,6 +234,25 @@ class IdentifierNode(Node):
         if lag_ns > self.max_lag_ns:
             self.max_lag_ns = lag_ns
             self.worst_lag_ns = max(self.worst_lag_ns, lag_ns)
+
+    def _build_from(self, msg: JointState) -> bool:
+        """Build for the joints of ``msg`` if it is valid; else count it as skipped."""
+        n_joints = self.network.n_outputs if self.network is not None else None  # warm start
+        check = SampleCheck(JointMap(n_joints=n_joints), need_effort=self.settings['learn'])
+        reason = check.check(stamp_to_ns(msg.header.stamp), msg.name, msg.position,
+                             msg.velocity, msg.effort)
+        if not isinstance(reason, SkipReason) and self._build(list(msg.name)):
+            assert self.core is not None
+            counts = self.core.counts
+            counts.processed += self.early.processed
+            for skipped, n in self.early.skipped.items():
+                counts.skipped[skipped] += n
+            return True
+        reason = reason if isinstance(reason, SkipReason) else SkipReason.UNKNOWN_JOINT
+        self.early.processed += 1
+        self.early.skipped[reason] += 1
+        self._warn(f'skipped a sample ({reason.value}) before the first valid one')
+        return False
 
     def _warn(self, text: str) -> None:
         now = time.monotonic()
@@ -260,7 +279,9 @@ class IdentifierNode(Node):
     def summary(self) -> dict[str, Any]:
         """Counters and errors so far, as plain data."""
         if self.core is None:
-            return {'method': self.settings['method'], 'processed': 0}
+            return {'method': self.settings['method'], 'processed': self.early.processed,
+                    'skipped': {reason.value: n for reason, n in self.early.skipped.items()
+                                if n}}
         counts = self.core.counts
         stats = self.core.error_stats()
         return {
