@@ -261,8 +261,8 @@ def latency(seconds: float, warmup: float, workdir: Path) -> dict[str, Any]:
         t0, cpu0 = time.monotonic_ns(), cpu_seconds(node.pid)
         spin_for(probe, seconds)
         t1, cpu1 = time.monotonic_ns(), cpu_seconds(node.pid)
+        spin_for(probe, 0.5)  # the window's last predictions, received as they come
         sim_status = stop(sim)
-        spin_for(probe, 0.5)  # the last predictions
         status = stop(node)
     except RuntimeError as exc:
         id_log.flush()
