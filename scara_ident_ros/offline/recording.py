@@ -77,20 +77,28 @@ def load_recording(path: Path, *, topic: str | None = None,
         If the bag is missing, unreadable, truncated, or has no (such) JointState topic or
         joints.
     RecordingError
-        If a joint of ``joints`` is in no message, or fewer than ``minimum`` samples are
-        usable.
+        If a joint of ``joints`` is in no message, no message gives a joint's position,
+        velocity or effort, or fewer than ``minimum`` samples are usable.
     """
     from scara_ident_ros.bag import read_joint_states
 
     path = Path(path)
     series = read_joint_states(path, topic=topic, joints=list(joints) if joints else None)
     name = str(getattr(series, 'topic', None) or topic or 'the JointState topic')
-    absent = [joint for j, joint in enumerate(series.names) if joints
-              and np.isnan(series.position[:, j]).all() and np.isnan(series.velocity[:, j]).all()]
-    if absent:
+    missing = {field: [joint for j, joint in enumerate(series.names)
+                       if np.isnan(getattr(series, field)[:, j]).all()]
+               for field in ('position', 'velocity', 'effort')}
+    absent = [joint for joint in missing['position']
+              if joint in missing['velocity'] and joint in missing['effort']]
+    if joints and absent:
         present = read_joint_states(path, topic=name).names
         raise RecordingError(f'{path}: {name} has no joint {", ".join(absent)} (its joints: '
                              f'{", ".join(present)})')
+    for field, lacking in missing.items():
+        if lacking:
+            raise RecordingError(f'{path}: {name} carries no {field} for '
+                                 f'{", ".join(lacking)}; the network needs position, velocity '
+                                 'and effort of every joint')
     samples = dataset_from_joint_states(series, name=path.name)
     usable = len(samples.data)
     if usable < minimum:

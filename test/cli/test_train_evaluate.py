@@ -14,8 +14,8 @@ from scara_ident_ros.methods import METHODS
 from scara_ident_ros.nn import FeedForwardNet
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'offline'))
-from fake_bags import (synthetic_states, write_bare_mcap,  # noqa: E402  (not a package)
-                       write_rosbag)
+from fake_bags import (States, synthetic_states,  # noqa: E402  (not a package)
+                       write_bare_mcap, write_rosbag, write_run_bag)
 
 
 def run_cli(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str, str]:
@@ -140,12 +140,17 @@ def _bad_bags(root: Path) -> dict[str, tuple[Path, str]]:
     garbage_bag.mkdir()
     (garbage_bag / 'metadata.yaml').write_text('rosbag2_bagfile_information: [not, a, bag\n')
     few = write_rosbag(root / 'few', synthetic_states(2, 0.01))  # 10 messages
+    no_effort = write_rosbag(root / 'no_effort', States(
+        states.stamp_ns, states.names, states.position, states.velocity,
+        np.zeros((states.stamp_ns.shape[0], 0))))
     return {
         'missing': (root / 'nope', r'nope.*does not exist'),
         'truncated': (truncated, r'truncated'),
         'corrupt': (corrupt, r'corrupt\.mcap'),
         'garbage_bag': (garbage_bag, r'garbage_bag'),
         'few': (few, r'few.*9 usable samples of 10 messages.*need at least 20'),
+        'no_effort': (no_effort, r'no_effort: /joint_states carries no effort for joint1, '
+                                 r'joint2'),
     }
 
 
@@ -162,6 +167,11 @@ def test_bad_bags_give_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[st
     _assert_one_line_error(*run_cli(capsys, 'train', bag, '--method', 'ffs', '--joints',
                                     'joint1', 'elbow', '--out', tmp_path / 'm.npz'),
                            r'no joint elbow \(its joints: joint1, joint2\)')
+    # the identifiers' predictions are JointStates too, with effort only
+    run = write_run_bag(tmp_path / 'run', synthetic_states(2, 0.2), methods=('ffmw',))
+    _assert_one_line_error(*run_cli(capsys, 'train', run, '--method', 'ffmw', '--topic',
+                                    '/ffmw/identified_torque', '--out', tmp_path / 'm.npz'),
+                           r'/ffmw/identified_torque carries no position for joint1, joint2')
 
 
 def test_no_joint_state_topic_lists_the_topics(tmp_path: Path,
