@@ -1,0 +1,266 @@
+"""``recorder`` node: record topics into a rosbag2 bag directory with MCAP storage.
+
+``ros2 run scara_ident_ros recorder --ros-args --params-file config/recorder.yaml
+-p output:=run1`` records, until SIGINT/SIGTERM, the topics matching ``topics`` (names
+or glob patterns; the joint states and the identifiers' outputs by default, ``all``
+for everything) into ``output`` (``metadata.yaml`` + ``<name>_0.mcap``, ``_1.mcap`` ...
+after splits), written by :class:`~scara_ident_ros.bag.BagWriter`.
+
+- Topics and types come from the graph, rediscovered every ``discovery_period``, so
+  publishers that start late are recorded too. A topic is subscribed once it has a
+  publisher; its publishers' offered QoS profiles are recorded, and the subscription
+  adapts to them as rosbag2 does (reliable unless one is best effort, transient-local if
+  all are), with a history of ``qos_depth`` (0 = keep all).
+- Subscriptions are raw: rclpy hands the callback the serialized bytes, which are
+  stamped with the reception time (``time.time_ns()``, as rosbag2 records the reception
+  time) and appended to a list, which the loop hands to the writer in batches (nothing
+  is deserialized; the per-message Python is one append, and a few µs in the writer).
+- Chunks are written and flushed at ``max_chunk_size`` bytes or ``max_chunk_duration``
+  seconds, so a SIGKILL loses at most that; :func:`~scara_ident_ros.bag.recover_bag`
+  makes such a bag readable again. On SIGINT/SIGTERM the bag is closed properly
+  (``metadata.yaml`` with counts and offered QoS).
+- Received and written messages are logged every ``report_period`` and on shutdown,
+  and saved to ``stats_file`` as JSON. (DDS's own count of lost messages is not
+  used: with the EventsExecutor of these wheels, a subscription with a
+  ``message_lost`` event callback hung inside ``spin_once`` once messages were lost.)
+"""
+from __future__ import annotations
+
+import json
+import sys
+import threading
+import time
+from collections.abc import Callable
+from datetime import datetime
+from pathlib import Path
+from typing import Any
+
+from rclpy.experimental import EventsExecutor
+from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+
+from scara_ident_ros.bag.errors import BagError
+from scara_ident_ros.bag.message_class import message_class
+from scara_ident_ros.bag.qos import adapt_to_offers, qos_from_profile
+from scara_ident_ros.bag.topic_filter import TopicFilter
+from scara_ident_ros.bag.writer import BagWriter
+from scara_ident_ros.nodes.parameters import ParamSpec, declare_parameters
+from scara_ident_ros.nodes.runtime import POLL_PERIOD, ConfigError, run_node
+
+__all__ = ['DEFAULT_TOPICS', 'PARAMETERS', 'RecorderNode', 'default_output', 'main']
+
+DEFAULT_TOPICS = ['/joint_states', '/identified_torque', '/identification_mse',
+                  '/*/identified_torque', '/*/identification_mse']
+CHUNK_POLL_PERIOD = 0.1  # s between checks of the open chunk's age when idle
+BATCH_SIZE = 512  # messages handed to the writer at once...
+BATCH_PERIOD_NS = 20_000_000  # ...or once the oldest has waited this long, ns
+
+PARAMETERS = (
+    ParamSpec('output', '', "Bag directory to create; '' = rosbag2_<date>-<time> in the "
+              'working directory; an existing one is never overwritten'),
+    ParamSpec('topics', DEFAULT_TOPICS, 'Topic names or glob patterns to record '
+              '(* = within one name component, ** = across)', items=str),
+    ParamSpec('all', False, 'Record every topic except hidden ones; topics is then ignored'),
+    ParamSpec('compression', 'none', 'MCAP chunk compression',
+              choices=('none', 'zstd', 'lz4')),
+    ParamSpec('max_bag_size', 0, 'Continue in a new .mcap file once one is this big; '
+              '0 = never split', 'bytes', min=0),
+    ParamSpec('max_bag_duration', 0.0, 'Continue in a new .mcap file once one spans this '
+              'long; 0 = never split', 's', min=0.0),
+    ParamSpec('max_chunk_size', 1048576, 'Write a chunk once it holds this much',
+              'bytes', min=4096),
+    ParamSpec('max_chunk_duration', 1.0, 'Write a chunk once its first message is this old; '
+              'bounds what a SIGKILL loses; 0 = size only', 's', min=0.0),
+    ParamSpec('qos_depth', 0, 'History depth of the subscriptions; 0 = keep all (fewest '
+              'losses when publishers outrun the recorder)', 'messages', min=0),
+    ParamSpec('discovery_period', 1.0, 'Period of the search for new topics', 's',
+              min=0.05, max=60.0),
+    ParamSpec('report_period', 10.0, 'Period of the progress log line; 0 = none', 's',
+              min=0.0),
+    ParamSpec('stats_file', '', "Write the final counters here as JSON; '' = no file"),
+)
+
+
+def default_output(now: datetime | None = None) -> Path:
+    """rosbag2's default bag name in the working directory: ``rosbag2_YYYY_MM_DD-HH_MM_SS``."""
+    return Path.cwd() / (now or datetime.now()).strftime('rosbag2_%Y_%m_%d-%H_%M_%S')
+
+
+class RecorderNode(Node):
+    """Record topics to an MCAP rosbag2 bag; see the module docstring."""
+
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__('recorder', **kwargs)
+        self.params = declare_parameters(self, PARAMETERS)
+        p = self.params
+        try:
+            self._filter = TopicFilter(p['topics'], all_topics=p['all'])
+        except ValueError as exc:
+            raise ConfigError(f"parameter 'topics': {exc}") from None
+        if not p['all'] and not p['topics']:
+            raise ConfigError("parameter 'topics' is empty and 'all' is false: nothing to record")
+        output = Path(p['output']) if p['output'] else default_output()
+        try:
+            self.writer = BagWriter(
+                output, compression=p['compression'], max_file_size=p['max_bag_size'],
+                max_file_duration_ns=round(p['max_bag_duration'] * 1e9),
+                chunk_size=p['max_chunk_size'],
+                chunk_duration_ns=round(p['max_chunk_duration'] * 1e9)).open()
+        except BagError as exc:
+            raise ConfigError(str(exc)) from None
+        self._pending: list[tuple[int, int, bytes]] = []
+        self._received = 0
+        self._topics: dict[str, int] = {}  # topic -> connection id
+        self._ignored: set[str] = set()  # topics that cannot be recorded (warned once)
+        self._started = time.monotonic()
+        self._closed = False
+        self._last_report = (self._started, 0)
+        self.create_timer(p['discovery_period'], self._discover)
+        self.create_timer(CHUNK_POLL_PERIOD, self.writer.poll)
+        if p['report_period'] > 0:
+            self.create_timer(p['report_period'], self._report)
+        self.get_logger().info(f'recording {self._filter} into {output}')
+        self._discover()
+
+    # -- discovery -----------------------------------------------------------------------
+
+    def _discover(self) -> None:
+        """Subscribe to every selected topic that has a publisher and is not recorded yet."""
+        for topic, types in self.get_topic_names_and_types():
+            if topic in self._topics or topic in self._ignored or not self._filter.matches(topic):
+                continue
+            infos = self.get_publishers_info_by_topic(topic)
+            if not infos:
+                continue  # only subscribers so far: wait for a publisher (and its QoS)
+            if len(types) != 1:
+                self._ignore(topic, f'it has several types ({", ".join(types)})')
+                continue
+            msgtype = types[0]
+            cls = message_class(msgtype)
+            if cls is None:
+                self._ignore(topic, f'no Python message package for {msgtype}')
+                continue
+            self._subscribe(topic, msgtype, cls, [qos_from_profile(i.qos_profile)
+                                                  for i in infos])
+
+    def _ignore(self, topic: str, reason: str) -> None:
+        self._ignored.add(topic)
+        self.get_logger().warning(f'not recording {topic}: {reason}')
+
+    def _subscribe(self, topic: str, msgtype: str, cls: Any, offers: list[Any]) -> None:
+        adapted = adapt_to_offers(offers)
+        depth = self.params['qos_depth']
+        qos = QoSProfile(
+            history=HistoryPolicy.KEEP_LAST if depth else HistoryPolicy.KEEP_ALL,
+            depth=depth or 1,
+            reliability=(ReliabilityPolicy.RELIABLE if adapted.reliable
+                         else ReliabilityPolicy.BEST_EFFORT),
+            durability=(DurabilityPolicy.TRANSIENT_LOCAL if adapted.transient_local
+                        else DurabilityPolicy.VOLATILE))
+        try:
+            connection = self.writer.add_connection(topic, msgtype, offered_qos=offers)
+        except BagError as exc:
+            self._ignore(topic, str(exc))
+            return
+        self._topics[topic] = connection.id
+        self.create_subscription(cls, topic, self._on_message(connection.id), qos, raw=True)
+        self.get_logger().info(
+            f'recording {topic} ({msgtype}; {"reliable" if adapted.reliable else "best effort"}'
+            f'{", transient local" if adapted.transient_local else ""}; '
+            f'{len(offers)} publisher(s))')
+
+    def _on_message(self, connection_id: int) -> Callable[[bytes], None]:
+        append = self._pending.append
+        now = time.time_ns
+
+        def callback(data: bytes) -> None:
+            append((connection_id, now(), data))
+
+        return callback
+
+    # -- the loop ------------------------------------------------------------------------
+
+    def loop(self, executor: EventsExecutor, stop: threading.Event) -> None:
+        """Spin, writing what arrived in batches, until ``stop`` is set.
+
+        A batch is written once it holds ``BATCH_SIZE`` messages or its first message is
+        ``BATCH_PERIOD_NS`` old: writing after every ``spin_once`` (a few messages) cost
+        the main thread 2.5x more per message at 50 kHz.
+        """
+        pending = self._pending
+        spin_once = executor.spin_once
+        clock = time.monotonic_ns
+        oldest = 0  # monotonic time when the first pending message was seen
+        while not stop.is_set():
+            spin_once(timeout_sec=POLL_PERIOD)
+            if pending:
+                now = clock()
+                if not oldest:
+                    oldest = now
+                if len(pending) >= BATCH_SIZE or now - oldest >= BATCH_PERIOD_NS:
+                    self._flush_pending()
+                    oldest = 0
+        self._flush_pending()
+
+    def _flush_pending(self) -> None:
+        pending = self._pending
+        if not pending:
+            return
+        self._received += len(pending)
+        try:
+            self.writer.write_batch(pending)
+        except (BagError, OSError) as exc:
+            self.get_logger().fatal(f'cannot write to {self.writer.path}: {exc}')
+            pending.clear()
+            raise SystemExit(1) from None
+        pending.clear()
+
+    # -- reporting and closing -----------------------------------------------------------
+
+    def counters(self) -> dict[str, Any]:
+        """Received and written messages, per topic and in total."""
+        written = self.writer.counts_by_id()
+        topics = {topic: written.get(cid, 0) for topic, cid in sorted(self._topics.items())}
+        return {'bag': str(self.writer.path), 'received': self._received + len(self._pending),
+                'written': sum(topics.values()), 'topics': topics, 'files': self.writer.file_names,
+                'seconds': round(time.monotonic() - self._started, 3)}
+
+    def _report(self) -> None:
+        counters = self.counters()
+        now = time.monotonic()
+        rate = ((counters['written'] - self._last_report[1])
+                / max(now - self._last_report[0], 1e-9))
+        self._last_report = (now, counters['written'])
+        self.get_logger().info(
+            f"{counters['written']} messages written ({rate:.0f}/s), {counters['received']} "
+            f"received, on {len(self._topics)} topic(s), {len(counters['files'])} file(s)")
+
+    def close(self) -> None:
+        """Write what is pending, close the bag (``metadata.yaml``), log and save counters."""
+        if self._closed:
+            return
+        self._closed = True
+        try:
+            self._flush_pending()
+            self.writer.close()
+        except (BagError, OSError, SystemExit) as exc:
+            self.get_logger().error(f'closing {self.writer.path} failed: {exc}')
+            self.writer.abort()
+        counters = self.counters()
+        per_topic = ', '.join(f'{t} {n}' for t, n in counters['topics'].items()) or 'no topics'
+        self.get_logger().info(
+            f"bag closed: {counters['bag']}: {counters['written']} of {counters['received']} "
+            f"received messages written in {len(counters['files'])} file(s): {per_topic}")
+        if self.params['stats_file']:
+            path = Path(self.params['stats_file'])
+            path.parent.mkdir(parents=True, exist_ok=True)
+            path.write_text(json.dumps(counters, indent=1))
+
+
+def main(args: list[str] | None = None) -> None:
+    """Entry point of the ``recorder`` executable."""
+    sys.exit(run_node('recorder', RecorderNode, args))
+
+
+if __name__ == '__main__':
+    main()
