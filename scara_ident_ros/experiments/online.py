@@ -26,6 +26,11 @@ Public API (plain arrays; X (N, 3n) = [q, q', q''] in time order, Y (N, n) effor
     run_online(X, Y, evaluations=None, *, scaling, methods=('ffmw', 'ffw', 'ffs'),
                seeds=range(5), hyperparameters=None, window=5000, paper_window=100,
                progress=None) -> list[ResultRow]
+    hold_rows(Y, *, window=5000, paper_window=100) -> list[ResultRow]
+
+The baseline of `hold_rows` predicts each sample's effort as the previous sample's: no model
+at all. At 1 kHz the effort barely changes between samples, so its a-priori error is small;
+a network's online error means little unless it beats this.
 """
 from __future__ import annotations
 
@@ -39,14 +44,14 @@ import numpy.typing as npt
 from scara_ident_ros.experiments.datasets import Evaluations
 from scara_ident_ros.experiments.errors import effort_errors, recent_errors
 from scara_ident_ros.experiments.hyperparameters import Hyperparameters, Scaling, build_network
-from scara_ident_ros.experiments.rows import ResultRow
+from scara_ident_ros.experiments.rows import HOLD, ResultRow
 from scara_ident_ros.identification import PAPER_WINDOW
 from scara_ident_ros.methods import METHODS
 from scara_ident_ros.methods import method as method_spec
 from scara_ident_ros.nn import FeedForwardNet
 
-__all__ = ['DEFAULT_WINDOW', 'OnlineTrace', 'learn_online', 'online_rows', 'run_online',
-           'stream_data_names']
+__all__ = ['DEFAULT_WINDOW', 'OnlineTrace', 'hold_rows', 'learn_online', 'online_rows',
+           'run_online', 'stream_data_names']
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -207,3 +212,26 @@ def run_online(X: npt.ArrayLike, Y: npt.ArrayLike, evaluations: Evaluations | No
                          f'{trace.seconds:.1f} s, last-{paper_window} MSE '
                          f'{new[0].mse_mean:.3g}, {new[-1].data} NMSE {new[-1].nmse_mean:.3g}')
     return rows
+
+
+def hold_rows(Y: npt.ArrayLike, *, window: int = DEFAULT_WINDOW,
+              paper_window: int = PAPER_WINDOW) -> list[ResultRow]:
+    """Stream rows of the baseline that predicts the previous sample's effort.
+
+    Parameters
+    ----------
+    Y : array_like of shape (N, n)
+        The stream's efforts (N·m, N), in time order.
+    window, paper_window : int
+        Window lengths (samples), as in `online_rows`.
+    """
+    y = np.asarray(Y, dtype=np.float64)
+    predicted = np.full(y.shape, np.nan)
+    predicted[1:] = y[:-1]
+    short, long = stream_data_names(window, paper_window)
+    note = 'baseline: each effort predicted as the previous sample\'s'
+    return [ResultRow.from_stats(recent_errors(y, predicted, paper_window), table='online',
+                                 method=HOLD, seed=None, data=short, note=note),
+            ResultRow.from_stats(effort_errors(y[-window:], predicted[-window:]),
+                                 table='online', method=HOLD, seed=None, data=long,
+                                 note=note)]

@@ -26,10 +26,12 @@ import numpy as np
 
 from scara_ident_ros.identification import ErrorStats
 
-__all__ = ['REFERENCE', 'ResultRow', 'Spread', 'Summary', 'summarise']
+__all__ = ['HOLD', 'REFERENCE', 'ResultRow', 'Spread', 'Summary', 'summarise']
 
 #: Method label of the model-based (least-squares) reference rows.
 REFERENCE = 'LS'
+#: Method label of the trivial online baseline: predict the previous sample's effort.
+HOLD = 'hold'
 
 
 @dataclass(frozen=True)
@@ -41,7 +43,7 @@ class ResultRow:
     table : str
         ``'offline'`` (Table 2 analog) or ``'online'`` (Table 3 analog).
     method : str
-        ``'FFMW'``, ``'FFW'``, ``'FFS'`` or :data:`REFERENCE`.
+        ``'FFMW'``, ``'FFW'``, ``'FFS'``, :data:`REFERENCE` or :data:`HOLD`.
     seed : int or None
         Seed of the network's initial weights; None for the reference.
     data : str

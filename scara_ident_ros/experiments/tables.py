@@ -27,7 +27,7 @@ import math
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 
-from scara_ident_ros.experiments.rows import REFERENCE, ResultRow, Spread, Summary
+from scara_ident_ros.experiments.rows import HOLD, REFERENCE, ResultRow, Spread, Summary
 
 __all__ = ['PAPER_ITERATIONS', 'PAPER_NOTE', 'PAPER_SAMPLES', 'PAPER_TABLE2', 'PAPER_TABLE3',
            'format_spread', 'format_value', 'joint_markdown', 'offline_markdown',
@@ -166,7 +166,7 @@ def online_markdown(summaries: Iterable[Summary], *, short: str, long: str,
         cells = [m, _cell(index, m, short, 'mse_mean'), _cell(index, m, short, 'nmse_mean'),
                  _cell(index, m, long, 'nmse_mean'), _cell(index, m, test, 'mse_mean'),
                  _cell(index, m, test, 'nmse_mean'), per_sample,
-                 _DASH if first is None or m == REFERENCE
+                 _DASH if first is None or m in (REFERENCE, HOLD)
                  else f'{first.diverged}/{first.n_runs}']
         if paper:
             cells.append(format_value(PAPER_TABLE3.get(m)))
@@ -201,11 +201,12 @@ def ranking(summaries: Iterable[Summary], *, table: str, data: str, key: str = '
     key : str
         A `Spread` field of `Summary` (``'nmse_mean'``, ``'mse_mean'``).
     methods : sequence of str, optional
-        Only these methods (e.g. the three networks); default all but the reference.
+        Only these methods; default all but the reference and the baseline (the networks).
         Methods without a finite median are left out.
     """
     chosen = [s for s in summaries if s.table == table and s.data == data
-              and (s.method in methods if methods is not None else s.method != REFERENCE)]
+              and (s.method in methods if methods is not None
+                   else s.method not in (REFERENCE, HOLD))]
     finite = [s for s in chosen if math.isfinite(getattr(s, key).median)]
     return [s.method for s in sorted(finite, key=lambda s: getattr(s, key).median)]
 

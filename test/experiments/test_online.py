@@ -5,8 +5,9 @@ import numpy as np
 import pytest
 
 from scara_ident_ros.dynamics import ScaraParams
-from scara_ident_ros.experiments import (Dataset, Hyperparameters, build_network, learn_online,
-                                         online_rows, run_online, simulate_dataset)
+from scara_ident_ros.experiments import (Dataset, Hyperparameters, build_network, hold_rows,
+                                         learn_online, online_rows, run_online,
+                                         simulate_dataset)
 from scara_ident_ros.methods import limit_scaling
 from scara_ident_ros.nn import FeedForwardNet
 
@@ -66,3 +67,12 @@ def test_rows_cover_the_last_100_the_window_and_held_out(stream: Dataset) -> Non
                      ('held-out', len(test)))]
     assert all(r.table == 'online' and r.method == 'FFW' for r in rows)
     assert rows[0].iterations == len(stream)
+
+
+def test_hold_baseline_predicts_the_previous_effort() -> None:
+    Y = np.array([[0.0, 1.0], [1.0, 1.0], [3.0, 2.0], [6.0, 2.0], [10.0, 5.0]])
+    short, long = hold_rows(Y, window=4, paper_window=2)
+    assert (short.method, short.data, long.data) == ('hold', 'stream-last-2', 'stream-last-4')
+    # errors over the last 4: joint 1: 1, 2, 3, 4; joint 2: 0, 1, 0, 3
+    np.testing.assert_allclose(long.mse, [30 / 4, 10 / 4])
+    np.testing.assert_allclose(short.mse, [25 / 2, 9 / 2])
