@@ -21,8 +21,10 @@ Writes to ``--out DIR``: ``tables.md`` (what is printed), ``table2.csv`` and ``t
 (one line per method, seed and data set), ``search.csv`` (every grid point's score) and
 ``conditions.json`` (sizes, seeds, settings, timings, versions).
 
-Wall time of the default run on the 2-core development machine shared with other jobs: see
-the module constant ``DEFAULT_WALL_TIME``; ``--quick`` runs in seconds (for tests).
+BLAS runs on one thread when ``threadpoolctl`` is installed: the LM systems (684 × 684) gain
+nothing from more, and on a shared 2-core machine two BLAS threads made single LM trainings
+take 10× longer at random. Wall time of the default run: see the module constant
+``DEFAULT_WALL_TIME``; ``--quick`` runs in seconds (for tests).
 """
 from __future__ import annotations
 
@@ -42,12 +44,18 @@ from typing import Any
 
 import numpy as np
 
+try:  # one BLAS thread: LM's 684 x 684 systems gain nothing from more on a shared machine
+    from threadpoolctl import threadpool_limits
+except ImportError:  # pragma: no cover - optional
+    threadpool_limits = None
+
 from scara_ident_ros.cli import CliError
 from scara_ident_ros.dynamics import ScaraParams
 from scara_ident_ros.experiments import (DEFAULT_GOAL, DEFAULT_GRID, DEFAULT_WINDOW,
                                          PAPER_ITERATIONS, PAPER_NOTE, QUICK_GRID,
                                          Dataset, Grid, Hyperparameters, ResultRow,
-                                         SearchResult, dataset_from_record, joint_markdown,
+                                         SearchResult, Summary, dataset_from_record, format_value,
+                                         hold_rows, joint_markdown,
                                          offline_markdown, online_markdown,
                                          online_reference_rows, paper_ranking, ranking,
                                          reference_rows, run_offline, run_online, search,
@@ -63,7 +71,7 @@ __all__ = ['DEFAULTS', 'DEFAULT_WALL_TIME', 'QUICK', 'add_parser', 'main', 'run'
 #: Settings of the default run (each is a command-line option of the same name).
 DEFAULTS: dict[str, Any] = {
     'seeds': 5, 'train_seconds': 60.0, 'test_seconds': 20.0, 'online_seconds': 60.0,
-    'search_seconds': 8.0, 'iterations': PAPER_ITERATIONS, 'samples': 1000,
+    'search_seconds': 10.0, 'iterations': PAPER_ITERATIONS, 'samples': 1000,
     'window': DEFAULT_WINDOW,
 }
 #: Settings of ``--quick`` (explicit options still win).
@@ -154,7 +162,14 @@ def _log(message: str) -> None:
 def run(args: argparse.Namespace) -> int:
     """Run the comparison, print the tables, write the files; return the exit status."""
     s = _settings(args)
-    started = time.perf_counter()
+    if threadpool_limits is None:
+        return _run(args, s)
+    with threadpool_limits(limits=1, user_api='blas'):
+        return _run(args, s)
+
+
+def _run(args: argparse.Namespace, s: dict[str, Any]) -> int:
+    started, cpu_started = time.perf_counter(), time.process_time()
     timings: dict[str, float] = {}
     params = ScaraParams()
     seeds = list(range(s['seeds']))
@@ -216,8 +231,10 @@ def run(args: argparse.Namespace) -> int:
     online += online_reference_rows(stream.X, stream.Y,
                                     {HELD_OUT: (online_test.X, online_test.Y)},
                                     window=window, coulomb_eps=params.coulomb_eps)
+    online += hold_rows(stream.Y, window=window)
     timings['online'] = time.perf_counter() - tick
     timings['total'] = time.perf_counter() - started
+    timings['total_cpu'] = time.process_time() - cpu_started
 
     conditions = _conditions(args, s, params, seeds, methods, hyper, searches, timings,
                              {'offline training pool': offline_pool,
@@ -257,8 +274,10 @@ def _report(offline: list[ResultRow], online: list[ResultRow], searches: list[Se
              f'{c["test_seed"]}; networks 12-40-4 from seeds {c["seeds"]}; cells are '
              'median [min–max] over seeds. MSE is the mean over the 4 joints of the '
              'per-joint MSE in physical units ((N·m)², N²); NMSE is the mean over joints of '
-             'MSE_j / var(effort_j), var over the same samples.\n',
-             f'Wall time {c["timings_s"]["total"]:.0f} s.\n']
+             'MSE_j / var(effort_j), var over the same samples: NMSE = 1 is no better '
+             'than predicting the mean effort of those samples.\n',
+             f'Wall time {c["timings_s"]["total"]:.0f} s, CPU time '
+             f'{c["timings_s"]["total_cpu"]:.0f} s; BLAS threads: {c["blas_threads"]}.\n']
     parts += ['## Hyperparameters\n', _search_markdown(searches, hyper)]
     sizes = c['data']
     parts += [
@@ -283,11 +302,16 @@ def _report(offline: list[ResultRow], online: list[ResultRow], searches: list[Se
         'limits. Each sample is predicted before it is learnt; '
         f'`{short}` is the paper\'s "error over the last {PAPER_WINDOW} samples", '
         f'`{long}` the last {window} samples; held-out: predict-only on the held-out run '
-        'after the stream. LS: least squares fitted on the stream before the windows.\n',
+        f'after the stream. The effort varies little within {PAPER_WINDOW} samples '
+        f'({PAPER_WINDOW / 1000:g} s), so the NMSE over them is a noisy figure; `{long}` '
+        'is the steadier one. LS: least squares fitted on the stream before the windows, '
+        'with the same estimated q\'\'. hold: no model, each effort predicted as the '
+        'previous sample\'s; an online error is only worth something below it.\n',
         online_markdown(summaries, short=short, long=long, test=HELD_OUT),
         'Held-out NMSE per joint:\n',
         joint_markdown(summaries, table='online', data=HELD_OUT),
         _ranking_text(summaries, 'online', [(short, 'mse_mean', f'{short} MSE'),
+                                            (long, 'nmse_mean', f'{long} NMSE'),
                                             (HELD_OUT, 'nmse_mean', 'held-out NMSE')],
                       labels),
         f'**Paper\'s numbers.** {PAPER_NOTE}\n\n',
@@ -300,9 +324,10 @@ def _acceleration_text(kind: str) -> str:
             else 'estimate from q\' (low-pass differentiator, 50 Hz)')
 
 
-def _ranking_text(summaries: Sequence[Any], table: str,
+def _ranking_text(summaries: Sequence[Summary], table: str,
                   criteria: Sequence[tuple[str, str, str]], labels: Sequence[str]) -> str:
     paper = [m for m in paper_ranking(table) if m in labels]
+    index = {(s.method, s.data): s for s in summaries if s.table == table}
     lines = [f'Paper\'s ranking ({"Table 2" if table == "offline" else "Table 3"}): '
              f'{" < ".join(paper)}.']
     for data, key, text in criteria:
@@ -315,6 +340,12 @@ def _ranking_text(summaries: Sequence[Any], table: str,
         else:
             verdict = ('FFMW is best, as in the paper' if order[0] == 'FFMW'
                        else 'FFMW is not best')
+        if len(order) > 1:
+            first = getattr(index[(order[0], data)], key)
+            second = getattr(index[(order[1], data)], key)
+            if first.high >= second.low:
+                verdict += (f' ({order[0]} and {order[1]} overlap: their min–max ranges over '
+                            'seeds intersect)')
         lines.append(f'Measured by median {text}: {" < ".join(order)}: {verdict}.')
     return '\n'.join(f'- {line}' for line in lines) + '\n'
 
@@ -326,22 +357,29 @@ def _search_markdown(searches: list[SearchResult], hyper: dict[str, Hyperparamet
     first = searches[0]
     grid = _grid_of(searches)
     head = (f'Grid search per method on the first {first.n_samples} samples of the training '
-            f'stream (training data only): each grid point learns the segment online from '
-            f'seeds {list(first.seeds)}; score = the worst over these seeds of the joint-mean '
-            f'NMSE of the a-priori predictions over the last {first.n_scored} samples '
-            f'(inf = diverged). Grid: learning_rate '
+            f'stream (training data only; procedure in '
+            f'`scara_ident_ros.experiments.hyperparameters`). Each grid point, from seeds '
+            f'{list(first.seeds)}, learns the first {first.n_samples - first.n_scored} '
+            f'samples online; then over the last {first.n_scored}: **a priori** = NMSE of '
+            f'its predictions made before learning each sample (the score, worst seed), '
+            f'**frozen** = NMSE of a copy frozen at the split (reported, not used). Eligible '
+            f'(`*` chosen, `+` eligible): the point and the next larger learning rate both '
+            f'have a-priori NMSE < 1 for every seed. inf = diverged. Grid: learning_rate '
             f'{list(grid.learning_rate)} × momentum {list(grid.momentum)} × weight_scale '
-            f'{list(grid.weight_scale)} = {grid.size} points. `*` marks the choice.\n\n')
+            f'{list(grid.weight_scale)} = {grid.size} points.\n\n')
     labels = [method_spec(r.method).label for r in searches]
-    lines = ['| learning_rate | momentum | weight_scale | ' + ' | '.join(labels) + ' |',
-             '|---|---|---|' + '---|' * len(labels)]
+    lines = ['| learning_rate | momentum | weight_scale | '
+             + ' | '.join(f'{m} a priori | {m} frozen' for m in labels) + ' |',
+             '|---|---|---|' + '---|---|' * len(labels)]
     for i, point in enumerate(searches[0].trials):
         h = point.hyperparameters
         cells = []
         for r in searches:
             trial = r.trials[i]
-            mark = '*' if trial.hyperparameters == r.best and math.isfinite(trial.score) else ''
-            cells.append(f'{mark}{trial.score:.3g}' if math.isfinite(trial.score) else 'inf')
+            mark = ('*' if trial.hyperparameters == r.best else '+' if trial.eligible
+                    else '')
+            cells += [f'{mark}{format_value(trial.score)}',
+                      format_value(trial.frozen)]
         lines.append(f'| {h.learning_rate:g} | {h.momentum:g} | {h.weight_scale:g} | '
                      + ' | '.join(cells) + ' |')
     return head + '\n'.join(lines) + '\n\nChosen (used by both tables):\n\n' + chosen + '\n'
@@ -359,14 +397,16 @@ def _write_search_csv(path: Path, searches: list[SearchResult]) -> None:
         writer = csv.writer(stream, lineterminator='\n')
         seeds = list(searches[0].seeds) if searches else []
         writer.writerow(['method', 'learning_rate', 'momentum', 'weight_scale', 'score',
-                         *(f'score_seed{seed}' for seed in seeds), 'diverged', 'chosen',
-                         'seconds'])
+                         *(f'score_seed{seed}' for seed in seeds), 'frozen',
+                         *(f'frozen_seed{seed}' for seed in seeds), 'diverged', 'eligible',
+                         'chosen', 'seconds'])
         for r in searches:
             for t in r.trials:
                 h = t.hyperparameters
                 writer.writerow([method_spec(r.method).label, h.learning_rate, h.momentum,
                                  h.weight_scale, repr(t.score), *map(repr, t.scores),
-                                 t.diverged, h == r.best, f'{t.seconds:.3f}'])
+                                 repr(t.frozen), *map(repr, t.frozen_scores), t.diverged,
+                                 t.eligible, h == r.best, f'{t.seconds:.3f}'])
 
 
 # --------------------------------------------------------------------------- conditions
@@ -375,8 +415,9 @@ def _conditions(args: argparse.Namespace, s: dict[str, Any], params: ScaraParams
                 searches: list[SearchResult], timings: dict[str, float],
                 data: dict[str, Dataset], window: int) -> dict[str, Any]:
     return {
-        'options': {k: (str(v) if isinstance(v, Path) else v) for k, v in vars(args).items()
-                    if k not in ('func', 'command')},
+        'options': {k: (str(v) if isinstance(v, Path) else v)
+                    for k, v in {**vars(args), **s}.items()
+                    if k not in ('func', 'command', 'grid', 'search_seeds')},
         'quick': bool(args.quick),
         'preset': args.preset, 'train_seed': args.train_seed, 'test_seed': args.test_seed,
         'seeds': seeds, 'methods': [method_spec(m).label for m in methods],
@@ -400,12 +441,16 @@ def _conditions(args: argparse.Namespace, s: dict[str, Any], params: ScaraParams
             'segment_samples': searches[0].n_samples,
             'scored_samples': searches[0].n_scored, 'seeds': list(searches[0].seeds),
             'score': 'worst over seeds of the joint-mean NMSE of the a-priori predictions '
-                     'over the scored samples'},
+                     'of the scored samples, after learning the others online; eligible '
+                     'only if the next larger learning rate is stable',
+            'frozen': 'reported only: NMSE of the network frozen before the scored samples'},
         'hyperparameters': {method_spec(m).label: {'learning_rate': h.learning_rate,
                                                    'momentum': h.momentum,
                                                    'weight_scale': h.weight_scale}
                             for m, h in hyper.items()},
         'timings_s': {k: round(v, 2) for k, v in timings.items()},
+        'blas_threads': '1 (threadpoolctl)' if threadpool_limits is not None
+        else 'library default (threadpoolctl not installed)',
         'versions': _versions(),
         'machine': {'platform': platform.platform(), 'cpus': os.cpu_count()},
     }

@@ -36,29 +36,36 @@ def test_build_network_uses_the_hyperparameters() -> None:
 
 
 def test_search_scores_every_point_and_picks_the_lowest(segment: Dataset) -> None:
-    grid = Grid(learning_rate=(1e-4, 0.05), momentum=(0.5,), weight_scale=(2.0,))
+    grid = Grid(learning_rate=(1e-4, 0.05, 0.1), momentum=(0.5,), weight_scale=(2.0,))
     result = search('ffs', segment.X, segment.Y, scaling=SCALING, grid=grid, seeds=(0,))
     assert [t.hyperparameters for t in result.trials] == grid.points()
-    scores = [t.score for t in result.trials]
-    assert result.best == result.trials[int(np.argmin(scores))].hyperparameters
+    # 1e-4 is worse than the mean a priori, 0.1 is the top rate (no margin known)
+    assert [t.eligible for t in result.trials] == [False, True, False]
     assert result.best.learning_rate == 0.05  # a tiny step barely learns in 0.5 s
     assert result.n_scored == round(0.5 * len(segment))
-    # the score is the NMSE of a-priori errors over the scored half, recomputed here
+    # both figures recomputed by hand: frozen copy at the split, then a-priori errors
     net = build_network('ffs', 4, result.best)
     net.set_scaling(*SCALING)
     n_fit = len(segment) - result.n_scored
     net.partial_fit(segment.X[:n_fit], segment.Y[:n_fit])
-    errors = net.partial_fit(segment.X[n_fit:], segment.Y[n_fit:])
-    nmse = np.mean(errors ** 2, axis=0) / segment.Y[n_fit:].var(axis=0)
-    assert result.best_trial is not None
-    assert result.best_trial.score == pytest.approx(nmse.mean(), rel=1e-12)
+    frozen = segment.Y[n_fit:] - net.predict(segment.X[n_fit:])
+    a_priori = net.partial_fit(segment.X[n_fit:], segment.Y[n_fit:])
+    var = segment.Y[n_fit:].var(axis=0)
+    trial = result.best_trial
+    assert trial is not None
+    assert trial.score == pytest.approx(np.mean(np.mean(a_priori ** 2, axis=0) / var),
+                                        rel=1e-12)
+    assert trial.frozen == pytest.approx(np.mean(np.mean(frozen ** 2, axis=0) / var),
+                                         rel=1e-12)
 
 
-def test_a_diverging_point_scores_inf_and_is_not_chosen(segment: Dataset) -> None:
-    grid = Grid(learning_rate=(1e6, 0.05), momentum=(0.9,), weight_scale=(2.0,))
+def test_a_point_next_to_divergence_is_not_eligible(segment: Dataset) -> None:
+    grid = Grid(learning_rate=(0.02, 0.05, 1e6), momentum=(0.9,), weight_scale=(2.0,))
     result = search('ffmw', segment.X, segment.Y, scaling=SCALING, grid=grid)
-    assert math.isinf(result.trials[0].score) and result.trials[0].diverged
-    assert result.best.learning_rate == 0.05
+    low, mid, high = result.trials
+    assert math.isinf(high.score) and high.diverged and not high.eligible
+    assert not mid.eligible and low.eligible
+    assert result.best.learning_rate == 0.02
 
 
 def test_the_score_is_the_worst_seed(segment: Dataset) -> None:
@@ -69,6 +76,8 @@ def test_the_score_is_the_worst_seed(segment: Dataset) -> None:
     trial = both.trials[0]
     assert trial.scores == (single[0].trials[0].score, single[1].trials[0].score)
     assert trial.score == max(trial.scores) and both.seeds == (0, 1)
+    # a single learning rate gives no margin: the lowest finite score still wins
+    assert not trial.eligible and both.best == trial.hyperparameters
 
 
 def test_all_diverged_falls_back_to_the_defaults(segment: Dataset) -> None:
