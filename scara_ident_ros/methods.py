@@ -32,6 +32,14 @@ class Method:
         of ``scara-ident compare`` on training data only.
     weight_scale : float
         Initial spread of the hidden units' net input.
+
+    Notes
+    -----
+    The values in :data:`METHODS` are the choices of the default ``scara-ident compare``
+    (grid: learning rate 0.03–3, momentum 0/0.5/0.9, weight scale 1/4; the first 10 s of
+    the simulated training stream; each point learns 5 s online from seeds 0 and 1 and is
+    scored by the worst a-priori NMSE over the next 5 s, among points whose next larger
+    learning rate is still stable; see ``scara_ident_ros.experiments.hyperparameters``).
     """
 
     name: str
@@ -43,9 +51,9 @@ class Method:
 
 
 METHODS: dict[str, Method] = {
-    'ffmw': Method('ffmw', 'FFMW', 'mslog', learning_rate=0.05, momentum=0.9),
-    'ffw': Method('ffw', 'FFW', 'slog', learning_rate=0.05, momentum=0.9),
-    'ffs': Method('ffs', 'FFS', 'sigmoid', learning_rate=0.05, momentum=0.9),
+    'ffmw': Method('ffmw', 'FFMW', 'mslog', learning_rate=0.1, momentum=0.5, weight_scale=4.0),
+    'ffw': Method('ffw', 'FFW', 'slog', learning_rate=0.3, momentum=0.5, weight_scale=4.0),
+    'ffs': Method('ffs', 'FFS', 'sigmoid', learning_rate=0.1, momentum=0.5, weight_scale=4.0),
 }
 
 
