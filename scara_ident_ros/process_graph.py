@@ -62,6 +62,9 @@ class ProcessGraph:
         self.env = {**os.environ, **(env or {})}
         self.env.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
         self.env.setdefault('PYTHONUNBUFFERED', '1')
+        # One BLAS thread per process: the nodes' arrays are tiny, and competing BLAS
+        # thread pools on 2 cores cost far more than they give.
+        self.env.setdefault('OPENBLAS_NUM_THREADS', '1')
         self.env.setdefault('RCUTILS_LOGGING_BUFFERED_STREAM', '0')
         self.nodes: list[NodeProcess] = []
 

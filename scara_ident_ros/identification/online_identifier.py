@@ -51,8 +51,15 @@ class EffortModel(Protocol):
         """
         ...
 
-    def partial_fit(self, X: NDArray[np.float64], Y: NDArray[np.float64]) -> object:
-        """Take one learning step per row of X (N, 3n) towards Y (N, n), in order."""
+    def partial_fit(self, X: NDArray[np.float64],
+                    Y: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Take one learning step per row of X (N, 3n) towards Y (N, n), in order.
+
+        Returns the a-priori errors ``Y − predict(X)`` (N, n), each computed with the
+        weights from before its own step, so that the identifier gets its a-priori
+        prediction from the same forward pass as the learning step. Raises ValueError,
+        leaving the weights unchanged, if a step would not be finite.
+        """
         ...
 
 
@@ -90,6 +97,9 @@ class Counts:
         Samples for which an effort was predicted.
     learned : int
         Samples the model learnt from.
+    refused : int
+        Samples predicted but not learnt from, because the model refused the step (it
+        would not have been finite); the weights were left unchanged.
     skipped : dict of SkipReason to int
         Samples without a prediction, per reason (every reason present, from 0).
     """
@@ -97,6 +107,7 @@ class Counts:
     processed: int = 0
     predicted: int = 0
     learned: int = 0
+    refused: int = 0
     skipped: dict[SkipReason, int] = field(
         default_factory=lambda: dict.fromkeys(SkipReason, 0))
 
@@ -193,13 +204,22 @@ class OnlineIdentifier:
             counts.skipped[reason] += 1
             return StepResult(stamp_ns, None, reason)
         x = np.concatenate((sample.position, sample.velocity, acceleration))
-        predicted = self.model.predict(x)
-        counts.predicted += 1
-        if sample.effort is not None:
-            self.errors.update(sample.effort, predicted)
-            if self.learn:
-                self.model.partial_fit(x[np.newaxis], sample.effort[np.newaxis])
+        effort = sample.effort
+        if effort is not None and self.learn:
+            # One forward pass serves both: the a-priori error of the learning step
+            # gives the a-priori prediction.
+            try:
+                predicted = effort - self.model.partial_fit(x[np.newaxis],
+                                                            effort[np.newaxis])[0]
                 counts.learned += 1
+            except ValueError:
+                predicted = self.model.predict(x)
+                counts.refused += 1
+        else:
+            predicted = self.model.predict(x)
+        counts.predicted += 1
+        if effort is not None:
+            self.errors.update(effort, predicted)
         return StepResult(stamp_ns, predicted)
 
     def error_stats(self) -> ErrorStats:

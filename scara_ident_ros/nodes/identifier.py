@@ -287,7 +287,7 @@ class IdentifierNode(Node):
         return {
             'method': self.settings['method'], 'joint_names': self.names,
             'processed': counts.processed, 'predicted': counts.predicted,
-            'learned': counts.learned,
+            'learned': counts.learned, 'refused': counts.refused,
             'skipped': {reason.value: n for reason, n in counts.skipped.items() if n},
             'mse': stats.mse.tolist(), 'nmse': stats.nmse.tolist(),
             'mse_total': float(stats.mse_total), 'nmse_total': float(stats.nmse_total),
@@ -305,11 +305,18 @@ class IdentifierNode(Node):
         self.max_lag_ns = 0
 
     def checkpoint(self) -> None:
-        """Save the model to ``save_path`` (atomically)."""
+        """Save the model to ``save_path`` (atomically); a failure is logged, not fatal.
+
+        The save is atomic, so a failed checkpoint leaves the previous one intact, and
+        the network in memory keeps learning.
+        """
         path = self.settings['save_path']
         if path and self.network is not None and self.core is not None:
-            Path(path).parent.mkdir(parents=True, exist_ok=True)
-            self.network.save(path)
+            try:
+                Path(path).parent.mkdir(parents=True, exist_ok=True)
+                self.network.save(path)
+            except OSError as exc:
+                self.get_logger().error(f'checkpoint to {path} failed: {exc}')
 
     def close(self) -> None:
         """On shutdown: last checkpoint, final statistics."""

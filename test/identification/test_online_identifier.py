@@ -39,11 +39,17 @@ class RecordingModel:
         self.events.append(('predict', X.copy(), self.weights.copy()))
         return X @ self.weights.T
 
-    def partial_fit(self, X: NDArray[np.float64], Y: NDArray[np.float64]) -> None:
+    def partial_fit(self, X: NDArray[np.float64],
+                    Y: NDArray[np.float64]) -> NDArray[np.float64]:
         assert X.ndim == 2 and Y.ndim == 2
+        # The a-priori prediction inside the step, recorded as a 'predict' event with
+        # the weights it was computed with, then the step itself.
+        errors = Y - X @ self.weights.T
+        self.events.append(('predict', X[0].copy(), self.weights.copy()))
         self.events.append(('fit', X.copy(), Y.copy()))
         for x, y in zip(X, Y, strict=True):
             self.weights -= self.rate * np.outer(x @ self.weights.T - y, x)
+        return errors
 
     def fits(self) -> list[tuple[NDArray[np.float64], NDArray[np.float64]]]:
         return [(x, y) for kind, x, y in self.events if kind == 'fit']
