@@ -54,6 +54,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
                         help='identifiers to run side by side (default: all three)')
     parser.add_argument('--trajectory', default='standard', help='excitation preset')
     parser.add_argument('--seed', type=int, default=0, help='excitation seed')
+    parser.add_argument('--compression', default='zstd', choices=('zstd', 'none'),
+                        help='MCAP chunk compression of the bag (default: zstd)')
     parser.add_argument('--no-report', dest='report', action='store_false',
                         help='skip the tables and figures at the end')
     parser.set_defaults(func=run)
@@ -90,7 +92,7 @@ def run(args: argparse.Namespace) -> int:
 
     graph = ProcessGraph(out / 'logs')
     graph.start(NodeProcess('recorder', 'scara_ident_ros.nodes.recorder', [
-        '-p', f'output:={bag}', '-p', f'stats_file:={stats / "recorder.json"}']))
+        '-p', f'output:={bag}', '-p', f'compression:={args.compression}', '-p', f'stats_file:={stats / "recorder.json"}']))
     for name in args.methods:
         graph.start(NodeProcess(name, 'scara_ident_ros.nodes.identifier', [
             '-r', f'__ns:=/{name}', '-r', 'joint_states:=/joint_states',
