@@ -21,6 +21,7 @@ SUBCOMMANDS: dict[str, str] = {
     'train': 'train',
     'evaluate': 'evaluate',
     'tables': 'tables',
+    'recover': 'recover',
 }
 
 
