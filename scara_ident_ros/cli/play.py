@@ -1,0 +1,79 @@
+"""``scara-ident play BAG``: publish a recorded bag again (the ``player`` node, in-process).
+
+``scara-ident play run1 --rate 2 --loop --clock --topics /joint_states
+--remap /joint_states:=/replay/joint_states`` runs the same node as ``ros2 run
+scara_ident_ros player`` with these options as its parameters. The bag is opened first,
+so a missing, corrupt or truncated bag is reported on one line (exit status 2) before
+anything starts; the command returns 0 when the bag has been played (never with
+``--loop``: stop it with Ctrl-C).
+"""
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import Any
+
+from scara_ident_ros.cli import CliError
+
+__all__ = ['add_parser', 'run']
+
+
+def add_parser(subparsers: Any) -> None:
+    """Register ``play`` and its options."""
+    parser = subparsers.add_parser(
+        'play', help='publish a recorded bag again, timed as recorded',
+        description=__doc__.split('\n\n')[0].replace('``', ''))
+    parser.add_argument('bag', type=Path, help='bag directory, .mcap or .db3 file')
+    parser.add_argument('--rate', default='1.0',
+                        help="playback speed factor (default 1); 0 or 'max' = as fast as "
+                             'possible')
+    parser.add_argument('--loop', action='store_true', help='start over at the end, until Ctrl-C')
+    parser.add_argument('--clock', action='store_true',
+                        help='also publish /clock with the recorded time')
+    parser.add_argument('--clock-rate', type=float, default=100.0, metavar='HZ',
+                        help='rate of /clock (default 100)')
+    parser.add_argument('--topics', nargs='+', default=[], metavar='TOPIC',
+                        help='topics or glob patterns to play (default: all)')
+    parser.add_argument('--remap', nargs='+', default=[], metavar='OLD:=NEW',
+                        help='rename topics on the way out')
+    parser.add_argument('--wait-for-subscribers', type=float, default=5.0, metavar='S',
+                        help='longest wait for every played topic to have a subscriber '
+                             '(default 5)')
+    parser.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Check the options and the bag, then run the player node until the bag is done."""
+    from scara_ident_ros.bag import BagError, open_bag, parse_rate, parse_remaps
+
+    try:
+        rate = parse_rate(args.rate)
+        parse_remaps(args.remap)
+    except ValueError as exc:
+        raise CliError(str(exc)) from None
+    if args.wait_for_subscribers < 0 or args.clock_rate <= 0:
+        raise CliError('--wait-for-subscribers must be >= 0 and --clock-rate > 0')
+    try:
+        with open_bag(args.bag):
+            pass
+    except BagError as exc:
+        raise CliError(str(exc)) from None
+
+    from rclpy.parameter import Parameter
+
+    from scara_ident_ros.nodes.player import PlayerNode
+    from scara_ident_ros.nodes.runtime import run_node
+
+    overrides = [
+        Parameter('bag', value=str(args.bag)),
+        Parameter('rate', value=rate),
+        Parameter('loop', value=bool(args.loop)),
+        Parameter('clock', value=bool(args.clock)),
+        Parameter('clock_rate', value=float(args.clock_rate)),
+        Parameter('wait_for_subscribers', value=float(args.wait_for_subscribers)),
+    ]
+    if args.topics:
+        overrides.append(Parameter('topics', value=list(args.topics)))
+    if args.remap:
+        overrides.append(Parameter('remap', value=list(args.remap)))
+    return run_node('scara-ident play', lambda: PlayerNode(parameter_overrides=overrides), [])
