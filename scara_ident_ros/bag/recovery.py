@@ -24,6 +24,8 @@ written from what the files hold (topics, types, message counts, offered QoS and
 hashes from the channel metadata), so every rosbag2 reader opens the bag again. A bare
 ``.mcap`` file can be recovered the same way (no ``metadata.yaml`` then). Running it on
 an intact bag changes nothing but ``metadata.yaml``, which is rewritten identically.
+Run it only once the recorder process is gone: the file of a live recording also ends
+in an incomplete chunk, and would be rewritten under the recorder's feet.
 """
 from __future__ import annotations
 

@@ -119,7 +119,8 @@ class RecorderNode(Node):
         self.create_timer(CHUNK_POLL_PERIOD, self.writer.poll)
         if p['report_period'] > 0:
             self.create_timer(p['report_period'], self._report)
-        self.get_logger().info(f'recording {self._filter} into {output}')
+        selection = 'all topics' if p['all'] else ', '.join(self._filter.patterns)
+        self.get_logger().info(f'recording {selection} into {output}')
         self._discover()
 
     # -- discovery -----------------------------------------------------------------------
