@@ -19,7 +19,6 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from struct import error as StructError
 
 import numpy as np
 from numpy.typing import NDArray
@@ -154,10 +153,11 @@ def _read(bag: BagSource, topic: str, wanted: tuple[str, ...] | None,
         raw = message.data
         try:
             spans = split_joint_state(raw)
-        except (ValueError, IndexError, StructError) as exc:
+        except ValueError as exc:
             raw, spans = _via_rosbags(bag, raw, index, exc)
-        layout = layouts.get(spans.names, False)
-        if layout is False:
+        if spans.names in layouts:
+            layout = layouts[spans.names]
+        else:
             names = decode_names(spans.names)
             seen_names.update(names)
             if wanted is None and names:

@@ -86,6 +86,28 @@ def test_missing_values_are_nan_and_foreign_messages_are_skipped(tmp_path: Path)
                                                   [nan, nan]])
 
 
+def test_big_endian_messages_are_read_too(tmp_path: Path) -> None:
+    from bag_files import STORE
+
+    states = robot(2, 6)
+    messages = []
+    for i, raw in enumerate(robot_messages(states)):
+        if i % 2:  # re-encode every other message big-endian
+            msg = STORE.deserialize_cdr(raw, JOINT_STATE)
+            raw = bytes(STORE.serialize_cdr(msg, JOINT_STATE, little_endian=False))
+        messages.append((int(states.stamp_ns[i]), raw))
+    bag = write_rosbags_bag(tmp_path / 'bag', {'/joint_states': (JOINT_STATE, messages)})
+    assert_same_states(read_joint_states(bag), states)
+
+
+def test_undecodable_joint_state_is_an_error(tmp_path: Path) -> None:
+    good = joint_state(1, ['a'], [1.0])
+    bag = write_rosbags_bag(tmp_path / 'bag', {'/joint_states': (JOINT_STATE, [
+        (1, good), (2, good[:20])])})
+    with pytest.raises(BagError, match='JointState message 1 cannot be decoded'):
+        read_joint_states(bag)
+
+
 def test_joint_states_is_preferred_among_several_joint_state_topics(tmp_path: Path) -> None:
     states = robot(2, 10)
     messages = list(zip(states.stamp_ns.tolist(), robot_messages(states)))
