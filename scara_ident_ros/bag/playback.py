@@ -19,7 +19,7 @@ the start of playback (``due_ns``) or as recorded (``log_time_ns``).
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 
 from scara_ident_ros.bag.reader import BagMessage
