@@ -72,7 +72,11 @@ def run_node(name: str, factory: Callable[[], Node], args: list[str] | None = No
     """
     ensure_local_dds()
     stop = threading.Event()
-    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+    try:
+        rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+    except RuntimeError as exc:  # rcl rejected the command line (e.g. a malformed -p)
+        print(f'{name}: error: {" ".join(str(exc).split())}', file=sys.stderr)
+        return 2
     _install_stop_handlers(stop)
     node: Node | None = None
     try:
