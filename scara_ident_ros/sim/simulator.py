@@ -265,7 +265,7 @@ class Simulator:
         SimSample
             Readings, true acceleration and applied effort at the sample.
         """
-        stamp, q, qd, qdd, effort = self._advance()
+        stamp, q, qd, qdd, effort = self.advance()
         return SimSample(stamp, np.array(q), np.array(qd), np.array(qdd), np.array(effort))
 
     def simulate(self, n: int) -> SimRecord:
@@ -282,35 +282,25 @@ class Simulator:
             Arrays of shape (n,) and (n, 4).
         """
         n = _integer('n', n, minimum=0)
-        rows = [self._advance() for _ in range(n)]
+        rows = [self.advance() for _ in range(n)]
         stamps = np.array([row[0] for row in rows], dtype=np.int64)
         columns = [np.array([row[i] for row in rows], dtype=float).reshape(n, N_JOINTS)
                    for i in range(1, 5)]
         return SimRecord(stamps, *columns)
 
-    # -- internals ----------------------------------------------------------------------------
+    def advance(self) -> tuple[int, tuple[float, ...], tuple[float, ...],
+                               tuple[float, ...], tuple[float, ...]]:
+        """One sample as plain Python floats: the numbers of :meth:`step`, without arrays.
 
-    def _desired_at(self, k: int) -> tuple[list[float], list[float], list[float]]:
-        """Desired q, q', q'' at sample k, from a vectorised batch evaluated ahead."""
-        index = k - self._chunk_start
-        if not 0 <= index < len(self._desired):
-            self._chunk_start = k
-            times = (k + np.arange(_CHUNK)) * self._dt_ns * 1e-9
-            q, qd, qdd = self.trajectory.evaluate(times)
-            self._desired = list(zip(q.tolist(), qd.tolist(), qdd.tolist()))
-            index = 0
-        return self._desired[index]
+        The real-time node's path (a 1 kHz publisher copies the floats into its message;
+        four small arrays per sample would cost more than the conversion saves).
 
-    def _disturbance_now(self) -> tuple[float, ...]:
-        if self._kind == 'sinusoid':
-            w_t = (2.0 * math.pi * self.config.disturbance_frequency_hz
-                   * self._k * self._dt_ns * 1e-9)                             # rad
-            return tuple(a * math.sin(w_t + p) for a, p in zip(self._amplitude, self._phase))
-        return self._dist
-
-    def _advance(self) -> tuple[int, tuple[float, ...], tuple[float, ...],
-                                tuple[float, ...], tuple[float, ...]]:
-        """One sample: read, control, report, integrate. Plain floats throughout."""
+        Returns
+        -------
+        tuple
+            ``(stamp_ns, q, qd, qdd, effort)``: the stamp (ns) and four tuples of 4 float,
+            as the fields of :class:`SimSample`.
+        """
         k = self._k
         q, qd = self._q, self._qd
         q_des, qd_des, qdd_des = self._desired_at(k)
@@ -342,6 +332,26 @@ class Simulator:
             effort = tau
         self._k = k + 1
         return k * self._dt_ns, q_meas, qd_meas, qdd, effort
+
+    # -- internals ----------------------------------------------------------------------------
+
+    def _desired_at(self, k: int) -> tuple[list[float], list[float], list[float]]:
+        """Desired q, q', q'' at sample k, from a vectorised batch evaluated ahead."""
+        index = k - self._chunk_start
+        if not 0 <= index < len(self._desired):
+            self._chunk_start = k
+            times = (k + np.arange(_CHUNK)) * self._dt_ns * 1e-9
+            q, qd, qdd = self.trajectory.evaluate(times)
+            self._desired = list(zip(q.tolist(), qd.tolist(), qdd.tolist()))
+            index = 0
+        return self._desired[index]
+
+    def _disturbance_now(self) -> tuple[float, ...]:
+        if self._kind == 'sinusoid':
+            w_t = (2.0 * math.pi * self.config.disturbance_frequency_hz
+                   * self._k * self._dt_ns * 1e-9)                             # rad
+            return tuple(a * math.sin(w_t + p) for a, p in zip(self._amplitude, self._phase))
+        return self._dist
 
 
 def _rk4(fd: Any, q: tuple[float, ...], v: tuple[float, ...], a: tuple[float, ...],
