@@ -36,13 +36,14 @@ JOINT_STATES_TOPIC = 'joint_states'
 CLOCK_TOPIC = '/clock'
 QOS_DEPTH = 1000  # messages: one second of history at 1 kHz
 STATS_PERIOD = 10.0  # seconds between statistics log lines
+SPIN_PERIOD = 0.01  # seconds between two executor.spin_once calls while publishing
 ACK_TIMEOUT = 5.0  # seconds the last samples may take to be acknowledged at shutdown
 
 PARAMETERS = (
     ParamSpec('robot_config', '', 'YAML file of the robot parameters; empty: the installed '
               'config/scara.yaml'),
-    ParamSpec('joint_names', ['joint1', 'joint2', 'joint3', 'joint4'],
-              'Joint names on the wire, in the order joint1..joint4'),
+    ParamSpec('joint_names', [], 'Joint names on the wire, in the order joint1..joint4; '
+              'empty: the joint_names of the robot file', items=str),
     ParamSpec('rate_hz', 1000.0, 'Sample rate; simulated time advances 1/rate_hz per sample',
               'Hz', min=1.0, max=100_000.0),
     ParamSpec('real_time_factor', 1.0, 'Simulated seconds per wall-clock second; '
@@ -81,7 +82,7 @@ class ScaraSimNode(Node):
         try:
             path = s['robot_config'] or str(config_path('scara.yaml'))
             params = ScaraParams.from_yaml(path)
-            names = tuple(s['joint_names'])
+            names = tuple(s['joint_names']) or params.joint_names
             if len(names) != 4 or len(set(names)) != 4:
                 raise ConfigError(f"parameter 'joint_names' must be 4 distinct names, "
                                   f'got {list(names)}')
@@ -102,6 +103,7 @@ class ScaraSimNode(Node):
         self.publisher = self.create_publisher(JointState, JOINT_STATES_TOPIC, qos)
         self.clock_publisher = (self.create_publisher(Clock, CLOCK_TOPIC, 10)
                                 if s['publish_clock'] else None)
+        self.msg = joint_state(0, names, frame_id=s['frame_id'])
         self.published = 0
         self.pacer = DeadlinePacer(self.period_ns, real_time_factor=s['real_time_factor'])
         self.get_logger().info(
@@ -110,11 +112,16 @@ class ScaraSimNode(Node):
 
     def publish_next(self) -> None:
         """Advance the simulator one sample and publish it."""
-        sample = self.simulator.step()
-        stamp_ns = self.origin_ns + sample.stamp_ns
-        self.publisher.publish(joint_state(
-            stamp_ns, self.names, position=sample.q, velocity=sample.qd,
-            effort=sample.effort, frame_id=self.settings['frame_id']))
+        stamp_ns, q, qd, _, effort = self.simulator.advance()
+        stamp_ns += self.origin_ns
+        msg = self.msg  # reused: publish() serialises it before returning
+        sec, nanosec = divmod(stamp_ns, NS_PER_S)
+        msg.header.stamp.sec = sec
+        msg.header.stamp.nanosec = nanosec
+        msg.position = q
+        msg.velocity = qd
+        msg.effort = effort
+        self.publisher.publish(msg)
         if self.clock_publisher is not None:
             self.clock_publisher.publish(Clock(clock=ns_to_stamp(stamp_ns)))
 
@@ -128,6 +135,7 @@ class ScaraSimNode(Node):
             self.origin_ns = time.time_ns() // 1_000_000 * 1_000_000
         self.pacer.restart()
         next_stats = time.monotonic() + STATS_PERIOD
+        next_spin = 0.0
         while not stop.is_set():
             due = self.pacer.wait(POLL_PERIOD)
             if self.limit is not None:
@@ -135,10 +143,13 @@ class ScaraSimNode(Node):
             for _ in range(due):
                 self.publish_next()
             self.published += due
-            executor.spin_once(timeout_sec=0)
             if self.limit is not None and self.published >= self.limit:
                 break
-            if time.monotonic() >= next_stats:
+            now = time.monotonic()
+            if now >= next_spin:  # services (parameters) only: no need to spin every sample
+                executor.spin_once(timeout_sec=0)
+                next_spin = now + SPIN_PERIOD
+            if now >= next_stats:
                 next_stats += STATS_PERIOD
                 self.log_stats()
 
