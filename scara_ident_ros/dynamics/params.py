@@ -241,15 +241,22 @@ class ScaraParams:
     def from_yaml(cls, path: str | Path) -> ScaraParams:
         """Read parameters from a plain YAML mapping (see ``config/scara.yaml``).
 
+        A robot file names every parameter: a forgotten or misspelt one must not silently
+        take the default of another robot (unlike :meth:`from_dict`).
+
         Raises
         ------
         ParamError
-            If the file is missing or unreadable, is not a YAML mapping, or holds unknown
-            names or invalid values; the message names the path.
+            If the file is missing or unreadable, is not a YAML mapping, lacks a parameter,
+            or holds unknown names or invalid values; the message names the path.
         """
-        data = _load_yaml_mapping(path)
+        data = _check_keys(cls, _load_yaml_mapping(path), str(path))
+        missing = [f.name for f in fields(cls) if f.name not in data]
+        if missing:
+            raise ParamError(f'{path}: missing parameter(s) {", ".join(missing)}; a robot '
+                             'file names every parameter (see config/scara.yaml)')
         try:
-            return cls(**_check_keys(cls, data, str(path)))
+            return cls(**data)
         except ParamError as exc:
             if str(exc).startswith(str(path)):
                 raise

@@ -62,6 +62,8 @@ class ParamSpec:
 
     def check(self, value: Any) -> str | None:
         """Return why ``value`` is not acceptable, or None if it is."""
+        if value is None and self.default == []:
+            return None  # `name: []` in a params file: rcl reads an empty list as not set
         if isinstance(self.default, float) and (
                 isinstance(value, bool) or not isinstance(value, (int, float))):
             return f'must be a number, got {value!r}'
@@ -114,4 +116,6 @@ def declare_parameters(node: Node, specs: Sequence[ParamSpec]) -> dict[str, Any]
             raise ConfigError(f"parameter '{spec.name}' {reason}")
         if isinstance(spec.default, float):
             values[spec.name] = float(values[spec.name])
+        elif values[spec.name] is None and spec.default == []:
+            values[spec.name] = []
     return values

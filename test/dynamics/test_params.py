@@ -55,10 +55,20 @@ def test_yaml_round_trip(tmp_path: Path) -> None:
     assert ScaraParams.from_yaml(path) == p
 
 
-def test_missing_keys_take_defaults(tmp_path: Path) -> None:
+def test_a_robot_file_must_name_every_parameter(tmp_path: Path) -> None:
+    full = yaml.safe_load(CONFIG.read_text(encoding='utf-8'))
+    del full['izz3'], full['coulomb']
     path = tmp_path / 'partial.yaml'
-    path.write_text('m4: 2.0\n', encoding='utf-8')
-    assert ScaraParams.from_yaml(path) == dataclasses.replace(ScaraParams(), m4=2.0)
+    path.write_text(yaml.safe_dump(full), encoding='utf-8')
+    with pytest.raises(ParamError, match=r'partial.yaml: missing parameter\(s\) izz3, coulomb;'):
+        ScaraParams.from_yaml(path)
+    path.write_text('', encoding='utf-8')
+    with pytest.raises(ParamError, match='missing parameter'):
+        ScaraParams.from_yaml(path)
+
+
+def test_missing_keys_take_defaults_in_from_dict() -> None:
+    assert ScaraParams.from_dict({'m4': 2.0}) == dataclasses.replace(ScaraParams(), m4=2.0)
 
 
 @pytest.mark.parametrize(('changes', 'fragment'), [
@@ -120,7 +130,8 @@ def test_invalid_value_in_yaml_names_path_and_field(tmp_path: Path) -> None:
     path.write_text('m3: -2.0\nfoo: 1\n', encoding='utf-8')
     with pytest.raises(ParamError, match=r'robot\.yaml.*foo'):
         ScaraParams.from_yaml(path)
-    path.write_text('m3: -2.0\n', encoding='utf-8')
+    full = yaml.safe_load(CONFIG.read_text(encoding='utf-8'))
+    path.write_text(yaml.safe_dump({**full, 'm3': -2.0}), encoding='utf-8')
     with pytest.raises(ParamError, match=r'robot\.yaml: m3 must be > 0, got -2.0'):
         ScaraParams.from_yaml(path)
 

@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 
@@ -142,15 +143,18 @@ def test_signal_stops_the_node_cleanly(sig: int, wait_for_subscribers: int) -> N
 
 
 ROBOT_YAML = CONFIG_DIR / 'scara.yaml'
+DELETE = object()  # in a robot-file change: leave this field out
 BAD_INPUTS = {
-    # id: (ros args, robot_config YAML text or None, text the error line must contain)
+    # id: (ros args, robot file: None, changes to config/scara.yaml or a raw YAML text,
+    #      text the error line must contain)
     'negative rate': (['-p', 'rate_hz:=-100.0'], None, "'rate_hz'"),
     'zero rate': (['-p', 'rate_hz:=0.0'], None, "'rate_hz'"),
     'text rate': (['-p', 'rate_hz:=fast'], None, "'rate_hz'"),
     'unknown preset': (['-p', 'trajectory:=wild'], None, "'trajectory'"),
-    'negative mass': ([], 'm2: -5.0\n', 'm2'),
-    'unknown field': ([], 'mass1: 8.0\n', 'mass1'),
-    'short vector': ([], 'viscous: [3.0, 1.5, 20.0]\n', 'viscous'),
+    'negative mass': ([], {'m2': -5.0}, 'm2'),
+    'unknown field': ([], {'mass1': 8.0}, 'mass1'),
+    'missing field': ([], {'izz3': DELETE}, 'izz3'),
+    'short vector': ([], {'viscous': [3.0, 1.5, 20.0]}, 'viscous'),
     'invalid yaml': ([], 'm1: [8.0\n', 'robot.yaml'),
     'missing file': (['-p', 'robot_config:=/nonexistent/robot.yaml'], None,
                      '/nonexistent/robot.yaml'),
@@ -162,6 +166,9 @@ BAD_INPUTS = {
 @pytest.mark.parametrize('case', BAD_INPUTS)
 def test_bad_input_ends_with_one_line_naming_the_field(case: str, tmp_path: Path) -> None:
     ros_args, robot_yaml, named = BAD_INPUTS[case]
+    if isinstance(robot_yaml, dict):
+        robot = yaml.safe_load(ROBOT_YAML.read_text()) | robot_yaml
+        robot_yaml = yaml.safe_dump({k: v for k, v in robot.items() if v is not DELETE})
     if robot_yaml is not None:
         (tmp_path / 'robot.yaml').write_text(robot_yaml)
         ros_args = [*ros_args, '-p', f'robot_config:={tmp_path / "robot.yaml"}']
@@ -206,3 +213,23 @@ def test_params_file_sets_the_parameters(params_file: Path | None, expected: str
     assert expected in output.stderr
     samples = round(0.1 * float(expected.split()[1]))
     assert f'published {samples} samples' in output.stderr
+
+
+@pytest.mark.parametrize('ros_args, names', [
+    ([], ['base', 'shoulder', 'quill', 'wrist']),
+    (['-p', 'joint_names:=[a,b,c,d]'], ['a', 'b', 'c', 'd']),
+], ids=['robot file', 'parameter'])
+def test_joint_names_come_from_the_robot_file_unless_given(
+        ros_args: list[str], names: list[str], listener: Listener, tmp_path: Path) -> None:
+    robot = yaml.safe_load(ROBOT_YAML.read_text())
+    robot['joint_names'] = ['base', 'shoulder', 'quill', 'wrist']
+    (tmp_path / 'robot.yaml').write_text(yaml.safe_dump(robot))
+    messages = listener.subscribe(JointState, JOINT_STATES_TOPIC)
+    with NodeProcess(MODULE, [*ros_args, '-p', f'robot_config:={tmp_path / "robot.yaml"}',
+                              '-p', 'wait_for_subscribers:=1', '-p', 'duration:=0.2']) as node:
+        listener.spin_until(node.exited, EXIT_TIMEOUT)
+        output = node.wait(EXIT_TIMEOUT)
+    listener.spin_until(lambda: len(messages) >= 200, 2.0)
+    assert output.returncode == 0, output.stderr
+    assert len(messages) == 200
+    assert {tuple(m.name) for m in messages} == {tuple(names)}
