@@ -9,6 +9,6 @@ class BagError(Exception):
 
     The message is one line that says what went wrong and where (the path, and the
     file offset or message number when known), e.g.
-    ``'/data/run1: no metadata.yaml (not a rosbag2 bag; if the recorder was killed,
-    recover it with recover_bag())'``.
+    ``'/data/run1/bag_0.mcap: truncated MCAP file (1048576 bytes, no footer; was the
+    recorder killed?): recover it with: scara-ident recover /data/run1'``.
     """

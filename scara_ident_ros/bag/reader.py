@@ -17,6 +17,7 @@ message names the file.
 """
 from __future__ import annotations
 
+import shlex
 from collections.abc import Iterable, Iterator
 from pathlib import Path
 from types import TracebackType
@@ -191,8 +192,8 @@ def _check_layout(path: Path) -> None:
             if storage:
                 raise BagError(
                     f'{path}: no metadata.yaml but {len(storage)} storage file(s) '
-                    f'({", ".join(storage[:3])}): a recording that was not closed; recover it '
-                    'with scara_ident_ros.bag.recover_bag()')
+                    f'({", ".join(storage[:3])}): a recording that was not closed; '
+                    f'{_recover_hint(path)}')
             raise BagError(f'{path}: not a rosbag2 bag (no metadata.yaml and no .mcap or '
                            '.db3 file)')
         for name in storage:
@@ -223,8 +224,12 @@ def _check_mcap(file: Path, *, bag: Path | None) -> None:
     if tail != MCAP_MAGIC:
         target = bag if bag is not None else file
         raise BagError(f'{file}: truncated MCAP file ({size} bytes, no footer; was the '
-                       f'recorder killed?): recover it with '
-                       f'scara_ident_ros.bag.recover_bag({str(target)!r})')
+                       f'recorder killed?): {_recover_hint(target)}')
+
+
+def _recover_hint(target: Path) -> str:
+    """The command that makes ``target`` (a bag directory or a .mcap file) readable again."""
+    return f'recover it with: scara-ident recover {shlex.quote(str(target))}'
 
 
 def _describe(exc: BaseException) -> str:
