@@ -45,6 +45,8 @@ METADATA_PREFIX = 'meta.'
 _FIELDS = ('sizes', 'activation', 'constants', 'params', 'velocity', 'x_min', 'x_max',
            'y_min', 'y_max', 'scaling_set', 'training', 'seed')
 _METADATA_KINDS = 'biufcUS'  # bool, integers, floats, complex, strings: nothing pickled
+_NPY_MAGIC = b'\x93NUMPY'
+_ZIP_MAGICS = (b'PK\x03\x04', b'PK\x05\x06')  # a local file header; an empty archive
 
 
 def write_model(path: str | Path, arrays: dict[str, np.ndarray],
@@ -105,7 +107,9 @@ def read_model(path: str | Path) -> tuple[dict[str, np.ndarray], dict[str, np.nd
     Raises
     ------
     ModelFormatError
-        If the file is not a network file, has another format version, or is corrupt.
+        If the path is a directory, or the file is not a network file (not a zip/.npz
+        archive, a single .npy array, object arrays), has another format version, or is
+        corrupt.
     FileNotFoundError
         If there is no such file.
     """
@@ -132,20 +136,57 @@ def read_model(path: str | Path) -> tuple[dict[str, np.ndarray], dict[str, np.nd
 
 
 def _read_npz(path: Path) -> dict[str, np.ndarray]:
+    """Every entry of the ``.npz`` archive at ``path``, nothing unpickled.
+
+    The file's first bytes are checked before numpy sees it, so a file that is not a zip
+    archive is reported as such (numpy would try to unpickle it and say so).
+    """
+    if path.is_dir():
+        raise ModelFormatError(f'{path}: is a directory, not a network file')
     if not path.exists():
         raise FileNotFoundError(f'{path}: no such network file')
+    try:
+        with path.open('rb') as stream:
+            head = stream.read(len(_NPY_MAGIC))  # the longer magic
+    except OSError as exc:
+        raise ModelFormatError(f'{path}: cannot read the network file: '
+                               f'{exc.strerror or exc}') from exc
+    if head.startswith(_NPY_MAGIC):
+        raise ModelFormatError(f'{path}: a single .npy array, not a network file')
+    if not head.startswith(_ZIP_MAGICS):
+        what = 'an empty file' if not head else 'not a zip/.npz archive'
+        raise ModelFormatError(f'{path}: not a .npz network file ({what})')
     unreadable = (ValueError, OSError, EOFError, zipfile.BadZipFile, zlib.error, KeyError)
     try:
         loaded = np.load(path, allow_pickle=False)
+    except zipfile.BadZipFile as exc:
+        raise ModelFormatError(f'{path}: not a .npz network file (a truncated or damaged '
+                               'zip archive)') from exc
     except unreadable as exc:
-        raise ModelFormatError(f'{path}: not a .npz network file ({exc})') from exc
+        raise ModelFormatError(f'{path}: not a .npz network file ({_one_line(exc)})') from exc
     if not isinstance(loaded, np.lib.npyio.NpzFile):
-        raise ModelFormatError(f'{path}: a single .npy array, not a network file')
-    try:
-        with loaded:
-            return {name: loaded[name] for name in loaded.files}
-    except unreadable as exc:
-        raise ModelFormatError(f'{path}: corrupt network file ({exc})') from exc
+        raise ModelFormatError(f'{path}: not a .npz network file')
+    entries: dict[str, np.ndarray] = {}
+    with loaded:
+        for name in loaded.files:
+            try:
+                entries[name] = loaded[name]
+            except ValueError as exc:
+                if 'allow_pickle' in str(exc):  # numpy refusing an object array
+                    raise ModelFormatError(f'{path}: not a network file of ours: entry '
+                                           f'{name!r} is an object array (never unpickled)'
+                                           ) from exc
+                raise ModelFormatError(f'{path}: corrupt network file: entry {name!r}: '
+                                       f'{_one_line(exc)}') from exc
+            except unreadable as exc:
+                raise ModelFormatError(f'{path}: corrupt network file: entry {name!r}: '
+                                       f'{_one_line(exc)}') from exc
+    return entries
+
+
+def _one_line(exc: BaseException) -> str:
+    """The exception's message on one line, or its type's name if it has none."""
+    return ' '.join(str(exc).split()) or type(exc).__name__
 
 
 def _check_arrays(arrays: dict[str, np.ndarray]) -> str:

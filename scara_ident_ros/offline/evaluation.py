@@ -38,12 +38,17 @@ def load_model(path: Path) -> FeedForwardNet:
     Raises
     ------
     ModelMismatch
-        If the file is missing, not a network of ours (another format, corrupt), or its
-        sizes are not 3n inputs for n outputs.
+        If the file is missing, the path is a directory, the file is not a network of
+        ours (not a .npz archive, another format, corrupt), or its sizes are not 3n inputs
+        for n outputs.
     """
     path = Path(path)
-    if not path.is_file():
+    if path.is_dir():
+        raise ModelMismatch(f'{path}: is a directory, not a model file (.npz)')
+    if not path.exists():
         raise ModelMismatch(f'{path}: no such model file')
+    if not path.is_file():
+        raise ModelMismatch(f'{path}: not a regular file, not a model file')
     try:
         network = FeedForwardNet.load(path)
     except ModelFormatError as exc:
