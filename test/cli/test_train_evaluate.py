@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import re
+import shlex
 import sys
 from pathlib import Path
 
@@ -17,11 +18,30 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'offline'))
 from fake_bags import (States, synthetic_states,  # noqa: E402  (not a package)
                        write_bare_mcap, write_rosbag, write_run_bag)
 
+SHIPPED = Path(__file__).resolve().parents[2] / 'bags' / 'demo_run'
+#: Foreign bags: a rosbag2 directory written by rosbags (sqlite3 storage), a bare ``.mcap``
+#: written by mcap-ros2-support.
+FORMATS = ('sqlite3', 'mcap')
+
 
 def run_cli(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str, str]:
     code = main([str(a) for a in argv])
     captured = capsys.readouterr()
     return code, captured.out, captured.err
+
+
+def write_bag(fmt: str, path: Path, states: States) -> Path:
+    """``states`` as a bag of format ``fmt`` (one of `FORMATS`) at ``path`` (+ ``.mcap``)."""
+    if fmt == 'sqlite3':
+        return write_rosbag(path, states, storage='sqlite3')
+    return write_bare_mcap(path.with_name(path.name + '.mcap'), states)
+
+
+def reordered(states: States, order: list[int]) -> States:
+    """The same states with the joints in ``order`` inside each message."""
+    return States(states.stamp_ns, tuple(states.names[j] for j in order),
+                  states.position[:, order], states.velocity[:, order],
+                  states.effort[:, order])
 
 
 def table_rows(text: str) -> dict[str, list[str]]:
@@ -43,39 +63,80 @@ def bags(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     return {
         # joints in another order inside the messages: mapped back by name
         'sqlite2': write_rosbag(root / 'two_sqlite', two, storage='sqlite3', order=[1, 0]),
-        'sqlite2b': write_rosbag(root / 'two_other', synthetic_states(2, 2.0, seed=1,
-                                                                      rate_hz=500.0)),
         'mcap6': write_bare_mcap(root / 'six.mcap', six),
         'mcap6_bag': write_rosbag(root / 'six_bag', six, storage='mcap',
                                   topic='/robot/joint_states'),
     }
 
 
-def test_train_then_evaluate_two_joints_sqlite(bags: dict[str, Path], tmp_path: Path,
-                                               capsys: pytest.CaptureFixture[str]) -> None:
+def assert_finite(rows: dict[str, list[str]]) -> None:
+    assert rows and all(np.isfinite(float(cell)) for row in rows.values() for cell in row)
+
+
+@pytest.mark.parametrize('n_joints', [2, 6])
+@pytest.mark.parametrize('fmt', FORMATS)
+def test_train_then_evaluate(fmt: str, n_joints: int, tmp_path: Path,
+                             capsys: pytest.CaptureFixture[str]) -> None:
+    states = synthetic_states(n_joints, 2.0, seed=n_joints, rate_hz=500.0)
+    # the joints in reverse order inside the messages: the model keeps that order
+    order = list(range(n_joints))[::-1]
+    trained = [f'joint{j + 1}' for j in order]
+    labels = [f'{name} (N·m or N)' for name in trained] + ['mean']
     model = tmp_path / 'models' / 'ffmw.npz'
-    code, out, err = run_cli(capsys, 'train', bags['sqlite2'], '--method', 'ffmw',
-                             '--iterations', '30', '--out', model)
+    code, out, err = run_cli(capsys, 'train', write_bag(fmt, tmp_path / 'run',
+                                                        reordered(states, order)),
+                             '--method', 'ffmw', '--iterations', '10', '--samples', '400',
+                             '--out', model)
     assert code == 0, err
-    assert '/30 mse ' in err and 'stopped:' in err  # the progress bar, on stderr
-    assert 'training on 1599, validating on 400' in out  # 10 s at 200 Hz less one warm-up
+    assert '/10 mse ' in err and 'stopped:' in err  # the progress bar, on stderr
+    assert f'999 samples of {n_joints} joints {trained}' in out  # 2 s at 500 Hz, 1 warm-up
+    assert 'training on 400, validating on 200' in out  # the last 20 % of the time validates
     rows = table_rows(out)
-    assert set(rows) == {'joint1 (N·m or N)', 'joint2 (N·m or N)', 'mean'}
-    assert float(rows['mean'][1]) < 0.05  # training NMSE
+    assert list(rows) == labels
+    assert_finite(rows)
+    assert float(rows['mean'][1]) < 0.01  # training NMSE
     network = FeedForwardNet.load(model)
-    # the joint order of the first message (joint2 first), kept in the model
-    assert list(network.metadata['joint_names']) == ['joint2', 'joint1']
+    assert (network.n_inputs, network.n_outputs) == (3 * n_joints, n_joints)
+    assert list(network.metadata['joint_names']) == trained
     assert str(network.metadata['method']) == 'ffmw'
     assert network.activation == METHODS['ffmw'].activation
     assert network.scaling_set
 
-    code, out, err = run_cli(capsys, 'evaluate', model, bags['sqlite2b'])
+    # the same motion sampled at 1 kHz, joints in natural order: mapped back by name
+    other = write_bag(fmt, tmp_path / 'other',
+                      synthetic_states(n_joints, 1.0, seed=n_joints, rate_hz=1000.0))
+    code, out, err = run_cli(capsys, 'evaluate', model, other)
     assert code == 0, err
-    assert 'FFMW model' in out and 'mapped by name' in out
-    rows = table_rows(out)  # the bag has joint1 first: mapped to the model's order by name
-    assert list(rows) == ['joint2 (N·m or N)', 'joint1 (N·m or N)', 'mean']
-    assert all(np.isfinite(float(cell)) for row in rows.values() for cell in row)
-    assert float(rows['mean'][1]) < 0.2  # another run of the same robot, 500 Hz
+    assert 'FFMW model' in out and '999 samples over 1.0 s' in out and 'mapped by name' in out
+    rows = table_rows(out)
+    assert list(rows) == labels
+    assert all(len(row) == 2 for row in rows.values())  # MSE, NMSE
+    assert_finite(rows)
+    assert float(rows['mean'][1]) < 0.2
+
+
+def test_train_and_evaluate_the_shipped_bag(tmp_path: Path,
+                                            capsys: pytest.CaptureFixture[str]) -> None:
+    """bags/demo_run: 10 s of the project's own graph, the identifiers' JointStates too."""
+    model = tmp_path / 'demo.npz'
+    code, out, err = run_cli(capsys, 'train', SHIPPED, '--method', 'ffmw', '--iterations', '3',
+                             '--samples', '500', '--out', model)
+    assert code == 0, err
+    # /joint_states of the several JointState topics (/ffmw/identified_torque, ...)
+    assert f'{SHIPPED} /joint_states: ' in out and 'training on 500' in out
+    network = FeedForwardNet.load(model)
+    assert isinstance(network, FeedForwardNet)
+    assert (network.n_inputs, network.n_outputs) == (12, 4)
+    names = [f'joint{i + 1}' for i in range(4)]
+    assert list(network.metadata['joint_names']) == names
+
+    code, out, err = run_cli(capsys, 'evaluate', model, SHIPPED)
+    assert code == 0, err
+    assert f'FFMW model {model} on {SHIPPED} /joint_states: ' in out
+    rows = table_rows(out)
+    assert [label.split()[0] for label in rows] == [*names, 'mean']
+    assert all(len(row) == 2 for row in rows.values())
+    assert_finite(rows)
 
 
 def test_identifier_warm_starts_from_a_trained_model(bags: dict[str, Path], tmp_path: Path,
@@ -145,7 +206,8 @@ def _bad_bags(root: Path) -> dict[str, tuple[Path, str]]:
         np.zeros((states.stamp_ns.shape[0], 0))))
     return {
         'missing': (root / 'nope', r'nope.*does not exist'),
-        'truncated': (truncated, r'truncated'),
+        'truncated': (truncated, r'truncated\.mcap: truncated MCAP file .*: recover it with: '
+                                 r'scara-ident recover \S*truncated\.mcap$'),
         'corrupt': (corrupt, r'corrupt\.mcap'),
         'garbage_bag': (garbage_bag, r'garbage_bag'),
         'few': (few, r'few.*9 usable samples of 10 messages.*need at least 20'),
@@ -174,6 +236,25 @@ def test_bad_bags_give_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[st
                            r'/ffmw/identified_torque carries no position for joint1, joint2')
 
 
+def test_truncated_bag_names_the_recover_command(tmp_path: Path,
+                                                capsys: pytest.CaptureFixture[str]) -> None:
+    full = write_bare_mcap(tmp_path / 'full.mcap', synthetic_states(2, 1.0))
+    bag = tmp_path / 'cut off.mcap'  # a space: the suggested command quotes the path
+    bag.write_bytes(full.read_bytes()[:full.stat().st_size // 2])
+    code, out, err = run_cli(capsys, 'train', bag, '--method', 'ffmw', '--out',
+                             tmp_path / 'm.npz')
+    _assert_one_line_error(code, out, err, r'truncated MCAP file')
+    assert 'recover_bag' not in err
+    hint = ': recover it with: '
+    assert hint in err
+    command = shlex.split(err.strip().split(hint)[-1])
+    assert command == ['scara-ident', 'recover', str(bag)]
+    # the command as suggested runs; the bag is no longer truncated (but empty: one chunk)
+    assert main(command[1:]) == 0
+    _assert_one_line_error(*run_cli(capsys, 'train', bag, '--method', 'ffmw', '--out',
+                                    tmp_path / 'm.npz'), r'no sensor_msgs/msg/JointState')
+
+
 def test_no_joint_state_topic_lists_the_topics(tmp_path: Path,
                                                capsys: pytest.CaptureFixture[str]) -> None:
     states = synthetic_states(2, 0.1)
@@ -197,7 +278,14 @@ def test_bad_models_give_one_line(bags: dict[str, Path], tmp_path: Path,
                                   capsys: pytest.CaptureFixture[str]) -> None:
     text = tmp_path / 'notes.npz'
     text.write_text('not a model\n')
-    _assert_one_line_error(*run_cli(capsys, 'evaluate', text, bags['sqlite2']), r'notes\.npz')
+    code, out, err = run_cli(capsys, 'evaluate', text, bags['sqlite2'])
+    _assert_one_line_error(code, out, err, r'notes\.npz: not a \.npz network file \(not a '
+                                           r'zip/\.npz archive\)$')
+    assert 'pickle' not in err  # numpy's advice on unpickling has no place here
+    # a directory given as MODEL (e.g. the --out directory of several models)
+    (tmp_path / 'models').mkdir()
+    _assert_one_line_error(*run_cli(capsys, 'evaluate', tmp_path / 'models', bags['sqlite2']),
+                           r'models: is a directory, not a model file')
     other = tmp_path / 'other.npz'
     np.savez(other, weights=np.zeros(3))
     _assert_one_line_error(*run_cli(capsys, 'evaluate', other, bags['sqlite2']), r'other\.npz')
