@@ -4,7 +4,8 @@
 starts what ``scara-ident run`` starts: the simulated SCARA (unless ``sim:=false``,
 e.g. with a real robot or ``scara-ident play``), three identifiers side by side
 (FFMW, FFW, FFS in the namespaces /ffmw, /ffw, /ffs, all fed by /joint_states) and
-the MCAP recorder.
+the MCAP recorder. The simulator waits (at most WAIT_TIMEOUT s) until the identifiers and
+the recorder have subscribed to /joint_states before its first sample.
 """
 from launch import LaunchDescription
 from launch.actions import DeclareLaunchArgument
@@ -14,6 +15,7 @@ from launch_ros.actions import Node
 from launch_ros.substitutions import FindPackageShare
 
 METHODS = ('ffmw', 'ffw', 'ffs')
+WAIT_TIMEOUT = 60.0  # s, longest wait of the simulator for its subscribers (as scara-ident run)
 
 
 def generate_launch_description():
@@ -23,8 +25,14 @@ def generate_launch_description():
                               description='Directory of the MCAP bag to record'),
         DeclareLaunchArgument('sim', default_value='true',
                               description='Start the simulated SCARA'),
+        # Like scara-ident run: the simulator starts publishing only once the identifiers
+        # and the recorder below are subscribed to /joint_states, and each identifier
+        # subscribes only once the recorder records its outputs, so that nothing misses
+        # the first samples or predictions.
         Node(package='scara_ident_ros', executable='scara_sim', name='scara_sim',
-             parameters=[PathJoinSubstitution([config, 'scara_sim.yaml'])],
+             parameters=[PathJoinSubstitution([config, 'scara_sim.yaml']),
+                         {'wait_for_subscribers': len(METHODS) + 1,
+                          'wait_timeout': WAIT_TIMEOUT}],
              condition=IfCondition(LaunchConfiguration('sim'))),
         Node(package='scara_ident_ros', executable='recorder', name='recorder',
              parameters=[PathJoinSubstitution([config, 'recorder.yaml']),
@@ -35,6 +43,7 @@ def generate_launch_description():
             package='scara_ident_ros', executable='identifier', name='identifier',
             namespace=method,
             parameters=[PathJoinSubstitution([config, 'identifier.yaml']),
-                        {'method': method}],
+                        {'method': method, 'wait_for_subscribers': 1,
+                         'wait_timeout': WAIT_TIMEOUT}],
             remappings=[('joint_states', '/joint_states')]))
     return LaunchDescription(actions)

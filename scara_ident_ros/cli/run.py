@@ -2,8 +2,9 @@
 
 Starts, as separate processes, the MCAP recorder, three identifiers side by side
 (FFMW, FFW, FFS in the namespaces ``/ffmw``, ``/ffw``, ``/ffs``, all fed by
-``/joint_states``) and the simulated SCARA; the simulator waits until the
-identifiers and the recorder are subscribed, publishes ``--duration`` seconds of
+``/joint_states``) and the simulated SCARA; each identifier subscribes once the
+recorder records its outputs, the simulator waits until the identifiers and the
+recorder are subscribed, then publishes ``--duration`` seconds of
 samples at 1 kHz and stops; the others then drain their queues and are stopped
 with SIGINT (identifiers save their models, the recorder closes the bag). A summary
 compares what was published with what was processed and recorded. Unless
@@ -97,6 +98,9 @@ def run(args: argparse.Namespace) -> int:
         graph.start(NodeProcess(name, 'scara_ident_ros.nodes.identifier', [
             '-r', f'__ns:=/{name}', '-r', 'joint_states:=/joint_states',
             '-p', f'method:={name}', '-p', f'save_path:={models / name}.npz',
+            # subscribe /joint_states only once the recorder records this identifier's
+            # outputs: the simulator's wait below then covers the predictions too
+            '-p', 'wait_for_subscribers:=1', '-p', f'wait_timeout:={STARTUP_TIMEOUT}',
             '-p', f'stats_file:={stats / name}.json']))
     sim = graph.start(NodeProcess('scara_sim', 'scara_ident_ros.nodes.scara_sim', [
         '-p', f'duration:={args.duration}', '-p', f'trajectory:={args.trajectory}',

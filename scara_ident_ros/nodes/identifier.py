@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.subscription import Subscription
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 
@@ -44,8 +45,11 @@ JOINT_STATES_TOPIC = 'joint_states'
 TORQUE_TOPIC = 'identified_torque'
 MSE_TOPIC = 'identification_mse'
 QOS_DEPTH = 5000  # messages: 5 s at 1 kHz may queue before any is dropped
+STREAM_QOS = QoSProfile(depth=QOS_DEPTH, history=HistoryPolicy.KEEP_LAST,
+                        reliability=ReliabilityPolicy.RELIABLE)  # joint_states, torques
 STATS_PERIOD = 10.0  # s between statistics log lines
 WARN_PERIOD = 5.0  # s between two warnings about skipped samples
+WAIT_POLL_PERIOD = 0.02  # s between two looks at the outputs' subscriber counts
 
 PARAMETERS = (
     ParamSpec('method', 'ffmw', 'Network: FFMW (MSLOG), FFW (SLOG) or FFS (sigmoid)',
@@ -84,6 +88,10 @@ PARAMETERS = (
     ParamSpec('acceleration_max', [], 'Per-joint |acceleration| limits (rad/s² or m/s²)',
               items=float),
     ParamSpec('effort_max', [], 'Per-joint |effort| limits (N·m or N)', items=float),
+    ParamSpec('wait_for_subscribers', 0, 'Subscribe joint_states only once identified_torque '
+              'and identification_mse each have this many subscribers (e.g. a recorder), so '
+              'that no prediction goes unheard; 0: at once', min=0),
+    ParamSpec('wait_timeout', 30.0, 'Longest wait for those subscribers', 's', min=0.0),
     ParamSpec('stats_file', '', 'Write the final counters and errors here as JSON on '
               'shutdown; empty: never'),
 )
@@ -125,20 +133,47 @@ class IdentifierNode(Node):
         self.max_lag_ns = 0  # ns, since the last statistics line
         self.worst_lag_ns = 0  # ns, since start
         self.last_warning = 0.0
-        qos = QoSProfile(depth=QOS_DEPTH, history=HistoryPolicy.KEEP_LAST,
-                         reliability=ReliabilityPolicy.RELIABLE)
-        self.torque_publisher = self.create_publisher(JointState, TORQUE_TOPIC, qos)
+        self.torque_publisher = self.create_publisher(JointState, TORQUE_TOPIC, STREAM_QOS)
         self.mse_publisher = self.create_publisher(Float64MultiArray, MSE_TOPIC, 10)
-        self.subscription = self.create_subscription(
-            JointState, JOINT_STATES_TOPIC, self.on_joint_state, qos)
+        self.subscription: Subscription | None = None
         self.create_timer(1.0 / s['mse_rate_hz'], self.publish_mse)
         self.create_timer(STATS_PERIOD, self.log_stats)
         if s['save_path'] and s['checkpoint_period'] > 0:
             self.create_timer(s['checkpoint_period'], self.checkpoint)
+        self.joints_text = str(names or '(from the first message)')
+        if s['wait_for_subscribers'] > 0:
+            self.wait_deadline = time.monotonic() + s['wait_timeout']
+            self.wait_timer = self.create_timer(WAIT_POLL_PERIOD, self._subscribe_when_heard)
+            self.get_logger().info(
+                f"waiting for {s['wait_for_subscribers']} subscriber(s) on "
+                f'{self.torque_publisher.topic_name} and {self.mse_publisher.topic_name}')
+        else:
+            self._subscribe()
+
+    def _subscribe(self) -> None:
+        """Subscribe ``joint_states``: from now on samples are processed."""
+        s = self.settings
+        self.subscription = self.create_subscription(
+            JointState, JOINT_STATES_TOPIC, self.on_joint_state, STREAM_QOS)
         self.get_logger().info(
             f"{s['method'].upper()} identifier on {self.subscription.topic_name} → "
-            f'{self.torque_publisher.topic_name}, joints '
-            f"{names or '(from the first message)'}, learning {'on' if s['learn'] else 'off'}")
+            f'{self.torque_publisher.topic_name}, joints {self.joints_text}, '
+            f"learning {'on' if s['learn'] else 'off'}")
+
+    def _subscribe_when_heard(self) -> None:
+        """Timer: subscribe once both outputs have ``wait_for_subscribers`` subscribers."""
+        wanted = self.settings['wait_for_subscribers']
+        heard = min(self.torque_publisher.get_subscription_count(),
+                    self.mse_publisher.get_subscription_count())
+        if heard < wanted and time.monotonic() < self.wait_deadline:
+            return
+        if heard < wanted:
+            self.get_logger().warning(
+                f'only {heard} of {wanted} subscribers on the outputs after '
+                f"{self.settings['wait_timeout']:g} s; subscribing anyway")
+        self.wait_timer.cancel()
+        self.destroy_timer(self.wait_timer)
+        self._subscribe()
 
     # ------------------------------------------------------------------ configuration
     def _limits(self) -> dict[str, Any] | None:

@@ -491,3 +491,35 @@ def test_namespace_and_remapping(tmp_path: Path, listener: rostest.Listener) -> 
         out = stop(node)
     assert 'FFS identifier on /joint_states → /ffs/identified_torque' in out.stderr
     assert len(feed.mse[-1].data) == 10
+
+
+# ------------------------------------------------------------- waiting for its subscribers
+def test_waits_for_subscribers_of_both_outputs_before_subscribing(
+        tmp_path: Path, listener: rostest.Listener) -> None:
+    states = listener.node.create_publisher(JointState, JOINT_STATES_TOPIC,
+                                            rostest.reliable(DEPTH))
+    with identifier(tmp_path, 'wait_for_subscribers:=1',
+                    f'wait_timeout:={3 * DISCOVERY_TIMEOUT}') as node:
+        node.wait_for_stderr('waiting for 1 subscriber(s) on /identified_torque and '
+                             '/identification_mse', DISCOVERY_TIMEOUT)
+        early = listener.spin_until(lambda: states.get_subscription_count() > 0, 2.0)
+        assert not early, 'subscribed joint_states before anyone heard its outputs'
+        listener.subscribe(JointState, TORQUE_TOPIC, rostest.reliable(DEPTH))
+        early = listener.spin_until(lambda: states.get_subscription_count() > 0, 2.0)
+        assert not early, 'subscribed joint_states before identification_mse was heard'
+        listener.subscribe(Float64MultiArray, MSE_TOPIC, rostest.reliable(100))
+        assert listener.spin_until(lambda: states.get_subscription_count() > 0,
+                                   DISCOVERY_TIMEOUT), node.stderr_so_far()
+        out = stop(node)
+    assert 'subscribing anyway' not in out.stderr
+
+
+def test_subscribes_anyway_after_wait_timeout(tmp_path: Path,
+                                              listener: rostest.Listener) -> None:
+    states = listener.node.create_publisher(JointState, JOINT_STATES_TOPIC,
+                                            rostest.reliable(DEPTH))
+    with identifier(tmp_path, 'wait_for_subscribers:=2', 'wait_timeout:=1.0') as node:
+        assert listener.spin_until(lambda: states.get_subscription_count() > 0,
+                                   DISCOVERY_TIMEOUT), node.stderr_so_far()
+        out = stop(node)
+    assert 'only 0 of 2 subscribers on the outputs after 1 s; subscribing anyway' in out.stderr
