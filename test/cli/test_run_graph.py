@@ -1,0 +1,207 @@
+"""``scara-ident run`` end to end: the whole graph, as users get it, judged from its bag.
+
+One short run (simulator, the three identifiers and the recorder as separate processes,
+started by ``scara-ident run`` in a process of its own) is shared by the tests of this
+module. It runs in a ROS domain of its own and in a session of its own, so that whatever
+happens to the test (failure, timeout, Ctrl-C) the whole process group it started is
+stopped on the way out. The tests then read the recorded bag with the package's own
+reader and pair the identifiers' predictions with the joint states by stamp
+(:mod:`scara_ident_ros.offline.online_results`), independently of the counters the
+processes reported.
+"""
+from __future__ import annotations
+
+import itertools
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from scara_ident_ros.bag import JointStateSeries, read_joint_states
+from scara_ident_ros.methods import METHODS
+from scara_ident_ros.offline.online_results import (read_online_predictions, rolling_errors,
+                                                    torque_topic)
+
+pytestmark = pytest.mark.slow
+
+DURATION = 6.0  # s of simulated samples
+RATE_HZ = 1000  # the simulator's default rate
+PERIOD_NS = 1_000_000
+SAMPLES = round(DURATION * RATE_HZ)
+RUN_TIMEOUT = 150.0  # s for the whole run to end by itself (the machine is shared)
+STOP_TIMEOUT = 30.0  # s the run gets to stop its graph after SIGINT
+FIRST = 100  # samples: the first 100 ms of predictions
+LAST = 1000  # samples: the last second of predictions
+FALL = 0.1  # the error over the last second must be below this fraction of the first's
+
+_domains = itertools.count(70)
+
+
+def own_domain() -> int:
+    """A ROS domain for one run (100-199), not the test session's default one."""
+    default = os.environ.get('ROS_DOMAIN_ID')
+    while True:
+        value = 100 + (os.getpid() + 37 * next(_domains)) % 100
+        if str(value) != default:
+            return value
+
+
+@dataclass(frozen=True)
+class Run:
+    """A finished ``scara-ident run``: its output directory, exit status and output.
+
+    Attributes
+    ----------
+    out : Path
+        The ``--out`` directory (``bag/``, ``summary.json``, ``logs/``, ...).
+    returncode : int
+        Exit status of ``scara-ident run``.
+    output : str
+        What it printed (stdout and stderr).
+    seconds : float
+        Wall-clock time of the run.
+    """
+
+    out: Path
+    returncode: int
+    output: str
+    seconds: float
+
+    @property
+    def bag(self) -> Path:
+        """The recorded bag (the default ``OUT/bag``)."""
+        return self.out / 'bag'
+
+    def logs(self, tail: int = 1500) -> str:
+        """The end of every process log, for failure messages."""
+        return '\n'.join(f'--- {log.name}:\n{log.read_text(errors="replace")[-tail:]}'
+                         for log in sorted((self.out / 'logs').glob('*.log')))
+
+
+def _stop_group(process: subprocess.Popen[bytes]) -> None:
+    """Stop the run and anything it left behind: SIGINT to its group, then SIGKILL."""
+    pgid = process.pid  # start_new_session: the run leads a process group of its own
+    if process.poll() is None:
+        try:
+            os.killpg(pgid, signal.SIGINT)  # the run stops its graph in order
+            process.wait(timeout=STOP_TIMEOUT)
+        except (ProcessLookupError, subprocess.TimeoutExpired):
+            pass
+    try:
+        os.killpg(pgid, signal.SIGKILL)  # stragglers of the graph, if any
+    except ProcessLookupError:
+        pass
+    if process.poll() is None:
+        process.wait()
+
+
+def run_graph(out: Path, *args: str, timeout: float = RUN_TIMEOUT) -> Run:
+    """Run ``scara-ident run --out OUT *args`` in its own ROS domain and session.
+
+    Its process group is stopped before returning, whatever happens (a timeout fails
+    the test after the cleanup).
+    """
+    env = {**os.environ, 'ROS_DOMAIN_ID': str(own_domain()),
+           'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST', 'PYTHONUNBUFFERED': '1'}
+    log = out.parent / f'{out.name}.out'
+    started = time.monotonic()
+    timed_out = False
+    with log.open('wb') as stream:
+        process = subprocess.Popen(
+            [sys.executable, '-m', 'scara_ident_ros.cli', 'run', '--out', str(out), *args],
+            stdin=subprocess.DEVNULL, stdout=stream, stderr=subprocess.STDOUT, env=env,
+            start_new_session=True)
+        try:
+            process.wait(timeout=timeout)
+        except subprocess.TimeoutExpired:
+            timed_out = True
+        finally:
+            _stop_group(process)
+    seconds = time.monotonic() - started
+    output = log.read_text(errors='replace')
+    if timed_out:
+        pytest.fail(f'scara-ident run still running after {timeout:g} s; stopped. '
+                    f'Output:\n{output}')
+    return Run(out, process.returncode, output, seconds)
+
+
+@pytest.fixture(scope='module')
+def run(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Run]:
+    """One short run of the whole graph, without the report."""
+    result = run_graph(tmp_path_factory.mktemp('run') / 'out', '--duration', f'{DURATION:g}',
+                       '--no-report')
+    assert result.returncode == 0, f'{result.output}\n{result.logs()}'
+    yield result
+
+
+@pytest.fixture(scope='module')
+def joint_states(run: Run) -> JointStateSeries:
+    """The run's ``/joint_states``, read from its bag."""
+    return read_joint_states(run.bag)
+
+
+def summary(run: Run) -> dict[str, Any]:
+    """The ``summary.json`` the run wrote."""
+    return json.loads((run.out / 'summary.json').read_text())
+
+
+# -- tests -------------------------------------------------------------------------------
+
+
+def test_every_simulated_sample_is_recorded(run: Run, joint_states: JointStateSeries) -> None:
+    assert len(joint_states) == SAMPLES, run.output
+    steps = np.diff(joint_states.stamp_ns)
+    assert (steps == PERIOD_NS).all(), np.unique(steps)  # contiguous, in order, no repeats
+    assert np.isfinite(joint_states.effort).all()
+
+
+@pytest.mark.parametrize('method', list(METHODS))
+def test_every_sample_after_the_first_is_predicted(
+        run: Run, joint_states: JointStateSeries, method: str) -> None:
+    predictions = read_joint_states(run.bag, topic=torque_topic(method),
+                                    joints=joint_states.names)
+    # One prediction per input after the first (which only starts the differentiator),
+    # in the inputs' order and stamped like them.
+    assert (predictions.stamp_ns.shape == joint_states.stamp_ns[1:].shape
+            and (predictions.stamp_ns == joint_states.stamp_ns[1:]).all()), \
+        (len(predictions), run.logs())
+    paired = read_online_predictions(run.bag, method, joint_states)
+    assert paired is not None
+    assert paired.n_published == SAMPLES - 1 and paired.n_unmatched == 0
+    assert (paired.stamp_ns == joint_states.stamp_ns[1:]).all()  # every one finite, paired
+
+
+@pytest.mark.parametrize('method', list(METHODS))
+def test_identification_error_falls(run: Run, joint_states: JointStateSeries,
+                                    method: str) -> None:
+    paired = read_online_predictions(run.bag, method, joint_states)
+    assert paired is not None and paired.stamp_ns.shape[0] > LAST + FIRST
+    assert paired.stamp_ns[0] == joint_states.stamp_ns[1]  # from the first prediction on
+    first = rolling_errors(paired.measured, paired.predicted, FIRST)[0][FIRST - 1]
+    last = rolling_errors(paired.measured, paired.predicted, LAST)[0][-1]
+    assert np.isfinite(first) and np.isfinite(last)
+    assert last < FALL * first, (method, first, last)
+
+
+def test_summary_agrees_with_the_bag(run: Run, joint_states: JointStateSeries) -> None:
+    info = summary(run)
+    assert set(info['exit_codes']) == {'scara_sim', 'recorder', *METHODS}
+    assert all(code == 0 for code in info['exit_codes'].values()), info['exit_codes']
+    js = info['joint_states']
+    assert js['published'] == js['recorded'] == len(joint_states) == SAMPLES, js
+    assert set(info['methods']) == set(METHODS)
+    for method, row in info['methods'].items():
+        recorded = len(read_joint_states(run.bag, topic=torque_topic(method)))
+        assert row['published'] == row['recorded'] == recorded == SAMPLES - 1, (method, row)
+        assert row['processed'] == SAMPLES, (method, row)
+        assert Path(row['model']).is_file(), row['model']
+    assert f'published {SAMPLES}, recorded {SAMPLES}' in run.output
