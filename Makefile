@@ -26,6 +26,9 @@ $(STAMP): requirements.txt constraints.txt setup.py setup.cfg package.xml
 	touch $(STAMP)
 
 demo: $(STAMP)
+	@if [ -e $(DEMO_OUT) ]; then \
+	  kept=$(DEMO_OUT)-$$(date +%Y%m%d-%H%M%S); mv $(DEMO_OUT) $$kept; \
+	  echo "previous demo kept as $$kept"; fi
 	$(VENV)/bin/scara-ident run --duration $(DEMO_DURATION) --out $(DEMO_OUT)
 
 test: $(STAMP)
