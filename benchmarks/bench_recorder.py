@@ -262,8 +262,7 @@ def main(argv: list[str] | None = None) -> int:
         for scenario in chosen:
             result = run_scenario(scenario, Path(tmp), domain)
             results.append(result)
-            print(table([result]).splitlines()[-1], flush=True)
-    print()
+            print(table([result]).splitlines()[-1], file=sys.stderr, flush=True)  # progress
     print(table(results))
     return 0
 
