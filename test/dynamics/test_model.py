@@ -214,7 +214,7 @@ def test_forward_kinematics_is_product_of_dh_matrices() -> None:
 
 # -- Pinocchio: the acceptance test of the physics ----------------------------------------------
 
-pin = pytest.importorskip('pinocchio')
+import pinocchio as pin  # noqa: E402  (pinned in constraints.txt: its absence is a failure)
 
 
 def inertia_with_izz(rng: np.random.Generator, izz: float) -> np.ndarray:

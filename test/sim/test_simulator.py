@@ -126,6 +126,21 @@ def test_noise_is_on_the_readings_not_on_the_state() -> None:
     assert np.abs(error.mean(axis=0)).max() < 1e-4
 
 
+def test_effort_noise_is_on_the_reported_effort_only() -> None:
+    """effort = tau + noise, where tau - T_d = ID(true q, q', q'') drove the plant."""
+    sim = Simulator(PARAMS, TRAJ, NOISY)
+    model = ScaraModel(PARAMS)
+    noise = []
+    for _ in range(2000):
+        q, qd = sim.state
+        disturbance = sim.disturbance()
+        s = sim.step()
+        noise.append(s.effort - model.inverse_dynamics(q, qd, s.qdd) - disturbance)
+    noise = np.array(noise)
+    np.testing.assert_allclose(noise.std(axis=0), NOISY.effort_noise, rtol=0.1)
+    assert (np.abs(noise.mean(axis=0)) < 0.1 * np.array(NOISY.effort_noise)).all()
+
+
 def test_efforts_never_exceed_the_limits() -> None:
     weak = dataclasses.replace(PARAMS, effort_max=(20.0, 10.0, 60.0, 1.0))
     record = Simulator(weak, TRAJ).simulate(1000)
