@@ -7,7 +7,8 @@ subprocess, repeated ``--repeats`` times (default 3) in interleaved order:
 a. ``timer-spin``: SingleThreadedExecutor, a 1 ms timer, ``executor.spin()``;
 b. ``events-timer``: EventsExecutor, a 1 ms timer, a ``spin_once`` loop;
 c. ``events-deadline``: a DeadlinePacer loop publishing on absolute deadlines, with
-   ``EventsExecutor.spin_once(timeout_sec=0)`` between samples (what ``scara_sim`` does).
+   ``EventsExecutor.spin_once(timeout_sec=0)`` between samples (``scara_sim`` paces the
+   same way but spins only every 10 ms: it has no subscription to serve).
 
 Reported per way: the medians of the publisher's CPU (% of one core, process time of all
 its threads over the publishing window, start-up excluded) and of the messages published
