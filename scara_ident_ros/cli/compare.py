@@ -80,9 +80,9 @@ QUICK: dict[str, Any] = {
     'search_seconds': 2.0, 'iterations': 5, 'samples': 200, 'window': 1000,
 }
 #: Measured wall time of ``scara-ident compare`` with the defaults (see the module docstring):
-#: search 36 s, LM 123 s (15 trainings of about 7.5 s), online 20 s, simulation 4 s.
-DEFAULT_WALL_TIME = ('183 s wall, 169 s CPU on the shared 2-core development machine '
-                     '(load average 1.3-2.7), one BLAS thread')
+#: search 27 s, LM 116 s (15 trainings of about 7.7 s), online 16 s, simulation 4 s.
+DEFAULT_WALL_TIME = ('163 s wall, 163 s CPU on the shared 2-core development machine '
+                     '(otherwise quiet; 183 s at load average 1.3-2.7), one BLAS thread')
 
 HELD_OUT = 'held-out'
 
