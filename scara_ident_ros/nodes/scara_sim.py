@@ -95,7 +95,6 @@ class ScaraSimNode(Node):
             self.simulator = Simulator(params, trajectory, config)
         except (ParamError, OSError) as exc:
             raise ConfigError(str(exc)) from None
-        self.names = names
         self.origin_ns = 0  # set when the first sample is published (stamp_origin wall)
         self.limit = (round(s['duration'] * NS_PER_S / self.period_ns)
                       if s['duration'] > 0 else None)

@@ -17,7 +17,6 @@ import os
 import signal
 import subprocess
 import sys
-import time
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -28,8 +27,8 @@ import pytest
 
 from scara_ident_ros.bag import JointStateSeries, read_joint_states
 from scara_ident_ros.methods import METHODS
-from scara_ident_ros.offline.online_results import (read_online_predictions, rolling_errors,
-                                                    torque_topic)
+from scara_ident_ros.offline.online_results import (OnlinePredictions, read_online_predictions,
+                                                    rolling_errors, torque_topic)
 
 pytestmark = pytest.mark.slow
 
@@ -67,14 +66,11 @@ class Run:
         Exit status of ``scara-ident run``.
     output : str
         What it printed (stdout and stderr).
-    seconds : float
-        Wall-clock time of the run.
     """
 
     out: Path
     returncode: int
     output: str
-    seconds: float
 
     @property
     def bag(self) -> Path:
@@ -113,7 +109,6 @@ def run_graph(out: Path, *args: str, timeout: float = RUN_TIMEOUT) -> Run:
     env = {**os.environ, 'ROS_DOMAIN_ID': str(own_domain()),
            'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST', 'PYTHONUNBUFFERED': '1'}
     log = out.parent / f'{out.name}.out'
-    started = time.monotonic()
     timed_out = False
     with log.open('wb') as stream:
         process = subprocess.Popen(
@@ -126,12 +121,11 @@ def run_graph(out: Path, *args: str, timeout: float = RUN_TIMEOUT) -> Run:
             timed_out = True
         finally:
             _stop_group(process)
-    seconds = time.monotonic() - started
     output = log.read_text(errors='replace')
     if timed_out:
         pytest.fail(f'scara-ident run still running after {timeout:g} s; stopped. '
                     f'Output:\n{output}')
-    return Run(out, process.returncode, output, seconds)
+    return Run(out, process.returncode, output)
 
 
 @pytest.fixture(scope='module')
@@ -147,6 +141,15 @@ def run(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Run]:
 def joint_states(run: Run) -> JointStateSeries:
     """The run's ``/joint_states``, read from its bag."""
     return read_joint_states(run.bag)
+
+
+@pytest.fixture(scope='module')
+def paired(run: Run, joint_states: JointStateSeries) -> dict[str, OnlinePredictions]:
+    """Each method's recorded predictions paired by stamp with the joint states."""
+    found = {method: read_online_predictions(run.bag, method, joint_states)
+             for method in METHODS}
+    assert all(p is not None for p in found.values()), run.logs()
+    return {method: p for method, p in found.items() if p is not None}
 
 
 def summary(run: Run) -> dict[str, Any]:
@@ -166,7 +169,8 @@ def test_every_simulated_sample_is_recorded(run: Run, joint_states: JointStateSe
 
 @pytest.mark.parametrize('method', list(METHODS))
 def test_every_sample_after_the_first_is_predicted(
-        run: Run, joint_states: JointStateSeries, method: str) -> None:
+        run: Run, joint_states: JointStateSeries, paired: dict[str, OnlinePredictions],
+        method: str) -> None:
     predictions = read_joint_states(run.bag, topic=torque_topic(method),
                                     joints=joint_states.names)
     # One prediction per input after the first (which only starts the differentiator),
@@ -174,20 +178,19 @@ def test_every_sample_after_the_first_is_predicted(
     assert (predictions.stamp_ns.shape == joint_states.stamp_ns[1:].shape
             and (predictions.stamp_ns == joint_states.stamp_ns[1:]).all()), \
         (len(predictions), run.logs())
-    paired = read_online_predictions(run.bag, method, joint_states)
-    assert paired is not None
-    assert paired.n_published == SAMPLES - 1 and paired.n_unmatched == 0
-    assert (paired.stamp_ns == joint_states.stamp_ns[1:]).all()  # every one finite, paired
+    ours = paired[method]
+    assert ours.n_published == SAMPLES - 1 and ours.n_unmatched == 0
+    assert (ours.stamp_ns == joint_states.stamp_ns[1:]).all()  # every one finite, paired
 
 
 @pytest.mark.parametrize('method', list(METHODS))
-def test_identification_error_falls(run: Run, joint_states: JointStateSeries,
-                                    method: str) -> None:
-    paired = read_online_predictions(run.bag, method, joint_states)
-    assert paired is not None and paired.stamp_ns.shape[0] > LAST + FIRST
-    assert paired.stamp_ns[0] == joint_states.stamp_ns[1]  # from the first prediction on
-    first = rolling_errors(paired.measured, paired.predicted, FIRST)[0][FIRST - 1]
-    last = rolling_errors(paired.measured, paired.predicted, LAST)[0][-1]
+def test_identification_error_falls(joint_states: JointStateSeries,
+                                    paired: dict[str, OnlinePredictions], method: str) -> None:
+    ours = paired[method]
+    assert ours.stamp_ns.shape[0] > LAST + FIRST
+    assert ours.stamp_ns[0] == joint_states.stamp_ns[1]  # from the first prediction on
+    first = rolling_errors(ours.measured, ours.predicted, FIRST)[0][FIRST - 1]
+    last = rolling_errors(ours.measured, ours.predicted, LAST)[0][-1]
     assert np.isfinite(first) and np.isfinite(last)
     assert last < FALL * first, (method, first, last)
 
