@@ -1,9 +1,13 @@
-"""SCARA simulator core in pure numpy: excitation trajectories, controller, plant."""
+"""SCARA simulator core in pure numpy: excitation trajectories (one periodic excitation or an
+endless sequence of them), controller, plant."""
 from __future__ import annotations
 
 from scara_ident_ros.sim.controller import ComputedTorqueController
 from scara_ident_ros.sim.simulator import SimConfig, SimRecord, SimSample, Simulator
-from scara_ident_ros.sim.trajectory import PRESETS, FourierTrajectory, make_trajectory
+from scara_ident_ros.sim.sequence import SequenceTrajectory
+from scara_ident_ros.sim.trajectory import (PRESETS, SEQUENCE, TRAJECTORIES, FourierTrajectory,
+                                            make_trajectory)
 
-__all__ = ['FourierTrajectory', 'PRESETS', 'make_trajectory', 'ComputedTorqueController',
-           'SimConfig', 'SimSample', 'SimRecord', 'Simulator']
+__all__ = ['FourierTrajectory', 'SequenceTrajectory', 'PRESETS', 'SEQUENCE', 'TRAJECTORIES',
+           'make_trajectory', 'ComputedTorqueController', 'SimConfig', 'SimSample', 'SimRecord',
+           'Simulator']

@@ -13,14 +13,17 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from scara_ident_ros.dynamics.model import ScaraModel
 from scara_ident_ros.dynamics.params import N_JOINTS, ScaraParams
 
-__all__ = ['FourierTrajectory', 'PRESETS', 'make_trajectory']
+if TYPE_CHECKING:
+    from scara_ident_ros.sim.sequence import SequenceTrajectory
+
+__all__ = ['FourierTrajectory', 'PRESETS', 'SEQUENCE', 'TRAJECTORIES', 'make_trajectory']
 
 #: Named excitation settings, keyword arguments of :meth:`FourierTrajectory.random`.
 #: The fractions are of the joint half-range and of the velocity, acceleration and effort
@@ -39,6 +42,13 @@ PRESETS: dict[str, dict[str, Any]] = {
                    'velocity_fraction': 0.9, 'acceleration_fraction': 0.9,
                    'effort_fraction': 0.9},
 }
+
+#: Name of the endless sequence of random ``'standard'``-like excitations joined smoothly
+#: (:class:`scara_ident_ros.sim.sequence.SequenceTrajectory`): persistent excitation.
+SEQUENCE = 'sequence'
+
+#: Every name :func:`make_trajectory` accepts: the presets, then :data:`SEQUENCE`.
+TRAJECTORIES: tuple[str, ...] = (*PRESETS, SEQUENCE)
 
 _GRID_PER_HARMONIC = 200       # samples per period of the highest harmonic when scaling
 
@@ -217,27 +227,39 @@ class FourierTrajectory:
 
 
 def make_trajectory(preset: str, params: ScaraParams, seed: int,
-                    **overrides: Any) -> FourierTrajectory:
-    """Build a random excitation from a named preset of :data:`PRESETS`.
+                    **overrides: Any) -> FourierTrajectory | SequenceTrajectory:
+    """Build a random excitation by name: a preset of :data:`PRESETS` or :data:`SEQUENCE`.
 
     Parameters
     ----------
     preset : str
-        One of the keys of :data:`PRESETS`.
+        One of :data:`TRAJECTORIES`.
     params : ScaraParams
         Robot whose limits bound the motion.
     seed : int
         Seed of the random coefficients.
     **overrides
-        Settings replacing those of the preset (keywords of :meth:`FourierTrajectory.random`).
+        Settings replacing those of the preset, or of each excitation of the sequence
+        (keywords of :meth:`FourierTrajectory.random`).
+
+    Returns
+    -------
+    FourierTrajectory or SequenceTrajectory
+        One periodic excitation for a preset; the endless sequence for :data:`SEQUENCE`.
 
     Raises
     ------
     ValueError
-        If the preset is unknown; the message lists the known names.
+        If the name is unknown; the message lists the known names.
     """
-    if not isinstance(preset, str) or preset not in PRESETS:
-        raise ValueError(f'unknown trajectory preset {preset!r}; known presets are '
-                         f'{", ".join(sorted(PRESETS))}')
+    if not isinstance(preset, str) or preset not in TRAJECTORIES:
+        raise ValueError(f'unknown trajectory {preset!r}; known trajectories are '
+                         f'{", ".join(sorted(TRAJECTORIES))}')
+    if preset == SEQUENCE:
+        # imported here: sequence.py builds on FourierTrajectory from this module
+        from scara_ident_ros.sim.sequence import SEQUENCE_EXCITATION, SequenceTrajectory
+
+        return SequenceTrajectory(params, seed=seed,
+                                  excitation={**SEQUENCE_EXCITATION, **overrides})
     settings: Mapping[str, Any] = {**PRESETS[preset], **overrides}
     return FourierTrajectory.random(params, seed=seed, **settings)

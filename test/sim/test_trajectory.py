@@ -6,7 +6,8 @@ import pytest
 
 from scara_ident_ros.dynamics.model import ScaraModel
 from scara_ident_ros.dynamics.params import ScaraParams
-from scara_ident_ros.sim.trajectory import PRESETS, FourierTrajectory, make_trajectory
+from scara_ident_ros.sim.trajectory import (PRESETS, TRAJECTORIES, FourierTrajectory,
+                                            make_trajectory)
 
 PARAMS = ScaraParams()
 
@@ -91,7 +92,8 @@ def test_random_is_deterministic_per_seed() -> None:
 
 
 def test_unknown_preset_lists_the_known_ones() -> None:
-    with pytest.raises(ValueError, match='aggressive, gentle, standard'):
+    assert TRAJECTORIES == (*PRESETS, 'sequence')
+    with pytest.raises(ValueError, match='aggressive, gentle, sequence, standard'):
         make_trajectory('wild', PARAMS, seed=0)
 
 
