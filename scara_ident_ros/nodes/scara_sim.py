@@ -28,7 +28,7 @@ from scara_ident_ros.nodes.parameters import ParamSpec, declare_parameters
 from scara_ident_ros.nodes.runtime import POLL_PERIOD, ConfigError, run_node
 from scara_ident_ros.pacer import DeadlinePacer
 from scara_ident_ros.resources import config_path
-from scara_ident_ros.sim import PRESETS, SimConfig, Simulator, make_trajectory
+from scara_ident_ros.sim import SEQUENCE, TRAJECTORIES, SimConfig, Simulator, make_trajectory
 
 __all__ = ['ScaraSimNode', 'main', 'JOINT_STATES_TOPIC', 'CLOCK_TOPIC']
 
@@ -50,8 +50,9 @@ PARAMETERS = (
               '0 runs as fast as possible', min=0.0, max=1000.0),
     ParamSpec('duration', 0.0, 'Simulated time after which the node stops; 0 runs forever',
               's', min=0.0),
-    ParamSpec('trajectory', 'standard', 'Excitation preset (finite Fourier series)',
-              choices=tuple(PRESETS)),
+    ParamSpec('trajectory', SEQUENCE, 'Excitation: a preset finite Fourier series (gentle, '
+              'standard, aggressive) repeated, or sequence, a new random standard-like one '
+              'every 5 s joined smoothly', choices=TRAJECTORIES),
     ParamSpec('seed', 0, 'Seed of the excitation and of the measurement noise', min=0),
     ParamSpec('substeps', 4, 'RK4 integration steps per sample', min=1, max=100),
     ParamSpec('position_noise', 0.0, 'Std of measurement noise on q (rad or m)', min=0.0),

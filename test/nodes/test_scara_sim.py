@@ -58,9 +58,12 @@ def receive(listener: Listener, messages: list[JointState], n: int) -> None:
         f'received {len(messages)} of {n} joint states in {RECEIVE_TIMEOUT} s')
 
 
+@pytest.mark.parametrize('preset, seed, n', [
+    ('aggressive', 3, 2500),
+    ('sequence', 4, 5200),  # past the first join of two excitations, at 5 s
+])
 def test_publishes_joint_states_of_the_simulator_every_ms_without_gaps(
-        listener: Listener) -> None:
-    n, seed, preset = 2500, 3, 'aggressive'
+        preset: str, seed: int, n: int, listener: Listener) -> None:
     messages = listener.subscribe(JointState, JOINT_STATES_TOPIC)
     with NodeProcess(MODULE, ['-p', 'wait_for_subscribers:=1', '-p', f'seed:={seed}',
                               '-p', f'trajectory:={preset}']) as node:
@@ -197,7 +200,7 @@ def test_publish_clock_publishes_the_stamps_on_clock(listener: Listener) -> None
 
 
 @pytest.mark.parametrize('params_file, expected', [
-    (CONFIG_DIR / 'scara_sim.yaml', "at 1000 Hz, trajectory 'standard', seed 0"),
+    (CONFIG_DIR / 'scara_sim.yaml', "at 1000 Hz, trajectory 'sequence', seed 0"),
     (None, "at 500 Hz, trajectory 'gentle', seed 4"),
 ], ids=['config/scara_sim.yaml', 'custom'])
 def test_params_file_sets_the_parameters(params_file: Path | None, expected: str,
