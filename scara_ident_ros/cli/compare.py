@@ -64,7 +64,7 @@ from scara_ident_ros.experiments import (DEFAULT_GOAL, DEFAULT_GRID, DEFAULT_WIN
 from scara_ident_ros.identification import PAPER_WINDOW
 from scara_ident_ros.methods import METHODS, limit_scaling
 from scara_ident_ros.methods import method as method_spec
-from scara_ident_ros.sim import PRESETS
+from scara_ident_ros.sim import TRAJECTORIES
 
 __all__ = ['DEFAULTS', 'DEFAULT_WALL_TIME', 'QUICK', 'add_parser', 'main', 'run']
 
@@ -119,8 +119,9 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
                              '(default true)')
     parser.add_argument('--methods', nargs='+', choices=list(METHODS), default=list(METHODS),
                         help='methods to compare (default all three)')
-    parser.add_argument('--preset', choices=sorted(PRESETS), default='standard',
-                        help='excitation preset (default standard)')
+    parser.add_argument('--preset', choices=sorted(TRAJECTORIES), default='standard',
+                        help='excitation preset, or sequence: a new random excitation every '
+                             '5 s (default standard)')
     parser.add_argument('--train-seed', type=int, default=0,
                         help='excitation seed of the training run (default 0)')
     parser.add_argument('--test-seed', type=int, default=1,

@@ -33,6 +33,7 @@ import yaml
 from scara_ident_ros.cli import CliError
 from scara_ident_ros.methods import METHODS
 from scara_ident_ros.process_graph import NodeProcess, ProcessGraph
+from scara_ident_ros.sim.trajectory import SEQUENCE, TRAJECTORIES
 
 __all__ = ['add_parser', 'run', 'bag_message_counts']
 
@@ -53,7 +54,9 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
                         help='bag directory to record (default: OUT/bag); must not exist')
     parser.add_argument('--methods', nargs='+', default=list(METHODS), choices=list(METHODS),
                         help='identifiers to run side by side (default: all three)')
-    parser.add_argument('--trajectory', default='standard', help='excitation preset')
+    parser.add_argument('--trajectory', default=SEQUENCE,
+                        help=f'excitation, one of {", ".join(TRAJECTORIES)} (default: '
+                             f'{SEQUENCE}, a new random excitation every 5 s)')
     parser.add_argument('--seed', type=int, default=0, help='excitation seed')
     parser.add_argument('--compression', default='zstd', choices=('zstd', 'none'),
                         help='MCAP chunk compression of the bag (default: zstd)')
@@ -83,6 +86,9 @@ def run(args: argparse.Namespace) -> int:
     """Run the graph, print the summary, produce the report; return the exit status."""
     if args.duration <= 0:
         raise CliError(f'--duration must be > 0, got {args.duration}')
+    if args.trajectory not in TRAJECTORIES:
+        raise CliError(f'--trajectory must be one of {", ".join(TRAJECTORIES)}, '
+                       f'got {args.trajectory!r}')
     out: Path = args.out
     bag: Path = args.bag or out / 'bag'
     if bag.exists():
