@@ -1,0 +1,30 @@
+"""``scara-ident run``: arguments checked before anything starts (no graph is run here)."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from scara_ident_ros.cli import build_parser, main
+from scara_ident_ros.sim import SEQUENCE, TRAJECTORIES
+
+
+def test_the_default_trajectory_is_the_sequence() -> None:
+    args = build_parser('run').parse_args(['run'])
+    assert args.trajectory == SEQUENCE
+
+
+@pytest.mark.parametrize('argv, named', [
+    (['--trajectory', 'wild'], '--trajectory'),
+    (['--duration', '0'], '--duration'),
+], ids=['unknown trajectory', 'zero duration'])
+def test_bad_arguments_end_in_one_line_before_anything_starts(
+        argv: list[str], named: str, tmp_path: Path,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / 'out'
+    assert main(['run', '--out', str(out), *argv]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith('scara-ident run: error:') and named in err[0]
+    if named == '--trajectory':
+        assert all(name in err[0] for name in TRAJECTORIES)
+    assert not out.exists()
