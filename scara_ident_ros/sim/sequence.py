@@ -112,9 +112,10 @@ class SequenceTrajectory:
     Notes
     -----
     Excitation k depends only on (seed, k), but building it needs the accepted excitations
-    0..k−1: evaluating at time t builds (once) and checks every segment up to t, about
-    1 ms each, so a first evaluation an hour ahead costs about a second. Only the accepted
-    candidate number of each excitation is kept for good.
+    0..k−1: evaluating at time t builds (once) and checks every segment up to t, 1–2 ms
+    each, so a first evaluation an hour ahead costs one to two seconds. Only the accepted
+    candidate number of each excitation is kept for good; in order, as the simulator
+    evaluates, each segment costs its 1–2 ms once per period T.
     """
 
     def __init__(self, params: ScaraParams, *, seed: int,
