@@ -598,7 +598,8 @@ class FeedForwardNet:
     def fit(self, X: npt.ArrayLike, Y: npt.ArrayLike, *, algorithm: str = 'lm',
             iterations: int = 315, goal: float = 0.0,
             validation: tuple[npt.ArrayLike, npt.ArrayLike] | None = None,
-            max_fail: int = 6, callback: Callback | None = None) -> FitHistory:
+            max_fail: int = 6, min_iterations: int = 0,
+            callback: Callback | None = None) -> FitHistory:
         """Train offline on a batch of samples.
 
         If the scaling was never set, it is first fitted to the minima and maxima of X and Y
@@ -622,9 +623,12 @@ class FeedForwardNet:
             Stop when the training MSE of the scaled outputs is <= goal.
         validation : (X_val, Y_val), optional
             Physical validation data: stop after ``max_fail`` iterations in a row without a
-            new best validation MSE, and end with the best-validation weights.
+            new best validation MSE, counted after the first ``min_iterations``, and end
+            with the best-validation weights.
         max_fail : int, default 6
-            See ``validation``.
+            See ``validation`` (MATLAB's default).
+        min_iterations : int, default 0
+            Iterations whose validation failures do not count (see ``validation``).
         callback : callable, optional
             ``callback(history)`` after each iteration; returning True stops training.
 
@@ -644,8 +648,9 @@ class FeedForwardNet:
             raise ValueError('X and Y must be finite')
         iterations = operator.index(iterations)
         max_fail = operator.index(max_fail)
-        if iterations < 0 or max_fail < 1:
-            raise ValueError('need iterations >= 0 and max_fail >= 1')
+        min_iterations = operator.index(min_iterations)
+        if iterations < 0 or max_fail < 1 or min_iterations < 0:
+            raise ValueError('need iterations >= 0, max_fail >= 1 and min_iterations >= 0')
         if not self._scaling_set:
             xsc, ysc = MinMaxScaling.from_data(x), MinMaxScaling.from_data(y)
             self.set_scaling(xsc.lo, xsc.hi, ysc.lo, ysc.hi)
@@ -658,7 +663,8 @@ class FeedForwardNet:
         step = (LevenbergMarquardt(self, xs, ys) if algorithm == 'lm'
                 else GradientDescent(self, xs, ys))
         history = run_training(self, algorithm, step, iterations=iterations, goal=float(goal),
-                               validation=val, max_fail=max_fail, callback=callback)
+                               validation=val, max_fail=max_fail,
+                               min_iterations=min_iterations, callback=callback)
         self.reset_momentum()
         return history
 

@@ -3,8 +3,12 @@
 An algorithm supplies a `TrainingStep`; `run_training` iterates it, records a `FitHistory`,
 and stops at the error goal, the iteration limit, when the validation error has failed to
 improve ``max_fail`` times in a row, when the algorithm cannot go on, or when the callback
-asks to. When validation data are given, the network ends with the weights of the best
-validation error seen, whatever the reason for stopping (as MATLAB's ``train`` does).
+asks to. Validation failures count only after the first ``min_iterations`` iterations (0:
+from the first, as MATLAB's ``train``): Levenberg–Marquardt's first steps, while its damping
+is still adapting, often raise the validation error before they lower it. When validation
+data are given, the network ends with the weights of the best validation error seen,
+whatever the reason for stopping (as MATLAB's ``train`` does), a best seen during the first
+``min_iterations`` included.
 """
 from __future__ import annotations
 
@@ -37,7 +41,8 @@ FloatArray = npt.NDArray[np.float64]
 
 STOP_GOAL = 'goal'  #: the training MSE reached the goal
 STOP_ITERATIONS = 'iterations'  #: the iteration limit was reached
-STOP_VALIDATION = 'validation'  #: the validation MSE failed to improve max_fail times in a row
+#: the validation MSE failed to improve max_fail times in a row (after min_iterations)
+STOP_VALIDATION = 'validation'
 STOP_MU_MAX = 'mu_max'  #: Levenberg–Marquardt's damping exceeded its maximum
 STOP_DIVERGED = 'diverged'  #: a step made the error infinite or NaN (weights kept from before)
 STOP_CALLBACK = 'callback'  #: the callback returned True
@@ -115,7 +120,8 @@ Callback = Callable[[FitHistory], 'bool | None']
 def run_training(net: FeedForwardNet, algorithm: str, step: TrainingStep, *,
                  iterations: int, goal: float,
                  validation: tuple[FloatArray, FloatArray] | None,
-                 max_fail: int, callback: Callback | None) -> FitHistory:
+                 max_fail: int, callback: Callback | None,
+                 min_iterations: int = 0) -> FitHistory:
     """Iterate ``step`` under the stop rules of the module docstring.
 
     Parameters
@@ -136,6 +142,9 @@ def run_training(net: FeedForwardNet, algorithm: str, step: TrainingStep, *,
         Consecutive validation failures that stop training.
     callback : callable or None
         Called with the history after each iteration; returning True stops training.
+    min_iterations : int
+        Iterations whose validation failures do not count (>= 0): the earliest validation
+        stop is after iteration ``min_iterations + max_fail``.
 
     Returns
     -------
@@ -170,7 +179,7 @@ def run_training(net: FeedForwardNet, algorithm: str, step: TrainingStep, *,
                 best_val, fails = val, 0
                 best_params = net.get_params()
                 history.best_iteration = history.iterations
-            else:
+            elif history.iterations > min_iterations:
                 fails += 1
         else:
             history.best_iteration = history.iterations

@@ -155,3 +155,84 @@ def test_fit_resets_online_momentum(smooth_data: Data) -> None:
     assert np.any(net._velocity != 0)
     net.fit(x, y, iterations=1)
     assert np.all(net._velocity == 0)
+
+
+class _ScriptedNet:
+    """Just what `run_training` reads of a network: its weights (here the iteration number)
+    and a validation MSE scripted per iteration."""
+
+    def __init__(self, val_mse: list[float]) -> None:
+        self.val_mse = val_mse
+        self.theta = np.zeros(1)
+
+    def get_params(self) -> np.ndarray:
+        return self.theta.copy()
+
+    def set_params(self, theta: np.ndarray) -> None:
+        self.theta = np.array(theta)
+
+    def _mse_scaled(self, x: np.ndarray, y: np.ndarray) -> float:
+        return self.val_mse[int(self.theta[0])]
+
+
+class _CountingStep:
+    """A training step whose weights count the iterations; training MSE always falls."""
+
+    def __init__(self, net: _ScriptedNet) -> None:
+        self.net = net
+
+    def start(self, history: FitHistory) -> float:
+        return 1.0
+
+    def step(self) -> float:
+        self.net.theta = self.net.theta + 1
+        return 1.0 / (1.0 + self.net.theta[0])
+
+
+def _run_scripted(val_mse: list[float], *, max_fail: int, min_iterations: int,
+                  iterations: int = 100) -> tuple[FitHistory, _ScriptedNet]:
+    net = _ScriptedNet(val_mse + [val_mse[-1]] * (iterations + 1 - len(val_mse)))
+    history = run_training(net, 'lm', _CountingStep(net), iterations=iterations,  # type: ignore
+                           goal=0.0, validation=(np.zeros((1, 1)), np.zeros((1, 1))),
+                           max_fail=max_fail, callback=None, min_iterations=min_iterations)
+    return history, net
+
+
+def test_validation_failures_count_only_after_min_iterations() -> None:
+    # LM's first steps: the validation error rises for 10 iterations, then falls to a best
+    # at iteration 15, then rises for good
+    val = [1.0] + [1.0 + 0.1 * i for i in range(1, 11)] + [0.9, 0.8, 0.7, 0.6, 0.5] + [0.6]
+    history, _ = _run_scripted(val, max_fail=6, min_iterations=0)
+    assert history.stop_reason == 'validation' and history.iterations == 6  # MATLAB's rule
+    assert history.best_iteration == 0
+    history, net = _run_scripted(val, max_fail=6, min_iterations=10)
+    assert history.stop_reason == 'validation'
+    assert history.iterations == 15 + 6  # 6 failures after the best at 15
+    assert history.best_iteration == 15 and net.theta[0] == 15  # its weights restored
+
+
+def test_min_iterations_then_patience() -> None:
+    # never better than at the start: stops exactly min_iterations + max_fail in
+    val = [1.0] + [2.0] * 100
+    for min_iterations, max_fail in ((0, 6), (20, 6), (20, 25), (90, 25)):
+        history, net = _run_scripted(val, max_fail=max_fail, min_iterations=min_iterations)
+        expected = min(min_iterations + max_fail, 100)
+        assert history.iterations == expected
+        assert history.stop_reason == ('validation' if expected < 100 else 'iterations')
+        assert history.best_iteration == 0 and net.theta[0] == 0
+    # a best during the first iterations is kept even when nothing better comes after
+    val = [1.0, 0.5] + [2.0] * 100
+    history, net = _run_scripted(val, max_fail=3, min_iterations=10)
+    assert (history.iterations, history.best_iteration, net.theta[0]) == (13, 1, 1)
+
+
+def test_fit_takes_min_iterations(smooth_data: Data) -> None:
+    x, y = smooth_data
+    rng = np.random.default_rng(1)
+    xv = rng.uniform(-1, 1, (50, 12))
+    yv = rng.normal(size=(50, 4)) * 10  # unrelated to x: validation cannot improve for long
+    net = FeedForwardNet(12, 8, 4)
+    history = net.fit(x, y, iterations=60, validation=(xv, yv), max_fail=2, min_iterations=30)
+    assert history.iterations >= 32
+    with pytest.raises(ValueError, match='min_iterations'):
+        net.fit(x, y, min_iterations=-1)
