@@ -17,7 +17,7 @@ Modules, one concept each:
 from __future__ import annotations
 
 from scara_ident_ros.experiments.datasets import (ACCELERATIONS, Dataset, Evaluations,
-                                                  dataset_from_record, estimate_acceleration,
+                                                  dataset_from_record,
                                                   make_dataset, simulate_dataset,
                                                   simulate_record)
 from scara_ident_ros.experiments.errors import effort_errors, recent_errors
@@ -47,7 +47,7 @@ __all__ = [
     'PAPER_ITERATIONS', 'PAPER_NOTE', 'PAPER_SAMPLES', 'PAPER_TABLE2', 'PAPER_TABLE3',
     'QUICK_GRID', 'REFERENCE', 'ReferenceFit', 'ResultRow', 'Scaling', 'SearchResult',
     'Spread', 'Summary', 'Trial', 'best_of', 'build_network', 'dataset_from_record',
-    'effort_errors', 'estimate_acceleration', 'fit_offline', 'fit_reference', 'format_spread',
+    'effort_errors', 'fit_offline', 'fit_reference', 'format_spread',
     'format_value', 'goal_iteration', 'hold_rows', 'joint_markdown', 'learn_online',
     'make_dataset', 'offline_markdown', 'offline_rows', 'online_markdown',
     'online_reference_rows', 'online_rows', 'paper_ranking', 'predict_reference', 'ranking',

@@ -8,8 +8,8 @@ A data set is plain arrays, whatever made them (the simulator here, a bag for
     Y        : (N, n) float64    joint efforts (N·m, N)
 
 q'' is either the simulator's true acceleration (``acceleration='true'``) or estimated from q'
-by a :class:`~scara_ident_ros.identification.Differentiator`, as the online identifier does
-(``acceleration='estimated'``; the differentiator's warm-up samples are dropped).
+by the identifier's :class:`~scara_ident_ros.identification.InputStage` (by default zero-phase;
+``acceleration='estimated'``; samples without an estimate are dropped).
 
 ``Evaluations`` (name -> (X, Y)) is how the experiment functions take the data sets to
 evaluate on.
@@ -18,7 +18,6 @@ Public functions::
 
     make_dataset(stamp_ns, q, qd, effort, *, qdd=None, differentiator=None, name='')
         -> Dataset
-    estimate_acceleration(stamp_ns, qd, *, differentiator=None) -> ndarray (N, n)
     dataset_from_record(record, *, acceleration='true', name='') -> Dataset
     simulate_record(params, *, seconds, seed, preset='standard', config=None) -> SimRecord
     simulate_dataset(params, *, seconds, seed, preset='standard', acceleration='true',
@@ -33,11 +32,11 @@ import numpy as np
 import numpy.typing as npt
 
 from scara_ident_ros.dynamics import ScaraParams
-from scara_ident_ros.identification import Differentiator
+from scara_ident_ros.identification import AccelerationEstimate, InputStage, JointMap
 from scara_ident_ros.sim import SimConfig, SimRecord, Simulator, make_trajectory
 
 __all__ = ['ACCELERATIONS', 'Dataset', 'Evaluations', 'dataset_from_record',
-           'estimate_acceleration', 'make_dataset', 'simulate_dataset', 'simulate_record']
+           'make_dataset', 'simulate_dataset', 'simulate_record']
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -127,40 +126,9 @@ class Dataset:
         return self.take(np.sort(rng.choice(len(self), n_samples, replace=False)), name)
 
 
-def estimate_acceleration(stamp_ns: npt.ArrayLike, qd: npt.ArrayLike, *,
-                          differentiator: Differentiator | None = None) -> FloatArray:
-    """q'' estimated from q' sample by sample, as the online identifier does.
-
-    Parameters
-    ----------
-    stamp_ns : array_like of shape (N,)
-        Increasing sample times (ns).
-    qd : array_like of shape (N, n)
-        Joint velocities (rad/s, m/s).
-    differentiator : Differentiator, optional
-        Default ``Differentiator('lowpass', cutoff_hz=50.0)``, the identifier's default.
-        It is reset first.
-
-    Returns
-    -------
-    ndarray of shape (N, n)
-        Accelerations (rad/s², m/s²); NaN rows for the differentiator's warm-up samples.
-    """
-    stamps = np.asarray(stamp_ns, dtype=np.int64)
-    velocity = np.asarray(qd, dtype=np.float64)
-    diff = differentiator if differentiator is not None else Differentiator()
-    diff.reset()
-    out = np.full(velocity.shape, np.nan)
-    for i in range(stamps.shape[0]):
-        acc = diff.update(int(stamps[i]), velocity[i])
-        if acc is not None:
-            out[i] = acc
-    return out
-
-
 def make_dataset(stamp_ns: npt.ArrayLike, q: npt.ArrayLike, qd: npt.ArrayLike,
                  effort: npt.ArrayLike, *, qdd: npt.ArrayLike | None = None,
-                 differentiator: Differentiator | None = None, name: str = '') -> Dataset:
+                 differentiator: AccelerationEstimate | None = None, name: str = '') -> Dataset:
     """Build a data set from joint states.
 
     Parameters
@@ -170,10 +138,10 @@ def make_dataset(stamp_ns: npt.ArrayLike, q: npt.ArrayLike, qd: npt.ArrayLike,
     q, qd, effort : array_like of shape (N, n)
         Positions (rad, m), velocities (rad/s, m/s) and efforts (N·m, N).
     qdd : array_like of shape (N, n), optional
-        True accelerations; if None, estimated from ``qd`` (see `estimate_acceleration`)
-        and the warm-up samples dropped.
-    differentiator : Differentiator, optional
-        Used when ``qdd`` is None.
+        True accelerations; if None, the samples go through the identifier's
+        :class:`InputStage` (q'' estimated, samples without an estimate dropped).
+    differentiator : Differentiator or CentredDifferentiator, optional
+        The stage's estimate when ``qdd`` is None (default: the identifier's).
     name : str
         Label of the data set.
     """
@@ -181,15 +149,14 @@ def make_dataset(stamp_ns: npt.ArrayLike, q: npt.ArrayLike, qd: npt.ArrayLike,
     q = np.asarray(q, dtype=np.float64)
     qd = np.asarray(qd, dtype=np.float64)
     effort = np.asarray(effort, dtype=np.float64)
-    if qdd is None:
-        acc = estimate_acceleration(stamps, qd, differentiator=differentiator)
-        kind = 'estimated'
-    else:
-        acc = np.asarray(qdd, dtype=np.float64)
-        kind = 'true'
-    keep = np.all(np.isfinite(acc), axis=1)
-    X = np.hstack([q, qd, acc])[keep]
-    return Dataset(stamps[keep], X, effort[keep], kind, name)
+    if qdd is not None:
+        X = np.hstack([q, qd, np.asarray(qdd, dtype=np.float64)])
+        return Dataset(stamps, X, effort, 'true', name)
+    n = effort.shape[1]
+    names = tuple(f'joint{j + 1}' for j in range(n))
+    stage = InputStage(JointMap(names, n_joints=n), differentiator=differentiator)
+    kept, X, Y = stage.batch(stamps, names, q, qd, effort)
+    return Dataset(kept, X, Y, 'estimated', name)
 
 
 def simulate_record(params: ScaraParams, *, seconds: float, seed: int,

@@ -1,27 +1,24 @@
 """Network samples (x = [q, q', q''], y = effort) from a recorded joint-state stream.
 
 The acceleration q'' is estimated exactly as the online identifier estimates it: every
-message goes, in stamp order, through the identifier's :class:`SampleCheck` (which rejects
-bad samples and marks clock gaps) and its :class:`Differentiator` (by default ``'lowpass'``
-at 50 Hz), which restarts after a gap; samples without an acceleration yet (warm-up) are
-dropped. A network trained on these samples therefore sees the same inputs offline as it
-will online.
+message goes, in stamp order, through the identifier's :class:`InputStage` (the sample
+checks, a restart at clock gaps, and by default the zero-phase centred estimate of q''); the
+samples of histories too short for an estimate are dropped. A network trained on these
+samples therefore sees the same inputs offline as it does online.
 
 Training and validation data are split by time, not at random: neighbouring samples at
 1 kHz are nearly identical, so a random split would validate on the training data.
 """
 from __future__ import annotations
 
-from collections import Counter
-from collections.abc import Sequence
 from typing import NamedTuple, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
 
 from scara_ident_ros.experiments.datasets import Dataset
-from scara_ident_ros.identification import (DEFAULT_MAX_GAP_NS, Differentiator, JointMap,
-                                            SampleCheck, SkipReason)
+from scara_ident_ros.identification import (DEFAULT_MAX_GAP_NS, AccelerationEstimate,
+                                            InputStage, JointMap)
 
 __all__ = ['JointStateArrays', 'RecordedDataset', 'dataset_from_joint_states', 'time_split']
 
@@ -77,7 +74,7 @@ class RecordedDataset(NamedTuple):
 
 
 def dataset_from_joint_states(series: JointStateArrays, *,
-                              differentiator: Differentiator | None = None,
+                              differentiator: AccelerationEstimate | None = None,
                               max_gap_ns: int = DEFAULT_MAX_GAP_NS,
                               name: str = '') -> RecordedDataset:
     """Turn recorded joint states into network samples the way the identifier does.
@@ -87,11 +84,10 @@ def dataset_from_joint_states(series: JointStateArrays, *,
     series : JointStateArrays
         The recording; rows are taken in stamp order (stable for equal stamps, which the
         sample check then rejects as repeated).
-    differentiator : Differentiator, optional
-        Estimator of q''; by default the identifier's, ``Differentiator('lowpass',
-        cutoff_hz=50.0)``. It is reset first.
+    differentiator : Differentiator or CentredDifferentiator, optional
+        Estimator of q''; by default the identifier's, ``CentredDifferentiator(21, 2)``.
     max_gap_ns : int
-        A clock jump larger than this (ns) restarts the differentiator, as online.
+        A clock jump larger than this (ns) restarts the estimate, as online.
     name : str
         Label of the data set.
 
@@ -110,38 +106,13 @@ def dataset_from_joint_states(series: JointStateArrays, *,
     position = np.asarray(series.position, dtype=np.float64).reshape(count, -1)
     velocity = np.asarray(series.velocity, dtype=np.float64).reshape(count, -1)
     effort = np.asarray(series.effort, dtype=np.float64).reshape(count, -1)
-    check = SampleCheck(JointMap(names, n_joints=n), need_effort=True, max_gap_ns=max_gap_ns)
-    diff = differentiator if differentiator is not None else Differentiator()
-    diff.reset()
-    no_effort: Sequence[float] = ()
-    has_effort = effort.shape[1] == n
-    kept = np.empty(count, dtype=np.intp)
-    X = np.empty((count, 3 * n))
-    Y = np.empty((count, n))
-    skipped: Counter[str] = Counter()
-    m = 0
-    for i in np.argsort(stamps, kind='stable').tolist():
-        stamp = int(stamps[i])
-        sample = check.check(stamp, names, position[i], velocity[i],
-                             effort[i] if has_effort else no_effort)
-        if isinstance(sample, SkipReason):
-            skipped[sample.value] += 1
-            continue
-        if sample.gap:
-            diff.reset()
-        acceleration = diff.update(stamp, sample.velocity)
-        if acceleration is None:
-            skipped[(SkipReason.GAP if sample.gap else SkipReason.WARMING_UP).value] += 1
-            continue
-        assert sample.effort is not None  # need_effort=True
-        X[m, :n] = sample.position
-        X[m, n:2 * n] = sample.velocity
-        X[m, 2 * n:] = acceleration
-        Y[m] = sample.effort
-        kept[m] = i
-        m += 1
-    data = Dataset(stamps[kept[:m]], X[:m].copy(), Y[:m].copy(), 'estimated', name)
-    return RecordedDataset(names, data, dict(skipped))
+    stage = InputStage(JointMap(names, n_joints=n), need_effort=True, max_gap_ns=max_gap_ns,
+                       differentiator=differentiator)
+    kept, X, Y = stage.batch(stamps, names, position, velocity,
+                             effort if effort.shape[1] == n else None)
+    data = Dataset(kept, X, Y, 'estimated', name)
+    skipped = {reason.value: k for reason, k in stage.skipped.items() if k}
+    return RecordedDataset(names, data, skipped)
 
 
 def time_split(data: Dataset, validation_fraction: float) -> tuple[Dataset, Dataset]:

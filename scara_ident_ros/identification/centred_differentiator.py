@@ -1,0 +1,121 @@
+"""Zero-lag joint acceleration: a local polynomial fitted around each sample.
+
+The causal estimates of :class:`~scara_ident_ros.identification.Differentiator` lag the true
+q'' (the 50 Hz low-pass by about 3 ms), and a model learnt from them learns that lag with the
+dynamics: least squares on the SCARA's physical regressor, exact with the true q'' (NMSE
+~1e-28), reaches only NMSE 0.03 with the low-pass estimate. A learning target does not have
+to be causal: the identifier can wait a few samples. This estimate fits a polynomial of
+degree ``p`` to the ``W = 2m + 1`` velocities centred on a sample, at their actual stamps,
+and differentiates it at that sample, so it is
+
+- exact for velocities that are polynomials of degree up to ``p`` (any stamps);
+- zero-phase for uniform stamps (the weights are antisymmetric), hence no lag;
+- available ``m`` samples late (``m`` ms at 1 kHz with the default ``W = 21``);
+- quiet: with uniform period ``T`` and ``p`` = 2, white velocity noise of std ``s`` gives
+  acceleration noise ``s / T * sqrt(12 / (m (m + 1) (2m + 1)))`` (0.072 s/T for W = 21),
+  where the backward difference gives ``1.41 s / T``.
+
+Near the ends of a history (the first and last ``m`` samples before a restart) the same fit
+over the first or last ``W`` samples is evaluated off-centre: still exact on polynomials,
+noisier. A history of fewer than ``W`` samples gives no estimate.
+
+For a signal of frequency ``f`` the relative error of the centred slope is about
+``(2 pi f m T)^2 / 10``: 0.4 % at 3 Hz for W = 21 at 1 kHz.
+"""
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = ['CentredDifferentiator']
+
+NS = 1e-9  # seconds per nanosecond
+
+
+class CentredDifferentiator:
+    """q'' of a sample from a polynomial fitted to the W velocities around it.
+
+    Stateless: the caller keeps the history (see
+    :class:`~scara_ident_ros.identification.InputStage`).
+
+    Parameters
+    ----------
+    window : int
+        Odd number of samples ``W = 2m + 1`` per fit, at least ``degree + 2``.
+    degree : int
+        Degree ``p`` of the polynomial, at least 1.
+    """
+
+    method = 'centred'
+
+    def __init__(self, window: int = 21, degree: int = 2) -> None:
+        if degree < 1 or window < degree + 2 or window % 2 == 0:
+            raise ValueError(f'a centred fit needs an odd window >= degree + 2 and degree >= '
+                             f'1, got window {window}, degree {degree}')
+        self.window = int(window)
+        self.degree = int(degree)
+        self._cache_key: object = None
+        self._cache_weights = np.empty((0, self.window))
+
+    @property
+    def lag(self) -> int:
+        """Samples m after a sample that its estimate needs: (W - 1) / 2."""
+        return self.window // 2
+
+    def delay(self, period_s: float) -> float:
+        """Lag of the estimate behind the true q'' (s): 0, as for any zero-phase estimate.
+
+        The estimate is *available* ``lag · period_s`` after its sample; see :attr:`lag`.
+        """
+        return 0.0
+
+    def derivative(self, stamp_ns: NDArray[np.int64], velocity: NDArray[np.float64],
+                   at: int | slice) -> NDArray[np.float64]:
+        """Differentiate the fit of all the given samples at the samples ``at``.
+
+        Parameters
+        ----------
+        stamp_ns : ndarray of shape (W,) of int64
+            Increasing stamps of the fitted samples, integer nanoseconds.
+        velocity : ndarray of shape (W, n)
+            Their velocities q' (rad/s or m/s).
+        at : int or slice
+            Index or indices (into the W samples) where the derivative is wanted; the centre
+            ``lag`` for an ordinary sample.
+
+        Returns
+        -------
+        ndarray of shape (n,) for an int ``at``, (k, n) for a slice
+            Accelerations q'' (rad/s² or m/s²).
+        """
+        weights = self.weights(stamp_ns, at)
+        acc = weights @ velocity
+        return acc[0] if isinstance(at, (int, np.integer)) else acc
+
+    def weights(self, stamp_ns: NDArray[np.int64], at: int | slice) -> NDArray[np.float64]:
+        """Return the linear weights (k, W) that map the W velocities to q'' at ``at``.
+
+        The weights depend only on the stamps' offsets; those of the last pattern are
+        cached, so uniform stamps (a simulator, most drivers) cost one product per sample.
+        """
+        t = np.asarray(stamp_ns, dtype=np.int64)
+        offsets = t - t[0]
+        key = (offsets.tobytes(), at if isinstance(at, int) else (at.start, at.stop))
+        if key == self._cache_key:
+            return self._cache_weights
+        half_span = max(float(offsets[-1]) / 2.0, 1.0)  # ns
+        # Basis ((t_i - t_c) / half_span) ** j on [-1, 1]: well conditioned for any stamps.
+        u = (offsets - float(offsets[offsets.shape[0] // 2])) / half_span
+        basis = np.vander(u, self.degree + 1, increasing=True)  # (W, p + 1)
+        fit = np.linalg.solve(basis.T @ basis, basis.T)  # (p + 1, W): coefficients' weights
+        at_u = np.atleast_1d(u[at])
+        # d/dt of sum_j c_j u^j = sum_j j c_j u^(j-1) / half_span
+        powers = np.arange(1, self.degree + 1)
+        slope_basis = powers * at_u[:, None] ** (powers - 1)  # (k, p)
+        weights = slope_basis @ fit[1:] / (half_span * NS)
+        self._cache_key, self._cache_weights = key, weights
+        return weights
+
+    def __repr__(self) -> str:
+        return f'CentredDifferentiator(window={self.window}, degree={self.degree})'
+

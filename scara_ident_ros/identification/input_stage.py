@@ -1,0 +1,278 @@
+"""The one path from joint-state samples to network inputs, online and offline.
+
+Every sample goes through :class:`SampleCheck` (rejections, joint order, clock gaps), then
+q'' is estimated from q' and the sample comes out as an :class:`Input`, ``x = [q, q', q'']``
+with its measured effort. The identifier node, ``scara-ident train``/``evaluate``/``tables``
+and the simulated experiments all use this stage, so a network sees the same inputs
+whichever way it is trained.
+
+The default estimate is :class:`CentredDifferentiator` (zero-phase, exact on quadratic
+velocities): a sample comes out ``lag`` samples after it went in (10 ms at 1 kHz), once the
+samples after it have arrived. A clock gap or the end of the stream (:meth:`InputStage.flush`)
+lets the last samples of a history out with an off-centre fit. The causal estimates of
+:class:`Differentiator` (``'lowpass'`` etc.) have ``lag`` 0: each sample comes out at once,
+with the filter's delay in its q''.
+
+Counting: every sample pushed is, at any time, either rejected or dropped (``skipped``, per
+:class:`SkipReason`), out (``emitted``) or still ``pending``.
+"""
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from numpy.typing import NDArray
+
+from scara_ident_ros.identification.centred_differentiator import CentredDifferentiator
+from scara_ident_ros.identification.differentiator import Differentiator
+from scara_ident_ros.identification.joint_map import JointMap
+from scara_ident_ros.identification.sample_check import (DEFAULT_MAX_GAP_NS, FloatArrayLike,
+                                                         Sample, SampleCheck)
+from scara_ident_ros.identification.skip_reason import SkipReason
+
+__all__ = ['Input', 'InputStage', 'AccelerationEstimate', 'make_differentiator',
+           'DIFFERENTIATORS']
+
+AccelerationEstimate = Differentiator | CentredDifferentiator
+
+#: Names of the acceleration estimates; ``'centred'`` is the zero-lag default.
+DIFFERENTIATORS = ('centred', 'lowpass', 'backward', 'polynomial')
+
+
+def make_differentiator(method: str = 'centred', *, window: int = 21, cutoff_hz: float = 50.0,
+                        degree: int = 2) -> AccelerationEstimate:
+    """Build the acceleration estimate called ``method`` (one of :data:`DIFFERENTIATORS`).
+
+    Parameters
+    ----------
+    method : str
+        ``'centred'`` (zero-phase, :class:`CentredDifferentiator`) or a causal
+        :class:`Differentiator` method.
+    window : int
+        Samples per polynomial fit (``'centred'``: odd; ``'polynomial'``).
+    cutoff_hz : float
+        Cut-off of ``'lowpass'`` (Hz).
+    degree : int
+        Polynomial degree (``'centred'``, ``'polynomial'``).
+    """
+    if method == 'centred':
+        return CentredDifferentiator(window, degree)
+    if method not in DIFFERENTIATORS:
+        raise ValueError(f'unknown differentiator {method!r}; choose from {DIFFERENTIATORS}')
+    return Differentiator(method, cutoff_hz=cutoff_hz, window=window, degree=degree)
+
+
+class Input(NamedTuple):
+    """One network input with its target.
+
+    Attributes
+    ----------
+    stamp_ns : int
+        The sample's stamp, integer nanoseconds.
+    x : ndarray of shape (3n,)
+        ``[q_1..q_n, q'_1..q'_n, q''_1..q''_n]`` in joint order (rad or m, /s, /s²).
+    effort : ndarray of shape (n,) or None
+        Measured effort (N·m or N), None if the message had none.
+    """
+
+    stamp_ns: int
+    x: NDArray[np.float64]
+    effort: NDArray[np.float64] | None
+
+
+class InputStage:
+    """Joint-state samples in, network inputs out, in stamp order.
+
+    Parameters
+    ----------
+    joint_map : JointMap
+        The joint order (adopted from the first valid sample if it has none).
+    need_effort : bool
+        Reject samples without effort (see :class:`SampleCheck`).
+    max_gap_ns : int
+        A larger clock jump (ns) ends the history: its last samples are let out and the
+        estimate restarts.
+    differentiator : Differentiator or CentredDifferentiator, optional
+        The q'' estimate; default ``CentredDifferentiator(21, 2)``.
+    """
+
+    def __init__(self, joint_map: JointMap, *, need_effort: bool = True,
+                 max_gap_ns: int = DEFAULT_MAX_GAP_NS,
+                 differentiator: AccelerationEstimate | None = None) -> None:
+        self.check = SampleCheck(joint_map, need_effort=need_effort, max_gap_ns=max_gap_ns)
+        self.differentiator = (differentiator if differentiator is not None
+                               else CentredDifferentiator())
+        self.skipped: dict[SkipReason, int] = dict.fromkeys(SkipReason, 0)
+        self.emitted = 0
+        self._history: list[Sample] = []  # centred: the last <= W accepted samples
+        self._length = 0  # centred: samples in the current history, all told
+        window = getattr(self.differentiator, 'window', 1)
+        self._stamps = np.zeros(window, dtype=np.int64)  # centred: last W stamps, newest last
+        self._velocity = np.zeros((window, 0))  # centred: last W velocities (W, n)
+
+    @property
+    def lag(self) -> int:
+        """Samples after a sample that its q'' needs (0 for a causal estimate)."""
+        return self.differentiator.lag if isinstance(self.differentiator,
+                                                     CentredDifferentiator) else 0
+
+    @property
+    def pending(self) -> int:
+        """Samples accepted but not yet out (at most the window)."""
+        if not isinstance(self.differentiator, CentredDifferentiator):
+            return 0
+        length = self._length
+        return self.lag if length >= self.differentiator.window else length
+
+    def push(self, stamp_ns: int, names: tuple[str, ...] | list[str], position: FloatArrayLike,
+             velocity: FloatArrayLike, effort: FloatArrayLike = ()
+             ) -> tuple[SkipReason | None, list[Input]]:
+        """Take one sample; return why it was rejected (or None) and the inputs now ready.
+
+        Parameters
+        ----------
+        stamp_ns : int
+            Time of the sample, integer nanoseconds.
+        names : sequence of str of length m
+            Joint names in message order.
+        position, velocity, effort : array_like of shape (m,)
+            q, q', effort in message order (effort may be empty).
+
+        Returns
+        -------
+        reason : SkipReason or None
+            Why this sample was rejected (it then changed nothing), or, with a causal
+            estimate, why it gave no input (``GAP``, ``WARMING_UP``: the first sample of a
+            history); None otherwise.
+        inputs : list of Input
+            Samples whose input is now complete, oldest first: with a centred estimate,
+            the sample ``lag`` before this one (and, at a gap, the rest of the previous
+            history; when the first window fills, its first half too).
+        """
+        sample = self.check.check(stamp_ns, names, position, velocity, effort)
+        if isinstance(sample, SkipReason):
+            self.skipped[sample] += 1
+            return sample, []
+        if isinstance(self.differentiator, Differentiator):
+            return self._push_causal(sample)
+        out = self.flush() if sample.gap else []
+        return None, out + self._push_centred(sample)
+
+    def flush(self) -> list[Input]:
+        """End the current history: let its pending samples out (off-centre fits).
+
+        A history shorter than the window gives no estimate: its samples are counted as
+        skipped ``WARMING_UP``. The next sample starts a new history.
+        """
+        if isinstance(self.differentiator, Differentiator):
+            self.differentiator.reset()
+            return []
+        history, self._history, length, self._length = self._history, [], self._length, 0
+        w, m = self.differentiator.window, self.lag
+        if length < w:
+            self.skipped[SkipReason.WARMING_UP] += length
+            return []
+        return self._emit(history, slice(m + 1, w))
+
+    def reset(self) -> None:
+        """Forget the last stamp and the history; pending samples are dropped (skipped)."""
+        self.check.reset()
+        if isinstance(self.differentiator, Differentiator):
+            self.differentiator.reset()
+        self.skipped[SkipReason.WARMING_UP] += self.pending
+        self._history, self._length = [], 0
+
+    def batch(self, stamp_ns: NDArray[np.int64], names: tuple[str, ...],
+              position: NDArray[np.float64], velocity: NDArray[np.float64],
+              effort: NDArray[np.float64] | None = None
+              ) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.float64]]:
+        """Push a whole recording, in stamp order, then flush: the offline path.
+
+        Parameters
+        ----------
+        stamp_ns : ndarray of shape (N,) of int64
+            Stamps, integer nanoseconds, in any order (taken sorted, stable for equal stamps,
+            which the sample check then rejects as repeated).
+        names : tuple of str of length n
+            The joints of the columns.
+        position, velocity : ndarray of shape (N, n)
+            q and q' (NaN where a message lacked a value: the sample is rejected).
+        effort : ndarray of shape (N, n), optional
+            Measured efforts; None (or 0 columns) if not recorded.
+
+        Returns
+        -------
+        stamp_ns : ndarray of shape (K,) of int64
+            Stamps of the samples that came out, increasing.
+        X : ndarray of shape (K, 3n)
+            Their inputs ``[q, q', q'']`` in the stage's joint order.
+        Y : ndarray of shape (K, n)
+            Their efforts (NaN rows for samples without one).
+        """
+        no_effort: tuple[float, ...] = ()
+        has_effort = effort is not None and effort.ndim == 2 and effort.shape[1] > 0
+        inputs: list[Input] = []
+        for i in np.argsort(stamp_ns, kind='stable').tolist():
+            inputs += self.push(int(stamp_ns[i]), names, position[i], velocity[i],
+                                effort[i] if has_effort else no_effort)[1]
+        inputs += self.flush()
+        k = len(inputs)
+        n = len(names)
+        X = np.empty((k, 3 * n))
+        Y = np.full((k, n), np.nan)
+        for row, item in enumerate(inputs):
+            X[row] = item.x
+            if item.effort is not None:
+                Y[row] = item.effort
+        stamps = np.fromiter((item.stamp_ns for item in inputs), dtype=np.int64, count=k)
+        return stamps, X, Y
+
+    # ---------------------------------------------------------------- internals
+    def _push_causal(self, sample: Sample) -> tuple[SkipReason | None, list[Input]]:
+        diff = self.differentiator
+        assert isinstance(diff, Differentiator)
+        if sample.gap:
+            diff.reset()
+        acceleration = diff.update(sample.stamp_ns, sample.velocity)
+        if acceleration is None:
+            reason = SkipReason.GAP if sample.gap else SkipReason.WARMING_UP
+            self.skipped[reason] += 1
+            return reason, []
+        self.emitted += 1
+        return None, [Input(sample.stamp_ns,
+                            np.concatenate((sample.position, sample.velocity, acceleration)),
+                            sample.effort)]
+
+    def _push_centred(self, sample: Sample) -> list[Input]:
+        diff = self.differentiator
+        assert isinstance(diff, CentredDifferentiator)
+        w, m = diff.window, diff.lag
+        history = self._history
+        history.append(sample)
+        if len(history) > w:
+            del history[0]
+        if self._velocity.shape[1] != sample.velocity.shape[0]:
+            self._velocity = np.zeros((w, sample.velocity.shape[0]))
+        # Newest last: shift by one (W rows, cheaper than a deque turned into arrays).
+        self._stamps[:-1] = self._stamps[1:]
+        self._stamps[-1] = sample.stamp_ns
+        self._velocity[:-1] = self._velocity[1:]
+        self._velocity[-1] = sample.velocity
+        self._length += 1
+        if self._length < w:
+            return []
+        # The first full window lets out its first half too (off-centre), then its centre.
+        return self._emit(history, slice(0, m + 1) if self._length == w else slice(m, m + 1))
+
+    def _emit(self, history: list[Sample], at: slice) -> list[Input]:
+        diff = self.differentiator
+        assert isinstance(diff, CentredDifferentiator)
+        w = len(history)
+        acceleration = diff.derivative(self._stamps[-w:], self._velocity[-w:], at)
+        out = []
+        for sample, acc in zip(history[at], acceleration):
+            out.append(Input(sample.stamp_ns,
+                             np.concatenate((sample.position, sample.velocity, acc)),
+                             sample.effort))
+        self.emitted += len(out)
+        return out
