@@ -1,10 +1,12 @@
 """Online identification of the inverse dynamics, one joint-state sample at a time.
 
-Per accepted sample: validate → differentiate q' into q'' → predict the effort from
-x = [q, q', q''] → record the prediction error (if effort was measured) → learn from the
-sample (one ``partial_fit`` step). The prediction is made *before* the model learns from the
-sample, so it is an honest a-priori prediction and the recorded error is a true one-step
-generalisation error, not a training error.
+Per sample: the :class:`InputStage` validates it and estimates q'' (by default zero-phase,
+so the sample's input is complete ``lag`` samples later, 10 ms at 1 kHz) → the model
+predicts the effort from x = [q, q', q''] → the prediction error is recorded (if effort was
+measured) → the trainer learns from the sample, unless it is in a held-out validation block
+(:class:`Holdout`), which is never learnt and scores the model. The prediction is made
+*before* the model learns from the sample, so it is an honest a-priori prediction and the
+recorded error is a true one-step generalisation error, not a training error.
 
 This module is pure numpy; the ROS node only converts ``sensor_msgs/JointState`` to the
 arguments of :meth:`OnlineIdentifier.process`.
@@ -18,12 +20,13 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-from scara_ident_ros.identification.differentiator import Differentiator
 from scara_ident_ros.identification.error_window import PAPER_WINDOW, ErrorStats, ErrorWindow
+from scara_ident_ros.identification.holdout import Holdout
+from scara_ident_ros.identification.input_stage import AccelerationEstimate, Input, InputStage
 from scara_ident_ros.identification.joint_map import JointMap
-from scara_ident_ros.identification.sample_check import (DEFAULT_MAX_GAP_NS, FloatArrayLike,
-                                                         SampleCheck)
+from scara_ident_ros.identification.sample_check import DEFAULT_MAX_GAP_NS, FloatArrayLike
 from scara_ident_ros.identification.skip_reason import SkipReason
+from scara_ident_ros.identification.trainer import BackPropagation, Trainer
 
 __all__ = ['EffortModel', 'StepResult', 'Counts', 'OnlineIdentifier']
 
@@ -73,21 +76,24 @@ class StepResult:
         The sample's stamp, integer nanoseconds.
     effort : ndarray of shape (n_joints,) or None
         The a-priori predicted effort (N·m or N) in the configured joint order, or None if
-        the sample was skipped.
+        the sample was rejected.
     reason : SkipReason or None
-        Why the sample was skipped, or None if a prediction was made.
+        Why the sample was rejected, or None if a prediction was made.
+    held_out : bool
+        The sample is a validation sample: predicted, never learnt.
     """
 
     stamp_ns: int
     effort: NDArray[np.float64] | None
     reason: SkipReason | None = None
+    held_out: bool = False
 
 
 @dataclass
 class Counts:
     """Counters of an :class:`OnlineIdentifier`.
 
-    ``processed == predicted + sum(skipped.values())`` always holds.
+    ``processed == predicted + sum(skipped.values()) + pending`` always holds.
 
     Attributes
     ----------
@@ -97,19 +103,25 @@ class Counts:
         Samples for which an effort was predicted.
     learned : int
         Samples the model learnt from.
+    held_out : int
+        Samples predicted and kept for validation, never learnt from.
     refused : int
         Samples predicted but not learnt from, because the model refused the step (it
         would not have been finite); the weights were left unchanged.
     skipped : dict of SkipReason to int
         Samples without a prediction, per reason (every reason present, from 0).
+    pending : int
+        Samples accepted whose input is not complete yet (the centred estimate's lag).
     """
 
     processed: int = 0
     predicted: int = 0
     learned: int = 0
+    held_out: int = 0
     refused: int = 0
     skipped: dict[SkipReason, int] = field(
         default_factory=lambda: dict.fromkeys(SkipReason, 0))
+    pending: int = 0
 
 
 class OnlineIdentifier:
@@ -122,9 +134,14 @@ class OnlineIdentifier:
     joint_names : sequence of str, optional
         The joint order of the model's inputs and outputs; by default that of the first valid
         sample. Messages are always mapped to it by name.
-    differentiator : Differentiator, optional
-        Turns q' into q''; by default ``Differentiator('lowpass', cutoff_hz=50.0)``. It is
-        owned by the identifier from then on.
+    differentiator : Differentiator or CentredDifferentiator, optional
+        The q'' estimate of the :class:`InputStage`; by default the zero-phase
+        ``CentredDifferentiator(21, 2)``. It is owned by the identifier from then on.
+    trainer : Trainer, optional
+        How samples are learnt; by default the paper's per-sample back-propagation
+        (:class:`BackPropagation`), the node's default is the reservoir LM.
+    holdout : Holdout, optional
+        Validation blocks never learnt; by default none.
     mse_window : int
         Number of latest predictions the error statistics cover, at least 100 (the paper's
         figure is over the last 100).
@@ -133,7 +150,7 @@ class OnlineIdentifier:
         effort are accepted (they are predicted but leave the error statistics unchanged).
     max_gap_ns : int
         A clock jump of more than this (ns) between accepted samples restarts the
-        differentiator.
+        acceleration estimate.
 
     Raises
     ------
@@ -142,8 +159,10 @@ class OnlineIdentifier:
     """
 
     def __init__(self, model: EffortModel, *, joint_names: Sequence[str] | None = None,
-                 differentiator: Differentiator | None = None, mse_window: int = 1000,
-                 learn: bool = True, max_gap_ns: int = DEFAULT_MAX_GAP_NS) -> None:
+                 differentiator: AccelerationEstimate | None = None,
+                 trainer: Trainer | None = None, holdout: Holdout | None = None,
+                 mse_window: int = 1000, learn: bool = True,
+                 max_gap_ns: int = DEFAULT_MAX_GAP_NS) -> None:
         n = model.n_outputs
         if n < 1 or model.n_inputs != 3 * n:
             raise ValueError(f'model has {model.n_inputs} inputs and {n} outputs; '
@@ -153,10 +172,12 @@ class OnlineIdentifier:
         self.model = model
         self.learn = learn
         self.joint_map = JointMap(joint_names, n_joints=n)
-        self._check = SampleCheck(self.joint_map, need_effort=learn, max_gap_ns=max_gap_ns)
-        self.differentiator = differentiator if differentiator is not None else Differentiator()
+        self.stage = InputStage(self.joint_map, need_effort=learn, max_gap_ns=max_gap_ns,
+                                differentiator=differentiator)
+        self.trainer: Trainer = trainer if trainer is not None else BackPropagation(model)
+        self.holdout = holdout
         self.errors = ErrorWindow(n, mse_window)
-        self.counts = Counts()
+        self.counts = Counts(skipped=self.stage.skipped)
 
     @property
     def n_joints(self) -> int:
@@ -168,9 +189,19 @@ class OnlineIdentifier:
         """The joint order, or None until the first valid sample when not configured."""
         return self.joint_map.names
 
+    @property
+    def differentiator(self) -> AccelerationEstimate:
+        """The q'' estimate."""
+        return self.stage.differentiator
+
+    @property
+    def lag(self) -> int:
+        """Samples by which a prediction follows its sample (the q'' estimate's lag)."""
+        return self.stage.lag
+
     def process(self, stamp_ns: int, names: Sequence[str], position: FloatArrayLike,
-                velocity: FloatArrayLike, effort: FloatArrayLike = ()) -> StepResult:
-        """Handle one joint-state sample: validate, predict a priori, record, learn.
+                velocity: FloatArrayLike, effort: FloatArrayLike = ()) -> list[StepResult]:
+        """Handle one joint-state sample: validate, then predict a priori, record, learn.
 
         Parameters
         ----------
@@ -185,42 +216,49 @@ class OnlineIdentifier:
 
         Returns
         -------
-        StepResult
-            The predicted effort in joint order, or why there is none. A rejected sample
-            changes nothing but its counter: it reaches neither the differentiator nor the
-            model.
+        list of StepResult
+            A rejection of this sample (``effort`` None, with its reason: it changed nothing
+            but its counter), and/or the predictions of the samples whose input is now
+            complete, oldest first, each stamped with its own sample's stamp (with the
+            zero-phase estimate, the sample ``lag`` before this one).
         """
+        self.counts.processed += 1
+        reason, inputs = self.stage.push(stamp_ns, tuple(names), position, velocity, effort)
+        results = [StepResult(stamp_ns, None, reason)] if reason is not None else []
+        results += [self._predict_and_learn(item) for item in inputs]
+        self.counts.pending = self.stage.pending
+        return results
+
+    def finish(self) -> list[StepResult]:
+        """End of the stream: predict (and learn) the samples still pending."""
+        results = [self._predict_and_learn(item) for item in self.stage.flush()]
+        self.counts.pending = self.stage.pending
+        return results
+
+    def _predict_and_learn(self, item: Input) -> StepResult:
         counts = self.counts
-        counts.processed += 1
-        sample = self._check.check(stamp_ns, names, position, velocity, effort)
-        if isinstance(sample, SkipReason):
-            counts.skipped[sample] += 1
-            return StepResult(stamp_ns, None, sample)
-        if sample.gap:
-            self.differentiator.reset()
-        acceleration = self.differentiator.update(stamp_ns, sample.velocity)
-        if acceleration is None:
-            reason = SkipReason.GAP if sample.gap else SkipReason.WARMING_UP
-            counts.skipped[reason] += 1
-            return StepResult(stamp_ns, None, reason)
-        x = np.concatenate((sample.position, sample.velocity, acceleration))
-        effort = sample.effort
-        if effort is not None and self.learn:
-            # One forward pass serves both: the a-priori error of the learning step
-            # gives the a-priori prediction.
+        index = counts.predicted
+        counts.predicted += 1
+        effort = item.effort
+        held_out = (effort is not None and self.holdout is not None
+                    and self.holdout.held_out(index))
+        if held_out:
+            assert self.holdout is not None and effort is not None
+            predicted = self.model.predict(item.x)
+            self.holdout.add(item.x, effort)
+            counts.held_out += 1
+        elif effort is not None and self.learn:
             try:
-                predicted = effort - self.model.partial_fit(x[np.newaxis],
-                                                            effort[np.newaxis])[0]
+                predicted = self.trainer.learn(item.x, effort)
                 counts.learned += 1
             except ValueError:
-                predicted = self.model.predict(x)
+                predicted = self.model.predict(item.x)
                 counts.refused += 1
         else:
-            predicted = self.model.predict(x)
-        counts.predicted += 1
+            predicted = self.model.predict(item.x)
         if effort is not None:
             self.errors.update(effort, predicted)
-        return StepResult(stamp_ns, predicted)
+        return StepResult(item.stamp_ns, predicted, None, held_out)
 
     def error_stats(self) -> ErrorStats:
         """Return the error statistics over the last ``mse_window`` predictions."""
@@ -230,11 +268,21 @@ class OnlineIdentifier:
         """Return the paper's online figure: the statistics over the last 100 predictions."""
         return self.errors.recent(PAPER_WINDOW)
 
+    def validation_stats(self) -> ErrorStats | None:
+        """Score the current model on the held-out samples kept so far.
+
+        Returns None without a holdout or with too few held-out samples yet.
+        """
+        if self.holdout is None or len(self.holdout.reservoir) == 0:
+            return None
+        return self.holdout.score(self.model.predict(self.holdout.reservoir.X))
+
     def reset(self) -> None:
         """Restart the stream: forget the last stamp, the derivative history and the errors.
 
-        The model, the joint order and the counters are kept.
+        The model, the joint order and the counters are kept; pending samples are dropped
+        (counted as skipped ``warming_up``).
         """
-        self._check.reset()
-        self.differentiator.reset()
+        self.stage.reset()
+        self.counts.pending = self.stage.pending
         self.errors.reset()

@@ -168,6 +168,23 @@ class LevenbergMarquardt:
         self._stale = True
         return self._sse / self._ys.size
 
+    def set_data(self, xs: FloatArray, ys: FloatArray) -> float:
+        """Train on other samples from now on (keeping mu); return their current MSE.
+
+        For learning beside a stream, where the samples (a reservoir) change between steps.
+
+        Parameters
+        ----------
+        xs : ndarray of shape (n_samples, n_inputs)
+            Scaled inputs.
+        ys : ndarray of shape (n_samples, n_outputs)
+            Scaled targets.
+        """
+        self._xs, self._ys = xs, ys
+        self._sse = self._net._mse_scaled(xs, ys) * ys.size
+        self._stale = True
+        return self._sse / ys.size
+
     def step(self) -> float:
         """Make one successful step; return the training MSE after it.
 

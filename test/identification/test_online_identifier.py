@@ -76,6 +76,12 @@ def expected_x(k: int) -> NDArray[np.float64]:
     return np.array(q + qd + [float(j + 1) for j in range(N)])
 
 
+def one(results: list[StepResult]) -> StepResult:
+    """The one result of a sample with a causal differentiator (lag 0)."""
+    assert len(results) == 1
+    return results[0]
+
+
 def make(model: RecordingModel, **kwargs: object) -> OnlineIdentifier:
     kwargs.setdefault('joint_names', NAMES)
     kwargs.setdefault('differentiator', Differentiator('backward'))
@@ -90,7 +96,7 @@ def test_hostile_stream() -> None:
 
     def feed(stamp: int, msg: tuple[list[str], list[float], list[float], list[float]],
              expect: SkipReason | None, k: int | None = None) -> StepResult:
-        result = ident.process(stamp, *msg)
+        result = one(ident.process(stamp, *msg))
         assert result.reason is expect and result.stamp_ns == stamp
         assert (result.effort is None) == (expect is not None)
         if expect is None:
@@ -158,7 +164,7 @@ def test_hostile_stream() -> None:
 def test_predictions_are_a_priori() -> None:
     model = RecordingModel(rate=0.005)
     ident = make(model)
-    results = [ident.process(T0 + k * MS, *message(k)) for k in range(30)]
+    results = [one(ident.process(T0 + k * MS, *message(k))) for k in range(30)]
     kinds = [kind for kind, _, _ in model.events]
     assert kinds == ['predict', 'fit'] * 29  # each prediction before the step learning it
     for k, result in enumerate(results[1:], start=1):  # results[0] is warming up
@@ -188,7 +194,8 @@ def test_rejected_velocity_does_not_poison_later_accelerations() -> None:
             if k % 7 == 3:
                 poisoned = message(k)
                 poisoned[2][1] = NAN  # at the stamp of a good sample, which follows it
-                assert b.process(T0 + k * MS, *poisoned).reason is SkipReason.NON_FINITE
+                assert one(b.process(T0 + k * MS, *poisoned)).reason is \
+                    SkipReason.NON_FINITE
             b.process(T0 + k * MS, *msg)
     for (xa, ya), (xb, yb) in zip(clean.fits(), hostile.fits(), strict=True):
         np.testing.assert_array_equal(xa, xb)
@@ -200,8 +207,8 @@ def test_reordered_messages_train_the_same_as_ordered_ones() -> None:
     a, b = make(ordered), make(shuffled)
     rng = np.random.default_rng(3)
     for k in range(20):
-        ra = a.process(T0 + k * MS, *message(k))
-        rb = b.process(T0 + k * MS, *message(k, order=rng.permutation(N).tolist()))
+        ra = one(a.process(T0 + k * MS, *message(k)))
+        rb = one(b.process(T0 + k * MS, *message(k, order=rng.permutation(N).tolist())))
         assert ra.reason is rb.reason
         if ra.effort is not None:
             np.testing.assert_array_equal(ra.effort, rb.effort)
@@ -214,13 +221,13 @@ def test_joint_order_from_the_first_valid_message() -> None:
     model = RecordingModel(n_outputs=3)
     ident = make(model, joint_names=None)
     assert ident.joint_names is None and ident.n_joints == 3
-    assert ident.process(T0, ['a', 'b'], [1, 2], [1, 2], [1, 2]).reason is \
+    assert one(ident.process(T0, ['a', 'b'], [1, 2], [1, 2], [1, 2])).reason is \
         SkipReason.JOINT_COUNT
-    assert ident.process(T0, ['c', 'a', 'b'], [3, 1, 2], [0, 0, 0], [30, 10, 20]).reason is \
-        SkipReason.WARMING_UP
+    assert one(ident.process(T0, ['c', 'a', 'b'], [3, 1, 2], [0, 0, 0],
+                             [30, 10, 20])).reason is SkipReason.WARMING_UP
     assert ident.joint_names == ('c', 'a', 'b')
-    result = ident.process(T0 + MS, ['a', 'b', 'c'], [1, 2, 3], [0.001, 0.002, 0.003],
-                           [10, 20, 30])
+    result = one(ident.process(T0 + MS, ['a', 'b', 'c'], [1, 2, 3], [0.001, 0.002, 0.003],
+                               [10, 20, 30]))
     assert result.effort is not None
     x, y = model.fits()[0]
     np.testing.assert_allclose(x[0], [3, 1, 2, 0.003, 0.001, 0.002, 3, 1, 2])
@@ -242,13 +249,14 @@ def test_prediction_only_mode() -> None:
 def test_gap_restarts_the_differentiator_and_reset_restarts_the_stream() -> None:
     model = RecordingModel()
     ident = make(model, differentiator=Differentiator('polynomial', window=3, degree=1))
-    reasons = [ident.process(T0 + k * MS, *message(k)).reason for k in range(5)]
+    reasons = [one(ident.process(T0 + k * MS, *message(k))).reason for k in range(5)]
     assert reasons == [SkipReason.WARMING_UP] * 2 + [None] * 3
-    reasons = [ident.process(T0 + k * MS, *message(k)).reason for k in range(100, 104)]
+    reasons = [one(ident.process(T0 + k * MS, *message(k))).reason for k in range(100, 104)]
     assert reasons == [SkipReason.GAP, SkipReason.WARMING_UP, None, None]
     ident.reset()
     assert ident.error_stats().count == 0
-    reasons = [ident.process(T0 + k * MS, *message(k)).reason for k in range(3)]  # time went back
+    reasons = [one(ident.process(T0 + k * MS, *message(k))).reason
+               for k in range(3)]  # time went back
     assert reasons == [SkipReason.WARMING_UP] * 2 + [None]
     assert ident.counts.processed == 12 and ident.counts.learned == 6
 

@@ -1,0 +1,76 @@
+"""A fixed-size uniform sample of an endless stream (reservoir sampling, algorithm R).
+
+After ``count`` samples have been offered, each of them is in the reservoir with the same
+probability ``capacity / count``, whatever the order: a bounded memory that keeps
+representing the whole history, which a window of the latest samples does not (a window
+of one motion teaches a network that motion only).
+"""
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = ['Reservoir']
+
+
+class Reservoir:
+    """Keep a uniform random sample of at most ``capacity`` (x, y) pairs.
+
+    Parameters
+    ----------
+    capacity : int
+        Most pairs kept, at least 1.
+    n_inputs, n_outputs : int
+        Lengths of x and y.
+    seed : int
+        Seed of the replacement draws.
+    """
+
+    def __init__(self, capacity: int, n_inputs: int, n_outputs: int, *, seed: int = 0) -> None:
+        if capacity < 1:
+            raise ValueError(f'capacity must be at least 1, got {capacity}')
+        self.capacity = int(capacity)
+        self._x = np.empty((self.capacity, n_inputs))
+        self._y = np.empty((self.capacity, n_outputs))
+        self._rng = np.random.default_rng(seed)
+        self.count = 0  # pairs offered so far
+        self.version = 0  # changes whenever the kept pairs change
+
+    def __len__(self) -> int:
+        return min(self.count, self.capacity)
+
+    @property
+    def X(self) -> NDArray[np.float64]:
+        """The kept inputs, shape (len(self), n_inputs) (a view: do not keep it)."""
+        return self._x[:len(self)]
+
+    @property
+    def Y(self) -> NDArray[np.float64]:
+        """The kept outputs, shape (len(self), n_outputs) (a view: do not keep it)."""
+        return self._y[:len(self)]
+
+    def add(self, x: NDArray[np.float64], y: NDArray[np.float64]) -> bool:
+        """Offer one pair; return whether it was kept.
+
+        Parameters
+        ----------
+        x : ndarray of shape (n_inputs,)
+        y : ndarray of shape (n_outputs,)
+        """
+        count = self.count
+        self.count = count + 1
+        if count < self.capacity:
+            slot = count
+        else:
+            slot = int(self._rng.random() * (count + 1))  # uniform in 0..count
+            if slot >= self.capacity:
+                return False
+        self._x[slot] = x
+        self._y[slot] = y
+        self.version += 1
+        return True
+
+    def clear(self) -> None:
+        """Forget every pair."""
+        self.count = 0
+        self.version += 1
