@@ -3,25 +3,34 @@
 For every ``sensor_msgs/JointState`` it predicts the joint efforts from (q, q', q'')
 *before* learning from that sample (an honest a-priori prediction), publishes the
 prediction on ``identified_torque`` (same joint names, ``effort`` = predicted
-torque/force, ``header.stamp`` = the input's stamp), then learns from it
-(``partial_fit``). All of that is :class:`~scara_ident_ros.identification.OnlineIdentifier`;
-this node converts messages, publishes, checkpoints and logs.
+torque/force, ``header.stamp`` = the stamp of the sample it predicts), then learns from it
+(``trainer``: ``lm``, Levenberg–Marquardt steps on a reservoir of the whole stream, or
+``bp``, the paper's per-sample back-propagation). q'' is estimated zero-phase by default
+(``differentiator: centred``), so each prediction is published ``window // 2`` samples
+after its sample (10 ms at 1 kHz). A fraction of the samples (whole blocks) is never learnt:
+the model's error on them is the validation NMSE. All of that is
+:class:`~scara_ident_ros.identification.OnlineIdentifier`; this node converts messages,
+publishes, checkpoints and logs.
 
-``identification_mse`` (``std_msgs/Float64MultiArray``) carries the windowed errors,
-``data = [mse_1 .. mse_n, mse_total, nmse_1 .. nmse_n, nmse_total]`` with
-``layout.dim[0]`` labelled ``metric:mse,nmse`` (size 2) and ``layout.dim[1]``
-labelled ``joint:<name_1>,...,<name_n>,total`` (size n + 1). MSE is in (N·m)² or N²;
-NMSE is MSE divided by the variance of that joint's effort over the same window.
+``identification_mse`` (``std_msgs/Float64MultiArray``) carries the errors,
+``data = [mse_1 .. mse_n, mse_total, nmse_1 .. nmse_n, nmse_total,
+vnmse_1 .. vnmse_n, vnmse_total]`` with ``layout.dim[0]`` labelled
+``metric:mse,nmse,validation_nmse`` (size 3) and ``layout.dim[1]`` labelled
+``joint:<name_1>,...,<name_n>,total`` (size n + 1). MSE is in (N·m)² or N²; NMSE is MSE
+divided by the variance of that joint's effort over the same window; the validation NMSE
+is the current model's over the held-out samples kept so far (NaN until there are 100).
 """
 from __future__ import annotations
 
 import json
+import math
 import sys
 import time
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.subscription import Subscription
@@ -29,14 +38,16 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 
 from scara_ident_ros.dynamics import ParamError, ScaraParams
-from scara_ident_ros.identification import (METHODS as DIFFERENTIATORS, Counts,
-                                            Differentiator, JointMap, OnlineIdentifier,
-                                            SampleCheck, SkipReason)
+from scara_ident_ros.identification import (DIFFERENTIATORS, TRAINERS, Counts, Holdout,
+                                            JointMap, OnlineIdentifier, SampleCheck,
+                                            SkipReason, StepResult, make_differentiator,
+                                            make_trainer)
 from scara_ident_ros.methods import METHODS, limit_scaling, make_network
 from scara_ident_ros.nn import FeedForwardNet, ModelFormatError
 from scara_ident_ros.nodes.messages import joint_state, stamp_to_ns
 from scara_ident_ros.nodes.parameters import ParamSpec, declare_parameters
 from scara_ident_ros.nodes.runtime import ConfigError, run_node
+from scara_ident_ros.offline.blas_threads import single_blas_thread
 from scara_ident_ros.resources import config_path
 
 __all__ = ['IdentifierNode', 'main', 'JOINT_STATES_TOPIC', 'TORQUE_TOPIC', 'MSE_TOPIC']
@@ -44,12 +55,14 @@ __all__ = ['IdentifierNode', 'main', 'JOINT_STATES_TOPIC', 'TORQUE_TOPIC', 'MSE_
 JOINT_STATES_TOPIC = 'joint_states'
 TORQUE_TOPIC = 'identified_torque'
 MSE_TOPIC = 'identification_mse'
+MSE_METRICS_LABEL = 'metric:mse,nmse,validation_nmse'  # layout.dim[0] of MSE_TOPIC
 QOS_DEPTH = 5000  # messages: 5 s at 1 kHz may queue before any is dropped
 STREAM_QOS = QoSProfile(depth=QOS_DEPTH, history=HistoryPolicy.KEEP_LAST,
                         reliability=ReliabilityPolicy.RELIABLE)  # joint_states, torques
 STATS_PERIOD = 10.0  # s between statistics log lines
 WARN_PERIOD = 5.0  # s between two warnings about skipped samples
 WAIT_POLL_PERIOD = 0.02  # s between two looks at the outputs' subscriber counts
+FLUSH_TIMEOUT = 2.0  # s on shutdown for the subscribers to acknowledge the last predictions
 
 PARAMETERS = (
     ParamSpec('method', 'ffmw', 'Network: FFMW (MSLOG), FFW (SLOG) or FFS (sigmoid)',
@@ -66,6 +79,16 @@ PARAMETERS = (
     ParamSpec('a', 5.0, 'MSLOG divisor a in z = (x·v − b)/a (ffmw only)'),
     ParamSpec('b', 5.0, 'MSLOG offset b (ffmw only)'),
     ParamSpec('learn', True, 'Learn online; false: predict only'),
+    ParamSpec('trainer', 'lm', 'Online training: lm (Levenberg-Marquardt steps on a reservoir '
+              'of the whole stream, generalizes) or bp (the paper: one back-propagation step '
+              'per sample, tracks)', choices=TRAINERS),
+    ParamSpec('reservoir_size', 4000, 'Samples of the stream kept for the lm trainer',
+              min=10, max=1_000_000),
+    ParamSpec('lm_interval', 200, 'Samples between two steps of the lm trainer', min=1,
+              max=1_000_000),
+    ParamSpec('validation_fraction', 0.1, 'Fraction of the samples (in blocks) never learnt, '
+              'whose error is the validation NMSE; 0: none', min=0.0, max=0.9),
+    ParamSpec('validation_block', 500, 'Samples per held-out block', min=1, max=1_000_000),
     ParamSpec('model_path', '', 'Warm-start from this saved model (.npz); empty: fresh'),
     ParamSpec('save_path', '', 'Save the model here periodically and on shutdown; empty: '
               'never'),
@@ -73,10 +96,12 @@ PARAMETERS = (
               'on shutdown', 's', min=0.0),
     ParamSpec('mse_window', 1000, 'Samples in the windowed MSE', min=100),
     ParamSpec('mse_rate_hz', 10.0, 'Rate of identification_mse', 'Hz', min=0.01, max=1000.0),
-    ParamSpec('differentiator', 'lowpass', 'How acceleration is estimated from velocity',
-              choices=tuple(DIFFERENTIATORS)),
+    ParamSpec('differentiator', 'centred', 'How acceleration is estimated from velocity: '
+              'centred (zero-phase, window // 2 samples late) or a causal filter',
+              choices=DIFFERENTIATORS),
     ParamSpec('cutoff_hz', 50.0, 'Cut-off of the lowpass differentiator', 'Hz', min=0.1),
-    ParamSpec('window', 7, 'Samples of the polynomial differentiator', min=3, max=101),
+    ParamSpec('window', 21, 'Samples of the centred (odd) and polynomial differentiators',
+              min=3, max=101),
     ParamSpec('max_gap', 0.02, 'A larger gap between stamps restarts the differentiator',
               's', min=0.0),
     ParamSpec('robot_config', '', "Robot YAML whose joint limits scale the network's inputs "
@@ -133,6 +158,7 @@ class IdentifierNode(Node):
         self.max_lag_ns = 0  # ns, since the last statistics line
         self.worst_lag_ns = 0  # ns, since start
         self.last_warning = 0.0
+        self.frame_id = ''  # header.frame_id of the latest sample, given to its predictions
         self.torque_publisher = self.create_publisher(JointState, TORQUE_TOPIC, STREAM_QOS)
         self.mse_publisher = self.create_publisher(Float64MultiArray, MSE_TOPIC, 10)
         self.subscription: Subscription | None = None
@@ -227,11 +253,20 @@ class IdentifierNode(Node):
                 *(self.limits[name][order] for name in LIMIT_NAMES)))
         self.network.metadata['joint_names'] = np.array(names)
         self.network.metadata['method'] = np.array(s['method'])
-        differentiator = Differentiator(s['differentiator'], cutoff_hz=s['cutoff_hz'],
-                                        window=s['window'])
+        try:
+            differentiator = make_differentiator(s['differentiator'], window=s['window'],
+                                                 cutoff_hz=s['cutoff_hz'])
+        except ValueError as exc:
+            raise ConfigError(str(exc)) from None
+        n = len(names)
+        holdout = (Holdout(3 * n, n, fraction=s['validation_fraction'],
+                           block=s['validation_block'], seed=s['seed'])
+                   if s['validation_fraction'] > 0 else None)
         self.core = OnlineIdentifier(
             self.network, joint_names=names, differentiator=differentiator,
-            mse_window=s['mse_window'], learn=s['learn'],
+            trainer=make_trainer(s['trainer'], self.network, capacity=s['reservoir_size'],
+                                 interval=s['lm_interval'], seed=s['seed']),
+            holdout=holdout, mse_window=s['mse_window'], learn=s['learn'],
             max_gap_ns=round(s['max_gap'] * 1e9))
         self.names = names
         self.torque_msg = joint_state(0, names, effort=np.zeros(len(names)))
@@ -254,21 +289,36 @@ class IdentifierNode(Node):
         if self.core is None and not self._build_from(msg):
             return
         stamp_ns = stamp_to_ns(msg.header.stamp)
-        result = self.core.process(stamp_ns, msg.name, msg.position, msg.velocity, msg.effort)
-        if result.effort is None:
-            if result.reason is not SkipReason.WARMING_UP:
-                self._warn(f'skipped a sample ({result.reason.value}); '
-                           f'{sum(self.core.counts.skipped.values())} so far')
-            return
+        self.frame_id = msg.header.frame_id
+        self._publish(self.core.process(stamp_ns, msg.name, msg.position, msg.velocity,
+                                        msg.effort))
+
+    def _publish(self, results: list[StepResult], *, measure_lag: bool = True) -> None:
+        """Publish each prediction, stamped with its sample; warn about rejections.
+
+        ``measure_lag``: record how late each prediction is (wall clock minus its stamp);
+        not for those let out on shutdown, whose lag is the time since the last sample.
+        """
+        assert self.core is not None
         out = self.torque_msg  # reused: publish() serialises it before returning
-        out.header.stamp = msg.header.stamp
-        out.header.frame_id = msg.header.frame_id
-        out.effort = result.effort.tolist()
-        self.torque_publisher.publish(out)
-        lag_ns = time.time_ns() - stamp_ns
-        if lag_ns > self.max_lag_ns:
-            self.max_lag_ns = lag_ns
-            self.worst_lag_ns = max(self.worst_lag_ns, lag_ns)
+        for result in results:
+            if result.effort is None:
+                assert result.reason is not None
+                if result.reason is not SkipReason.WARMING_UP:
+                    self._warn(f'skipped a sample ({result.reason.value}); '
+                               f'{sum(self.core.counts.skipped.values())} so far')
+                continue
+            out.header.stamp.sec, out.header.stamp.nanosec = divmod(result.stamp_ns,
+                                                                    1_000_000_000)
+            out.header.frame_id = self.frame_id
+            out.effort = result.effort.tolist()
+            self.torque_publisher.publish(out)
+            if not measure_lag:
+                continue
+            lag_ns = time.time_ns() - result.stamp_ns
+            if lag_ns > self.max_lag_ns:
+                self.max_lag_ns = lag_ns
+                self.worst_lag_ns = max(self.worst_lag_ns, lag_ns)
 
     def _build_from(self, msg: JointState) -> bool:
         """Build for the joints of ``msg`` if it is valid; else count it as skipped."""
@@ -301,14 +351,17 @@ class IdentifierNode(Node):
         if self.core is None or self.core.errors.count == 0:
             return
         stats = self.core.error_stats()
+        validation = self.core.validation_stats()
         n = len(self.names)
         msg = Float64MultiArray()
         msg.layout.dim = [
-            MultiArrayDimension(label='metric:mse,nmse', size=2, stride=2 * (n + 1)),
+            MultiArrayDimension(label=MSE_METRICS_LABEL, size=3, stride=3 * (n + 1)),
             MultiArrayDimension(label='joint:' + ','.join([*self.names, 'total']),
                                 size=n + 1, stride=n + 1)]
+        vnmse = ([*validation.nmse.tolist(), validation.nmse_total] if validation is not None
+                 else [math.nan] * (n + 1))
         msg.data = [*stats.mse.tolist(), float(stats.mse_total),
-                    *stats.nmse.tolist(), float(stats.nmse_total)]
+                    *stats.nmse.tolist(), float(stats.nmse_total), *vnmse]
         self.mse_publisher.publish(msg)
 
     def summary(self) -> dict[str, Any]:
@@ -319,24 +372,33 @@ class IdentifierNode(Node):
                                 if n}}
         counts = self.core.counts
         stats = self.core.error_stats()
+        validation = self.core.validation_stats()
         return {
-            'method': self.settings['method'], 'joint_names': self.names,
+            'method': self.settings['method'], 'trainer': self.settings['trainer'],
+            'joint_names': self.names,
             'processed': counts.processed, 'predicted': counts.predicted,
-            'learned': counts.learned, 'refused': counts.refused,
+            'learned': counts.learned, 'held_out': counts.held_out, 'refused': counts.refused,
+            'pending': counts.pending,
             'skipped': {reason.value: n for reason, n in counts.skipped.items() if n},
             'mse': stats.mse.tolist(), 'nmse': stats.nmse.tolist(),
             'mse_total': float(stats.mse_total), 'nmse_total': float(stats.nmse_total),
+            'validation_nmse': validation.nmse.tolist() if validation is not None else None,
+            'validation_nmse_total': (float(validation.nmse_total) if validation is not None
+                                      else None),
             'max_lag_ms': self.worst_lag_ns / 1e6,
         }
 
     def log_stats(self) -> None:
         """Log counters, skipped samples by reason, lag and the windowed error."""
         info = self.summary()
+        validation = info.get('validation_nmse_total')
         if info['processed']:
             self.get_logger().info(
-                f"processed {info['processed']}, learned {info['learned']}, skipped "
-                f"{info['skipped'] or 0}, max lag {self.max_lag_ns / 1e6:.2f} ms, windowed MSE "
-                f"{info['mse_total']:.4g}, NMSE {info['nmse_total']:.4g}")
+                f"processed {info['processed']}, learned {info['learned']}, held out "
+                f"{info['held_out']}, skipped {info['skipped'] or 0}, max lag "
+                f"{self.max_lag_ns / 1e6:.2f} ms, windowed MSE {info['mse_total']:.4g}, NMSE "
+                f"{info['nmse_total']:.4g}, validation NMSE "
+                f"{math.nan if validation is None else validation:.4g}")
         self.max_lag_ns = 0
 
     def checkpoint(self) -> None:
@@ -354,7 +416,17 @@ class IdentifierNode(Node):
                 self.get_logger().error(f'checkpoint to {path} failed: {exc}')
 
     def close(self) -> None:
-        """On shutdown: last checkpoint, final statistics."""
+        """On shutdown: predict and learn the pending samples, checkpoint, final statistics.
+
+        The last ``window // 2`` predictions are published here, just before the process
+        ends: wait (at most :data:`FLUSH_TIMEOUT`) until the subscribers have acknowledged
+        them, as the node is destroyed right after and would take them along.
+        """
+        if self.core is not None:
+            results = self.core.finish()
+            self._publish(results, measure_lag=False)
+            if results:
+                self.torque_publisher.wait_for_all_acked(Duration(seconds=FLUSH_TIMEOUT))
         self.checkpoint()
         self.log_stats()
         if self.settings['stats_file']:
@@ -363,7 +435,12 @@ class IdentifierNode(Node):
 
 def main(args: list[str] | None = None) -> None:
     """Console script ``identifier``."""
-    sys.exit(run_node('identifier', IdentifierNode, args))
+    # One BLAS thread: the lm trainer's steps (684 unknowns) gain nothing from a second one,
+    # and competing BLAS pools on a busy machine made them 5-10 times slower (2 cores, 3
+    # identifiers: 300-500 ms a step instead of 70 ms, the node fell seconds behind).
+    with single_blas_thread():
+        status = run_node('identifier', IdentifierNode, args)
+    sys.exit(status)
 
 
 if __name__ == '__main__':

@@ -4,7 +4,13 @@ Each test starts ``python -m scara_ident_ros.nodes.identifier --ros-args ...`` a
 it from a fresh rclpy Context (:class:`rostest.Listener`): either the test publishes the
 ``JointState`` samples itself (values from the simulator core, stamps 1 ms apart) or a
 ``scara_sim`` process does. The node's ``stats_file`` JSON is the ground truth for what it
-processed, learnt and skipped.
+processed, learnt, held out and skipped.
+
+With the default zero-phase q'' estimate (``differentiator: centred``, window 21) a sample is
+predicted :data:`LAG` samples after it arrives, and every sample of a history of at least
+:data:`WINDOW` samples is predicted: the last :data:`LAG` only when the node stops (or at a
+clock gap), so a test waits for ``n - LAG`` predictions, stops the node and then receives
+the last ones.
 """
 from __future__ import annotations
 
@@ -24,7 +30,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
 from scara_ident_ros.dynamics import ScaraParams
-from scara_ident_ros.identification import Differentiator
+from scara_ident_ros.identification import Holdout, InputStage, JointMap
 from scara_ident_ros.methods import limit_scaling, make_network
 from scara_ident_ros.nn import FeedForwardNet
 from scara_ident_ros.nodes.messages import NS_PER_S, ns_to_stamp, stamp_to_ns
@@ -47,6 +53,10 @@ DEPTH = 20_000  # messages: every test's whole stream fits in the history
 DISCOVERY_TIMEOUT = 20.0  # s, the machine is shared
 STREAM_TIMEOUT = 30.0  # s for a published stream to come back processed
 SETTLE = 1.0  # s after discovery on our side, for the node's side (see Feed.wait_for)
+WINDOW = 21  # samples: the default centred q'' fit; a shorter history is never predicted
+LAG = WINDOW // 2  # samples a prediction follows its sample; the last LAG come on shutdown
+SHUTDOWN_TIMEOUT = 5.0  # s for the predictions published on shutdown to arrive
+MSE_LABELS = ['metric:mse,nmse,validation_nmse', 'joint:joint1,joint2,joint3,joint4,total']
 
 
 # ---------------------------------------------------------------------------------- helpers
@@ -148,6 +158,38 @@ class Feed:
         self.listener.spin_until(lambda: False, 0.2)  # nothing more may come
         assert len(self.torques) == expect_torques
 
+    def receive_rest(self, expect_torques: int) -> None:
+        """After the node stopped: wait for the predictions it published on shutdown (it
+        waits for our acknowledgement before it exits), ``expect_torques`` in all."""
+        done = self.listener.spin_until(lambda: len(self.torques) >= expect_torques,
+                                        SHUTDOWN_TIMEOUT)
+        assert done, f'{len(self.torques)} of {expect_torques} predictions arrived'
+        assert len(self.torques) == expect_torques
+
+    def wait_for_mse(self, more: int = 2) -> Float64MultiArray:
+        """Wait for ``more`` further identification_mse messages; return the last. The
+        next-but-one message after the predictions arrived covers all of them."""
+        seen = len(self.mse)
+        assert self.listener.spin_until(lambda: len(self.mse) >= seen + more, 10.0)
+        return self.mse[-1]
+
+
+def held_out_indices(n: int, block: int = 500, fraction: float = 0.1) -> list[int]:
+    """Which of ``n`` predictions the node holds out, by the rule of its :class:`Holdout`
+    (the node's seed 0)."""
+    rule = Holdout(12, 4, fraction=fraction, block=block, seed=0)
+    return [i for i in range(n) if rule.held_out(i)]
+
+
+def node_inputs(record: SimRecord, n: int) -> np.ndarray:
+    """x = [q, q', q''] (n, 12) of the first ``n`` samples of ``record`` stamped from T0_NS
+    1 ms apart, as the node makes them (the one input path, offline and online)."""
+    stamps_ns = T0_NS + PERIOD_NS * np.arange(n, dtype=np.int64)
+    out, X, _ = InputStage(JointMap(NAMES)).batch(stamps_ns, NAMES, record.q[:n],
+                                                  record.qd[:n], record.effort[:n])
+    assert (out == stamps_ns).all()  # one input per sample, in order
+    return X
+
 
 @pytest.fixture
 def listener() -> Iterator[rostest.Listener]:
@@ -170,7 +212,10 @@ def test_learns_from_simulator(tmp_path: Path, listener: rostest.Listener) -> No
     feed = Feed(listener)
     states = listener.subscribe(JointState, JOINT_STATES_TOPIC, rostest.reliable(DEPTH))
     n = round(SIM_DURATION * NS_PER_S / PERIOD_NS)
-    with identifier(tmp_path) as node:
+    # The paper's trainer (bp), which this test has checked from the start: its error falls
+    # tenfold within seconds. The default lm trainer end to end: test_run_graph and
+    # test_trainers_bring_the_error_down.
+    with identifier(tmp_path, 'trainer:=bp') as node:
         assert listener.spin_until(lambda: feed.torque_sub.get_publisher_count() >= 1,
                                    DISCOVERY_TIMEOUT), node.stderr_so_far()
         listener.spin_until(lambda: False, SETTLE)  # see Feed.wait_for
@@ -183,24 +228,29 @@ def test_learns_from_simulator(tmp_path: Path, listener: rostest.Listener) -> No
             sim_out = sim.wait(1.0)
         assert sim_out.returncode == 0, sim_out.stderr
         assert f'published {n} samples' in sim_out.stderr
-        assert listener.spin_until(lambda: len(feed.torques) >= n - 1, STREAM_TIMEOUT), \
-            f'{len(feed.torques)} of {n - 1} predictions'
-        seen = len(feed.mse)  # the next-but-one MSE message covers the whole stream
-        assert listener.spin_until(lambda: len(feed.mse) >= seen + 2, 5.0)
+        # All but the last LAG samples are predicted while the node runs ...
+        assert listener.spin_until(lambda: len(feed.torques) >= n - LAG, STREAM_TIMEOUT), \
+            f'{len(feed.torques)} of {n - LAG} predictions'
+        last = feed.wait_for_mse()  # covers the first n - LAG predictions
         stop(node)
+    feed.receive_rest(n)  # ... and those on shutdown
     info = stats(tmp_path)
-    assert info['processed'] == n
-    assert info['predicted'] == info['learned'] == n - 1
-    assert info['skipped'] == {'warming_up': 1}
+    # Every sample is predicted (none lost to a warm-up with the centred estimate); the
+    # held-out blocks are predicted, never learnt.
+    held_out = len(held_out_indices(n))
+    assert held_out > 0
+    assert info['processed'] == info['predicted'] == n
+    assert info['held_out'] == held_out and info['learned'] == n - held_out
+    assert info['skipped'] == {} and info['pending'] == 0 and info['trainer'] == 'bp'
     assert len(states) == n, 'the test itself lost joint states'
 
     # Every prediction answers one input sample, in order, in joint order.
     efforts = {stamp_to_ns(msg.header.stamp): np.array(msg.effort) for msg in states}
     torque_stamps = stamps(feed.torques)
-    assert torque_stamps == stamps(states)[1:]
+    assert torque_stamps == stamps(states)
     assert all(tuple(msg.name) == NAMES for msg in feed.torques)
     predicted = np.array([msg.effort for msg in feed.torques])
-    assert predicted.shape == (n - 1, 4) and np.isfinite(predicted).all()
+    assert predicted.shape == (n, 4) and np.isfinite(predicted).all()
 
     # The error falls: the first 1000 predictions against the last 1000.
     measured = np.array([efforts[stamp] for stamp in torque_stamps])
@@ -208,18 +258,131 @@ def test_learns_from_simulator(tmp_path: Path, listener: rostest.Listener) -> No
     early, late = squared[:1000].mean(axis=0), squared[-1000:].mean(axis=0)
     assert late.mean() < early.mean() / 10, (early, late)
 
-    # identification_mse: the documented layout, falling, and its last value is the MSE
-    # of the last mse_window (1000) predictions.
-    first, last = feed.mse[0], feed.mse[-1]
-    assert [(d.label, d.size) for d in last.layout.dim] == [
-        ('metric:mse,nmse', 2), ('joint:joint1,joint2,joint3,joint4,total', 5)]
-    assert len(last.data) == 10
+    # identification_mse: the documented layout (three rows), falling, and the last one
+    # before the stop is the MSE of the mse_window (1000) predictions made until then;
+    # the stats file's is that of the last 1000 of all.
+    first = feed.mse[0]
+    assert [(d.label, d.size) for d in last.layout.dim] == [(MSE_LABELS[0], 3),
+                                                            (MSE_LABELS[1], 5)]
+    assert len(last.data) == 15
     assert last.data[4] < first.data[4] / 10
-    np.testing.assert_allclose(last.data[:4], late, rtol=1e-6)
-    assert last.data[4] == pytest.approx(late.mean(), rel=1e-6)
-    variance = measured[-1000:].var(axis=0)
-    np.testing.assert_allclose(last.data[5:9], late / variance, rtol=1e-6)
-    assert info['mse_total'] == pytest.approx(last.data[4], rel=1e-9)
+    before_stop = squared[-1000 - LAG:-LAG].mean(axis=0)
+    np.testing.assert_allclose(last.data[:4], before_stop, rtol=1e-6)
+    assert last.data[4] == pytest.approx(before_stop.mean(), rel=1e-6)
+    variance = measured[-1000 - LAG:-LAG].var(axis=0)
+    np.testing.assert_allclose(last.data[5:9], before_stop / variance, rtol=1e-6)
+    assert np.isfinite(last.data[10:]).all()  # the held-out blocks are scored
+    np.testing.assert_allclose(info['mse'], late, rtol=1e-6)
+    assert info['mse_total'] == pytest.approx(late.mean(), rel=1e-6)
+    assert math.isfinite(info['validation_nmse_total'])
+
+
+# --------------------------------------------------- validation, stamps and the trainers
+def test_validation_row_becomes_finite_and_scores_the_held_out_samples(
+        tmp_path: Path, listener: rostest.Listener) -> None:
+    """identification_mse has 3 rows; the third (validation NMSE) is NaN until 100 held-out
+    samples exist, then the current model's NMSE on them; held-out blocks are predicted,
+    never learnt."""
+    block, n1, n = 50, 300, 1500  # held-out samples: < 100 of the first n1 - LAG, more of n
+    assert len(held_out_indices(n1 - LAG, block)) < 100 <= len(held_out_indices(n - LAG, block))
+    record = simulated(n)
+    msgs = [sample_msg(record, i, T0_NS + i * PERIOD_NS) for i in range(n)]
+    model = tmp_path / 'validated.npz'
+    feed = Feed(listener)
+    with identifier(tmp_path, f'validation_block:={block}', 'mse_rate_hz:=20.0',
+                    f'save_path:={model}') as node:
+        feed.wait_for(node)
+        feed.send(msgs[:n1], n1 - LAG)
+        early = feed.wait_for_mse()
+        feed.send(msgs[n1:], n - LAG)
+        late = feed.wait_for_mse()
+        stop(node)
+    feed.receive_rest(n)
+    for msg in (early, late):
+        assert [(d.label, d.size, d.stride) for d in msg.layout.dim] == [
+            (MSE_LABELS[0], 3, 15), (MSE_LABELS[1], 5, 5)]
+        assert len(msg.data) == 15 and np.isfinite(msg.data[:10]).all()
+    assert np.isnan(early.data[10:]).all(), early.data  # too few held-out samples yet
+    assert np.isfinite(late.data[10:]).all() and min(late.data[10:]) > 0, late.data
+
+    info = stats(tmp_path)
+    held = held_out_indices(n, block)
+    assert info['predicted'] == n and info['trainer'] == 'lm'
+    assert info['held_out'] == len(held)
+    assert info['held_out'] == pytest.approx(0.1 * info['predicted'], abs=0.05 * n)
+    assert info['learned'] + info['held_out'] == info['predicted']
+    assert info['refused'] == info['pending'] == 0
+
+    # The final validation NMSE is the saved (final) model's on exactly the held-out
+    # samples (all kept: fewer than the holdout's capacity), each joint's MSE over the
+    # variance of its held-out efforts.
+    network = FeedForwardNet.load(model)
+    measured = record.effort[held]
+    mse = ((measured - network.predict(node_inputs(record, n)[held])) ** 2).mean(axis=0)
+    nmse = mse / measured.var(axis=0)
+    np.testing.assert_allclose(info['validation_nmse'], nmse, rtol=1e-6)
+    assert info['validation_nmse_total'] == pytest.approx(nmse.mean(), rel=1e-6)
+
+
+def test_prediction_is_stamped_with_its_own_sample(tmp_path: Path,
+                                                   listener: rostest.Listener) -> None:
+    """Sample k's prediction comes LAG samples later, stamped k (not the newest sample's),
+    and is the prediction from sample k's input."""
+    model = saved_model(tmp_path / 'fixed.npz', NAMES)
+    n = 30
+    record = simulated(n)
+    sent = [T0_NS + i * PERIOD_NS for i in range(n)]
+    msgs = [sample_msg(record, i, sent[i]) for i in range(n)]
+    feed = Feed(listener)
+    with identifier(tmp_path, f'model_path:={model}', 'learn:=false') as node:
+        feed.wait_for(node)
+        feed.send(msgs[:WINDOW - 1], 0)  # no centred fit yet
+        feed.send(msgs[WINDOW - 1:WINDOW], LAG + 1)  # the first window: its first half out
+        assert stamps(feed.torques) == sent[:LAG + 1]
+        for k in range(WINDOW, n):  # then one prediction per sample, LAG samples back
+            feed.send([msgs[k]], k - LAG + 1)
+            assert stamps(feed.torques)[-1] == sent[k - LAG]
+        stop(node)
+    feed.receive_rest(n)
+    assert stamps(feed.torques) == sent
+    published = np.array([msg.effort for msg in feed.torques])
+    np.testing.assert_allclose(published, FeedForwardNet.load(model).predict(
+        node_inputs(record, n)), rtol=1e-9, atol=1e-12)
+
+
+TRAINER_SAMPLES = 10_000  # 10 s at 1 kHz: lm's a-priori error settles after ~5 s
+CHUNK = 1000  # samples published at once: the node's queue (5000) never overflows
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize('trainer', ['bp', 'lm'])
+def test_trainers_bring_the_error_down(tmp_path: Path, listener: rostest.Listener,
+                                       trainer: str) -> None:
+    """Both online trainers, end to end on a simulated stream: the a-priori error of the
+    last 1000 predictions is a tenth of the first 1000's at most, and lm (fitted to the
+    whole stream) predicts the held-out samples well."""
+    n = TRAINER_SAMPLES
+    record = simulated(n)
+    feed = Feed(listener)
+    with identifier(tmp_path, f'trainer:={trainer}') as node:
+        feed.wait_for(node)
+        for start in range(0, n, CHUNK):
+            stop_at = min(start + CHUNK, n)
+            feed.send([sample_msg(record, i, T0_NS + i * PERIOD_NS)
+                       for i in range(start, stop_at)], stop_at - LAG)
+        stop(node)
+    feed.receive_rest(n)
+    info = stats(tmp_path)
+    assert info['trainer'] == trainer
+    assert info['predicted'] == n and info['learned'] == n - len(held_out_indices(n))
+    assert stamps(feed.torques) == [T0_NS + i * PERIOD_NS for i in range(n)]
+    predicted = np.array([msg.effort for msg in feed.torques])
+    squared = (record.effort[:n] - predicted) ** 2
+    early, late = squared[:1000].mean(), squared[-1000:].mean()
+    assert late < early / 10, (trainer, early, late)
+    assert math.isfinite(info['validation_nmse_total'])
+    if trainer == 'lm':  # 0.005 measured; bp, which tracks the latest motion: about 8
+        assert info['validation_nmse_total'] < 0.1, info['validation_nmse']
 
 
 # ------------------------------------------------------------------------ the hostile stream
@@ -227,11 +390,18 @@ GOOD_BETWEEN = 5  # good samples after each bad one
 CYCLES = 3  # times the whole list of bad inputs is sent
 
 
-def hostile_stream(record: SimRecord) -> tuple[list[JointState], Counter[str], list[int]]:
+def hostile_stream(record: SimRecord
+                   ) -> tuple[list[JointState], Counter[str], list[int], int]:
     """Good samples interleaved with every kind of bad input.
 
-    Returns the messages, the skip reasons they must be counted under (warm-up included)
-    and the stamps of the samples that must be predicted, in order.
+    Returns the messages, the skip reasons they must be counted under (warm-up included),
+    the stamps of the samples that must be predicted, in order, and how many of those
+    come only when the node stops.
+
+    With the centred q'' a clock gap does not skip a sample: it ends a history, whose
+    samples are all predicted if there are at least WINDOW of them (its last LAG at the
+    gap), else none (counted ``warming_up`` when the history ends); the new history starts
+    with the sample after the gap.
     """
     msgs: list[JointState] = []
     reasons: Counter[str] = Counter()
@@ -239,19 +409,25 @@ def hostile_stream(record: SimRecord) -> tuple[list[JointState], Counter[str], l
     slot = 0  # index into record, one per published message (stamps 1 ms apart)
     offset = T0_NS  # moved by the clock jumps
     last_good = None  # stamp of the last accepted sample
-    warm = False  # the differentiator has a history
+    history: list[int] = []  # stamps of the accepted samples since the last gap
 
     def stamp() -> int:
         return offset + slot * PERIOD_NS
 
-    def good(order: Sequence[int] = (0, 1, 2, 3), reason: str | None = None) -> None:
-        nonlocal slot, last_good, warm
-        msgs.append(sample_msg(record, slot, stamp(), order))
-        if reason is not None or not warm:
-            reasons[reason or 'warming_up'] += 1
+    def end_history() -> None:
+        if len(history) >= WINDOW:
+            predicted.extend(history)
         else:
-            predicted.append(stamp())
-        last_good, warm = stamp(), True
+            reasons['warming_up'] += len(history)
+        history.clear()
+
+    def good(order: Sequence[int] = (0, 1, 2, 3), gap: bool = False) -> None:
+        nonlocal slot, last_good
+        msgs.append(sample_msg(record, slot, stamp(), order))
+        if gap:
+            end_history()
+        history.append(stamp())
+        last_good = stamp()
         slot += 1
 
     def bad(reason: str, names: Sequence[str], position: Sequence[float],
@@ -298,29 +474,39 @@ def hostile_stream(record: SimRecord) -> tuple[list[JointState], Counter[str], l
             for _ in range(GOOD_BETWEEN):
                 good()
         offset += NS_PER_S  # a clock jump forwards (lost samples) ...
-        good(reason='gap')
+        good(gap=True)
         for _ in range(GOOD_BETWEEN):
             good()
         offset -= 2 * NS_PER_S  # ... and backwards (a replay restarted)
-        good(reason='gap')
+        good(gap=True)
         for _ in range(GOOD_BETWEEN):
             good()
-    return msgs, reasons, predicted
+    on_shutdown = LAG if len(history) >= WINDOW else 0
+    end_history()  # the node's finish() on shutdown
+    return msgs, reasons, predicted, on_shutdown
 
 
 def test_survives_hostile_stream(tmp_path: Path, listener: rostest.Listener) -> None:
     record = simulated(1000)
-    msgs, reasons, predicted = hostile_stream(record)
+    msgs, reasons, predicted, on_shutdown = hostile_stream(record)
+    # The short histories (1 + GOOD_BETWEEN samples) after each forward clock jump, and the
+    # last one, are lost to the centred fit's warm-up; every longer one is predicted whole.
+    assert reasons['warming_up'] == (CYCLES + 1) * (1 + GOOD_BETWEEN)
+    assert 'gap' not in reasons
     model = tmp_path / 'hostile.npz'
     feed = Feed(listener)
     with identifier(tmp_path, f'save_path:={model}') as node:
         feed.wait_for(node)
-        feed.send(msgs, len(predicted))
+        feed.send(msgs, len(predicted) - on_shutdown)
         stop(node)
+    feed.receive_rest(len(predicted))
     info = stats(tmp_path)
     assert info['processed'] == len(msgs)
     assert info['skipped'] == dict(reasons)
+    # No held-out block yet (the first is the third, predictions 1000-1499): all learnt.
+    assert held_out_indices(len(predicted)) == []
     assert info['predicted'] == info['learned'] == len(predicted)
+    assert info['held_out'] == info['pending'] == 0
     assert stamps(feed.torques) == predicted
     assert all(tuple(msg.name) == NAMES for msg in feed.torques)
     assert np.isfinite([msg.effort for msg in feed.torques]).all()
@@ -347,14 +533,18 @@ def test_bad_samples_before_the_first_good_one(tmp_path: Path,
     feed = Feed(listener)
     with identifier(tmp_path) as node:
         feed.wait_for(node)
-        feed.send(msgs, 24)
+        feed.send(msgs, 25 - LAG)
         stop(node)
+    feed.receive_rest(25)
     info = stats(tmp_path)
     assert info['joint_names'] == list(NAMES)
     assert info['processed'] == 30
+    # All 25 good samples are predicted, the first included (the centred fit needs no
+    # warm-up sample once the history has WINDOW samples).
     assert info['skipped'] == {'non_finite': 1, 'duplicate_joint': 1, 'no_velocity': 2,
-                               'length_mismatch': 1, 'warming_up': 1}
-    assert info['predicted'] == info['learned'] == 24
+                               'length_mismatch': 1}
+    assert info['predicted'] == info['learned'] == 25
+    assert stamps(feed.torques) == [T0_NS + (i + 1) * PERIOD_NS for i in range(25)]
 
 
 def test_warm_start_without_joint_names_takes_a_sample_of_its_size(
@@ -362,17 +552,20 @@ def test_warm_start_without_joint_names_takes_a_sample_of_its_size(
     """A model that does not name its joints fixes their number: a first sample with
     another number of joints is skipped (joint_count), not fatal."""
     model = saved_model(tmp_path / 'anonymous.npz', NAMES, record_names=False)
-    record = simulated(20)
+    n = 30  # good samples: more than WINDOW, so that some are predicted while it runs
+    record = simulated(n)
     msgs = [joint_state(T0_NS, NAMES[:3], record.q[0, :3], record.qd[0, :3],
                         record.effort[0, :3])]
-    msgs += [sample_msg(record, i, T0_NS + (i + 1) * PERIOD_NS) for i in range(20)]
+    msgs += [sample_msg(record, i, T0_NS + (i + 1) * PERIOD_NS) for i in range(n)]
     feed = Feed(listener)
     with identifier(tmp_path, f'model_path:={model}') as node:
         feed.wait_for(node)
-        feed.send(msgs, 19)
+        feed.send(msgs, n - LAG)
         stop(node)
+    feed.receive_rest(n)
     info = stats(tmp_path)
-    assert info['skipped'] == {'joint_count': 1, 'warming_up': 1}
+    assert info['skipped'] == {'joint_count': 1}
+    assert info['predicted'] == n
     assert info['joint_names'] == list(NAMES)
 
 
@@ -384,14 +577,17 @@ def test_warm_start_predicts_without_learning(tmp_path: Path,
     feed = Feed(listener)
     with identifier(tmp_path, f'save_path:={trained}', name='train') as node:
         feed.wait_for(node)
-        feed.send([sample_msg(record, i, T0_NS + i * PERIOD_NS) for i in range(300)], 299)
+        feed.send([sample_msg(record, i, T0_NS + i * PERIOD_NS) for i in range(300)],
+                  300 - LAG)
         stop(node)
+    feed.receive_rest(300)  # before the next node's, which would count them
     feed.wait_gone()
-    assert stats(tmp_path, 'train')['learned'] == 299
+    assert stats(tmp_path, 'train')['learned'] == 300  # the last LAG on shutdown
     digest = model_digest(trained)
 
     # The same 150 samples in order, then, after a clock jump, with the joints in another
-    # order: a fixed model must predict the same efforts for both, mapped by name.
+    # order: a fixed model must predict the same efforts for both, mapped by name. The
+    # jump lets the first history's last LAG out; the second's come on shutdown.
     n, jump = 150, 10 * NS_PER_S
     order = (2, 0, 3, 1)
     msgs = [sample_msg(record, i, T0_NS + i * PERIOD_NS) for i in range(n)]
@@ -400,28 +596,27 @@ def test_warm_start_predicts_without_learning(tmp_path: Path,
     with identifier(tmp_path, f'model_path:={trained}', 'learn:=false',
                     f'save_path:={replayed}', name='replay') as node:
         feed.wait_for(node)
-        feed.send(msgs, 2 * (n - 1))
+        feed.send(msgs, 2 * n - LAG)
         stop(node)
+    feed.receive_rest(2 * n)
     info = stats(tmp_path, 'replay')
-    assert info['processed'] == 2 * n
-    assert info['predicted'] == 2 * (n - 1)
+    assert info['processed'] == info['predicted'] == 2 * n
     assert info['learned'] == 0
-    assert info['skipped'] == {'warming_up': 1, 'gap': 1}
+    assert info['skipped'] == {}  # neither the start nor the jump loses a sample
     assert model_digest(trained) == digest, 'the warm-start model was written to'
 
-    in_order = np.array([msg.effort for msg in feed.torques[:n - 1]])
-    reordered = np.array([msg.effort for msg in feed.torques[n - 1:]])
+    in_order = np.array([msg.effort for msg in feed.torques[:n]])
+    reordered = np.array([msg.effort for msg in feed.torques[n:]])
     assert all(tuple(msg.name) == NAMES for msg in feed.torques)
-    assert stamps(feed.torques) == [T0_NS + i * PERIOD_NS for i in range(1, n)] + [
-        T0_NS + jump + i * PERIOD_NS for i in range(1, n)]
+    assert stamps(feed.torques) == [T0_NS + i * PERIOD_NS for i in range(n)] + [
+        T0_NS + jump + i * PERIOD_NS for i in range(n)]
     np.testing.assert_allclose(reordered, in_order, rtol=1e-12, atol=1e-12)
 
-    # They are the loaded model's own predictions (the node's default differentiator).
+    # They are the loaded model's own predictions, from the inputs of the node's default
+    # (centred) q'' estimate, made as the offline tools make them.
     network = FeedForwardNet.load(trained)
-    differentiator = Differentiator('lowpass', cutoff_hz=50.0)
-    qdd = [differentiator.update(T0_NS + i * PERIOD_NS, record.qd[i]) for i in range(n)]
-    x = np.hstack([record.q[1:n], record.qd[1:n], np.array(qdd[1:])])
-    np.testing.assert_allclose(in_order, network.predict(x), rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(in_order, network.predict(node_inputs(record, n)), rtol=1e-9,
+                               atol=1e-12)
 
     # Without learning the model saved on shutdown is the one loaded.
     saved = FeedForwardNet.load(replayed)
@@ -485,12 +680,14 @@ def test_namespace_and_remapping(tmp_path: Path, listener: rostest.Listener) -> 
                                             'joint_states:=/joint_states', '-p', 'method:=ffs'])
     with node:
         feed.wait_for(node)
-        feed.send([sample_msg(record, i, T0_NS + i * PERIOD_NS) for i in range(50)], 49)
+        feed.send([sample_msg(record, i, T0_NS + i * PERIOD_NS) for i in range(50)],
+                  50 - LAG)
         assert listener.spin_until(lambda: len(feed.mse) > 0, 5.0)
         assert listener.node.count_publishers(TORQUE_TOPIC) == 0
         out = stop(node)
+    feed.receive_rest(50)
     assert 'FFS identifier on /joint_states → /ffs/identified_torque' in out.stderr
-    assert len(feed.mse[-1].data) == 10
+    assert len(feed.mse[-1].data) == 15  # 3 metrics × (4 joints + total)
 
 
 # ------------------------------------------------------------- waiting for its subscribers
