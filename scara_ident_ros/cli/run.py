@@ -6,8 +6,11 @@ Starts, as separate processes, the MCAP recorder, three identifiers side by side
 recorder records its outputs, the simulator waits until the identifiers and the
 recorder are subscribed, then publishes ``--duration`` seconds of
 samples at 1 kHz and stops; the others then drain their queues and are stopped
-with SIGINT (identifiers save their models, the recorder closes the bag). A summary
-compares what was published with what was processed and recorded. Unless
+with SIGINT, the identifiers first (they predict their last samples, whose zero-phase
+q'' waited for samples that never came, publish them while the recorder still records,
+and save their models), then the recorder (it closes the bag). A summary compares what
+was published with what was processed and recorded, with each identifier's windowed
+and validation NMSE. Unless
 ``--no-report``, the run's tables and figures are then produced from the bag
 (``scara-ident tables``).
 
@@ -99,7 +102,8 @@ def run(args: argparse.Namespace) -> int:
 
     graph = ProcessGraph(out / 'logs')
     graph.start(NodeProcess('recorder', 'scara_ident_ros.nodes.recorder', [
-        '-p', f'output:={bag}', '-p', f'compression:={args.compression}', '-p', f'stats_file:={stats / "recorder.json"}']))
+        '-p', f'output:={bag}', '-p', f'compression:={args.compression}',
+        '-p', f'stats_file:={stats / "recorder.json"}']))
     for name in args.methods:
         graph.start(NodeProcess(name, 'scara_ident_ros.nodes.identifier', [
             '-r', f'__ns:=/{name}', '-r', 'joint_states:=/joint_states',
@@ -111,7 +115,8 @@ def run(args: argparse.Namespace) -> int:
     sim = graph.start(NodeProcess('scara_sim', 'scara_ident_ros.nodes.scara_sim', [
         '-p', f'duration:={args.duration}', '-p', f'trajectory:={args.trajectory}',
         '-p', f'seed:={args.seed}', '-p', f'wait_for_subscribers:={len(args.methods) + 1}',
-        '-p', f'wait_timeout:={STARTUP_TIMEOUT}', '-p', f'stats_file:={stats / "scara_sim.json"}']))
+        '-p', f'wait_timeout:={STARTUP_TIMEOUT}',
+        '-p', f'stats_file:={stats / "scara_sim.json"}']))
     print(f'scara-ident run: {args.duration:g} s at 1 kHz, identifiers '
           f'{", ".join(m.upper() for m in args.methods)}, recording {bag}', flush=True)
     started = time.monotonic()
@@ -152,10 +157,14 @@ def _summary(methods: list[str], stats: Path, bag: Path, out: Path,
     for name in methods:
         info = _read_json(stats / f'{name}.json')
         rows[name] = {
+            'trainer': info.get('trainer'),
             'processed': info.get('processed'), 'learned': info.get('learned'),
+            'held_out': info.get('held_out'),
             'skipped': info.get('skipped'), 'mse_total': info.get('mse_total'),
             'nmse_total': info.get('nmse_total'), 'mse': info.get('mse'),
             'nmse': info.get('nmse'),
+            'validation_nmse_total': info.get('validation_nmse_total'),
+            'validation_nmse': info.get('validation_nmse'),
             'published': info.get('predicted'),
             'recorded': counts.get(f'/{name}/identified_torque'),
             'model': str(out / 'models' / f'{name}.npz'),
@@ -178,12 +187,14 @@ def _print_summary(summary: dict[str, Any]) -> None:
     js = summary['joint_states']
     print(f"\n/joint_states: published {_fmt(js['published'])}, recorded "
           f"{_fmt(js['recorded'])}, late {_fmt(js['late'])}")
-    print('\n| method | processed | learned | skipped | identified_torque published '
-          '| recorded | final MSE (windowed) | final NMSE |')
-    print('|---|---|---|---|---|---|---|---|')
+    print('\n| method | trainer | processed | learned | held out | skipped '
+          '| identified_torque published | recorded | final MSE (windowed) | final NMSE '
+          '| validation NMSE |')
+    print('|---|---|---|---|---|---|---|---|---|---|---|')
     for name, row in summary['methods'].items():
-        print(f"| {name.upper()} | {_fmt(row['processed'])} | {_fmt(row['learned'])} | "
+        print(f"| {name.upper()} | {_fmt(row['trainer'])} | {_fmt(row['processed'])} | "
+              f"{_fmt(row['learned'])} | {_fmt(row['held_out'])} | "
               f"{_fmt(row['skipped'] or 0)} | {_fmt(row['published'])} | "
               f"{_fmt(row['recorded'])} | {_fmt(row['mse_total'])} | "
-              f"{_fmt(row['nmse_total'])} |")
+              f"{_fmt(row['nmse_total'])} | {_fmt(row['validation_nmse_total'])} |")
     print()

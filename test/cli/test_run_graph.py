@@ -27,8 +27,9 @@ import pytest
 
 from scara_ident_ros.bag import JointStateSeries, read_joint_states
 from scara_ident_ros.methods import METHODS
-from scara_ident_ros.offline.online_results import (OnlinePredictions, read_online_predictions,
-                                                    rolling_errors, torque_topic)
+from scara_ident_ros.offline.online_results import (OnlinePredictions, read_identifier_mse,
+                                                    read_online_predictions, rolling_errors,
+                                                    torque_topic)
 
 pytestmark = pytest.mark.slow
 
@@ -40,7 +41,7 @@ RUN_TIMEOUT = 150.0  # s for the whole run to end by itself (the machine is shar
 STOP_TIMEOUT = 30.0  # s the run gets to stop its graph after SIGINT
 FIRST = 100  # samples: the first 100 ms of predictions
 LAST = 1000  # samples: the last second of predictions
-FALL = 0.1  # the error over the last second must be below this fraction of the first's
+FALL = 0.5  # the final validation NMSE must be below this fraction of the first published
 
 _domains = itertools.count(70)
 
@@ -168,31 +169,49 @@ def test_every_simulated_sample_is_recorded(run: Run, joint_states: JointStateSe
 
 
 @pytest.mark.parametrize('method', list(METHODS))
-def test_every_sample_after_the_first_is_predicted(
+def test_every_sample_is_predicted(
         run: Run, joint_states: JointStateSeries, paired: dict[str, OnlinePredictions],
         method: str) -> None:
     predictions = read_joint_states(run.bag, topic=torque_topic(method),
                                     joints=joint_states.names)
-    # One prediction per input after the first (which only starts the differentiator),
-    # in the inputs' order and stamped like them.
-    assert (predictions.stamp_ns.shape == joint_states.stamp_ns[1:].shape
-            and (predictions.stamp_ns == joint_states.stamp_ns[1:]).all()), \
+    # One prediction per input, the first included (the centred q'' needs no warm-up
+    # sample), in the inputs' order and stamped like them; the last 10, whose q'' waited
+    # for samples after the end, are published when the identifier stops, before the
+    # recorder stops.
+    assert (predictions.stamp_ns.shape == joint_states.stamp_ns.shape
+            and (predictions.stamp_ns == joint_states.stamp_ns).all()), \
         (len(predictions), run.logs())
     ours = paired[method]
-    assert ours.n_published == SAMPLES - 1 and ours.n_unmatched == 0
-    assert (ours.stamp_ns == joint_states.stamp_ns[1:]).all()  # every one finite, paired
+    assert ours.n_published == SAMPLES and ours.n_unmatched == 0
+    assert (ours.stamp_ns == joint_states.stamp_ns).all()  # every one finite, paired
 
 
 @pytest.mark.parametrize('method', list(METHODS))
-def test_identification_error_falls(joint_states: JointStateSeries,
+def test_identification_error_falls(run: Run, joint_states: JointStateSeries,
                                     paired: dict[str, OnlinePredictions], method: str) -> None:
+    """The default trainer (lm) fits the network to the whole stream so far: what falls
+    within a short run is its error on the held-out samples it never learns (the
+    validation NMSE), from the first value published to the final model's.
+
+    Its a-priori error on the samples just arrived, which the paper's BP brings down
+    tenfold within seconds (test_identifier's test_learns_from_simulator, trainer bp),
+    jumps with each new excitation of the sequence for the first tens of seconds (measured
+    offline: a-priori MSE 40-900 per second over 20 s, where BP's is 0.001-1), so it is
+    only checked finite here.
+    """
     ours = paired[method]
     assert ours.stamp_ns.shape[0] > LAST + FIRST
-    assert ours.stamp_ns[0] == joint_states.stamp_ns[1]  # from the first prediction on
+    assert ours.stamp_ns[0] == joint_states.stamp_ns[0]  # from the first prediction on
     first = rolling_errors(ours.measured, ours.predicted, FIRST)[0][FIRST - 1]
     last = rolling_errors(ours.measured, ours.predicted, LAST)[0][-1]
     assert np.isfinite(first) and np.isfinite(last)
-    assert last < FALL * first, (method, first, last)
+    found = read_identifier_mse(run.bag, method)
+    assert found is not None, run.logs()
+    validation = found[1][:, -1]  # validation NMSE over the joints, per message
+    published = validation[np.isfinite(validation)]
+    assert published.size > 0, validation
+    final = summary(run)['methods'][method]['validation_nmse_total']
+    assert final < FALL * published[0], (method, published, final)
 
 
 def test_summary_agrees_with_the_bag(run: Run, joint_states: JointStateSeries) -> None:
@@ -204,7 +223,27 @@ def test_summary_agrees_with_the_bag(run: Run, joint_states: JointStateSeries) -
     assert set(info['methods']) == set(METHODS)
     for method, row in info['methods'].items():
         recorded = len(read_joint_states(run.bag, topic=torque_topic(method)))
-        assert row['published'] == row['recorded'] == recorded == SAMPLES - 1, (method, row)
+        assert row['published'] == row['recorded'] == recorded == SAMPLES, (method, row)
         assert row['processed'] == SAMPLES, (method, row)
+        # the default trainer; the held-out blocks (10 %) are predicted, never learnt
+        assert row['trainer'] == 'lm', (method, row)
+        assert row['learned'] + row['held_out'] == SAMPLES and row['held_out'] > 0, row
+        assert np.isfinite(row['validation_nmse_total']), (method, row)
         assert Path(row['model']).is_file(), row['model']
     assert f'published {SAMPLES}, recorded {SAMPLES}' in run.output
+    assert '| validation NMSE |' in run.output
+
+
+@pytest.mark.parametrize('method', list(METHODS))
+def test_identification_mse_is_recorded_with_its_validation_row(run: Run,
+                                                                method: str) -> None:
+    found = read_identifier_mse(run.bag, method)
+    assert found is not None, run.logs()
+    _, data = found
+    n = 4  # joints
+    assert data.shape[1] == 3 * (n + 1)  # mse, nmse, validation_nmse × (joints, total)
+    assert np.isfinite(data[:, :2 * (n + 1)]).all()
+    # NaN until 100 held-out samples exist (the first held-out block is the third, from
+    # 1 s on), then the current model's NMSE on them
+    assert np.isnan(data[0, 2 * (n + 1):]).all()
+    assert np.isfinite(data[-1, 2 * (n + 1):]).all()

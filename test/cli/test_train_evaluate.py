@@ -89,7 +89,8 @@ def test_train_then_evaluate(fmt: str, n_joints: int, tmp_path: Path,
                              '--out', model)
     assert code == 0, err
     assert '/10 mse ' in err and 'stopped:' in err  # the progress bar, on stderr
-    assert f'999 samples of {n_joints} joints {trained}' in out  # 2 s at 500 Hz, 1 warm-up
+    # 2 s at 500 Hz, every sample: the centred q'' loses none to a warm-up
+    assert f'1000 samples of {n_joints} joints {trained}' in out
     assert 'training on 400, validating on 200' in out  # the last 20 % of the time validates
     rows = table_rows(out)
     assert list(rows) == labels
@@ -107,7 +108,7 @@ def test_train_then_evaluate(fmt: str, n_joints: int, tmp_path: Path,
                       synthetic_states(n_joints, 1.0, seed=n_joints, rate_hz=1000.0))
     code, out, err = run_cli(capsys, 'evaluate', model, other)
     assert code == 0, err
-    assert 'FFMW model' in out and '999 samples over 1.0 s' in out and 'mapped by name' in out
+    assert 'FFMW model' in out and '1000 samples over 1.0 s' in out and 'mapped by name' in out
     rows = table_rows(out)
     assert list(rows) == labels
     assert all(len(row) == 2 for row in rows.values())  # MSE, NMSE
@@ -154,7 +155,12 @@ def test_identifier_warm_starts_from_a_trained_model(bags: dict[str, Path], tmp_
     for i in range(states.stamp_ns.shape[0]):
         online.process(int(states.stamp_ns[i]), states.names, states.position[i],
                        states.velocity[i], states.effort[i])
-    assert online.counts.learned == states.stamp_ns.shape[0] - 1
+    # every sample is learnt, the last 10 (waiting for the centred q'') at the end of the
+    # stream, as the node does on shutdown
+    assert online.counts.learned + online.counts.pending == states.stamp_ns.shape[0]
+    assert online.counts.pending == 10
+    online.finish()
+    assert online.counts.learned == states.stamp_ns.shape[0] and online.counts.pending == 0
 
 
 def test_six_joints_bare_mcap_with_joint_selection(bags: dict[str, Path], tmp_path: Path,
@@ -210,7 +216,9 @@ def _bad_bags(root: Path) -> dict[str, tuple[Path, str]]:
                                  r'scara-ident recover \S*truncated\.mcap$'),
         'corrupt': (corrupt, r'corrupt\.mcap'),
         'garbage_bag': (garbage_bag, r'garbage_bag'),
-        'few': (few, r'few.*9 usable samples of 10 messages.*need at least 20'),
+        # fewer samples than the centred q'' fit's window (21): none usable
+        'few': (few, r'few.*0 usable samples of 10 messages \(skipped: 10 warming_up\).*'
+                     r'need at least 20'),
         'no_effort': (no_effort, r'no_effort: /joint_states carries no effort for joint1, '
                                  r'joint2'),
     }
