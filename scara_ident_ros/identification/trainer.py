@@ -7,13 +7,17 @@
     the mean (README, "Results").
 ``'lm'`` (:class:`ReservoirLM`, the default)
     Every sample goes into a :class:`Reservoir`, a uniform random sample of the whole stream
-    so far (``capacity`` samples); every ``interval`` samples the network takes one
-    Levenberg–Marquardt step on the reservoir (the offline algorithm of Table 2, whose steps
+    so far (``capacity`` samples); every ``interval`` samples the network takes ``steps``
+    Levenberg–Marquardt steps on the reservoir (the offline algorithm of Table 2, whose steps
     only lower the reservoir's error, so a step can never make the error explode). The
-    network is fitted to all the motion seen, as offline training would fit it.
-    Cost: one step costs about ``15 ms + 10 ms`` per 1000 reservoir samples on one core;
-    with the defaults (4000 samples, a step every 200 samples at 1 kHz: 5 steps/s) about a
-    quarter of a core on average.
+    network is fitted to all the motion seen, as offline training would fit it. JᵀJ is
+    assembled in float32 (``normal_equations(single=True)``: 22 ms instead of 36 ms for 4000
+    samples), the rest in float64.
+    Cost (``benchmarks/bench_learning_curves.py`` reports it): with the defaults (4000
+    samples, 2 steps every 200 samples: 10 steps/s at 1 kHz) about 0.3–0.4 of a core.
+    Measured (FFS, ``sequence`` stream): frozen after 120 s, held-out NMSE ≤ 1e-3 on every
+    joint; 1 step per 200 samples reaches that only after about 150 s, 1 step per 400
+    samples not within 120 s.
 
 Both give the a-priori prediction of each sample, made before the sample is learnt.
 """
@@ -83,7 +87,9 @@ class ReservoirLM:
     capacity : int
         Samples kept in the reservoir.
     interval : int
-        Samples between two LM steps.
+        Samples between two updates.
+    steps : int
+        LM steps per update, each on the whole reservoir.
     seed : int
         Seed of the reservoir's draws.
     """
@@ -91,13 +97,12 @@ class ReservoirLM:
     name = 'lm'
 
     def __init__(self, model: FeedForwardNet, *, capacity: int = 4000, interval: int = 200,
-                 batch: int = 0, seed: int = 0) -> None:
-        if interval < 1 or batch < 0:
-            raise ValueError(f'need interval >= 1 and batch >= 0, got {interval}, {batch}')
+                 steps: int = 2, seed: int = 0) -> None:
+        if interval < 1 or steps < 1:
+            raise ValueError(f'need interval >= 1 and steps >= 1, got {interval}, {steps}')
         self.model = model
         self.interval = int(interval)
-        self.batch = int(batch)
-        self._rng = np.random.default_rng(seed + 2)
+        self.steps_per_update = int(steps)
         self.reservoir = Reservoir(capacity, model.n_inputs, model.n_outputs, seed=seed)
         self.steps = 0  # LM steps taken
         self._since = 0  # samples since the last step
@@ -114,39 +119,37 @@ class ReservoirLM:
         return predicted
 
     def step(self) -> bool:
-        """Take one LM step on the reservoir now; return whether the weights changed."""
+        """Take ``steps`` LM steps on the reservoir now; return whether the weights changed."""
         reservoir = self.reservoir
         if len(reservoir) < 2:
             return False
         model = self.model
-        X, Y = reservoir.X, reservoir.Y
-        if 0 < self.batch < len(reservoir):
-            rows = self._rng.choice(len(reservoir), self.batch, replace=False)
-            X, Y = X[rows], Y[rows]
-        xs = model.x_scaling.transform(X)
-        ys = model.y_scaling.transform(Y)
+        xs = model.x_scaling.transform(reservoir.X)
+        ys = model.y_scaling.transform(reservoir.Y)
         if self._lm is None:
-            self._lm = LevenbergMarquardt(model, xs, ys, mu=LM_MU)
+            self._lm = LevenbergMarquardt(model, xs, ys, mu=LM_MU, single=True)
         self._lm.set_data(xs, ys)
         try:
-            self._lm.step()
+            for _ in range(self.steps_per_update):
+                self._lm.step()
+                self.steps += 1
         except StopTraining:  # no damping lowers the error: at a minimum of these samples
             self._lm.mu = LM_MU
             return False
-        self.steps += 1
         return True
 
 
 def make_trainer(name: str, model: FeedForwardNet, *, capacity: int = 4000,
-                 interval: int = 200, batch: int = 0,
+                 interval: int = 200, steps: int = 2,
                  seed: int = 0) -> BackPropagation | ReservoirLM:
     """Build the trainer called ``name`` (one of :data:`TRAINERS`) for ``model``.
 
-    ``capacity``, ``interval`` and ``seed`` are :class:`ReservoirLM`'s; BP uses the
-    network's own learning rate and momentum.
+    ``capacity``, ``interval``, ``steps`` and ``seed`` are :class:`ReservoirLM`'s; BP uses
+    the network's own learning rate and momentum.
     """
     if name == 'bp':
         return BackPropagation(model)
     if name == 'lm':
-        return ReservoirLM(model, capacity=capacity, interval=interval, batch=batch, seed=seed)
+        return ReservoirLM(model, capacity=capacity, interval=interval, steps=steps,
+                           seed=seed)
     raise ValueError(f'unknown trainer {name!r}; choose from {TRAINERS}')

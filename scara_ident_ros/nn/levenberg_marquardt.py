@@ -46,8 +46,8 @@ FloatArray = npt.NDArray[np.float64]
 
 
 def normal_equations(net: FeedForwardNet, xs: FloatArray, ys: FloatArray, *,
-                     chunk_size: int = 1024, out: tuple[FloatArray, FloatArray] | None = None
-                     ) -> tuple[FloatArray, FloatArray, float]:
+                     chunk_size: int = 1024, out: tuple[FloatArray, FloatArray] | None = None,
+                     single: bool = False) -> tuple[FloatArray, FloatArray, float]:
     """Return JᵀJ, Jᵀr and the sum of squared errors at the network's weights.
 
     Parameters
@@ -61,6 +61,11 @@ def normal_equations(net: FeedForwardNet, xs: FloatArray, ys: FloatArray, *,
         Samples per block; memory use is about chunk_size·(n_inputs + 1)·n_hidden floats.
     out : (ndarray (n_params, n_params), ndarray (n_params,)), optional
         Buffers to fill instead of allocating.
+    single : bool, default False
+        Accumulate the hidden-layer blocks of JᵀJ (the O(n·((n_in+1)·H)²) products, most of
+        the cost) in float32: 2.3× faster products, entries to ~1e-6 relative. Jᵀr, the
+        error and the step's acceptance stay in float64, so a step is only taken if it
+        lowers the float64 error; LM's damping absorbs the rest.
 
     Returns
     -------
@@ -80,11 +85,12 @@ def normal_equations(net: FeedForwardNet, xs: FloatArray, ys: FloatArray, *,
     jtr_V, jtr_W = net._unpack(jtr)
     W = net._unpack(net._theta)[1][:, :n_hid]
     chunk = min(chunk_size, xs.shape[0])
+    wide = np.float32 if single else np.float64  # type of the hidden-layer products
     xt = np.ones((chunk, n_in + 1))
     ht = np.ones((chunk, n_hid + 1))
-    z = np.empty((chunk, n_in + 1, n_hid))
-    ztz = np.zeros((n_h, n_h))
-    zht = np.zeros((n_h, n_hid + 1))
+    z = np.empty((chunk, n_in + 1, n_hid), dtype=wide)
+    ztz = np.zeros((n_h, n_h), dtype=wide)
+    zht = np.zeros((n_h, n_hid + 1), dtype=wide)
     hth = np.zeros((n_hid + 1, n_hid + 1))
     sse = 0.0
     for start in range(0, xs.shape[0], chunk):
@@ -101,13 +107,14 @@ def normal_equations(net: FeedForwardNet, xs: FloatArray, ys: FloatArray, *,
         np.multiply(xt[:n, :, None], g[:, None, :], out=z[:n])
         z_flat = z[:n].reshape(n, n_h)
         ztz += z_flat.T @ z_flat  # numpy hands Aᵀ·A to BLAS syrk
-        zht += z_flat.T @ ht[:n]
+        zht += z_flat.T @ ht[:n].astype(wide, copy=False)
         hth += ht[:n].T @ ht[:n]
         back = r @ W
         back *= g
         jtr_V += xt[:n].T @ back
         jtr_W += r.T @ ht[:n]
     B = W.T @ W
+    ztz, zht = ztz.astype(np.float64, copy=False), zht.astype(np.float64, copy=False)
     jtj[:n_h, :n_h] = (ztz.reshape(n_in + 1, n_hid, n_in + 1, n_hid)
                        * B[None, :, None, :]).reshape(n_h, n_h)
     cross = (zht.reshape(n_in + 1, n_hid, 1, n_hid + 1)
@@ -140,17 +147,20 @@ class LevenbergMarquardt:
         Training stops when mu exceeds it.
     chunk_size : int, default 1024
         Samples per block when assembling the normal equations.
+    single : bool, default False
+        Assemble JᵀJ's hidden-layer blocks in float32 (see `normal_equations`).
     """
 
     def __init__(self, net: FeedForwardNet, xs: FloatArray, ys: FloatArray, *,
                  mu: float = 1e-3, mu_decrease: float = 0.1, mu_increase: float = 10.0,
-                 mu_max: float = 1e10, chunk_size: int = 1024) -> None:
+                 mu_max: float = 1e10, chunk_size: int = 1024, single: bool = False) -> None:
         if not (mu > 0.0 and 0.0 < mu_decrease < 1.0 < mu_increase and mu_max >= mu):
             raise ValueError('need mu > 0, 0 < mu_decrease < 1 < mu_increase, mu_max >= mu')
         self._net, self._xs, self._ys = net, xs, ys
         self.mu = mu
         self._mu_decrease, self._mu_increase, self._mu_max = mu_decrease, mu_increase, mu_max
         self._chunk_size = chunk_size
+        self._single = single
         n_params = net.n_params
         self._jtj = np.empty((n_params, n_params))
         self._jtr = np.empty(n_params)
@@ -196,7 +206,7 @@ class LevenbergMarquardt:
         net = self._net
         if self._stale:
             normal_equations(net, self._xs, self._ys, chunk_size=self._chunk_size,
-                             out=(self._jtj, self._jtr))
+                             out=(self._jtj, self._jtr), single=self._single)
             self._stale = False
         while self.mu <= self._mu_max:
             np.copyto(self._work, self._jtj)

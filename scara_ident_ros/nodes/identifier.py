@@ -84,7 +84,9 @@ PARAMETERS = (
               'per sample, tracks)', choices=TRAINERS),
     ParamSpec('reservoir_size', 4000, 'Samples of the stream kept for the lm trainer',
               min=10, max=1_000_000),
-    ParamSpec('lm_interval', 200, 'Samples between two steps of the lm trainer', min=1,
+    ParamSpec('lm_steps', 2, 'Levenberg-Marquardt steps of the lm trainer per update', min=1,
+              max=100),
+    ParamSpec('lm_interval', 200, 'Samples between two updates of the lm trainer', min=1,
               max=1_000_000),
     ParamSpec('validation_fraction', 0.1, 'Fraction of the samples (in blocks) never learnt, '
               'whose error is the validation NMSE; 0: none', min=0.0, max=0.9),
@@ -265,7 +267,8 @@ class IdentifierNode(Node):
         self.core = OnlineIdentifier(
             self.network, joint_names=names, differentiator=differentiator,
             trainer=make_trainer(s['trainer'], self.network, capacity=s['reservoir_size'],
-                                 interval=s['lm_interval'], seed=s['seed']),
+                                 interval=s['lm_interval'], steps=s['lm_steps'],
+                                 seed=s['seed']),
             holdout=holdout, mse_window=s['mse_window'], learn=s['learn'],
             max_gap_ns=round(s['max_gap'] * 1e9))
         self.names = names
