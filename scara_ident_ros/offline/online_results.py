@@ -235,9 +235,10 @@ def read_identifier_mse(bag: Path, method: str
     Returns
     -------
     (log_time_ns, data) or None
-        Receive times (M,) in ns and the messages' ``data`` (M, 2(n + 1)) =
-        [mse_1..mse_n, mse_total, nmse_1..nmse_n, nmse_total] per message; None if the bag
-        has no such topic or no message.
+        Receive times (M,) in ns and the messages' ``data`` (M, 3(n + 1)) =
+        [mse_1..mse_n, mse_total, nmse_1..nmse_n, nmse_total, validation_nmse_1..n, total]
+        per message (M, 2(n + 1) without the validation row, from older runs); None if the
+        bag has no such topic or no message.
     """
     from rosbags.typesys import Stores, get_typestore
 

@@ -382,15 +382,19 @@ def _published_table(online: _Online, names: tuple[str, ...]) -> str:
     lines = ['What the identifiers published last on `/<method>/identification_mse` (over '
              'their own window, the identifier\'s `mse_window`), and how many predictions '
              'were paired with a measurement:', '',
-             '| method | published MSE | published NMSE | predictions | paired | unmatched |',
-             '|---|---|---|---|---|---|']
+             '| method | published MSE | published NMSE | published validation NMSE '
+             '| predictions | paired | unmatched |',
+             '|---|---|---|---|---|---|---|']
     for m, pred in online.predictions.items():
         data = online.published.get(m)
-        mse = nmse = '—'
-        if data is not None and data.shape[0] == 2 * (n + 1):
+        mse = nmse = validation = '—'
+        # [mse.., mse_total, nmse.., nmse_total(, validation_nmse.., total)]: 2 or 3 rows
+        if data is not None and data.shape[0] in (2 * (n + 1), 3 * (n + 1)):
             mse, nmse = format_value(float(data[n])), format_value(float(data[2 * n + 1]))
-        lines.append(f'| {method_spec(m).label} | {mse} | {nmse} | {pred.n_published} | '
-                     f'{pred.stamp_ns.shape[0]} | {pred.n_unmatched} |')
+            if data.shape[0] == 3 * (n + 1):
+                validation = format_value(float(data[3 * n + 2]))
+        lines.append(f'| {method_spec(m).label} | {mse} | {nmse} | {validation} | '
+                     f'{pred.n_published} | {pred.stamp_ns.shape[0]} | {pred.n_unmatched} |')
     return '\n'.join(lines)
 
 
