@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
+from typing import Any
 from pathlib import Path
 
 import numpy as np
@@ -211,4 +212,36 @@ def plot_online_error(path: Path,
         ax.grid(True, which='both', alpha=0.3)
         ax.legend(loc='upper right')
     fig.suptitle(title)
+    return _save(fig, path)
+
+
+def plot_learning_curves(path: Path, curves: Sequence[Any], title: str = '',
+                         noise_floor: NDArray[np.float64] | None = None) -> Path:
+    """Held-out NMSE of the worst joint against seconds of stream, median and range over seeds.
+
+    ``curves`` are :class:`~scara_ident_ros.experiments.learning_curves.Curve` (label,
+    seconds, nmse (K, n)); one line per label, its band the min–max over seeds.
+    """
+    plt = _pyplot()
+    groups: dict[str, list[Any]] = {}
+    for curve in curves:
+        groups.setdefault(curve.label, []).append(curve)
+    fig, ax = plt.subplots(figsize=(7.5, 4.5))
+    for label, group in groups.items():
+        seconds = group[0].seconds
+        worst = np.array([c.nmse.max(axis=1) for c in group])
+        style = '--' if label in ('LS', 'RLS') else '-'
+        line, = ax.plot(seconds, np.median(worst, axis=0), style, marker='o', ms=3,
+                        label=label)
+        ax.fill_between(seconds, worst.min(axis=0), worst.max(axis=0), alpha=0.15,
+                        color=line.get_color())
+    if noise_floor is not None:
+        ax.axhline(float(np.max(noise_floor)), color='k', lw=0.8, ls=':',
+                   label='noise floor (worst joint)')
+    ax.set_yscale('log')
+    ax.set_xlabel('seconds of stream')
+    ax.set_ylabel('held-out NMSE, worst joint')
+    ax.set_title(title or 'Frozen models on motions never seen')
+    ax.grid(True, which='both', alpha=0.3)
+    ax.legend(fontsize=8, ncol=2)
     return _save(fig, path)

@@ -1,0 +1,198 @@
+"""Learning curves: held-out NMSE of frozen models against seconds of stream.
+
+The question an identifier answers is "after t seconds of this robot's stream, how well does
+the model predict motions it has never seen?". Each curve runs the real online pipeline
+(:class:`~scara_ident_ros.identification.OnlineIdentifier`: the input stage with the
+zero-phase q'', the trainer, the node's held-out validation blocks) over a simulated stream,
+and at each checkpoint scores the model *as it is then* (frozen: scoring changes nothing) on
+held-out excitations that no model ever learns from. Beside the networks, two references on
+the SCARA's physical regressor fitted to the same stream inputs: least squares on every
+sample so far (``LS``) and recursive least squares updated sample by sample (``RLS``); they
+know the robot's structure, the networks do not.
+
+NMSE per joint = MSE / variance of that joint's held-out effort; 1 is no better than the
+mean effort.
+
+Public API::
+
+    CHECKPOINTS_S                                  default checkpoints (s)
+    Curve                                          label, seed, seconds, nmse (K, n), cpu_s
+    held_out_set(params, *, seed, config=None, excitation_s=6, sequence_s=30) -> Dataset
+    network_curve(record, held_out, params, *, method, trainer, seed, checkpoints) -> Curve
+    regressor_curves(record, held_out, *, seed, checkpoints) -> (LS Curve, RLS Curve)
+    curves_markdown(curves, *, noise_floor=None) -> str
+"""
+from __future__ import annotations
+
+import time
+from collections import defaultdict
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from scara_ident_ros.dynamics import ScaraParams
+from scara_ident_ros.dynamics.recursive_least_squares import RecursiveLeastSquares
+from scara_ident_ros.experiments.datasets import Dataset, dataset_from_record, simulate_record
+from scara_ident_ros.experiments.reference import fit_reference, predict_reference
+from scara_ident_ros.experiments.tables import format_value
+from scara_ident_ros.identification import (Holdout, InputStage, JointMap, OnlineIdentifier,
+                                            make_trainer)
+from scara_ident_ros.methods import limit_scaling, make_network, method as method_spec
+from scara_ident_ros.sim import SimConfig, SimRecord
+
+__all__ = ['CHECKPOINTS_S', 'Curve', 'curves_markdown', 'held_out_set', 'network_curve',
+           'regressor_curves']
+
+FloatArray = npt.NDArray[np.float64]
+
+#: Seconds of stream after which the frozen models are scored.
+CHECKPOINTS_S: tuple[float, ...] = (10.0, 20.0, 30.0, 60.0, 90.0, 120.0)
+
+_LIMITS = ('position_min', 'position_max', 'velocity_max', 'acceleration_max', 'effort_max')
+_HELD_OUT_SEED = 1_000_000  # held-out excitations' seeds start here, far from any stream's
+
+
+@dataclass(frozen=True)
+class Curve:
+    """One learning curve.
+
+    Attributes
+    ----------
+    label : str
+        ``'FFS lm'``, ``'FFMW bp'``, ``'LS'``, ``'RLS'``.
+    seed : int
+        Seed of the stream (and of the network's weights).
+    seconds : ndarray of shape (K,)
+        Seconds of stream at the checkpoints.
+    nmse : ndarray of shape (K, n)
+        Held-out NMSE per joint of the frozen model at each checkpoint.
+    cpu_s : float
+        CPU seconds the whole stream cost (prediction, learning, scoring excluded).
+    """
+
+    label: str
+    seed: int
+    seconds: FloatArray
+    nmse: FloatArray
+    cpu_s: float
+
+
+def held_out_set(params: ScaraParams, *, seed: int = 0, config: SimConfig | None = None,
+                 excitation_s: float = 6.0, sequence_s: float = 30.0) -> Dataset:
+    """Motions no stream contains: 5 ``standard`` excitations of ``excitation_s`` seconds
+    and ``sequence_s`` seconds of ``sequence``.
+
+    Their seeds are ``1_000_000 + 10 * seed + i``; the inputs go through the identifier's
+    input stage (zero-phase q''), as a recorded robot's would. With ``config`` noise, the
+    held-out measurements are noisy too (the noise floor is then reachable, not beatable).
+    """
+    parts = []
+    for i in range(5):
+        record = simulate_record(params, seconds=excitation_s,
+                                 seed=_HELD_OUT_SEED + 10 * seed + i, config=config)
+        parts.append(dataset_from_record(record, acceleration='estimated'))
+    record = simulate_record(params, seconds=sequence_s, seed=_HELD_OUT_SEED + 10 * seed + 5,
+                             preset='sequence', config=config)
+    parts.append(dataset_from_record(record, acceleration='estimated'))
+    return Dataset(np.concatenate([p.stamp_ns for p in parts]),
+                   np.vstack([p.X for p in parts]), np.vstack([p.Y for p in parts]),
+                   'estimated', 'held-out')
+
+
+def _nmse(Y: FloatArray, predicted: FloatArray) -> FloatArray:
+    return np.asarray(np.mean((Y - predicted) ** 2, axis=0) / Y.var(axis=0))
+
+
+def network_curve(record: SimRecord, held_out: Dataset, params: ScaraParams, *, method: str,
+                  trainer: str, seed: int = 0,
+                  checkpoints: Sequence[float] = CHECKPOINTS_S) -> Curve:
+    """Stream ``record`` through an identifier of ``method`` and ``trainer`` (node defaults).
+
+    The network's scaling comes from the robot's limits, as in the node; 10 % of the
+    samples (blocks of 500) are held back for the identifier's own validation, as in the
+    node.
+    """
+    net = make_network(method, 4, seed=seed)
+    net.set_scaling(*limit_scaling(*(params.array(name) for name in _LIMITS)))
+    ident = OnlineIdentifier(net, joint_names=params.joint_names,
+                             trainer=make_trainer(trainer, net, seed=seed),
+                             holdout=Holdout(12, 4, seed=seed))
+    names = params.joint_names
+    stamps = record.stamp_ns
+    marks = [int(stamps[0] + round(s * 1e9)) for s in checkpoints]
+    scores: list[FloatArray] = []
+    cpu = 0.0
+    start = 0
+    for mark in marks:
+        stop = int(np.searchsorted(stamps, mark))
+        began = time.process_time()
+        for i in range(start, stop):
+            ident.process(int(stamps[i]), names, record.q[i], record.qd[i], record.effort[i])
+        cpu += time.process_time() - began
+        start = stop
+        scores.append(_nmse(held_out.Y, net.predict(held_out.X)))
+    label = f'{method_spec(method).label} {trainer}'
+    return Curve(label, seed, np.asarray(checkpoints, float), np.array(scores), cpu)
+
+
+def regressor_curves(record: SimRecord, held_out: Dataset, *, seed: int = 0,
+                     checkpoints: Sequence[float] = CHECKPOINTS_S) -> tuple[Curve, Curve]:
+    """The LS and RLS references on the stream's inputs (the same input stage)."""
+    names = tuple(f'joint{j + 1}' for j in range(4))
+    stage = InputStage(JointMap(names, n_joints=4))
+    stamps, X, Y = stage.batch(record.stamp_ns, names, record.q, record.qd, record.effort)
+    rls = RecursiveLeastSquares()
+    ls_scores, rls_scores = [], []
+    ls_cpu = rls_cpu = 0.0
+    start = 0
+    for seconds in checkpoints:
+        stop = int(np.searchsorted(stamps, stamps[0] + round(seconds * 1e9)))
+        began = time.process_time()
+        fit = fit_reference(X[:stop], Y[:stop])
+        ls_cpu = time.process_time() - began  # a batch fit: the last one is the cost
+        ls_scores.append(_nmse(held_out.Y, predict_reference(fit.identifier, held_out.X)))
+        began = time.process_time()
+        for block in range(start, stop, 100):
+            end = min(block + 100, stop)
+            rls.update(X[block:end, :4], X[block:end, 4:8], X[block:end, 8:], Y[block:end])
+        rls_cpu += time.process_time() - began
+        start = stop
+        rls_scores.append(_nmse(held_out.Y, rls.predict(held_out.X[:, :4], held_out.X[:, 4:8],
+                                                        held_out.X[:, 8:])))
+    times = np.asarray(checkpoints, float)
+    return (Curve('LS', seed, times, np.array(ls_scores), ls_cpu),
+            Curve('RLS', seed, times, np.array(rls_scores), rls_cpu))
+
+
+def curves_markdown(curves: Sequence[Curve], *, noise_floor: FloatArray | None = None,
+                    stream_seconds: float | None = None) -> str:
+    """Median [min–max] over seeds of the worst joint's held-out NMSE at each checkpoint.
+
+    Then, per curve label, the per-joint medians at the last checkpoint and the CPU cost
+    per second of stream.
+    """
+    groups: dict[str, list[Curve]] = defaultdict(list)
+    for curve in curves:
+        groups[curve.label].append(curve)
+    seconds = next(iter(groups.values()))[0].seconds
+    header = ('| method | ' + ' | '.join(f'{s:g} s' for s in seconds)
+              + ' | per joint at the end (median) | CPU per s of stream |')
+    lines = ['Held-out NMSE of the worst joint, median [min–max] over '
+             f'{len(next(iter(groups.values())))} seeds:', '', header,
+             '|' + '---|' * (len(seconds) + 3)]
+    for label, group in groups.items():
+        worst = np.array([c.nmse.max(axis=1) for c in group])  # (seeds, K)
+        cells = [f'{format_value(float(np.median(col)))} [{format_value(float(col.min()))}–'
+                 f'{format_value(float(col.max()))}]' for col in worst.T]
+        joints = np.median(np.array([c.nmse[-1] for c in group]), axis=0)
+        per_joint = ', '.join(format_value(float(v)) for v in joints)
+        span = stream_seconds if stream_seconds else float(seconds[-1])
+        cpu = np.median([c.cpu_s for c in group]) / span
+        lines.append(f'| {label} | ' + ' | '.join(cells) + f' | {per_joint} | '
+                     f'{cpu * 100:.1f} % |')
+    if noise_floor is not None:
+        lines += ['', 'Noise floor (effort noise variance / held-out effort variance) per '
+                  'joint: ' + ', '.join(format_value(float(v)) for v in noise_floor)]
+    return '\n'.join(lines)
