@@ -8,7 +8,12 @@ Data (simulator core, 1 kHz, no noise, no disturbance unless the code is changed
   ``--train-seconds`` of the training run, inputs q, q', and the simulator's *true* q''
   (``--acceleration estimated`` uses q'' estimated from q' instead);
 * online (Table 3 analog): the first ``--online-seconds`` of the training run as a stream,
-  q'' estimated from q' by the identifier's differentiator (low-pass, 50 Hz);
+  q'' estimated from q' by the identifier's input stage (zero-phase, centred);
+* learning curves: ``--curve-seconds`` of the identifier's default stream (``sequence``)
+  per seed, learnt online by each method with each trainer (``lm``, the identifier's
+  default, and the paper's ``bp``) through the identifier's own pipeline; the frozen model
+  scored at checkpoints on excitations never streamed, with LS and recursive LS on the
+  physical regressor as references (``fig_learning_curves.png``);
 * hyperparameters: per method, a grid search of learning rate, momentum and initial weight
   scale on the first ``--search-seconds`` of the stream (training data only), see
   :mod:`scara_ident_ros.experiments.hyperparameters`; the choice is used by both tables.
@@ -18,8 +23,9 @@ and [min–max] over seeds. A least-squares fit of the SCARA's linear-in-paramet
 model-based reference row.
 
 Writes to ``--out DIR``: ``tables.md`` (what is printed), ``table2.csv`` and ``table3.csv``
-(one line per method, seed and data set), ``search.csv`` (every grid point's score) and
-``conditions.json`` (sizes, seeds, settings, timings, versions).
+(one line per method, seed and data set), ``search.csv`` (every grid point's score),
+``fig_learning_curves.png`` and ``conditions.json`` (sizes, seeds, settings, timings,
+versions).
 
 BLAS runs on one thread when ``threadpoolctl`` is installed: the LM systems (684 × 684) gain
 nothing from more, and on a shared 2-core machine two BLAS threads made single LM trainings
@@ -61,7 +67,8 @@ from scara_ident_ros.experiments import (DEFAULT_GOAL, DEFAULT_GRID, DEFAULT_WIN
                                          reference_rows, run_offline, run_online, search,
                                          simulate_record, stream_data_names, summarise,
                                          write_csv)
-from scara_ident_ros.identification import PAPER_WINDOW
+from scara_ident_ros.experiments.learning_curves import curves_markdown, run_curves
+from scara_ident_ros.identification import PAPER_WINDOW, TRAINERS
 from scara_ident_ros.methods import METHODS, limit_scaling
 from scara_ident_ros.methods import method as method_spec
 from scara_ident_ros.sim import TRAJECTORIES
@@ -72,12 +79,13 @@ __all__ = ['DEFAULTS', 'DEFAULT_WALL_TIME', 'QUICK', 'add_parser', 'main', 'run'
 DEFAULTS: dict[str, Any] = {
     'seeds': 5, 'train_seconds': 60.0, 'test_seconds': 20.0, 'online_seconds': 60.0,
     'search_seconds': 10.0, 'iterations': PAPER_ITERATIONS, 'samples': 1000,
-    'window': DEFAULT_WINDOW,
+    'window': DEFAULT_WINDOW, 'curve_seconds': 120.0,
 }
 #: Settings of ``--quick`` (explicit options still win).
 QUICK: dict[str, Any] = {
     'seeds': 2, 'train_seconds': 4.0, 'test_seconds': 2.0, 'online_seconds': 4.0,
     'search_seconds': 2.0, 'iterations': 5, 'samples': 200, 'window': 1000,
+    'curve_seconds': 2.0,
 }
 #: Measured wall time of ``scara-ident compare`` with the defaults (see the module docstring):
 #: search 27 s, LM 116 s (15 trainings of about 7.7 s), online 16 s, simulation 4 s.
@@ -114,6 +122,9 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument('--window', type=int, default=None,
                         help='samples of the longer online error window '
                              f'(default {d["window"]})')
+    parser.add_argument('--curve-seconds', type=float, default=None,
+                        help='seconds of stream of the learning curves (default '
+                             f'{d["curve_seconds"]:g}; 0: no curves)')
     parser.add_argument('--acceleration', choices=('true', 'estimated'), default='true',
                         help="q'' of the offline data: the simulator's or estimated from q' "
                              '(default true)')
@@ -142,6 +153,8 @@ def _settings(args: argparse.Namespace) -> dict[str, Any]:
     for key in ('train_seconds', 'test_seconds', 'online_seconds', 'search_seconds'):
         if not (math.isfinite(s[key]) and s[key] > 0.0):
             raise CliError(f'--{key.replace("_", "-")} must be > 0, got {s[key]}')
+    if not (math.isfinite(s['curve_seconds']) and s['curve_seconds'] >= 0.0):
+        raise CliError(f'--curve-seconds must be >= 0, got {s["curve_seconds"]}')
     for key in ('seeds', 'iterations', 'samples', 'window'):
         if s[key] < 1:
             raise CliError(f'--{key} must be >= 1, got {s[key]}')
@@ -236,6 +249,16 @@ def _run(args: argparse.Namespace, s: dict[str, Any]) -> int:
                                     window=window, coulomb_eps=params.coulomb_eps)
     online += hold_rows(stream.Y, window=window)
     timings['online'] = time.perf_counter() - tick
+
+    tick = time.perf_counter()
+    curves = []
+    if s['curve_seconds'] > 0:
+        _log(f'learning curves: {s["curve_seconds"]:g} s of stream, {len(seeds)} seeds, '
+             f'trainers {", ".join(TRAINERS)} (two worker processes)')
+        curves = run_curves(params, seeds=seeds, methods=methods, trainers=TRAINERS,
+                            seconds=s['curve_seconds'],
+                            held_out_s=(1.0, 2.0) if args.quick else (6.0, 30.0))
+    timings['curves'] = time.perf_counter() - tick
     timings['total'] = time.perf_counter() - started
     timings['total_cpu'] = time.process_time() - cpu_started
 
@@ -246,10 +269,23 @@ def _run(args: argparse.Namespace, s: dict[str, Any]) -> int:
                               'online held-out': online_test, 'search segment': segment},
                              window)
     text = _report(offline, online, searches, hyper, conditions, window)
+    if curves:
+        text += ('\n## Learning curves: frozen models on motions never seen\n\n'
+                 f'{s["curve_seconds"]:g} s of the identifier\'s default stream (`sequence`) '
+                 'per seed, learnt online through the identifier\'s pipeline (zero-phase '
+                 "q'', 10 % held back) by each trainer (`lm`: the identifier's default; "
+                 '`bp`: the paper\'s per-sample back-propagation, the method\'s default '
+                 'rates); the frozen model scored on 5 `standard` excitations and 30 s of '
+                 'another `sequence` never streamed. LS and RLS: the physical regressor '
+                 'fitted to the same stream inputs. Figure: `fig_learning_curves.png`.\n\n'
+                 + curves_markdown(curves) + '\n')
     print(text, end='')
     out: Path = args.out
     try:
         out.mkdir(parents=True, exist_ok=True)
+        if curves:
+            from scara_ident_ros.offline.figures import plot_learning_curves
+            plot_learning_curves(out / 'fig_learning_curves.png', curves)
         names = list(params.joint_names)
         write_csv(out / 'table2.csv', offline, joint_names=names)
         write_csv(out / 'table3.csv', online, joint_names=names)
@@ -300,8 +336,8 @@ def _report(offline: list[ResultRow], online: list[ResultRow], searches: list[Se
                       labels),
         '## Table 3 analog: online, one back-propagation step per sample\n',
         f'Stream: the first {c["online_seconds"]:g} s of the training run '
-        f'({sizes["online stream"]["samples"]} samples), q\'\' estimated from q\' (low-pass '
-        'differentiator, 50 Hz, as the identifier node); scaling from the robot\'s joint '
+        f'({sizes["online stream"]["samples"]} samples), q\'\' estimated from q\' by the '
+        "identifier's input stage (zero-phase); scaling from the robot's joint "
         'limits. Each sample is predicted before it is learnt; '
         f'`{short}` is the paper\'s "error over the last {PAPER_WINDOW} samples", '
         f'`{long}` the last {window} samples; held-out: predict-only on the held-out run '
@@ -324,7 +360,7 @@ def _report(offline: list[ResultRow], online: list[ResultRow], searches: list[Se
 
 def _acceleration_text(kind: str) -> str:
     return ("simulator's true acceleration" if kind == 'true'
-            else 'estimate from q\' (low-pass differentiator, 50 Hz)')
+            else "zero-phase estimate from q' (the identifier's input stage)")
 
 
 def _ranking_text(summaries: Sequence[Summary], table: str,
@@ -430,7 +466,7 @@ def _conditions(args: argparse.Namespace, s: dict[str, Any], params: ScaraParams
         'goal_units': 'training MSE of outputs scaled to [-1, 1] by the training min-max',
         'online_window': window, 'paper_window': PAPER_WINDOW,
         'offline_acceleration': args.acceleration, 'online_acceleration': 'estimated',
-        'differentiator': 'lowpass, cutoff 50 Hz (identifier default)',
+        'differentiator': 'centred, window 21, degree 2 (identifier default, zero-phase)',
         'offline_scaling': 'min-max of the LM training samples',
         'online_scaling': 'robot joint limits (methods.limit_scaling)',
         'network': '12-40-4', 'sample_rate_hz': 1000.0,

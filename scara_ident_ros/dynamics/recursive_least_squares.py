@@ -1,14 +1,14 @@
 """Recursive least squares on the SCARA's regressor: the online model-based reference.
 
 The same linear-in-parameters model as :class:`LeastSquaresIdentifier`, τ = Y(q, q', q'') θ,
-updated sample by sample (covariance form, no forgetting), so that after any number of
-samples θ is the least-squares fit of all of them (up to the prior ``P0 = p0 · I``). It is
-the online counterpart of the batch fit: what an identifier that knew the robot's structure
-would reach on the same stream.
+updated as samples arrive, so that after any number of samples θ is the least-squares fit
+of all of them (up to the prior ``P0 = p0 · I``). It is the online counterpart of the batch
+fit: what an identifier that knew the robot's structure would reach on the same stream.
 
-Samples are taken in blocks (one update with the k stacked regressor rows of k samples):
-for RLS without forgetting the result equals k single-sample updates, at a fraction of the
-Python overhead.
+RLS without forgetting is kept in information form: ``A = P0⁻¹ + Σ YᵀY`` (14 × 14) and
+``b = Σ Yᵀτ``, θ = A⁻¹ b after each update. It gives the covariance-form recursion's θ
+(``P = A⁻¹``) at O(14²) per sample instead of a (4k × 4k) solve per block of k samples.
+Samples may come one at a time or in blocks: the result is the same.
 """
 from __future__ import annotations
 
@@ -40,7 +40,8 @@ class RecursiveLeastSquares:
 
     def __init__(self, *, p0: float = 1e6, coulomb_eps: float = _DEFAULT_EPS) -> None:
         self.theta = np.zeros(N_PARAMETERS)
-        self._p = np.eye(N_PARAMETERS) * p0
+        self._a = np.eye(N_PARAMETERS) / p0  # information matrix P⁻¹
+        self._b = np.zeros(N_PARAMETERS)
         self.coulomb_eps = coulomb_eps
         self.count = 0
 
@@ -57,11 +58,9 @@ class RecursiveLeastSquares:
         h = regressor(np.atleast_2d(q), np.atleast_2d(qd), np.atleast_2d(qdd),
                       coulomb_eps=self.coulomb_eps).reshape(-1, N_PARAMETERS)  # (4k, 14)
         y = np.asarray(tau, dtype=float).reshape(-1)
-        ph = self._p @ h.T  # (14, 4k)
-        gain = np.linalg.solve(np.eye(h.shape[0]) + h @ ph, ph.T).T  # (14, 4k)
-        self.theta = self.theta + gain @ (y - h @ self.theta)
-        self._p = self._p - gain @ ph.T
-        self._p = 0.5 * (self._p + self._p.T)  # keep it symmetric against rounding
+        self._a += h.T @ h
+        self._b += h.T @ y
+        self.theta = np.linalg.solve(self._a, self._b)
         self.count += int(np.atleast_2d(q).shape[0])
 
     def predict(self, q: ArrayLike, qd: ArrayLike, qdd: ArrayLike) -> NDArray[np.float64]:

@@ -20,13 +20,20 @@ Public API::
     held_out_set(params, *, seed, config=None, excitation_s=6, sequence_s=30) -> Dataset
     network_curve(record, held_out, params, *, method, trainer, seed, checkpoints) -> Curve
     regressor_curves(record, held_out, *, seed, checkpoints) -> (LS Curve, RLS Curve)
+    run_curves(params, *, seeds, methods, trainers, seconds, noise=False, workers=2,
+               held_out_s=(6, 30))
+        -> list[Curve]                             every curve, the jobs in worker processes
+    noisy_config(params, seed) -> SimConfig        the simulator's sensor-noise options
+    noise_floor(params, held_out) -> ndarray (n,)  effort noise variance / effort variance
     curves_markdown(curves, *, noise_floor=None) -> str
 """
 from __future__ import annotations
 
+import os
 import time
 from collections import defaultdict
 from collections.abc import Sequence
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -43,7 +50,7 @@ from scara_ident_ros.methods import limit_scaling, make_network, method as metho
 from scara_ident_ros.sim import SimConfig, SimRecord
 
 __all__ = ['CHECKPOINTS_S', 'Curve', 'curves_markdown', 'held_out_set', 'network_curve',
-           'regressor_curves']
+           'noise_floor', 'noisy_config', 'regressor_curves', 'run_curves']
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -52,6 +59,9 @@ CHECKPOINTS_S: tuple[float, ...] = (10.0, 20.0, 30.0, 60.0, 90.0, 120.0)
 
 _LIMITS = ('position_min', 'position_max', 'velocity_max', 'acceleration_max', 'effort_max')
 _HELD_OUT_SEED = 1_000_000  # held-out excitations' seeds start here, far from any stream's
+#: The simulator's sensor noise of the noisy curves: position (rad, m), velocity (rad/s, m/s)
+#: standard deviations, and the effort's as a fraction of each joint's effort limit.
+POSITION_NOISE, VELOCITY_NOISE, EFFORT_NOISE_FRACTION = 1e-4, 1e-3, 0.005
 
 
 @dataclass(frozen=True)
@@ -196,3 +206,66 @@ def curves_markdown(curves: Sequence[Curve], *, noise_floor: FloatArray | None =
         lines += ['', 'Noise floor (effort noise variance / held-out effort variance) per '
                   'joint: ' + ', '.join(format_value(float(v)) for v in noise_floor)]
     return '\n'.join(lines)
+
+
+def noisy_config(params: ScaraParams, seed: int) -> SimConfig:
+    """Simulation settings with the sensor noise of the noisy learning curves."""
+    effort = tuple(float(v) * EFFORT_NOISE_FRACTION for v in params.array('effort_max'))
+    return SimConfig(seed=seed, position_noise=(POSITION_NOISE,) * 4,
+                     velocity_noise=(VELOCITY_NOISE,) * 4, effort_noise=effort)
+
+
+def noise_floor(params: ScaraParams, held_out: Dataset) -> FloatArray:
+    """The NMSE per joint of a perfect model on noisy held-out efforts (n,)."""
+    effort_std = params.array('effort_max') * EFFORT_NOISE_FRACTION
+    return np.asarray(effort_std ** 2 / held_out.Y.var(axis=0))
+
+
+def _job(job: tuple[ScaraParams, str, str, int, float, bool, tuple[float, float]]
+         ) -> list[Curve]:
+    params, method, trainer, seed, seconds, noise, held_out_s = job
+    config = noisy_config(params, seed) if noise else SimConfig(seed=seed)
+    record = simulate_record(params, seconds=seconds, seed=seed, preset='sequence',
+                             config=config)
+    held_out = held_out_set(params, config=noisy_config(params, 99) if noise else None,
+                            excitation_s=held_out_s[0], sequence_s=held_out_s[1])
+    checkpoints = tuple(s for s in CHECKPOINTS_S if s <= seconds) or (seconds,)
+    if method == 'regressor':
+        return list(regressor_curves(record, held_out, seed=seed, checkpoints=checkpoints))
+    return [network_curve(record, held_out, params, method=method, trainer=trainer, seed=seed,
+                          checkpoints=checkpoints)]
+
+
+def run_curves(params: ScaraParams, *, seeds: Sequence[int], methods: Sequence[str],
+               trainers: Sequence[str], seconds: float = 120.0, noise: bool = False,
+               workers: int = 2, held_out_s: tuple[float, float] = (6.0, 30.0)
+               ) -> list[Curve]:
+    """Every curve: LS and RLS, then each trainer and method, for each seed.
+
+    Each seed's stream is ``seconds`` of ``sequence`` (seed = stream seed = weight seed),
+    with the sensor noise of :func:`noisy_config` if ``noise`` (held-out data noisy too).
+    ``held_out_s`` are the seconds of each held-out excitation and of the held-out
+    sequence (:func:`held_out_set`).
+    The jobs run in ``workers`` processes, each with one BLAS thread. The CPU figures are
+    then per process: on a machine with fewer free cores than workers they include waiting
+    for the memory bus, not for the processor.
+    """
+    jobs = [(params, 'regressor', '', seed, seconds, noise, held_out_s) for seed in seeds]
+    jobs += [(params, m, t, seed, seconds, noise, held_out_s) for t in trainers
+             for m in methods for seed in seeds]
+    saved = {name: os.environ.get(name) for name in ('OPENBLAS_NUM_THREADS',
+                                                      'OMP_NUM_THREADS')}
+    os.environ.update(OPENBLAS_NUM_THREADS='1', OMP_NUM_THREADS='1')  # for the workers
+    try:
+        if workers <= 1:
+            results = [_job(job) for job in jobs]
+        else:
+            with ProcessPoolExecutor(workers) as pool:
+                results = list(pool.map(_job, jobs))
+    finally:
+        for name, value in saved.items():
+            if value is None:
+                os.environ.pop(name, None)
+            else:
+                os.environ[name] = value
+    return [curve for result in results for curve in result]

@@ -63,6 +63,15 @@ def test_csvs_have_a_row_per_method(compare: tuple[int, str, Path]) -> None:
     assert all(float(r['nmse_mean']) < 1e-18 for r in ls)
 
 
+def test_learning_curves_of_every_method_and_trainer(compare: tuple[int, str, Path]) -> None:
+    status, text, out = compare
+    section = text.split('## Learning curves', 1)[1]
+    labels = [line.split('|')[1].strip() for line in section.splitlines()
+              if line.startswith('| ') and not line.startswith('| method')]
+    assert labels == ['LS', 'RLS', *(f'{m} {t}' for t in ('lm', 'bp') for m in NETWORKS)]
+    assert (out / 'fig_learning_curves.png').read_bytes()[:4] == b'\x89PNG'
+
+
 def test_writes_markdown_search_and_conditions(compare: tuple[int, str, Path]) -> None:
     _, text, out = compare
     assert (out / 'tables.md').read_text(encoding='utf-8') == text
