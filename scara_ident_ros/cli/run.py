@@ -34,6 +34,7 @@ from typing import Any
 import yaml
 
 from scara_ident_ros.cli import CliError
+from scara_ident_ros.identification.trainer import TRAINERS
 from scara_ident_ros.methods import METHODS
 from scara_ident_ros.process_graph import NodeProcess, ProcessGraph
 from scara_ident_ros.sim.trajectory import SEQUENCE, TRAJECTORIES
@@ -61,6 +62,10 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
                         help=f'excitation, one of {", ".join(TRAJECTORIES)} (default: '
                              f'{SEQUENCE}, a new random excitation every 5 s)')
     parser.add_argument('--seed', type=int, default=0, help='excitation seed')
+    parser.add_argument('--trainer', default='lm', choices=list(TRAINERS),
+                        help="identifiers' online training: lm (Levenberg-Marquardt on a "
+                             "reservoir of the stream, the identifier's default) or bp (the "
+                             "paper's per-sample back-propagation)")
     parser.add_argument('--compression', default='zstd', choices=('zstd', 'none'),
                         help='MCAP chunk compression of the bag (default: zstd)')
     parser.add_argument('--no-report', dest='report', action='store_false',
@@ -108,6 +113,7 @@ def run(args: argparse.Namespace) -> int:
         graph.start(NodeProcess(name, 'scara_ident_ros.nodes.identifier', [
             '-r', f'__ns:=/{name}', '-r', 'joint_states:=/joint_states',
             '-p', f'method:={name}', '-p', f'save_path:={models / name}.npz',
+            '-p', f'trainer:={args.trainer}',
             # subscribe /joint_states only once the recorder records this identifier's
             # outputs: the simulator's wait below then covers the predictions too
             '-p', 'wait_for_subscribers:=1', '-p', f'wait_timeout:={STARTUP_TIMEOUT}',
