@@ -8,7 +8,10 @@ its frozen model is scored on held-out excitations (5 ``standard`` ones and 30 s
 ``sequence``, never streamed). LS and RLS on the SCARA's physical regressor, fitted to the
 same stream inputs, are the references (``scara_ident_ros.experiments.learning_curves``).
 ``--noise`` adds the simulator's sensor noise (position 1e-4, velocity 1e-3, effort 0.5 % of
-its limit) to the stream and the held-out data, and reports the noise floor.
+its limit) to the stream and the held-out data, and reports the noise floor. ``--robot FILE``
+takes another robot file (e.g. ``benchmarks/other_scara.yaml``: other masses, lengths,
+friction, effort limits and joint names), whose limits scale the networks as the node's
+limit parameters would.
 
 Prints a Markdown table (median [min-max] over seeds of the worst joint's NMSE) and writes a
 figure to docs/. Two worker processes, one BLAS thread each.
@@ -42,8 +45,10 @@ def main() -> int:
     parser.add_argument('--noise', action='store_true')
     parser.add_argument('--figure', type=Path, default=None)
     parser.add_argument('--workers', type=int, default=2)
+    parser.add_argument('--robot', type=Path, default=None,
+                        help='robot file (default: the installed config/scara.yaml)')
     args = parser.parse_args()
-    params = ScaraParams.from_yaml(config_path('scara.yaml'))
+    params = ScaraParams.from_yaml(args.robot or config_path('scara.yaml'))
     started = time.monotonic()
     curves = run_curves(params, seeds=range(args.seeds), methods=args.methods,
                         trainers=args.trainers, seconds=args.seconds, noise=args.noise,
@@ -51,12 +56,15 @@ def main() -> int:
     floor = (noise_floor(params, held_out_set(params, config=noisy_config(params, 99)))
              if args.noise else None)
     kind = 'with sensor noise' if args.noise else 'no noise'
+    if args.robot:
+        kind += f', robot {args.robot.name} (joints {", ".join(params.joint_names)})'
     print(f'### Learning curves, {kind}: {args.seconds:g} s of `sequence` stream, '
           f'{args.seeds} seeds (load average {os.getloadavg()[0]:.1f}, '
           f'{time.monotonic() - started:.0f} s)\n')
     print(curves_markdown(curves, noise_floor=floor))
     figure = args.figure or HERE.parent / 'docs' / (
-        'learning_curves_noise.png' if args.noise else 'learning_curves.png')
+        'learning_curves' + ('_noise' if args.noise else '')
+        + (f'_{args.robot.stem}' if args.robot else '') + '.png')
     plot_learning_curves(figure, curves, f'Frozen models on motions never seen ({kind})',
                          floor)
     print(f'\nfigure: {figure}')
