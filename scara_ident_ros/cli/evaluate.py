@@ -3,8 +3,8 @@
 Loads a model written by ``scara-ident train`` or by an identifier (FeedForwardNet.save),
 reads the bag's JointState messages, maps them to the model's joints BY NAME (metadata
 joint_names; a model without names needs a bag with as many joints, taken in message
-order), builds the network inputs as the identifier does (q'' from q' by the 50 Hz
-low-pass differentiator, bad and warm-up samples dropped) and prints, as a Markdown table,
+order), builds the network inputs as the identifier does (its input stage: q'' from q' by
+the zero-phase centred estimate, bad samples dropped) and prints, as a Markdown table,
 each joint's MSE ((N·m)² or N²) and normalised MSE (MSE / variance of the joint's effort
 over the evaluated samples; 1 = no better than the mean effort). Typical use: a model
 trained on one run evaluated on another (held-out) run.

@@ -407,10 +407,10 @@ def _conditions(bags: list[Path], run: Recording, held_out: list[Recording],
                      f'{recording.series.stamp_ns.shape[0]} messages, {len(data.data)} '
                      f'usable samples over {data.data.seconds:.1f} s (skipped: '
                      f'{skipped_text(data)}).')
-    lines.append('- Network inputs as the online identifier makes them: [q, q\', q\'\'] with '
-                 'q\'\' from q\' by the backward difference through a first-order 50 Hz '
-                 'low-pass (`Differentiator(\'lowpass\', cutoff_hz=50)`), warm-up and invalid '
-                 'samples dropped; outputs: the measured efforts.')
+    lines.append('- Network inputs as the online identifier makes them (its `InputStage`): '
+                 '[q, q\', q\'\'] with q\'\' from q\' by a centred quadratic fit over 21 '
+                 'samples (zero-phase, `CentredDifferentiator(21, 2)`), invalid samples '
+                 'dropped; outputs: the measured efforts.')
     subsample = (f'{len(offline.evaluations["train"])} of them drawn at random '
                  '(`Dataset.subsample(seed=0)`, the same for every method and seed)'
                  if s.samples else 'all of them')
