@@ -276,3 +276,25 @@ def test_model_sizes_must_be_3n_to_n() -> None:
     model.n_inputs = 8
     with pytest.raises(ValueError, match='3n inputs'):
         make(model)
+
+
+def test_zero_phase_predictions_are_a_priori_and_stamped_with_their_sample() -> None:
+    model = RecordingModel(rate=0.005)
+    ident = make(model, differentiator=None)  # the default: centred, 10 samples late
+    assert ident.lag == 10
+    out: list[tuple[int, StepResult]] = []
+    for k in range(40):
+        results = ident.process(T0 + k * MS, *message(k))
+        out += [(k, r) for r in results]
+    out += [(40, r) for r in ident.finish()]
+    # every sample predicted once, in order, each once the 10 after it had arrived
+    assert [r.stamp_ns for _, r in out] == [T0 + k * MS for k in range(40)]
+    assert all(arrived >= min((r.stamp_ns - T0) // MS + 10, 20) for arrived, r in out)
+    kinds = [kind for kind, _, _ in model.events]
+    assert kinds == ['predict', 'fit'] * 40
+    for j, (_, result) in enumerate(out):
+        (_, x_pred, weights), (_, x_fit, _) = model.events[2 * j:2 * j + 2]
+        np.testing.assert_array_equal(x_pred, x_fit[0])
+        np.testing.assert_allclose(x_fit[0], expected_x(j), rtol=1e-9)  # exact q''
+        assert result.effort is not None
+        np.testing.assert_allclose(result.effort, x_pred @ weights.T, rtol=1e-13)
