@@ -45,6 +45,10 @@ def main() -> int:
     parser.add_argument('--noise', action='store_true')
     parser.add_argument('--figure', type=Path, default=None)
     parser.add_argument('--workers', type=int, default=2)
+    parser.add_argument('--lm-steps', type=int, default=2,
+                        help="the lm trainer's steps per update (the node's lm_steps)")
+    parser.add_argument('--no-references', dest='references', action='store_false',
+                        help='leave out LS and RLS')
     parser.add_argument('--robot', type=Path, default=None,
                         help='robot file (default: the installed config/scara.yaml)')
     args = parser.parse_args()
@@ -52,7 +56,8 @@ def main() -> int:
     started = time.monotonic()
     curves = run_curves(params, seeds=range(args.seeds), methods=args.methods,
                         trainers=args.trainers, seconds=args.seconds, noise=args.noise,
-                        workers=args.workers)
+                        workers=args.workers, lm_steps=args.lm_steps,
+                        references=args.references)
     floor = (noise_floor(params, held_out_set(params, config=noisy_config(params, 99)))
              if args.noise else None)
     kind = 'with sensor noise' if args.noise else 'no noise'

@@ -21,7 +21,7 @@ Public API::
     network_curve(record, held_out, params, *, method, trainer, seed, checkpoints) -> Curve
     regressor_curves(record, held_out, *, seed, checkpoints) -> (LS Curve, RLS Curve)
     run_curves(params, *, seeds, methods, trainers, seconds, noise=False, workers=2,
-               held_out_s=(6, 30))
+               held_out_s=(6, 30), lm_steps=2, references=True)
         -> list[Curve]                             every curve, the jobs in worker processes
     noisy_config(params, seed) -> SimConfig        the simulator's sensor-noise options
     noise_floor(params, held_out) -> ndarray (n,)  effort noise variance / effort variance
@@ -54,8 +54,8 @@ __all__ = ['CHECKPOINTS_S', 'Curve', 'curves_markdown', 'held_out_set', 'network
 
 FloatArray = npt.NDArray[np.float64]
 
-#: Seconds of stream after which the frozen models are scored.
-CHECKPOINTS_S: tuple[float, ...] = (10.0, 20.0, 30.0, 60.0, 90.0, 120.0)
+#: Seconds of stream after which the frozen models are scored (those within the stream).
+CHECKPOINTS_S: tuple[float, ...] = (10.0, 20.0, 30.0, 60.0, 90.0, 120.0, 150.0, 180.0, 240.0)
 
 _LIMITS = ('position_min', 'position_max', 'velocity_max', 'acceleration_max', 'effort_max')
 _HELD_OUT_SEED = 1_000_000  # held-out excitations' seeds start here, far from any stream's
@@ -116,18 +116,18 @@ def _nmse(Y: FloatArray, predicted: FloatArray) -> FloatArray:
 
 
 def network_curve(record: SimRecord, held_out: Dataset, params: ScaraParams, *, method: str,
-                  trainer: str, seed: int = 0,
+                  trainer: str, seed: int = 0, lm_steps: int = 2,
                   checkpoints: Sequence[float] = CHECKPOINTS_S) -> Curve:
     """Stream ``record`` through an identifier of ``method`` and ``trainer`` (node defaults).
 
     The network's scaling comes from the robot's limits, as in the node; 10 % of the
     samples (blocks of 500) are held back for the identifier's own validation, as in the
-    node.
+    node. ``lm_steps`` is the ``lm`` trainer's steps per update (the node's ``lm_steps``).
     """
     net = make_network(method, 4, seed=seed)
     net.set_scaling(*limit_scaling(*(params.array(name) for name in _LIMITS)))
     ident = OnlineIdentifier(net, joint_names=params.joint_names,
-                             trainer=make_trainer(trainer, net, seed=seed),
+                             trainer=make_trainer(trainer, net, steps=lm_steps, seed=seed),
                              holdout=Holdout(12, 4, seed=seed))
     names = params.joint_names
     stamps = record.stamp_ns
@@ -144,6 +144,8 @@ def network_curve(record: SimRecord, held_out: Dataset, params: ScaraParams, *, 
         start = stop
         scores.append(_nmse(held_out.Y, net.predict(held_out.X)))
     label = f'{method_spec(method).label} {trainer}'
+    if trainer == 'lm' and lm_steps != 2:
+        label += f' ×{lm_steps}'
     return Curve(label, seed, np.asarray(checkpoints, float), np.array(scores), cpu)
 
 
@@ -221,9 +223,9 @@ def noise_floor(params: ScaraParams, held_out: Dataset) -> FloatArray:
     return np.asarray(effort_std ** 2 / held_out.Y.var(axis=0))
 
 
-def _job(job: tuple[ScaraParams, str, str, int, float, bool, tuple[float, float]]
+def _job(job: tuple[ScaraParams, str, str, int, float, bool, tuple[float, float], int]
          ) -> list[Curve]:
-    params, method, trainer, seed, seconds, noise, held_out_s = job
+    params, method, trainer, seed, seconds, noise, held_out_s, lm_steps = job
     config = noisy_config(params, seed) if noise else SimConfig(seed=seed)
     record = simulate_record(params, seconds=seconds, seed=seed, preset='sequence',
                              config=config)
@@ -233,25 +235,27 @@ def _job(job: tuple[ScaraParams, str, str, int, float, bool, tuple[float, float]
     if method == 'regressor':
         return list(regressor_curves(record, held_out, seed=seed, checkpoints=checkpoints))
     return [network_curve(record, held_out, params, method=method, trainer=trainer, seed=seed,
-                          checkpoints=checkpoints)]
+                          lm_steps=lm_steps, checkpoints=checkpoints)]
 
 
 def run_curves(params: ScaraParams, *, seeds: Sequence[int], methods: Sequence[str],
                trainers: Sequence[str], seconds: float = 120.0, noise: bool = False,
-               workers: int = 2, held_out_s: tuple[float, float] = (6.0, 30.0)
-               ) -> list[Curve]:
+               workers: int = 2, held_out_s: tuple[float, float] = (6.0, 30.0),
+               lm_steps: int = 2, references: bool = True) -> list[Curve]:
     """Every curve: LS and RLS, then each trainer and method, for each seed.
 
     Each seed's stream is ``seconds`` of ``sequence`` (seed = stream seed = weight seed),
     with the sensor noise of :func:`noisy_config` if ``noise`` (held-out data noisy too).
     ``held_out_s`` are the seconds of each held-out excitation and of the held-out
-    sequence (:func:`held_out_set`).
+    sequence (:func:`held_out_set`); ``lm_steps`` the ``lm`` trainer's steps per update;
+    ``references`` False leaves out LS and RLS.
     The jobs run in ``workers`` processes, each with one BLAS thread. The CPU figures are
     then per process: on a machine with fewer free cores than workers they include waiting
     for the memory bus, not for the processor.
     """
-    jobs = [(params, 'regressor', '', seed, seconds, noise, held_out_s) for seed in seeds]
-    jobs += [(params, m, t, seed, seconds, noise, held_out_s) for t in trainers
+    jobs = [(params, 'regressor', '', seed, seconds, noise, held_out_s, lm_steps)
+            for seed in seeds] if references else []
+    jobs += [(params, m, t, seed, seconds, noise, held_out_s, lm_steps) for t in trainers
              for m in methods for seed in seeds]
     saved = {name: os.environ.get(name) for name in ('OPENBLAS_NUM_THREADS',
                                                       'OMP_NUM_THREADS')}
