@@ -4,18 +4,38 @@ Reads sensor_msgs/JointState messages from any rosbag2 bag (MCAP or sqlite3, rec
 this project or not) or a bare .mcap file, turns them into network samples exactly as the
 online identifier does (the same sample checks; q'' estimated from q' by the identifier's
 default differentiator, a 50 Hz low-pass of the backward difference, over the stamps in
-order; warm-up samples dropped), splits them BY TIME (the last --validation-fraction of
-the recording validates: early stopping after 6 failures, best-validation weights kept),
-and trains the method's 3n-40-n network with Levenberg-Marquardt (or batch gradient
-descent). The input and output scaling is fitted to the training data's ranges.
+order; warm-up samples dropped), and trains the method's 3n-40-n network with
+Levenberg-Marquardt (or batch gradient descent). The input and output scaling is fitted to
+the training data's ranges.
+
+Validation: the recording is cut into blocks of --validation-block seconds (1 s) and 20 %
+of them (--validation-fraction), one drawn from each stretch of 5 blocks, validate: spread
+over the whole recording, they see every excitation it holds. Whole blocks, not single
+samples: neighbouring samples at 1 kHz are nearly identical, a random split would validate
+on the training data. Training uses 8000 samples (--samples) drawn at random from the
+other blocks and runs at most 500 iterations (--iterations); it stops early when the
+validation error has not reached a new best for 50 iterations in a row (--max-fail),
+counted from iteration 50 on (--min-iterations), and keeps the weights of the best
+validation error. Levenberg-Marquardt often raises the validation error for tens of
+iterations (once, measured, 170) before lowering it by orders of magnitude; a short
+patience (MATLAB's 6) stops it there.
+
+Measured (benchmarks/bench_train_defaults.py: FFS, 80 s of the simulated SCARA's
+'sequence' excitation, what scara-ident run records; NMSE on 4 other excitations; 3
+seeds): these defaults give 7e-5 to 8e-4 on the worst joint (joint 2), the mean over the
+joints 4e-5 to 3e-4, in 30-50 s (2 shared cores); the former defaults (the last 20 % of the time
+validating, a stop after 6 failures, all samples, 315 iterations) 1e-3 to 0.6 on the worst
+joint, in 35-210 s. None of the settings tried makes a usable model of 8 periodic
+excitations of 10 s (each one closed curve traced twice): 0.3-1.4 on the worst joint of
+other excitations, old defaults or new. Record varied motion.
+
+Time: one LM iteration costs about 15 ms plus 12 ms per 1000 training samples on one core
+(BLAS is held to one thread): 500 iterations on 8000 samples take at most about 1 minute,
+all 64000 samples of an 80 s bag (--samples 0) about 0.5 s per iteration.
+A progress bar goes to stderr, the errors on the training and validation data to stdout.
 
 The saved model (.npz, FeedForwardNet.save) records metadata joint_names and method, so
 the identifier node can warm-start from it (parameter model_path).
-
-Time: one LM iteration costs about 15 ms plus 12 ms per 1000 training samples on one core
-(BLAS is held to one thread), so 315 iterations take about 10 s on 1000 samples and about
-3 minutes on all 48000 training samples of a 60 s bag at 1 kHz (--samples 2000: ~15 s).
-A progress bar goes to stderr, the errors on the training and validation data to stdout.
 """
 from __future__ import annotations
 
@@ -29,7 +49,15 @@ from scara_ident_ros.cli import CliError
 from scara_ident_ros.methods import METHODS, make_network
 from scara_ident_ros.nn import ALGORITHMS
 
-__all__ = ['add_parser', 'run']
+__all__ = ['ITERATIONS', 'MAX_FAIL', 'MIN_ITERATIONS', 'SAMPLES', 'VALIDATION_BLOCK_S',
+           'add_parser', 'run']
+
+#: Defaults of the options, chosen with benchmarks/bench_train_defaults.py (module docstring).
+ITERATIONS = 500           # Levenberg–Marquardt iterations at most
+SAMPLES = 8000             # training samples drawn from the training blocks
+VALIDATION_BLOCK_S = 1.0   # s, length of the validation time blocks
+MAX_FAIL = 50              # validation failures in a row that stop training
+MIN_ITERATIONS = 50        # iterations before validation failures count
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> None:
@@ -44,8 +72,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument('--algorithm', default='lm', choices=list(ALGORITHMS),
                         help='lm: Levenberg-Marquardt (default); gd: batch gradient descent '
                              'with the method\'s learning rate and momentum')
-    parser.add_argument('--iterations', type=int, default=315,
-                        help='iteration limit (default: 315, the paper\'s Table 2)')
+    parser.add_argument('--iterations', type=int, default=ITERATIONS,
+                        help=f'iteration limit (default: {ITERATIONS})')
     parser.add_argument('--goal', type=float, default=0.0,
                         help='stop when the training MSE of the outputs scaled to [-1, 1] '
                              'is at most this (default: 0, run to the limit)')
@@ -55,11 +83,21 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
                         help='joints to model, in this order (default: all, as in the '
                              'messages)')
     parser.add_argument('--validation-fraction', type=float, default=0.2,
-                        help='last fraction of the recording\'s time used for validation '
-                             '(default: 0.2; 0: none)')
-    parser.add_argument('--samples', type=int, default=0,
+                        help='fraction of the recording\'s time blocks used for validation, '
+                             'one block drawn from each stretch of 1/fraction blocks '
+                             '(default: 0.2; 0: none, no early stop)')
+    parser.add_argument('--validation-block', type=float, default=VALIDATION_BLOCK_S,
+                        metavar='SECONDS',
+                        help=f'length of the time blocks (default: {VALIDATION_BLOCK_S:g} s)')
+    parser.add_argument('--max-fail', type=int, default=MAX_FAIL,
+                        help='stop after this many iterations in a row without a new best '
+                             f'validation error (default: {MAX_FAIL})')
+    parser.add_argument('--min-iterations', type=int, default=MIN_ITERATIONS,
+                        help='validation failures count only after this many iterations '
+                             f'(default: {MIN_ITERATIONS})')
+    parser.add_argument('--samples', type=int, default=SAMPLES,
                         help='train on at most this many samples drawn at random from the '
-                             'training part (default: 0, all)')
+                             f'training blocks (default: {SAMPLES}; 0: all)')
     parser.add_argument('--seed', type=int, default=0,
                         help='seed of the initial weights and of --samples (default: 0)')
     parser.add_argument('--out', type=Path, required=True, metavar='MODEL',
@@ -71,18 +109,22 @@ def run(args: argparse.Namespace) -> int:
     """Train and save; print the errors on the training and validation data."""
     from scara_ident_ros.bag import BagError
     from scara_ident_ros.offline.blas_threads import single_blas_thread
-    from scara_ident_ros.offline.dataset import time_split
     from scara_ident_ros.offline.evaluation import errors_markdown, evaluate
     from scara_ident_ros.offline.progress import TrainingProgress
     from scara_ident_ros.offline.recording import RecordingError, load_recording, skipped_text
+    from scara_ident_ros.offline.split import block_index, block_split
 
     if args.iterations < 1:
         raise CliError(f'--iterations must be at least 1, got {args.iterations}')
     if not 0.0 <= args.validation_fraction < 1.0:
         raise CliError(f'--validation-fraction must be in [0, 1), got '
                        f'{args.validation_fraction}')
-    if args.samples < 0 or args.seed < 0 or args.goal < 0.0:
-        raise CliError('--samples, --seed and --goal must not be negative')
+    if not args.validation_block > 0.0:
+        raise CliError(f'--validation-block must be positive, got {args.validation_block}')
+    if args.max_fail < 1:
+        raise CliError(f'--max-fail must be at least 1, got {args.max_fail}')
+    if args.samples < 0 or args.seed < 0 or args.goal < 0.0 or args.min_iterations < 0:
+        raise CliError('--samples, --seed, --goal and --min-iterations must not be negative')
     if args.out.is_dir():
         raise CliError(f'--out {args.out} is a directory; give a file name such as model.npz')
     try:
@@ -91,16 +133,30 @@ def run(args: argparse.Namespace) -> int:
         raise CliError(str(exc)) from None
     samples = recording.samples
     names = samples.names
-    train, validation = time_split(samples.data, args.validation_fraction)
+    try:
+        train, validation = block_split(samples.data, args.validation_fraction,
+                                        block_s=args.validation_block, seed=args.seed)
+    except ValueError as exc:
+        raise CliError(f'{args.bag}: {exc}; lower --validation-block or give '
+                       '--validation-fraction 0') from None
     if len(train) < 2:
-        raise CliError(f'{args.bag}: only {len(train)} training samples before the '
-                       f'validation part; lower --validation-fraction')
+        raise CliError(f'{args.bag}: only {len(train)} training samples outside the '
+                       f'validation blocks; lower --validation-fraction')
     if args.samples:
         train = train.subsample(args.samples, seed=args.seed, name='train')
+    where = ''
+    if len(validation):
+        start = int(samples.data.stamp_ns[0])
+        blocks = np.unique(block_index(validation.stamp_ns, block_s=args.validation_block,
+                                       start_ns=start))
+        plural = 's' if len(blocks) > 1 else ''
+        where = (f' in {len(blocks)} block{plural} of {args.validation_block:g} s from '
+                 f'{blocks[0] * args.validation_block:.1f} s to '
+                 f'{(blocks[-1] + 1) * args.validation_block:.1f} s')
     print(f'scara-ident train: {args.bag} {recording.topic}: {len(samples.data)} samples '
           f'of {len(names)} joints {list(names)} over {samples.data.seconds:.1f} s '
           f'(skipped: {skipped_text(samples)}); training on {len(train)}, validating on '
-          f'{len(validation)}', flush=True)
+          f'{len(validation)}{where}', flush=True)
 
     network = make_network(args.method, len(names), seed=args.seed)
     progress = TrainingProgress(args.iterations, label=f'{args.method.upper()} {args.algorithm}')
@@ -110,7 +166,7 @@ def run(args: argparse.Namespace) -> int:
             train.X, train.Y, algorithm=args.algorithm, iterations=args.iterations,
             goal=args.goal,
             validation=(validation.X, validation.Y) if len(validation) else None,
-            callback=progress)
+            max_fail=args.max_fail, min_iterations=args.min_iterations, callback=progress)
     progress.close()
     seconds = time.perf_counter() - started
 
@@ -121,6 +177,8 @@ def run(args: argparse.Namespace) -> int:
         'source_bag': np.array(str(args.bag)), 'topic': np.array(recording.topic),
         'train_samples': np.array(len(train)),
         'validation_fraction': np.array(args.validation_fraction),
+        'validation_block_s': np.array(args.validation_block),
+        'max_fail': np.array(args.max_fail), 'min_iterations': np.array(args.min_iterations),
         'differentiator': np.array('lowpass'), 'cutoff_hz': np.array(50.0),
         'train_mse_scaled': np.array(history.final_mse)})
     args.out.parent.mkdir(parents=True, exist_ok=True)

@@ -91,7 +91,8 @@ def test_train_then_evaluate(fmt: str, n_joints: int, tmp_path: Path,
     assert '/10 mse ' in err and 'stopped:' in err  # the progress bar, on stderr
     # 2 s at 500 Hz, every sample: the centred q'' loses none to a warm-up
     assert f'1000 samples of {n_joints} joints {trained}' in out
-    assert 'training on 400, validating on 200' in out  # the last 20 % of the time validates
+    # 20 % of 2 blocks of 1 s: one of them validates, the training samples come from the other
+    assert 'training on 400, validating on 500 in 1 block of 1 s from ' in out
     rows = table_rows(out)
     assert list(rows) == labels
     assert_finite(rows)
