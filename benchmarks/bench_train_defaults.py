@@ -1,0 +1,227 @@
+"""``scara-ident train`` settings against the error on excitations never trained on.
+
+Writes a bag of 80 s of the simulated SCARA (1 kHz, no noise) and reads it back as
+``scara-ident train`` does (same samples, same q'' estimate), then trains FFS networks under
+several settings and evaluates each on held-out excitations: 4 further 'standard'
+excitations of 10 s (seeds 1000-1003, q'' estimated the same way), never trained on.
+
+Recordings (``--data``):
+
+``standard8``
+    8 'standard' excitations of 10 s (seeds 0-7, each two periods of its 5 s curve),
+    1 s apart so that the q'' estimate restarts between them.
+``sequence80``
+    80 s of the 'sequence' trajectory (seed 7): a new excitation every 5 s, blended; what
+    ``scara-ident run`` records by default.
+
+Settings (``--config``, repeatable; default: the old and the new defaults):
+
+``old``
+    the defaults before block validation: the last 20 % of the time validates, early stop
+    after 6 failures, all samples, 315 iterations.
+``new``
+    ``scara-ident train``'s defaults now (imported from it).
+``NAME:KEY=VALUE,...``
+    anything else, keys ``split`` (time, blocks, none), ``samples``, ``iterations``,
+    ``max_fail``, ``min_iterations``; unnamed keys take the new defaults.
+
+Each setting is run from ``--seeds`` initial weights (seed of the weights, of the block
+draw and of the sample draw, as ``--seed`` does in ``train``). One Markdown row per run:
+held-out NMSE per joint, iterations (that of the weights kept), why it stopped, the
+training wall time with BLAS on one thread, and the load average. ``--cli`` also runs the
+``scara-ident train`` command itself with its defaults (the figures must equal ``new``
+seed 0's, except for the time).
+
+Measured on 2 shared cores (load 2.5-5), seeds 0, 1, 2: the worst joint's held-out NMSE
+(joint 2 in most runs) and the training time::
+
+    sequence80  old defaults  1.0e-3  2.0e-3  0.57     35-212 s
+                new defaults  6.3e-4  6.8e-5  7.6e-4   28-49 s
+    standard8   old defaults  0.32    0.39    0.26     9-13 s
+                new defaults  0.74    0.71    1.4      8-29 s
+
+Usage::
+
+    .venv/bin/python benchmarks/bench_train_defaults.py --data sequence80 --cli
+    .venv/bin/python benchmarks/bench_train_defaults.py --data standard8 \\
+        --config 'more:iterations=1000' --seeds 0 1
+"""
+from __future__ import annotations
+
+import argparse
+import contextlib
+import io
+import os
+import re
+import statistics
+import sys
+import time
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / 'test' / 'offline'))  # fake_bags: the tests' bag writer
+
+from fake_bags import States, write_rosbag  # noqa: E402
+
+from scara_ident_ros.cli import main  # noqa: E402
+from scara_ident_ros.cli import train as train_cli  # noqa: E402
+from scara_ident_ros.dynamics import ScaraParams  # noqa: E402
+from scara_ident_ros.experiments.datasets import (Dataset, simulate_dataset,  # noqa: E402
+                                                  simulate_record)
+from scara_ident_ros.methods import make_network  # noqa: E402
+from scara_ident_ros.nn import FeedForwardNet  # noqa: E402
+from scara_ident_ros.offline.blas_threads import single_blas_thread  # noqa: E402
+from scara_ident_ros.offline.dataset import time_split  # noqa: E402
+from scara_ident_ros.offline.evaluation import evaluate  # noqa: E402
+from scara_ident_ros.offline.recording import load_recording  # noqa: E402
+from scara_ident_ros.offline.split import block_split  # noqa: E402
+
+NAMES = ('joint1', 'joint2', 'joint3', 'joint4')
+START_NS = 1_700_000_000_000_000_000
+METHOD = 'ffs'
+
+
+@dataclass(frozen=True)
+class Setting:
+    """How ``train`` splits, samples and stops."""
+
+    split: str = 'blocks'            # 'blocks', 'time' or 'none'
+    samples: int = train_cli.SAMPLES
+    iterations: int = train_cli.ITERATIONS
+    max_fail: int = train_cli.MAX_FAIL
+    min_iterations: int = train_cli.MIN_ITERATIONS
+
+    def text(self) -> str:
+        return (f'{self.split}, {self.samples or "all"} samples, {self.iterations} it, '
+                f'stop {self.min_iterations}+{self.max_fail}')
+
+
+SETTINGS = {
+    'old': Setting(split='time', samples=0, iterations=315, max_fail=6, min_iterations=0),
+    'new': Setting(),
+}
+
+
+def parse_setting(spec: str) -> tuple[str, Setting]:
+    """``'old'``, ``'new'`` or ``'NAME:key=value,...'``."""
+    if spec in SETTINGS:
+        return spec, SETTINGS[spec]
+    name, _, body = spec.partition(':')
+    values: dict[str, object] = {}
+    for item in filter(None, body.split(',')):
+        key, _, value = item.partition('=')
+        values[key.strip()] = value.strip() if key.strip() == 'split' else int(value)
+    return name, replace(Setting(), **values)  # type: ignore[arg-type]
+
+
+def write_recording(path: Path, params: ScaraParams, data: str) -> Path:
+    """The bag of ``data`` (see the module docstring), written once."""
+    if path.exists():
+        return path
+    if data == 'standard8':
+        records = [simulate_record(params, seconds=10.0, seed=seed) for seed in range(8)]
+    else:
+        records = [simulate_record(params, seconds=80.0, seed=7, preset='sequence')]
+    parts = []
+    offset = START_NS
+    for rec in records:
+        stamps = rec.stamp_ns - rec.stamp_ns[0] + offset
+        parts.append((stamps, rec.q, rec.qd, rec.effort))
+        offset = int(stamps[-1]) + 1_000_000_000
+    stamps, q, qd, effort = (np.concatenate(arrays) for arrays in zip(*parts))
+    return write_rosbag(path, States(stamps, NAMES, q, qd, effort), storage='mcap')
+
+
+def train_once(data: Dataset, setting: Setting, seed: int
+               ) -> tuple[FeedForwardNet, dict[str, object]]:
+    """What ``scara-ident train`` does with ``setting`` and ``--seed seed``."""
+    if setting.split == 'blocks':
+        train, val = block_split(data, 0.2, block_s=train_cli.VALIDATION_BLOCK_S, seed=seed)
+    elif setting.split == 'time':
+        train, val = time_split(data, 0.2)
+    else:
+        train, val = data, data.take(slice(0, 0))
+    if setting.samples:
+        train = train.subsample(setting.samples, seed=seed)
+    network = make_network(METHOD, data.n_joints, seed=seed)
+    started = time.perf_counter()
+    with single_blas_thread():
+        history = network.fit(train.X, train.Y, iterations=setting.iterations,
+                              validation=(val.X, val.Y) if len(val) else None,
+                              max_fail=setting.max_fail,
+                              min_iterations=setting.min_iterations)
+    return network, {'iterations': history.iterations, 'best': history.best_iteration,
+                     'stop': history.stop_reason, 'seconds': time.perf_counter() - started}
+
+
+def run_cli(bag: Path, model: Path) -> dict[str, object]:
+    """``scara-ident train BAG --method ffs --out MODEL``, its defaults."""
+    out = io.StringIO()
+    started = time.perf_counter()
+    with contextlib.redirect_stdout(out), open(os.devnull, 'w') as null, \
+            contextlib.redirect_stderr(null):
+        code = main(['train', str(bag), '--method', METHOD, '--out', str(model)])
+    seconds = time.perf_counter() - started
+    text = out.getvalue()
+    found = re.search(r'(\d+) iterations in [\d.]+ s \(stopped: (\w+); weights of '
+                      r'iteration (\d+)\)', text)
+    if code != 0 or found is None:
+        raise SystemExit(f'scara-ident train failed:\n{text}')
+    return {'iterations': int(found[1]), 'stop': found[2], 'best': int(found[3]),
+            'seconds': seconds}
+
+
+def row(label: str, what: str, seed: int | str, nmse: np.ndarray,
+        info: dict[str, object]) -> str:
+    cells = ' | '.join(f'{v:.1e}' for v in nmse)
+    return (f'| {label} | {what} | {seed} | {cells} | {float(np.max(nmse)):.1e} | '
+            f'{info["iterations"]} ({info["best"]}) | {info["stop"]} | '
+            f'{float(info["seconds"]):.0f} | {os.getloadavg()[0]:.1f} |')  # type: ignore
+
+
+def main_bench() -> None:
+    parser = argparse.ArgumentParser(description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument('--data', choices=('standard8', 'sequence80'), default='sequence80')
+    parser.add_argument('--config', action='append', default=None, metavar='SETTING')
+    parser.add_argument('--seeds', type=int, nargs='+', default=[0, 1, 2])
+    parser.add_argument('--cli', action='store_true',
+                        help='also run scara-ident train with its defaults')
+    parser.add_argument('--out', type=Path, default=ROOT / 'out' / 'bench_train')
+    args = parser.parse_args()
+    params = ScaraParams.from_yaml(ROOT / 'config' / 'scara.yaml')
+    args.out.mkdir(parents=True, exist_ok=True)
+    bag = write_recording(args.out / args.data, params, args.data)
+    data = load_recording(bag).samples.data
+    sets = [simulate_dataset(params, seconds=10.0, seed=1000 + i, acceleration='estimated')
+            for i in range(4)]
+    held_x, held_y = np.vstack([d.X for d in sets]), np.vstack([d.Y for d in sets])
+    print(f'{args.data}: {bag}, {len(data)} samples over {data.seconds:.1f} s; held out: '
+          f'4 standard excitations of 10 s (seeds 1000-1003), {held_x.shape[0]} samples\n')
+    print('| setting | split, samples, iterations, stop | seed | held-out NMSE joint1 | '
+          'joint2 | joint3 | joint4 | worst joint | iterations (kept) | stopped | '
+          'time (s) | load |')
+    print('|---|---|---:|---:|---:|---:|---:|---:|---:|---|---:|---:|')
+    for spec in args.config or ['old', 'new']:
+        name, setting = parse_setting(spec)
+        worst = []
+        for seed in args.seeds:
+            network, info = train_once(data, setting, seed)
+            nmse = evaluate(network, held_x, held_y).nmse
+            worst.append(float(np.max(nmse)))
+            print(row(name, setting.text(), seed, nmse, info), flush=True)
+        print(f'| {name} | median of the worst joint over seeds: '
+              f'{statistics.median(worst):.1e} |||||||||||', flush=True)
+    if args.cli:
+        model = args.out / f'{args.data}_cli.npz'
+        info = run_cli(bag, model)
+        nmse = evaluate(FeedForwardNet.load(model), held_x, held_y).nmse
+        print(row('scara-ident train (defaults)', 'the command, whole run', 0, nmse, info))
+
+
+if __name__ == '__main__':
+    main_bench()
