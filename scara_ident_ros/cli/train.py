@@ -2,9 +2,9 @@
 
 Reads sensor_msgs/JointState messages from any rosbag2 bag (MCAP or sqlite3, recorded by
 this project or not) or a bare .mcap file, turns them into network samples exactly as the
-online identifier does (the same sample checks; q'' estimated from q' by the identifier's
-default differentiator, a 50 Hz low-pass of the backward difference, over the stamps in
-order; warm-up samples dropped), and trains the method's 3n-40-n network with
+online identifier does (its input stage: the same sample checks; q'' from q' by the
+zero-phase centred estimate, a quadratic fitted to the 21 velocities around each sample at
+their stamps), and trains the method's 3n-40-n network with
 Levenberg-Marquardt (or batch gradient descent). The input and output scaling is fitted to
 the training data's ranges.
 
@@ -179,7 +179,7 @@ def run(args: argparse.Namespace) -> int:
         'validation_fraction': np.array(args.validation_fraction),
         'validation_block_s': np.array(args.validation_block),
         'max_fail': np.array(args.max_fail), 'min_iterations': np.array(args.min_iterations),
-        'differentiator': np.array('lowpass'), 'cutoff_hz': np.array(50.0),
+        'differentiator': np.array('centred'), 'window': np.array(21),
         'train_mse_scaled': np.array(history.final_mse)})
     args.out.parent.mkdir(parents=True, exist_ok=True)
     network.save(args.out)

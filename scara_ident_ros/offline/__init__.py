@@ -31,10 +31,12 @@ from scara_ident_ros.offline.recording import (MIN_SAMPLES, Recording, Recording
                                                load_recording)
 from scara_ident_ros.offline.report import make_report
 from scara_ident_ros.offline.retraining import Retraining, retrain
+from scara_ident_ros.offline.split import block_split
 
 __all__ = [
     'JointStateArrays', 'MIN_SAMPLES', 'ModelMismatch', 'OnlinePredictions', 'RecordedDataset',
-    'Recording', 'RecordingError', 'Retraining', 'dataset_from_joint_states', 'errors_markdown',
+    'Recording', 'RecordingError', 'Retraining', 'block_split', 'dataset_from_joint_states',
+    'errors_markdown',
     'evaluate', 'load_model', 'load_recording', 'make_report', 'model_joint_names',
     'model_method', 'pair_by_stamp', 'prediction_rows', 'read_identifier_mse',
     'read_online_predictions', 'retrain', 'rolling_errors', 'time_split',
