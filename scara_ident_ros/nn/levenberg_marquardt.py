@@ -174,9 +174,7 @@ class LevenbergMarquardt:
     def start(self, history: FitHistory) -> float:
         """Keep ``history`` for the damping log; return the current training MSE."""
         self._history = history
-        self._sse = self._net._mse_scaled(self._xs, self._ys) * self._ys.size
-        self._stale = True
-        return self._sse / self._ys.size
+        return self.set_data(self._xs, self._ys)
 
     def set_data(self, xs: FloatArray, ys: FloatArray) -> float:
         """Train on other samples from now on (keeping mu); return their current MSE.
