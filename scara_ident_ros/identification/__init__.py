@@ -14,7 +14,7 @@ from scara_ident_ros.identification.input_stage import (DIFFERENTIATORS, Acceler
 from scara_ident_ros.identification.joint_map import JointMap
 from scara_ident_ros.identification.online_identifier import (Counts, EffortModel,
                                                               OnlineIdentifier, StepResult)
-from scara_ident_ros.identification.sample_check import (DEFAULT_MAX_GAP_NS, Sample,
+from scara_ident_ros.identification.sample_check import (DEFAULT_MAX_GAP_NS, Bounds, Sample,
                                                          SampleCheck)
 from scara_ident_ros.identification.reservoir import Reservoir
 from scara_ident_ros.identification.skip_reason import SkipReason
@@ -22,7 +22,7 @@ from scara_ident_ros.identification.trainer import (TRAINERS, BackPropagation, R
                                                     Trainer, make_trainer)
 
 __all__ = [
-    'AccelerationEstimate', 'BackPropagation', 'CentredDifferentiator', 'Counts',
+    'AccelerationEstimate', 'BackPropagation', 'Bounds', 'CentredDifferentiator', 'Counts',
     'DEFAULT_MAX_GAP_NS', 'DIFFERENTIATORS', 'Differentiator', 'EffortModel', 'ErrorStats',
     'ErrorWindow', 'Holdout', 'Input', 'InputStage', 'JointMap', 'METHODS', 'OnlineIdentifier',
     'PAPER_WINDOW', 'Reservoir', 'ReservoirLM', 'Sample', 'SampleCheck', 'SkipReason',

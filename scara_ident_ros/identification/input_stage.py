@@ -26,8 +26,8 @@ from numpy.typing import NDArray
 from scara_ident_ros.identification.centred_differentiator import CentredDifferentiator
 from scara_ident_ros.identification.differentiator import Differentiator
 from scara_ident_ros.identification.joint_map import JointMap
-from scara_ident_ros.identification.sample_check import (DEFAULT_MAX_GAP_NS, FloatArrayLike,
-                                                         Sample, SampleCheck)
+from scara_ident_ros.identification.sample_check import (DEFAULT_MAX_GAP_NS, Bounds,
+                                                         FloatArrayLike, Sample, SampleCheck)
 from scara_ident_ros.identification.skip_reason import SkipReason
 
 __all__ = ['Input', 'InputStage', 'AccelerationEstimate', 'make_differentiator',
@@ -94,12 +94,16 @@ class InputStage:
         estimate restarts.
     differentiator : Differentiator or CentredDifferentiator, optional
         The q'' estimate; default ``CentredDifferentiator(21, 2)``.
+    bounds : Bounds, optional
+        Values beyond them are rejected (``OUT_OF_LIMITS``) before they reach the estimate.
     """
 
     def __init__(self, joint_map: JointMap, *, need_effort: bool = True,
                  max_gap_ns: int = DEFAULT_MAX_GAP_NS,
-                 differentiator: AccelerationEstimate | None = None) -> None:
-        self.check = SampleCheck(joint_map, need_effort=need_effort, max_gap_ns=max_gap_ns)
+                 differentiator: AccelerationEstimate | None = None,
+                 bounds: Bounds | None = None) -> None:
+        self.check = SampleCheck(joint_map, need_effort=need_effort, max_gap_ns=max_gap_ns,
+                                 bounds=bounds)
         self.differentiator = (differentiator if differentiator is not None
                                else CentredDifferentiator())
         self.skipped: dict[SkipReason, int] = dict.fromkeys(SkipReason, 0)

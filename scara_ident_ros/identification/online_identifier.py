@@ -24,7 +24,8 @@ from scara_ident_ros.identification.error_window import PAPER_WINDOW, ErrorStats
 from scara_ident_ros.identification.holdout import Holdout
 from scara_ident_ros.identification.input_stage import AccelerationEstimate, Input, InputStage
 from scara_ident_ros.identification.joint_map import JointMap
-from scara_ident_ros.identification.sample_check import DEFAULT_MAX_GAP_NS, FloatArrayLike
+from scara_ident_ros.identification.sample_check import (DEFAULT_MAX_GAP_NS, Bounds,
+                                                         FloatArrayLike)
 from scara_ident_ros.identification.skip_reason import SkipReason
 from scara_ident_ros.identification.trainer import BackPropagation, Trainer
 
@@ -151,6 +152,9 @@ class OnlineIdentifier:
     max_gap_ns : int
         A clock jump of more than this (ns) between accepted samples restarts the
         acceleration estimate.
+    bounds : Bounds, optional
+        Samples with values beyond them (in joint order) are refused as ``OUT_OF_LIMITS``:
+        never predicted, never learnt.
 
     Raises
     ------
@@ -162,7 +166,7 @@ class OnlineIdentifier:
                  differentiator: AccelerationEstimate | None = None,
                  trainer: Trainer | None = None, holdout: Holdout | None = None,
                  mse_window: int = 1000, learn: bool = True,
-                 max_gap_ns: int = DEFAULT_MAX_GAP_NS) -> None:
+                 max_gap_ns: int = DEFAULT_MAX_GAP_NS, bounds: Bounds | None = None) -> None:
         n = model.n_outputs
         if n < 1 or model.n_inputs != 3 * n:
             raise ValueError(f'model has {model.n_inputs} inputs and {n} outputs; '
@@ -173,7 +177,7 @@ class OnlineIdentifier:
         self.learn = learn
         self.joint_map = JointMap(joint_names, n_joints=n)
         self.stage = InputStage(self.joint_map, need_effort=learn, max_gap_ns=max_gap_ns,
-                                differentiator=differentiator)
+                                differentiator=differentiator, bounds=bounds)
         self.trainer: Trainer = trainer if trainer is not None else BackPropagation(model)
         self.holdout = holdout
         self.errors = ErrorWindow(n, mse_window)

@@ -15,7 +15,7 @@ from numpy.typing import NDArray
 from scara_ident_ros.identification.joint_map import JointMap
 from scara_ident_ros.identification.skip_reason import SkipReason
 
-__all__ = ['FloatArrayLike', 'Sample', 'SampleCheck', 'DEFAULT_MAX_GAP_NS']
+__all__ = ['Bounds', 'FloatArrayLike', 'Sample', 'SampleCheck', 'DEFAULT_MAX_GAP_NS']
 
 FloatArrayLike = Sequence[float] | NDArray[np.float64]
 """A message array: a list, an ``array.array('d')`` (what rclpy gives) or an ndarray."""
@@ -48,6 +48,36 @@ class Sample(NamedTuple):
     gap: bool
 
 
+class Bounds(NamedTuple):
+    """The values a sample may have, in joint order.
+
+    Attributes
+    ----------
+    lo, hi : ndarray of shape (3, n_joints)
+        Lowest and highest position (rad or m), velocity (rad/s or m/s) and effort (N·m or
+        N) of each joint; ±inf where there is no bound.
+    """
+
+    lo: NDArray[np.float64]
+    hi: NDArray[np.float64]
+
+    @classmethod
+    def from_limits(cls, position_min: NDArray[np.float64], position_max: NDArray[np.float64],
+                    velocity_max: NDArray[np.float64], effort_max: NDArray[np.float64], *,
+                    margin: float = 0.5) -> Bounds:
+        """Bounds ``margin`` (a fraction) beyond a robot's limits.
+
+        Positions may leave ``[min, max]`` by ``margin`` times the range, velocities and
+        efforts exceed their maxima by ``margin`` times them: values a working robot cannot
+        report, however hard it is driven.
+        """
+        span = np.asarray(position_max, float) - np.asarray(position_min, float)
+        vel = np.abs(np.asarray(velocity_max, float)) * (1.0 + margin)
+        eff = np.abs(np.asarray(effort_max, float)) * (1.0 + margin)
+        return cls(np.stack([np.asarray(position_min, float) - margin * span, -vel, -eff]),
+                   np.stack([np.asarray(position_max, float) + margin * span, vel, eff]))
+
+
 class SampleCheck:
     """Checks of the stamp, the array lengths, the names and the values of each sample.
 
@@ -62,20 +92,23 @@ class SampleCheck:
     max_gap_ns : int
         A clock jump larger than this (ns), forwards or backwards, marks a sample as ``gap``.
         Smaller steps backwards are rejected as ``STAMP_BACKWARDS``.
+    bounds : Bounds, optional
+        Reject finite values outside them as ``OUT_OF_LIMITS``; None checks none.
 
     Notes
     -----
     Checks run in this order, and the first that fails names the reason: stamp (repeated,
     backwards), presence (``NO_VELOCITY``, ``NO_POSITION``, ``NO_EFFORT``), lengths, names
-    (see :meth:`JointMap.permutation`), finiteness. Stamps are compared with the last
+    (see :meth:`JointMap.permutation`), finiteness, bounds. Stamps are compared with the last
     *accepted* sample only.
     """
 
     def __init__(self, joint_map: JointMap, *, need_effort: bool = True,
-                 max_gap_ns: int = DEFAULT_MAX_GAP_NS) -> None:
+                 max_gap_ns: int = DEFAULT_MAX_GAP_NS, bounds: Bounds | None = None) -> None:
         if max_gap_ns <= 0:
             raise ValueError(f'max_gap_ns must be positive, got {max_gap_ns}')
         self.joint_map = joint_map
+        self.bounds = bounds
         self.need_effort = need_effort
         self.max_gap_ns = int(max_gap_ns)
         self._last_stamp: int | None = None
@@ -138,8 +171,13 @@ class SampleCheck:
             raw[2] = effort
         if not np.isfinite(raw).all():
             return SkipReason.NON_FINITE
+        values = raw[:, perm]
+        bounds = self.bounds
+        if bounds is not None:
+            rows = values.shape[0]
+            if (values < bounds.lo[:rows]).any() or (values > bounds.hi[:rows]).any():
+                return SkipReason.OUT_OF_LIMITS
         if self.joint_map.names is None:
             self.joint_map.adopt(names)
         self._last_stamp = stamp_ns
-        values = raw[:, perm]
         return Sample(stamp_ns, values[0], values[1], values[2] if has_effort else None, gap)

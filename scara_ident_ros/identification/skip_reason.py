@@ -27,6 +27,9 @@ class SkipReason(str, Enum):
     - ``STAMP_REPEATED``: the stamp equals that of the last accepted sample.
     - ``STAMP_BACKWARDS``: the stamp is earlier than that of the last accepted sample (by at
       most the maximum gap; a larger jump is a ``GAP``).
+    - ``OUT_OF_LIMITS``: a finite position, velocity or effort that the robot cannot have:
+      beyond its limits by more than the configured margin (a sensor glitch, a unit or
+      joint-order error). Learnt, such a sample would poison the model.
 
     Valid samples that cannot yet be used:
 
@@ -47,5 +50,6 @@ class SkipReason(str, Enum):
     JOINT_COUNT = 'joint_count'
     STAMP_REPEATED = 'stamp_repeated'
     STAMP_BACKWARDS = 'stamp_backwards'
+    OUT_OF_LIMITS = 'out_of_limits'
     GAP = 'gap'
     WARMING_UP = 'warming_up'

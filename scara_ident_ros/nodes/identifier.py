@@ -38,8 +38,8 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 
 from scara_ident_ros.dynamics import ParamError, ScaraParams
-from scara_ident_ros.identification import (DIFFERENTIATORS, TRAINERS, Counts, Holdout,
-                                            JointMap, OnlineIdentifier, SampleCheck,
+from scara_ident_ros.identification import (DIFFERENTIATORS, TRAINERS, Bounds, Counts,
+                                            Holdout, JointMap, OnlineIdentifier, SampleCheck,
                                             SkipReason, StepResult, make_differentiator,
                                             make_trainer)
 from scara_ident_ros.methods import METHODS, limit_scaling, make_network
@@ -104,6 +104,10 @@ PARAMETERS = (
     ParamSpec('cutoff_hz', 50.0, 'Cut-off of the lowpass differentiator', 'Hz', min=0.1),
     ParamSpec('window', 21, 'Samples of the centred (odd) and polynomial differentiators',
               min=3, max=101),
+    ParamSpec('limit_margin', 0.5, 'Refuse samples (out_of_limits) whose position leaves the '
+              'joint range by more than this fraction of the range, or whose velocity or '
+              'effort exceeds its limit by more than this fraction; negative: no check',
+              min=-1.0, max=100.0),
     ParamSpec('max_gap', 0.02, 'A larger gap between stamps restarts the differentiator',
               's', min=0.0),
     ParamSpec('robot_config', '', "Robot YAML whose joint limits scale the network's inputs "
@@ -261,6 +265,13 @@ class IdentifierNode(Node):
         except ValueError as exc:
             raise ConfigError(str(exc)) from None
         n = len(names)
+        known = self.limits['names']
+        bounds = None
+        if s['limit_margin'] >= 0 and all(name in known for name in names):
+            order = [known.index(name) for name in names]
+            bounds = Bounds.from_limits(*(self.limits[key][order] for key in (
+                'position_min', 'position_max', 'velocity_max', 'effort_max')),
+                margin=s['limit_margin'])
         holdout = (Holdout(3 * n, n, fraction=s['validation_fraction'],
                            block=s['validation_block'], seed=s['seed'])
                    if s['validation_fraction'] > 0 else None)
@@ -270,7 +281,7 @@ class IdentifierNode(Node):
                                  interval=s['lm_interval'], steps=s['lm_steps'],
                                  seed=s['seed']),
             holdout=holdout, mse_window=s['mse_window'], learn=s['learn'],
-            max_gap_ns=round(s['max_gap'] * 1e9))
+            max_gap_ns=round(s['max_gap'] * 1e9), bounds=bounds)
         self.names = names
         self.torque_msg = joint_state(0, names, effort=np.zeros(len(names)))
         return True

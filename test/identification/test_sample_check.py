@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from scara_ident_ros.identification import JointMap, Sample, SampleCheck, SkipReason
+from scara_ident_ros.identification import Bounds, JointMap, Sample, SampleCheck, SkipReason
 
 NAMES = ['joint1', 'joint2', 'joint3']
 T0 = 1_000_000_000_000  # ns
@@ -120,3 +120,23 @@ def test_joint_order_adopted_from_the_first_valid_message_only() -> None:
 def test_max_gap_must_be_positive() -> None:
     with pytest.raises(ValueError, match='max_gap_ns'):
         SampleCheck(JointMap(NAMES), max_gap_ns=0)
+
+
+def test_values_beyond_the_limits_are_refused_and_change_nothing() -> None:
+    bounds = Bounds.from_limits(np.array([-1.0, 0.0]), np.array([1.0, 0.2]),
+                                np.array([2.0, 1.0]), np.array([10.0, 100.0]), margin=0.5)
+    np.testing.assert_allclose(bounds.lo, [[-2.0, -0.1], [-3.0, -1.5], [-15.0, -150.0]])
+    check = SampleCheck(JointMap(('a', 'b'), n_joints=2), bounds=bounds)
+    good = check.check(1, ('a', 'b'), [1.9, 0.25], [-2.9, 1.4], [14.0, -149.0])
+    assert not isinstance(good, SkipReason)
+    for position, velocity, effort in [([1e6, 0.1], [0, 0], [0, 0]),   # 1e6 rad
+                                       ([0, 0.31], [0, 0], [0, 0]),   # beyond the margin
+                                       ([0, 0.1], [0, -1.6], [0, 0]),
+                                       ([0, 0.1], [0, 0], [16.0, 0])]:
+        assert check.check(2, ('a', 'b'), position, velocity, effort) is \
+            SkipReason.OUT_OF_LIMITS
+        assert check.last_stamp_ns == 1  # nothing changed
+    # reordered joints are bounded by name, and an empty effort is not checked
+    check = SampleCheck(JointMap(('a', 'b'), n_joints=2), need_effort=False, bounds=bounds)
+    assert check.check(3, ('b', 'a'), [0.25, 1.9], [1.4, -2.9], []).effort is None
+    assert check.check(4, ('b', 'a'), [1.9, 0.25], [0, 0], []) is SkipReason.OUT_OF_LIMITS

@@ -5,8 +5,8 @@ import numpy as np
 
 from scara_ident_ros.dynamics import ScaraParams
 from scara_ident_ros.experiments import simulate_dataset
-from scara_ident_ros.identification import (BackPropagation, Holdout, OnlineIdentifier,
-                                            Reservoir, ReservoirLM, make_trainer)
+from scara_ident_ros.identification import (BackPropagation, Bounds, Holdout, OnlineIdentifier,
+                                            Reservoir, ReservoirLM, SkipReason, make_trainer)
 from scara_ident_ros.methods import limit_scaling, make_network
 from scara_ident_ros.nn import FeedForwardNet
 from scara_ident_ros.offline.blas_threads import single_blas_thread
@@ -118,3 +118,22 @@ def test_reservoir_lm_identifies_where_bp_only_tracks() -> None:
     assert np.all(scores['lm'][:3] < 0.5), scores
     assert np.median(scores['lm']) < np.median(scores['bp']) / 10, scores
     assert np.all(scores['bp'] > 0.5), scores  # frozen BP: no better than the mean
+
+
+def test_impossible_samples_never_reach_the_reservoir() -> None:
+    data = simulate_dataset(PARAMS, seconds=1.0, seed=6)
+    net = network()
+    trainer = ReservoirLM(net, capacity=5000, interval=10**9)
+    bounds = Bounds.from_limits(*(PARAMS.array(name) for name in (
+        'position_min', 'position_max', 'velocity_max', 'effort_max')))
+    ident = OnlineIdentifier(net, joint_names=PARAMS.joint_names, trainer=trainer,
+                             bounds=bounds)
+    for k, (stamp, x, y) in enumerate(zip(data.stamp_ns, data.X, data.Y)):
+        q = x[:4].copy()
+        if k % 100 == 50:
+            q[0] = 1e6  # a glitch: finite, impossible
+        ident.process(int(stamp), PARAMS.joint_names, q, x[4:8], y)
+    ident.finish()
+    assert ident.counts.skipped[SkipReason.OUT_OF_LIMITS] == 10
+    assert np.abs(trainer.reservoir.X[:, 0]).max() < 3.0
+    assert len(trainer.reservoir) == ident.counts.learned == 990
