@@ -158,12 +158,21 @@ class IdentifierNode(Node):
             if names and len(names) != self.network.n_outputs:
                 raise ConfigError(f"model {s['model_path']} has {self.network.n_outputs} "
                                   f'outputs, not {len(names)} joints')
-        if names:
-            self._build(names)
-        self.stats_started = time.monotonic()
         self.max_lag_ns = 0  # ns, since the last statistics line
         self.worst_lag_ns = 0  # ns, since start
         self.last_warning = 0.0
+        try:  # checked at startup, used once the joints are known
+            self.differentiator = make_differentiator(s['differentiator'], window=s['window'],
+                                                      cutoff_hz=s['cutoff_hz'])
+        except ValueError as exc:
+            raise ConfigError(str(exc)) from None
+        if names:
+            if self.network is None and any(n not in self.limits['names'] for n in names):
+                raise ConfigError(
+                    f"no joint limits for joint_names {names}: robot_config has "
+                    f"{self.limits['names']}; set robot_config, or position_min, position_max, "
+                    'velocity_max, acceleration_max and effort_max for these joints')
+            self._build(names)
         self.frame_id = ''  # header.frame_id of the latest sample, given to its predictions
         self.torque_publisher = self.create_publisher(JointState, TORQUE_TOPIC, STREAM_QOS)
         self.mse_publisher = self.create_publisher(Float64MultiArray, MSE_TOPIC, 10)
@@ -259,11 +268,6 @@ class IdentifierNode(Node):
                 *(self.limits[name][order] for name in LIMIT_NAMES)))
         self.network.metadata['joint_names'] = np.array(names)
         self.network.metadata['method'] = np.array(s['method'])
-        try:
-            differentiator = make_differentiator(s['differentiator'], window=s['window'],
-                                                 cutoff_hz=s['cutoff_hz'])
-        except ValueError as exc:
-            raise ConfigError(str(exc)) from None
         n = len(names)
         known = self.limits['names']
         bounds = None
@@ -276,7 +280,7 @@ class IdentifierNode(Node):
                            block=s['validation_block'], seed=s['seed'])
                    if s['validation_fraction'] > 0 else None)
         self.core = OnlineIdentifier(
-            self.network, joint_names=names, differentiator=differentiator,
+            self.network, joint_names=names, differentiator=self.differentiator,
             trainer=make_trainer(s['trainer'], self.network, capacity=s['reservoir_size'],
                                  interval=s['lm_interval'], steps=s['lm_steps'],
                                  seed=s['seed']),

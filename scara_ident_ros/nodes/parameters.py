@@ -8,6 +8,7 @@ read-only flag) and is validated when declared (overrides from ``-p`` or a
 from __future__ import annotations
 
 import array
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -67,12 +68,16 @@ class ParamSpec:
         if isinstance(self.default, float) and (
                 isinstance(value, bool) or not isinstance(value, (int, float))):
             return f'must be a number, got {value!r}'
+        if isinstance(value, float) and not math.isfinite(value):
+            return f'must be finite, got {value}'
         if self.items is not None:
             if not isinstance(value, (list, tuple, array.array)) or not all(
                     isinstance(item, self.items) or (self.items is float
                                                      and isinstance(item, int))
                     for item in value):
                 return f'must be a list of {self.items.__name__}, got {value!r}'
+            if self.items is float and not all(math.isfinite(item) for item in value):
+                return f'must be a list of finite numbers, got {list(value)!r}'
         if self.choices is not None and value not in self.choices:
             return f"must be one of {', '.join(self.choices)}, got {value!r}"
         if isinstance(value, (int, float)) and not isinstance(value, bool):

@@ -657,6 +657,15 @@ BAD_CONFIGS = {
         'sigmoid'),
     'mse_window too small': (lambda d: ['mse_window:=10'], 'mse_window'),
     'joint names not strings': (lambda d: ['joint_names:=[1, 2, 3, 4]'], 'joint_names'),
+    'joints without limits': (lambda d: ['joint_names:=[a, b]'], "no joint limits for"),
+    'a typo in the joints': (lambda d: ['joint_names:=[joint1, joint9]'], "'joint9'"),
+    'a NaN gain': (lambda d: ['k:=nan'], 'must be finite'),
+    'a NaN limit': (lambda d: ['joint_names:=[a]', 'position_min:=[nan]',
+                               'position_max:=[1.0]', 'velocity_max:=[1.0]',
+                               'acceleration_max:=[1.0]', 'effort_max:=[1.0]'],
+                    'finite numbers'),
+    'an unknown trainer': (lambda d: ['trainer:=sgd'], "'trainer'"),
+    'an even centred window': (lambda d: ['window:=20'], 'odd window'),
 }
 
 
