@@ -457,7 +457,8 @@ def main(args: list[str] | None = None) -> None:
     # and competing BLAS pools on a busy machine made them 5-10 times slower (2 cores, 3
     # identifiers: 300-500 ms a step instead of 70 ms, the node fell seconds behind).
     with single_blas_thread():
-        status = run_node('identifier', IdentifierNode, args)
+        status = run_node('identifier', IdentifierNode, args, description=__doc__ or '',
+                          parameters=PARAMETERS)
     sys.exit(status)
 
 

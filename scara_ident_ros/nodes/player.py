@@ -240,7 +240,8 @@ class PlayerNode(Node):
 
 def main(args: list[str] | None = None) -> None:
     """Entry point of the ``player`` executable."""
-    sys.exit(run_node('player', PlayerNode, args))
+    sys.exit(run_node('player', PlayerNode, args,
+                      description=__doc__ or '', parameters=PARAMETERS))
 
 
 if __name__ == '__main__':

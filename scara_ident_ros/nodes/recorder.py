@@ -271,7 +271,8 @@ class RecorderNode(Node):
 
 def main(args: list[str] | None = None) -> None:
     """Entry point of the ``recorder`` executable."""
-    sys.exit(run_node('recorder', RecorderNode, args))
+    sys.exit(run_node('recorder', RecorderNode, args,
+                      description=__doc__ or '', parameters=PARAMETERS))
 
 
 if __name__ == '__main__':

@@ -16,9 +16,9 @@ from __future__ import annotations
 import signal
 import sys
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from types import FrameType
-from typing import Protocol
+from typing import TYPE_CHECKING, Protocol
 
 import rclpy
 from rclpy.exceptions import ParameterException
@@ -29,7 +29,10 @@ from rclpy.signals import SignalHandlerOptions
 
 from scara_ident_ros.rosenv import ensure_local_dds
 
-__all__ = ['ConfigError', 'LoopingNode', 'run_node', 'POLL_PERIOD']
+if TYPE_CHECKING:  # parameters imports ConfigError from here
+    from scara_ident_ros.nodes.parameters import ParamSpec
+
+__all__ = ['ConfigError', 'LoopingNode', 'help_text', 'run_node', 'POLL_PERIOD']
 
 POLL_PERIOD = 0.1  # seconds: the longest a stop request waits to be seen
 
@@ -53,7 +56,8 @@ def _install_stop_handlers(stop: threading.Event) -> None:
     signal.signal(signal.SIGTERM, handler)
 
 
-def run_node(name: str, factory: Callable[[], Node], args: list[str] | None = None) -> int:
+def run_node(name: str, factory: Callable[[], Node], args: list[str] | None = None, *,
+             description: str = '', parameters: Sequence[ParamSpec] = ()) -> int:
     """Build the node with ``factory`` and spin it until SIGINT/SIGTERM.
 
     Parameters
@@ -64,12 +68,22 @@ def run_node(name: str, factory: Callable[[], Node], args: list[str] | None = No
         Builds the node; called after ``rclpy.init``.
     args : list of str, optional
         Command-line arguments (``--ros-args ...``); ``sys.argv`` when None.
+    description : str
+        What the node does (its module docstring: ``--help`` shows the first paragraph).
+    parameters : sequence of ParamSpec
+        The node's parameters, listed by ``--help``.
 
     Returns
     -------
     int
-        The process exit status: 0 after a clean stop, 2 for a configuration error.
+        The process exit status: 0 after a clean stop or ``--help``, 2 for a configuration
+        error.
     """
+    argv = sys.argv if args is None else args
+    user = argv[:argv.index('--ros-args')] if '--ros-args' in argv else argv
+    if '-h' in user or '--help' in user:  # before rclpy: --help starts nothing
+        print(help_text(name, description, parameters))
+        return 0
     ensure_local_dds()
     stop = threading.Event()
     try:
@@ -103,3 +117,25 @@ def run_node(name: str, factory: Callable[[], Node], args: list[str] | None = No
             node.destroy_node()
         rclpy.try_shutdown()
     return 0
+
+
+def help_text(name: str, description: str, parameters: Sequence[ParamSpec]) -> str:
+    """``--help`` of a node: usage, what it does, and each parameter with its default."""
+    lines = [f'usage: ros2 run scara_ident_ros {name} [--ros-args -p NAME:=VALUE ...]', '']
+    if description.strip():
+        lines += [description.strip().split('\n\n')[0], '']
+    lines.append('parameters (name, default, description):')
+    for spec in parameters:
+        limits = []
+        if spec.min is not None:
+            limits.append(f'>= {spec.min:g}')
+        if spec.max is not None:
+            limits.append(f'<= {spec.max:g}')
+        text = spec.description + (f' [{spec.unit}]' if spec.unit else '')
+        if spec.choices:
+            text += f" (one of: {', '.join(spec.choices)})"
+        if limits:
+            text += f" ({', '.join(limits)})"
+        lines.append(f'  {spec.name} = {spec.default!r}')
+        lines.append(f'      {text}')
+    return '\n'.join(lines)

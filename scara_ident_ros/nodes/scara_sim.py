@@ -188,7 +188,8 @@ class ScaraSimNode(Node):
 
 def main(args: list[str] | None = None) -> None:
     """Console script ``scara_sim``."""
-    sys.exit(run_node('scara_sim', ScaraSimNode, args))
+    sys.exit(run_node('scara_sim', ScaraSimNode, args,
+                      description=__doc__ or '', parameters=PARAMETERS))
 
 
 if __name__ == '__main__':
