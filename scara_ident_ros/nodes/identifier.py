@@ -24,7 +24,9 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import sys
+import tempfile
 import time
 from pathlib import Path
 from typing import Any
@@ -92,8 +94,9 @@ PARAMETERS = (
               'whose error is the validation NMSE; 0: none', min=0.0, max=0.9),
     ParamSpec('validation_block', 500, 'Samples per held-out block', min=1, max=1_000_000),
     ParamSpec('model_path', '', 'Warm-start from this saved model (.npz); empty: fresh'),
-    ParamSpec('save_path', '', 'Save the model here periodically and on shutdown; empty: '
-              'never'),
+    ParamSpec('save_path', '', 'Save the model here periodically and on shutdown (atomically); '
+              'a model already there is continued from, not replaced (unless model_path is '
+              'given); empty: never'),
     ParamSpec('checkpoint_period', 60.0, 'Seconds between checkpoints to save_path; 0: only '
               'on shutdown', 's', min=0.0),
     ParamSpec('mse_window', 1000, 'Samples in the windowed MSE', min=100),
@@ -141,23 +144,34 @@ class IdentifierNode(Node):
         self.core: OnlineIdentifier | None = None
         self.early = Counts()  # samples rejected before the first valid one (no joints yet)
         names = list(s['joint_names'])
-        if s['model_path']:
-            self.network = self._load(s['model_path'])
+        for key in ('save_path', 'stats_file'):
+            problem = _unwritable(s[key])
+            if problem:
+                raise ConfigError(f'{key} {s[key]}: {problem}')
+        model_path = s['model_path']
+        # A restart continues from what was learnt instead of replacing it.
+        continuing = bool(not model_path and s['save_path'] and Path(s['save_path']).exists())
+        if continuing:
+            model_path = s['save_path']
+        if model_path:
+            self.network = self._load(model_path)
             activation = METHODS[s['method']].activation
             if self.network.activation != activation:
-                raise ConfigError(f"model {s['model_path']} has {self.network.activation} "
+                raise ConfigError(f"model {model_path} has {self.network.activation} "
                                   f"hidden units, not the {activation} of method "
                                   f"{s['method']}: set method to the model's")
             saved = [str(n) for n in self.network.metadata.get('joint_names', [])]
             # The network's inputs and outputs are in the saved order: another order would
             # feed each joint's values to another joint's weights.
             if names and saved and names != saved:
-                raise ConfigError(f"model {s['model_path']} was trained for joints {saved} "
+                raise ConfigError(f"model {model_path} was trained for joints {saved} "
                                   f'(in that order), not joint_names {names}')
             names = names or saved
             if names and len(names) != self.network.n_outputs:
-                raise ConfigError(f"model {s['model_path']} has {self.network.n_outputs} "
+                raise ConfigError(f"model {model_path} has {self.network.n_outputs} "
                                   f'outputs, not {len(names)} joints')
+            if continuing:
+                self.get_logger().info(f'continuing from the model at save_path {model_path}')
         self.max_lag_ns = 0  # ns, since the last statistics line
         self.worst_lag_ns = 0  # ns, since start
         self.last_warning = 0.0
@@ -449,6 +463,27 @@ class IdentifierNode(Node):
         self.log_stats()
         if self.settings['stats_file']:
             Path(self.settings['stats_file']).write_text(json.dumps(self.summary(), indent=1))
+
+
+def _unwritable(path: str) -> str:
+    """Why a file cannot be written at ``path`` (its folder made if needed); '' if it can."""
+    if not path:
+        return ''
+    target = Path(path)
+    if target.is_dir():
+        return 'is a directory; give a file name'
+    try:
+        target.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        return f'cannot create its folder: {exc.strerror or exc}'
+    try:  # what a checkpoint does: a temporary file beside the target (root ignores modes)
+        with tempfile.NamedTemporaryFile(dir=target.parent, prefix=f'.{target.name}.'):
+            pass
+    except OSError as exc:
+        return f'is not writable: {exc.strerror or exc}'
+    if target.exists() and not os.access(target, os.W_OK):
+        return 'is not writable'
+    return ''
 
 
 def main(args: list[str] | None = None) -> None:

@@ -666,6 +666,12 @@ BAD_CONFIGS = {
                     'finite numbers'),
     'an unknown trainer': (lambda d: ['trainer:=sgd'], "'trainer'"),
     'an even centred window': (lambda d: ['window:=20'], 'odd window'),
+    'save_path a directory': (lambda d: [f'save_path:={d}'], 'is a directory'),
+    'save_path unwritable': (lambda d: ['save_path:=/proc/model.npz'], 'save_path'),
+    'stats_file unwritable': (lambda d: ['stats_file:=/proc/x/stats.json'], 'stats_file'),
+    'save_path holds another method': (
+        lambda d: [f'save_path:={saved_model(d / "m.npz", NAMES, method="ffs")}'],
+        'sigmoid'),
 }
 
 
@@ -679,6 +685,29 @@ def test_bad_configuration_is_one_line(tmp_path: Path, case: str) -> None:
     assert out.returncode == 2, out.stderr
     assert len(lines) == 1, out.stderr
     assert lines[0].startswith('identifier: error: ') and problem in lines[0], lines[0]
+
+
+def test_existing_save_path_is_continued_not_replaced(tmp_path: Path,
+                                                      listener: rostest.Listener) -> None:
+    path = saved_model(tmp_path / 'model.npz', NAMES)
+    saved = FeedForwardNet.load(path)
+    saved.set_params(saved.get_params() + 0.1)  # not what a fresh network would have
+    saved.save(path)
+    record = simulated(40)
+    feed = Feed(listener)
+    with identifier(tmp_path, f'save_path:={path}', 'learn:=false') as node:
+        feed.wait_for(node)
+        feed.send([sample_msg(record, i, T0_NS + i * PERIOD_NS) for i in range(40)],
+                  40 - LAG)
+        out = stop(node)
+    assert 'continuing from the model at save_path' in out.stderr
+    # it predicted with the saved weights, and saved them back on shutdown, not fresh ones
+    np.testing.assert_array_equal(FeedForwardNet.load(path).get_params(), saved.get_params())
+    first = np.array(feed.torques[0].effort)
+    stage = InputStage(JointMap(NAMES, n_joints=4))
+    _, X, _ = stage.batch(record.stamp_ns[:40] + T0_NS, NAMES, record.q[:40],
+                          record.qd[:40], record.effort[:40])
+    np.testing.assert_allclose(first, saved.predict(X[0]), rtol=1e-9)
 
 
 # ------------------------------------------------------------------------------ namespacing
