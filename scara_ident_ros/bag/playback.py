@@ -19,6 +19,7 @@ the start of playback (``due_ns``) or as recorded (``log_time_ns``).
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 
@@ -49,13 +50,18 @@ def parse_rate(value: str | float) -> float:
     return rate
 
 
+_TOPIC_NAME = re.compile(r'(/[A-Za-z_][A-Za-z0-9_]*)+')  # absolute, no '//', no trailing '/'
+
+
 def parse_remaps(items: Iterable[str]) -> dict[str, str]:
     """Parse ``old:=new`` topic remappings into ``{'/old': '/new'}``.
 
     Raises
     ------
     ValueError
-        If an item has no ``:=``, an empty side, or a topic is remapped twice.
+        If an item has no ``:=``, an empty side, a side that is not a valid ROS topic name
+        (tokens of letters, digits and ``_``, not starting with a digit, joined by ``/``), or
+        a topic is remapped twice.
     """
     remaps: dict[str, str] = {}
     for item in items:
@@ -65,6 +71,9 @@ def parse_remaps(items: Iterable[str]) -> dict[str, str]:
             raise ValueError(f"remap must look like 'old:=new', got {item!r}")
         old = old if old.startswith('/') else '/' + old
         new = new if new.startswith('/') else '/' + new
+        for name in (old, new):
+            if not _TOPIC_NAME.fullmatch(name):
+                raise ValueError(f'{name!r} in remap {item!r} is not a valid ROS topic name')
         if old in remaps:
             raise ValueError(f'topic {old} is remapped twice')
         remaps[old] = new

@@ -36,6 +36,7 @@ import yaml
 from scara_ident_ros.cli import CliError
 from scara_ident_ros.identification.trainer import TRAINERS
 from scara_ident_ros.methods import METHODS
+from scara_ident_ros.paths import unwritable_dir
 from scara_ident_ros.process_graph import NodeProcess, ProcessGraph
 from scara_ident_ros.sim.trajectory import SEQUENCE, TRAJECTORIES
 
@@ -97,7 +98,13 @@ def run(args: argparse.Namespace) -> int:
     if args.trajectory not in TRAJECTORIES:
         raise CliError(f'--trajectory must be one of {", ".join(TRAJECTORIES)}, '
                        f'got {args.trajectory!r}')
+    if len(set(args.methods)) != len(args.methods):
+        raise CliError(f'--methods names a method twice: {" ".join(args.methods)} (each runs '
+                       'one identifier under its own namespace)')
     out: Path = args.out
+    problem = unwritable_dir(out)
+    if problem:
+        raise CliError(f'--out {out} {problem}')
     bag: Path = args.bag or out / 'bag'
     if bag.exists():
         raise CliError(f'{bag} exists already, not overwriting (choose another --out or --bag)')

@@ -34,6 +34,7 @@ from scara_ident_ros.cli import CliError
 from scara_ident_ros.methods import METHODS
 from scara_ident_ros.offline.report import (DEFAULT_SAMPLES, DEFAULT_SEEDS,
                                             DEFAULT_TIME_BUDGET_S, make_report)
+from scara_ident_ros.paths import unwritable_dir
 
 __all__ = ['add_parser', 'make_report', 'run']
 
@@ -81,8 +82,9 @@ def run(args: argparse.Namespace) -> int:
     if not 0.0 <= args.validation_fraction < 1.0:
         raise CliError(f'--validation-fraction must be in [0, 1), got '
                        f'{args.validation_fraction}')
-    if args.out.exists() and not args.out.is_dir():
-        raise CliError(f'--out {args.out} exists and is not a directory')
+    problem = unwritable_dir(args.out)
+    if problem:
+        raise CliError(f'--out {args.out} {problem}')
     try:
         report = make_report(list(args.bags), args.out, methods=args.methods,
                              seeds=args.seeds, iterations=args.iterations,

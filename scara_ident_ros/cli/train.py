@@ -48,6 +48,7 @@ import numpy as np
 from scara_ident_ros.cli import CliError
 from scara_ident_ros.methods import METHODS, make_network
 from scara_ident_ros.nn import ALGORITHMS
+from scara_ident_ros.paths import unwritable_file
 
 __all__ = ['ITERATIONS', 'MAX_FAIL', 'MIN_ITERATIONS', 'SAMPLES', 'VALIDATION_BLOCK_S',
            'add_parser', 'run']
@@ -125,8 +126,9 @@ def run(args: argparse.Namespace) -> int:
         raise CliError(f'--max-fail must be at least 1, got {args.max_fail}')
     if args.samples < 0 or args.seed < 0 or args.goal < 0.0 or args.min_iterations < 0:
         raise CliError('--samples, --seed, --goal and --min-iterations must not be negative')
-    if args.out.is_dir():
-        raise CliError(f'--out {args.out} is a directory; give a file name such as model.npz')
+    problem = unwritable_file(args.out)
+    if problem:  # before minutes of training, not after
+        raise CliError(f'--out {args.out} {problem}')
     try:
         recording = load_recording(args.bag, topic=args.topic, joints=args.joints)
     except (BagError, RecordingError) as exc:

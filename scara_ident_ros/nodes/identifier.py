@@ -24,9 +24,7 @@ from __future__ import annotations
 
 import json
 import math
-import os
 import sys
-import tempfile
 import time
 from pathlib import Path
 from typing import Any
@@ -50,6 +48,7 @@ from scara_ident_ros.nodes.messages import joint_state, stamp_to_ns
 from scara_ident_ros.nodes.parameters import ParamSpec, declare_parameters
 from scara_ident_ros.nodes.runtime import ConfigError, run_node
 from scara_ident_ros.offline.blas_threads import single_blas_thread
+from scara_ident_ros.paths import unwritable_file
 from scara_ident_ros.resources import config_path
 
 __all__ = ['IdentifierNode', 'main', 'JOINT_STATES_TOPIC', 'TORQUE_TOPIC', 'MSE_TOPIC']
@@ -145,7 +144,7 @@ class IdentifierNode(Node):
         self.early = Counts()  # samples rejected before the first valid one (no joints yet)
         names = list(s['joint_names'])
         for key in ('save_path', 'stats_file'):
-            problem = _unwritable(s[key])
+            problem = unwritable_file(s[key]) if s[key] else ''
             if problem:
                 raise ConfigError(f'{key} {s[key]}: {problem}')
         model_path = s['model_path']
@@ -462,28 +461,9 @@ class IdentifierNode(Node):
         self.checkpoint()
         self.log_stats()
         if self.settings['stats_file']:
-            Path(self.settings['stats_file']).write_text(json.dumps(self.summary(), indent=1))
-
-
-def _unwritable(path: str) -> str:
-    """Why a file cannot be written at ``path`` (its folder made if needed); '' if it can."""
-    if not path:
-        return ''
-    target = Path(path)
-    if target.is_dir():
-        return 'is a directory; give a file name'
-    try:
-        target.parent.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        return f'cannot create its folder: {exc.strerror or exc}'
-    try:  # what a checkpoint does: a temporary file beside the target (root ignores modes)
-        with tempfile.NamedTemporaryFile(dir=target.parent, prefix=f'.{target.name}.'):
-            pass
-    except OSError as exc:
-        return f'is not writable: {exc.strerror or exc}'
-    if target.exists() and not os.access(target, os.W_OK):
-        return 'is not writable'
-    return ''
+            stats_file = Path(self.settings['stats_file'])
+            stats_file.parent.mkdir(parents=True, exist_ok=True)
+            stats_file.write_text(json.dumps(self.summary(), indent=1))
 
 
 def main(args: list[str] | None = None) -> None:

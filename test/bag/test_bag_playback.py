@@ -58,6 +58,7 @@ def test_bad_rates(text: str) -> None:
 def test_parse_remaps() -> None:
     assert parse_remaps(['joint_states:=/replay/joint_states', '/a:=b']) == {
         '/joint_states': '/replay/joint_states', '/a': '/b'}
-    for bad in (['a'], ['a:='], [':=b'], ['a:=b', '/a:=c']):
+    for bad in (['a'], ['a:='], [':=b'], ['a:=b', '/a:=c'], ['/joint_states:=bad name!'],
+                ['a:=/x//y'], ['a:=/x/'], ['a:=/1x'], ['a b:=c']):
         with pytest.raises(ValueError):
             parse_remaps(bad)

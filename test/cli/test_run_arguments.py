@@ -17,7 +17,8 @@ def test_the_default_trajectory_is_the_sequence() -> None:
 @pytest.mark.parametrize('argv, named', [
     (['--trajectory', 'wild'], '--trajectory'),
     (['--duration', '0'], '--duration'),
-], ids=['unknown trajectory', 'zero duration'])
+    (['--methods', 'ffmw', 'ffmw'], 'twice'),
+], ids=['unknown trajectory', 'zero duration', 'a method twice'])
 def test_bad_arguments_end_in_one_line_before_anything_starts(
         argv: list[str], named: str, tmp_path: Path,
         capsys: pytest.CaptureFixture[str]) -> None:
@@ -28,3 +29,13 @@ def test_bad_arguments_end_in_one_line_before_anything_starts(
     if named == '--trajectory':
         assert all(name in err[0] for name in TRAJECTORIES)
     assert not out.exists()
+
+
+def test_an_out_that_cannot_hold_the_run_is_refused_first(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    a_file = tmp_path / 'file'
+    a_file.write_text('')
+    for out in (a_file, Path('/proc/run')):
+        assert main(['run', '--out', str(out)]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and f'--out {out}' in err[0], err

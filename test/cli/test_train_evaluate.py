@@ -332,3 +332,13 @@ def test_help_explains(command: str, capsys: pytest.CaptureFixture[str]) -> None
     assert exit_info.value.code == 0
     text = capsys.readouterr().out
     assert 'JointState' in text and 'BAG' in text
+
+
+def test_an_unwritable_model_path_is_refused_before_training(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    bag = Path(__file__).resolve().parents[2] / 'bags' / 'demo_run'
+    for out, pattern in ((tmp_path, r'is a directory'), (Path('/proc/m.npz'), r'/proc/m.npz')):
+        code, stdout, err = run_cli(capsys, 'train', str(bag), '--method', 'ffs', '--out',
+                                    str(out))
+        _assert_one_line_error(code, stdout, err, pattern)
+        assert 'training on' not in stdout  # refused before reading the bag
