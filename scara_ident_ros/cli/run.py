@@ -44,6 +44,9 @@ __all__ = ['add_parser', 'run', 'bag_message_counts']
 
 STARTUP_TIMEOUT = 60.0  # s allowed for the processes to start and discover each other
 DRAIN_TIME = 1.0  # s the consumers get to drain their queues after the last sample
+#: lm_interval of each identifier per identifier run (benchmarks/bench_graph.py: three at
+#: 200 took 55-57 % of a core each and lost 17 % of the samples on 2 cores)
+LM_INTERVAL_PER_IDENTIFIER = 200
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> None:
@@ -67,6 +70,11 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
                         help="identifiers' online training: lm (Levenberg-Marquardt on a "
                              "reservoir of the stream, the identifier's default) or bp (the "
                              "paper's per-sample back-propagation)")
+    parser.add_argument('--lm-interval', type=int, default=0,
+                        help='samples between two updates of each lm trainer (default: 200 '
+                             'per identifier, 600 for three: each identifier alone takes '
+                             'about 55 %% of a core with lm_interval 200, and three of them '
+                             'beside the simulator and recorder overload 2 cores)')
     parser.add_argument('--compression', default='zstd', choices=('zstd', 'none'),
                         help='MCAP chunk compression of the bag (default: zstd)')
     parser.add_argument('--no-report', dest='report', action='store_false',
@@ -98,6 +106,9 @@ def run(args: argparse.Namespace) -> int:
     if args.trajectory not in TRAJECTORIES:
         raise CliError(f'--trajectory must be one of {", ".join(TRAJECTORIES)}, '
                        f'got {args.trajectory!r}')
+    if args.lm_interval < 0:
+        raise CliError(f'--lm-interval must be >= 1, got {args.lm_interval}')
+    lm_interval = args.lm_interval or LM_INTERVAL_PER_IDENTIFIER * len(args.methods)
     if len(set(args.methods)) != len(args.methods):
         raise CliError(f'--methods names a method twice: {" ".join(args.methods)} (each runs '
                        'one identifier under its own namespace)')
@@ -120,7 +131,7 @@ def run(args: argparse.Namespace) -> int:
         graph.start(NodeProcess(name, 'scara_ident_ros.nodes.identifier', [
             '-r', f'__ns:=/{name}', '-r', 'joint_states:=/joint_states',
             '-p', f'method:={name}', '-p', f'save_path:={models / name}.npz',
-            '-p', f'trainer:={args.trainer}',
+            '-p', f'trainer:={args.trainer}', '-p', f'lm_interval:={lm_interval}',
             # subscribe /joint_states only once the recorder records this identifier's
             # outputs: the simulator's wait below then covers the predictions too
             '-p', 'wait_for_subscribers:=1', '-p', f'wait_timeout:={STARTUP_TIMEOUT}',
