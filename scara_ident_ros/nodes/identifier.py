@@ -70,6 +70,9 @@ PARAMETERS = (
               choices=tuple(METHODS)),
     ParamSpec('joint_names', [], 'Joints to identify, in this order; empty: the joints of '
               'the first valid message (or of the warm-start model)', items=str),
+    ParamSpec('min_joints', 1, 'Without joint_names: take the joints of the first valid '
+              'message naming at least this many (a partial message does not fix the set)',
+              min=1, max=1000),
     ParamSpec('hidden_units', 40, 'Hidden units of the network', min=1, max=10_000),
     ParamSpec('seed', 0, 'Seed of the initial weights', min=0),
     ParamSpec('learning_rate', 0.0, "Online learning rate; 0: the method's default",
@@ -128,6 +131,9 @@ PARAMETERS = (
     ParamSpec('stats_file', '', 'Write the final counters and errors here as JSON on '
               'shutdown; empty: never'),
 )
+#: Rejections that mean the message's joints are not the identifier's
+JOINT_SET_REASONS = (SkipReason.UNKNOWN_JOINT, SkipReason.MISSING_JOINT,
+                     SkipReason.DUPLICATE_JOINT, SkipReason.JOINT_COUNT)
 LIMIT_NAMES = ('position_min', 'position_max', 'velocity_max', 'acceleration_max',
                'effort_max')
 
@@ -321,8 +327,14 @@ class IdentifierNode(Node):
             return
         stamp_ns = stamp_to_ns(msg.header.stamp)
         self.frame_id = msg.header.frame_id
-        self._publish(self.core.process(stamp_ns, msg.name, msg.position, msg.velocity,
-                                        msg.effort))
+        results = self.core.process(stamp_ns, msg.name, msg.position, msg.velocity,
+                                    msg.effort)
+        if results and results[0].reason in JOINT_SET_REASONS:
+            self._warn(f'skipped a sample ({results[0].reason.value}): it names joints '
+                       f'{list(msg.name)}, the identifier identifies {self.names} (set '
+                       'joint_names, or min_joints to wait for a message naming them all)')
+            return
+        self._publish(results)
 
     def _publish(self, results: list[StepResult], *, measure_lag: bool = True) -> None:
         """Publish each prediction, stamped with its sample; warn about rejections.
@@ -357,6 +369,10 @@ class IdentifierNode(Node):
         check = SampleCheck(JointMap(n_joints=n_joints), need_effort=self.settings['learn'])
         reason = check.check(stamp_to_ns(msg.header.stamp), msg.name, msg.position,
                              msg.velocity, msg.effort)
+        if not isinstance(reason, SkipReason) and len(msg.name) < self.settings['min_joints']:
+            reason = SkipReason.JOINT_COUNT
+            self._warn(f'waiting for a message naming at least {self.settings["min_joints"]} '
+                       f'joints (min_joints); this one names {list(msg.name)}')
         if not isinstance(reason, SkipReason) and self._build(list(msg.name)):
             assert self.core is not None
             counts = self.core.counts

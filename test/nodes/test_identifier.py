@@ -516,6 +516,38 @@ def test_survives_hostile_stream(tmp_path: Path, listener: rostest.Listener) -> 
     assert [str(n) for n in network.metadata['joint_names']] == list(NAMES)
 
 
+@pytest.mark.parametrize('min_joints', [1, 4])
+def test_a_partial_first_message_and_min_joints(tmp_path: Path, listener: rostest.Listener,
+                                                min_joints: int) -> None:
+    """A first message naming 2 joints fixes the set (the later full ones are refused with a
+    warning naming both sets), unless min_joints asks for all 4."""
+    record = simulated(30)
+    first = joint_state(T0_NS, NAMES[:2], record.q[0, :2], record.qd[0, :2],
+                        record.effort[0, :2])
+    msgs = [first] + [sample_msg(record, i, T0_NS + (i + 1) * PERIOD_NS) for i in range(25)]
+    feed = Feed(listener)
+    with identifier(tmp_path, f'min_joints:={min_joints}', 'validation_fraction:=0.0') as node:
+        feed.wait_for(node)
+        if min_joints == 4:
+            feed.send(msgs, 25 - LAG)
+        else:
+            for msg in msgs:
+                feed.publisher.publish(msg)
+            listener.spin_until(lambda: False, 1.0)
+        out = stop(node)
+    info = stats(tmp_path)
+    if min_joints == 4:
+        assert info['joint_names'] == list(NAMES)
+        assert info['skipped'] == {'joint_count': 1} and info['predicted'] == 25
+        assert 'waiting for a message naming at least 4 joints' in out.stderr
+    else:
+        assert info['joint_names'] == list(NAMES[:2])
+        # the one 2-joint sample is a history too short for q'' (warming_up)
+        assert info['skipped'] == {'unknown_joint': 25, 'warming_up': 1}
+        assert ("it names joints ['joint1', 'joint2', 'joint3', 'joint4'], the identifier "
+                "identifies ['joint1', 'joint2']") in out.stderr
+
+
 def test_bad_samples_before_the_first_good_one(tmp_path: Path,
                                                listener: rostest.Listener) -> None:
     """Without joint_names the joints are those of the first *valid* sample; the invalid
