@@ -88,9 +88,11 @@ QUICK: dict[str, Any] = {
     'curve_seconds': 2.0,
 }
 #: Measured wall time of ``scara-ident compare`` with the defaults (see the module docstring):
-#: search 27 s, LM 116 s (15 trainings of about 7.7 s), online 16 s, simulation 4 s.
-DEFAULT_WALL_TIME = ('163 s wall, 163 s CPU on the shared 2-core development machine '
-                     '(otherwise quiet; 183 s at load average 1.3-2.7), one BLAS thread')
+#: search 27 s, LM 116 s (15 trainings of about 7.7 s), online 16 s, simulation 4 s; the
+#: learning curves measured alone (benchmarks/bench_learning_curves.py, same jobs).
+DEFAULT_WALL_TIME = ('163 s wall without the learning curves (--curve-seconds 0), one BLAS '
+                     'thread, on the shared 2-core development machine; the learning curves '
+                     'add about 16 min (963 s, two worker processes, load average 2.4)')
 
 HELD_OUT = 'held-out'
 
