@@ -110,7 +110,8 @@ class InputStage:
         self.emitted = 0
         self._history: list[Sample] = []  # centred: the last <= W accepted samples
         self._length = 0  # centred: samples in the current history, all told
-        window = getattr(self.differentiator, 'window', 1)
+        centred = isinstance(self.differentiator, CentredDifferentiator)
+        window = self.differentiator.window if centred else 0
         self._stamps = np.zeros(window, dtype=np.int64)  # centred: last W stamps, newest last
         self._velocity = np.zeros((window, 0))  # centred: last W velocities (W, n)
 

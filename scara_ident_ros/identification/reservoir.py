@@ -34,7 +34,6 @@ class Reservoir:
         self._y = np.empty((self.capacity, n_outputs))
         self._rng = np.random.default_rng(seed)
         self.count = 0  # pairs offered so far
-        self.version = 0  # changes whenever the kept pairs change
 
     def __len__(self) -> int:
         return min(self.count, self.capacity)
@@ -67,10 +66,8 @@ class Reservoir:
                 return False
         self._x[slot] = x
         self._y[slot] = y
-        self.version += 1
         return True
 
     def clear(self) -> None:
         """Forget every pair."""
         self.count = 0
-        self.version += 1
