@@ -1,10 +1,12 @@
 """The one exception of the bag package."""
 from __future__ import annotations
 
+from scara_ident_ros.errors import ScaraIdentError
+
 __all__ = ['BagError']
 
 
-class BagError(Exception):
+class BagError(ScaraIdentError):
     """A bag cannot be read, written or recovered.
 
     The message is one line that says what went wrong and where (the path, and the

@@ -11,6 +11,8 @@ import importlib
 import sys
 from collections.abc import Sequence
 
+from scara_ident_ros.errors import ScaraIdentError
+
 __all__ = ['SUBCOMMANDS', 'main']
 
 #: Subcommand name -> module under ``scara_ident_ros.cli``.
@@ -25,8 +27,9 @@ SUBCOMMANDS: dict[str, str] = {
 }
 
 
-class CliError(Exception):
-    """A user-facing error: printed as one line, exit status 2, no traceback."""
+class CliError(ScaraIdentError):
+    """A bad option: printed as one line, exit status 2, no traceback (as every
+    :class:`~scara_ident_ros.errors.ScaraIdentError`)."""
 
 
 def build_parser(only: str | None = None) -> argparse.ArgumentParser:
@@ -56,7 +59,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     try:
         return int(args.func(args) or 0)
-    except CliError as exc:
+    except ScaraIdentError as exc:
         print(f'scara-ident {args.command}: error: {exc}', file=sys.stderr)
         return 2
     except KeyboardInterrupt:

@@ -34,22 +34,14 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Evaluate and print the table."""
-    from scara_ident_ros.bag import BagError
-    from scara_ident_ros.offline.evaluation import (ModelMismatch, errors_markdown, evaluate,
-                                                    load_model, model_joint_names,
-                                                    model_method)
-    from scara_ident_ros.offline.recording import RecordingError, load_recording, skipped_text
+    from scara_ident_ros.offline.evaluation import (errors_markdown, evaluate, load_model,
+                                                    model_joint_names, model_method)
+    from scara_ident_ros.offline.recording import load_recording, skipped_text
 
-    try:
-        network = load_model(args.model)
-    except ModelMismatch as exc:
-        raise CliError(str(exc)) from None
+    network = load_model(args.model)
     names = model_joint_names(network)
     n = network.n_outputs
-    try:
-        recording = load_recording(args.bag, topic=args.topic, joints=names)
-    except (BagError, RecordingError) as exc:
-        raise CliError(str(exc)) from None
+    recording = load_recording(args.bag, topic=args.topic, joints=names)
     samples = recording.samples
     if len(samples.names) != n:
         raise CliError(f'{args.model} is a model of {n} joints, but {args.bag} '

@@ -12,8 +12,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from scara_ident_ros.bag import BagError, recover_bag
-from scara_ident_ros.cli import CliError
+from scara_ident_ros.bag import recover_bag
 
 __all__ = ['add_parser', 'run']
 
@@ -31,9 +30,5 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Recover the bag and print what was kept."""
-    try:
-        report = recover_bag(args.bag, keep_damaged=args.keep)
-    except BagError as exc:
-        raise CliError(str(exc)) from None
-    print(report.summary())
+    print(recover_bag(args.bag, keep_damaged=args.keep).summary())
     return 0

@@ -108,11 +108,10 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Train and save; print the errors on the training and validation data."""
-    from scara_ident_ros.bag import BagError
     from scara_ident_ros.offline.blas_threads import single_blas_thread
     from scara_ident_ros.offline.evaluation import errors_markdown, evaluate
     from scara_ident_ros.offline.progress import TrainingProgress
-    from scara_ident_ros.offline.recording import RecordingError, load_recording, skipped_text
+    from scara_ident_ros.offline.recording import load_recording, skipped_text
     from scara_ident_ros.offline.split import block_index, block_split
 
     if args.iterations < 1:
@@ -129,10 +128,7 @@ def run(args: argparse.Namespace) -> int:
     problem = unwritable_file(args.out)
     if problem:  # before minutes of training, not after
         raise CliError(f'--out {args.out} {problem}')
-    try:
-        recording = load_recording(args.bag, topic=args.topic, joints=args.joints)
-    except (BagError, RecordingError) as exc:
-        raise CliError(str(exc)) from None
+    recording = load_recording(args.bag, topic=args.topic, joints=args.joints)
     samples = recording.samples
     names = samples.names
     try:

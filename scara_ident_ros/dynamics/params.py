@@ -16,6 +16,8 @@ from typing import Any
 import numpy as np
 import yaml
 
+from scara_ident_ros.errors import ScaraIdentError
+
 __all__ = ['ParamError', 'ScaraParams', 'N_JOINTS', 'VECTOR_FIELDS']
 
 N_JOINTS = 4
@@ -25,7 +27,7 @@ VECTOR_FIELDS = ('viscous', 'coulomb', 'position_min', 'position_max', 'velocity
                  'acceleration_max', 'effort_max')
 
 
-class ParamError(ValueError):
+class ParamError(ScaraIdentError, ValueError):
     """An invalid parameter: the message names the field, the offending value and why."""
 
 

@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 import numpy.typing as npt
 
+from scara_ident_ros.errors import ScaraIdentError
 from scara_ident_ros.experiments.errors import effort_errors
 from scara_ident_ros.experiments.tables import format_value
 from scara_ident_ros.identification import ErrorStats
@@ -28,7 +29,7 @@ __all__ = ['ModelMismatch', 'errors_markdown', 'evaluate', 'load_model', 'model_
            'model_method']
 
 
-class ModelMismatch(ValueError):
+class ModelMismatch(ScaraIdentError, ValueError):
     """A network file cannot be used with a recording (one-line message)."""
 
 

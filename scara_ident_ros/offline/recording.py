@@ -15,6 +15,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from scara_ident_ros.errors import ScaraIdentError
 from scara_ident_ros.offline.dataset import (JointStateArrays, RecordedDataset,
                                              dataset_from_joint_states)
 
@@ -24,7 +25,7 @@ __all__ = ['MIN_SAMPLES', 'Recording', 'RecordingError', 'load_recording', 'skip
 MIN_SAMPLES = 20
 
 
-class RecordingError(ValueError):
+class RecordingError(ScaraIdentError, ValueError):
     """A bag was read but its joint states cannot be used (one-line message)."""
 
 

@@ -1,0 +1,13 @@
+"""The package's base exception.
+
+Every domain exception derives from :class:`ScaraIdentError` (``BagError``,
+``ModelFormatError``, ``ParamError``, ``RecordingError``, ``ModelMismatch``, ``CliError``), so
+``scara-ident`` prints any of them as one line with exit status 2 from a single handler.
+"""
+from __future__ import annotations
+
+__all__ = ['ScaraIdentError']
+
+
+class ScaraIdentError(Exception):
+    """An error the user can act on; the message is one line saying what and where."""
