@@ -46,6 +46,10 @@ PARAMETERS = (
               'empty: the joint_names of the robot file', items=str),
     ParamSpec('rate_hz', 1000.0, 'Sample rate; simulated time advances 1/rate_hz per sample',
               'Hz', min=1.0, max=100_000.0),
+    ParamSpec('jitter', 0.0, 'Standard deviation of each stamp around its nominal time '
+              'k/rate_hz, as a ros2_control loop wakes up (seeded, clipped to 0.45/rate_hz; '
+              'the state is simulated at the jittered stamp, published at the nominal time); '
+              '0: exact stamps', 's', min=0.0, max=0.5),
     ParamSpec('real_time_factor', 1.0, 'Simulated seconds per wall-clock second; '
               '0 runs as fast as possible', min=0.0, max=1000.0),
     ParamSpec('duration', 0.0, 'Simulated time after which the node stops; 0 runs forever',
@@ -91,7 +95,8 @@ class ScaraSimNode(Node):
             config = SimConfig(
                 dt=self.period_ns / NS_PER_S, substeps=s['substeps'], seed=s['seed'],
                 position_noise=s['position_noise'], velocity_noise=s['velocity_noise'],
-                effort_noise=s['effort_noise'], disturbance=s['disturbance'])
+                effort_noise=s['effort_noise'], disturbance=s['disturbance'],
+                jitter=s['jitter'])
             trajectory = make_trajectory(s['trajectory'], params, seed=s['seed'])
             self.simulator = Simulator(params, trajectory, config)
         except (ParamError, OSError) as exc:

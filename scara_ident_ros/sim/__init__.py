@@ -3,6 +3,7 @@ endless sequence of them), controller, plant."""
 from __future__ import annotations
 
 from scara_ident_ros.sim.controller import ComputedTorqueController
+from scara_ident_ros.sim.jitter import StampJitter
 from scara_ident_ros.sim.simulator import SimConfig, SimRecord, SimSample, Simulator
 from scara_ident_ros.sim.sequence import SequenceTrajectory
 from scara_ident_ros.sim.trajectory import (PRESETS, SEQUENCE, TRAJECTORIES, FourierTrajectory,
@@ -10,4 +11,4 @@ from scara_ident_ros.sim.trajectory import (PRESETS, SEQUENCE, TRAJECTORIES, Fou
 
 __all__ = ['FourierTrajectory', 'SequenceTrajectory', 'PRESETS', 'SEQUENCE', 'TRAJECTORIES',
            'make_trajectory', 'ComputedTorqueController', 'SimConfig', 'SimSample', 'SimRecord',
-           'Simulator']
+           'Simulator', 'StampJitter']

@@ -1,14 +1,18 @@
 """Fixed-rate simulation of the SCARA tracking an excitation under computed-torque control.
 
-Each sample k at time t_k = k·dt:
+Each sample k at time t_k = k·dt (plus, with ``jitter``, a seeded offset e_k: the stamps of a
+real-time loop, see :mod:`scara_ident_ros.sim.jitter`):
 
 1. the sensors read q and q' (true state plus optional Gaussian noise);
 2. the controller computes τ_k from the readings and the desired q, q', q'' at t_k, clipped
-   to the effort limits; τ_k and the disturbance T_d(t_k) are held over [t_k, t_k + dt)
+   to the effort limits; τ_k and the disturbance T_d(t_k) are held over [t_k, t_{k+1})
    (zero-order hold, like a digital drive);
 3. the sample reports the readings, the true acceleration
    q''_k = M⁻¹ (τ_k − T_d − C q' − F − G) at the true state, and τ_k plus optional noise;
 4. the true state is integrated to t_{k+1} by ``substeps`` classical RK4 steps.
+
+With jitter the steps have the lengths t_{k+1} − t_k, so every sample is the state at its own
+stamp and its effort the one applied from that stamp on: the inputs stay consistent.
 
 The per-sample work runs on plain Python floats (see ``ScaraModel.*_single``): at 4 RK4
 substeps one sample costs a few tens of microseconds, so a 1 kHz node keeps up.
@@ -26,6 +30,7 @@ from scara_ident_ros.dynamics.model import ScaraModel
 from scara_ident_ros.dynamics.params import (N_JOINTS, ParamError, ScaraParams, _check_keys,
                                              _integer, _scalar, _vector4)
 from scara_ident_ros.sim.controller import ComputedTorqueController
+from scara_ident_ros.sim.jitter import MAX_JITTER_FRACTION, StampJitter
 from scara_ident_ros.sim.trajectory import FourierTrajectory
 
 __all__ = ['DISTURBANCES', 'SimConfig', 'SimSample', 'SimRecord', 'Simulator']
@@ -63,8 +68,12 @@ class SimConfig:
     model_mismatch : float
         Relative error in [0, 1) of the controller's model parameters (see
         ``ScaraParams.perturbed``); 0 gives the controller the true model.
+    jitter : float
+        Standard deviation of each sample's stamp around its nominal time k·dt (s), in
+        [0, dt / 2]: a real-time loop's wake-up jitter (:class:`StampJitter`); the state is
+        integrated to the jittered stamps. 0: stamps exactly k·dt.
     seed : int
-        Seed of the noise, disturbance and mismatch draws, >= 0.
+        Seed of the noise, disturbance, mismatch and jitter draws, >= 0.
     """
 
     dt: float = 1e-3                                             # s
@@ -78,6 +87,7 @@ class SimConfig:
     disturbance_kind: str = 'sinusoid'
     disturbance_frequency_hz: float = 0.5                        # Hz
     model_mismatch: float = 0.0
+    jitter: float = 0.0                                          # s
     seed: int = 0
 
     def __post_init__(self) -> None:
@@ -106,6 +116,10 @@ class SimConfig:
              _scalar('model_mismatch', self.model_mismatch, minimum=0.0, strict=False))
         if self.model_mismatch >= 1.0:
             raise ParamError(f'model_mismatch must be < 1, got {self.model_mismatch!r}')
+        set_(self, 'jitter', _scalar('jitter', self.jitter, minimum=0.0, strict=False))
+        if self.jitter > MAX_JITTER_FRACTION * self.dt:
+            raise ParamError(f'jitter must be <= {MAX_JITTER_FRACTION:g} dt = '
+                             f'{MAX_JITTER_FRACTION * self.dt:g} s, got {self.jitter!r}')
         set_(self, 'seed', _integer('seed', self.seed, minimum=0))
 
     @property
@@ -137,7 +151,7 @@ class SimSample:
     Attributes
     ----------
     stamp_ns : int
-        Time of the sample, k · dt (ns).
+        Time of the sample, k · dt plus its jitter (ns).
     q, qd : ndarray of shape (4,)
         Measured positions (rad, rad, m, rad) and velocities (rad/s, m/s), with noise if any.
     qdd : ndarray of shape (4,)
@@ -203,7 +217,8 @@ class Simulator:
         self.config = SimConfig() if config is None else config
         cfg = self.config
         self.model = ScaraModel(params)
-        noise_seed, disturbance_seed, mismatch_seed = np.random.SeedSequence(cfg.seed).spawn(3)
+        noise_seed, disturbance_seed, mismatch_seed, jitter_seed = (
+            np.random.SeedSequence(cfg.seed).spawn(4))
         self._noise_seed = noise_seed
         self._disturbance_seed = disturbance_seed
         controller_params = params
@@ -214,6 +229,8 @@ class Simulator:
                                                    cfg.kd, effort_max=params.effort_max)
         self._dt_ns = cfg.dt_ns
         self._h = cfg.dt / cfg.substeps
+        self._jitter = StampJitter(cfg.dt_ns, cfg.jitter,
+                                   seed=int(jitter_seed.generate_state(1)[0]))
         self._noisy = any(cfg.position_noise + cfg.velocity_noise + cfg.effort_noise)
         self._noise_std = np.array(cfg.position_noise + cfg.velocity_noise
                                    + cfg.effort_noise)
@@ -227,6 +244,7 @@ class Simulator:
         """Go back to t = 0 on the trajectory and restart the random streams."""
         cfg = self.config
         self._k = 0
+        self._stamp_ns = self._jitter.stamp_ns(0)
         q, qd, _ = self.trajectory.evaluate(0.0)
         self._q = tuple(q.tolist())
         self._qd = tuple(qd.tolist())
@@ -244,7 +262,7 @@ class Simulator:
     @property
     def stamp_ns(self) -> int:
         """Stamp of the next sample (ns)."""
-        return self._k * self._dt_ns
+        return self._stamp_ns
 
     @property
     def state(self) -> tuple[np.ndarray, np.ndarray]:
@@ -319,7 +337,14 @@ class Simulator:
             net = (tau[0] - d[0], tau[1] - d[1], tau[2] - d[2], tau[3] - d[3])
         fd = self.model.forward_dynamics_single
         qdd = fd(q, qd, net)
-        self._q, self._qd = _rk4(fd, q, qd, qdd, net, self._h, self.config.substeps)
+        stamp = self._stamp_ns
+        h = self._h
+        if self.config.jitter:
+            self._stamp_ns = self._jitter.stamp_ns(k + 1)
+            h = (self._stamp_ns - stamp) * 1e-9 / self.config.substeps  # s
+        else:
+            self._stamp_ns = stamp + self._dt_ns
+        self._q, self._qd = _rk4(fd, q, qd, qdd, net, h, self.config.substeps)
         if self._kind == 'random':
             alpha = self._alpha
             gain = math.sqrt(1.0 - alpha * alpha)
@@ -331,16 +356,16 @@ class Simulator:
         else:
             effort = tau
         self._k = k + 1
-        return k * self._dt_ns, q_meas, qd_meas, qdd, effort
+        return stamp, q_meas, qd_meas, qdd, effort
 
     # -- internals ----------------------------------------------------------------------------
 
     def _desired_at(self, k: int) -> tuple[list[float], list[float], list[float]]:
-        """Desired q, q', q'' at sample k, from a vectorised batch evaluated ahead."""
+        """Desired q, q', q'' at sample k's stamp, from a vectorised batch evaluated ahead."""
         index = k - self._chunk_start
         if not 0 <= index < len(self._desired):
             self._chunk_start = k
-            times = (k + np.arange(_CHUNK)) * self._dt_ns * 1e-9
+            times = self._jitter.stamps_ns(k, _CHUNK) * 1e-9
             q, qd, qdd = self.trajectory.evaluate(times)
             self._desired = list(zip(q.tolist(), qd.tolist(), qdd.tolist()))
             index = 0
@@ -349,7 +374,7 @@ class Simulator:
     def _disturbance_now(self) -> tuple[float, ...]:
         if self._kind == 'sinusoid':
             w_t = (2.0 * math.pi * self.config.disturbance_frequency_hz
-                   * self._k * self._dt_ns * 1e-9)                             # rad
+                   * self._stamp_ns * 1e-9)                                    # rad
             return tuple(a * math.sin(w_t + p) for a, p in zip(self._amplitude, self._phase))
         return self._dist
 
