@@ -1,0 +1,252 @@
+"""Is a node doing its job? Levels, messages and figures for ``/diagnostics``, without ROS.
+
+Each node of the graph reports once a second (``diagnostic_msgs/DiagnosticStatus``,
+converted in :mod:`scara_ident_ros.nodes.diagnostics`) a :class:`Health`: a level, one
+line saying what is wrong and what to do about it, and its figures as key/values. The
+rules, with the thresholds stated in the messages:
+
+identifier
+    ERROR when the windowed prediction error is not finite (the model diverged: call
+    ``~/reset``) or when samples were lost in the last period (stamp gaps of more than
+    1.5 sample periods: the publisher or the network dropped them, or the node fell so far
+    behind that its queue overflowed); WARN when no sample arrived for more than
+    :data:`STALE_AFTER` s, when more than :data:`SKIPPED_WARN` of the last period's
+    samples were skipped, or when the validation NMSE exceeds :data:`NMSE_WARN` (the model
+    predicts the held-out samples worse than their mean would).
+simulator
+    WARN when more than :data:`LATE_WARN` of the last period's samples were late (the
+    machine cannot keep real time), ERROR when it published less than
+    :data:`RATE_ERROR` of its nominal rate.
+recorder
+    WARN while paused (messages are not written); OK otherwise: losses before the recorder
+    are not visible to it (module docstring of :mod:`scara_ident_ros.nodes.recorder`).
+
+Everything here is plain Python: the nodes pass counters and times in, unit tests too.
+"""
+from __future__ import annotations
+
+import math
+import statistics
+from dataclasses import dataclass, field
+from enum import IntEnum
+
+__all__ = ['Level', 'Health', 'Deltas', 'LossCounter', 'identifier_health',
+           'simulator_health', 'recorder_health', 'STALE_AFTER', 'SKIPPED_WARN', 'NMSE_WARN',
+           'LATE_WARN', 'RATE_ERROR']
+
+STALE_AFTER = 1.0  # s without a sample before the identifier warns
+SKIPPED_WARN = 0.1  # fraction of a period's samples skipped before the identifier warns
+NMSE_WARN = 1.0  # validation NMSE above which the model is worse than the mean
+LATE_WARN = 0.01  # fraction of a period's samples late before the simulator warns
+RATE_ERROR = 0.5  # fraction of the nominal rate below which the simulator is in error
+LOST_GAP = 1.5  # stamp gap, in sample periods, from which samples count as lost
+LOST_SPAN = 1.0  # s: a longer stamp jump is a restart of the stream, not lost samples
+PERIOD_SAMPLES = 64  # stamp differences whose median is the stream's period
+
+
+class Level(IntEnum):
+    """Severity, with the values of ``diagnostic_msgs/DiagnosticStatus`` (OK=0 ... STALE=3)."""
+
+    OK = 0
+    WARN = 1
+    ERROR = 2
+    STALE = 3
+
+
+@dataclass(frozen=True)
+class Health:
+    """One node's state: level, what is wrong (or what it does), figures by name.
+
+    Attributes
+    ----------
+    level : Level
+        The worst of the problems found, OK if none.
+    message : str
+        The problems, '; '-separated, each with its threshold; or a one-line summary.
+    values : dict of str to str
+        The figures, formatted, in a stable order.
+    """
+
+    level: Level
+    message: str
+    values: dict[str, str] = field(default_factory=dict)
+
+
+class Deltas:
+    """How much cumulative counters grew since the previous call (the first: since 0)."""
+
+    def __init__(self) -> None:
+        self._last: dict[str, float] = {}
+
+    def __call__(self, **counters: float) -> dict[str, float]:
+        """Return each counter's growth since the previous call, by name."""
+        grown = {name: value - self._last.get(name, 0) for name, value in counters.items()}
+        self._last = counters
+        return grown
+
+
+class LossCounter:
+    """Samples missing from a periodic stream, estimated from its stamps.
+
+    The period is the median of the latest :data:`PERIOD_SAMPLES` stamp differences
+    (robust to jitter and to the odd loss), renewed every :data:`PERIOD_SAMPLES` samples; a
+    difference ``dt`` with ``LOST_GAP`` periods <= dt <= ``LOST_SPAN`` s counts
+    ``round(dt / period) - 1`` lost samples. Larger jumps (a replay or simulator restarting,
+    a pause) and stamps repeated or going backwards count nothing.
+    """
+
+    def __init__(self) -> None:
+        self.lost = 0  #: samples estimated lost so far
+        self.period_ns: float | None = None  #: the stream's sample period, once known
+        self._last_ns: int | None = None
+        self._dts: list[int] = []  # the latest stamp differences, ns
+
+    def observe(self, stamp_ns: int) -> None:
+        """Take the stamp (integer ns) of the next sample received."""
+        last = self._last_ns
+        if last is None or stamp_ns > last:
+            self._last_ns = stamp_ns
+        if last is None or stamp_ns <= last:
+            return  # the first, a repeated or a late one: nothing known missing
+        dt = stamp_ns - last
+        if dt > LOST_SPAN * 1e9:
+            return
+        dts = self._dts
+        dts.append(dt)
+        if len(dts) == PERIOD_SAMPLES or (self.period_ns is None and len(dts) >= 3):
+            self.period_ns = float(statistics.median(dts))
+            if len(dts) == PERIOD_SAMPLES:
+                dts.clear()
+        period = self.period_ns
+        if period is not None and dt >= LOST_GAP * period:
+            self.lost += round(dt / period) - 1
+
+
+def _level(problems: list[tuple[Level, str]], summary: str) -> tuple[Level, str]:
+    if not problems:
+        return Level.OK, summary
+    return max(level for level, _ in problems), '; '.join(text for _, text in problems)
+
+
+def _number(value: float | None, digits: int = 4) -> str:
+    return 'n/a' if value is None or math.isnan(value) else f'{value:.{digits}g}'
+
+
+def identifier_health(*, period_s: float, since_sample_s: float | None, processed: int,
+                      skipped: int, lost: int, learnt: int, recent_processed: int,
+                      recent_skipped: int, recent_lost: int, lag_s: float | None,
+                      error_finite: bool, validation_nmse: float | None,
+                      learning: bool) -> Health:
+    """The identifier's health over the last ``period_s`` seconds.
+
+    Parameters
+    ----------
+    period_s : float
+        Seconds since the previous report, > 0.
+    since_sample_s : float or None
+        Seconds since the latest sample arrived; None if none has.
+    processed, skipped, lost, learnt : int
+        Counters since start (learnt: samples the model learnt from).
+    recent_processed, recent_skipped, recent_lost : int
+        The same counters' growth over the period.
+    lag_s : float or None
+        Largest delay from a sample's stamp to its prediction in the period (s); None if
+        nothing was predicted.
+    error_finite : bool
+        Whether the windowed prediction error is finite (True before any).
+    validation_nmse : float or None
+        The model's NMSE over the held-out samples; None or NaN until there are enough.
+    learning : bool
+        Whether the node learns (parameter ``learn``).
+    """
+    rate = recent_processed / period_s
+    problems: list[tuple[Level, str]] = []
+    if not error_finite:
+        problems.append((Level.ERROR, 'prediction error is not finite: the model diverged, '
+                         'call ~/reset'))
+    if recent_lost:
+        problems.append((Level.ERROR, f'{recent_lost} samples lost in the last '
+                         f'{period_s:.1f} s (stamp gaps > {LOST_GAP:g} periods): the '
+                         'publisher, the network or a full queue dropped them'))
+    if since_sample_s is None:
+        problems.append((Level.WARN, 'no sample received yet: is joint_states published '
+                         'and remapped to this node?'))
+    elif since_sample_s > STALE_AFTER:
+        problems.append((Level.WARN, f'no sample for {since_sample_s:.1f} s '
+                         f'(> {STALE_AFTER:g} s): has the joint_states publisher stopped?'))
+    if recent_processed and recent_skipped / recent_processed > SKIPPED_WARN:
+        problems.append((Level.WARN, f'{recent_skipped / recent_processed:.0%} of the '
+                         f'samples skipped (> {SKIPPED_WARN:.0%}): see the log for why'))
+    if validation_nmse is not None and validation_nmse > NMSE_WARN:
+        problems.append((Level.WARN, f'validation NMSE {validation_nmse:.3g} > {NMSE_WARN:g}: '
+                         'the model predicts worse than the mean'))
+    level, message = _level(problems, f"identifying at {rate:.0f} samples/s, learning "
+                                      f"{'on' if learning else 'off'}")
+    return Health(level, message, {
+        'samples/s': f'{rate:.1f}', 'lag [ms]': _number(None if lag_s is None
+                                                        else lag_s * 1e3, 3),
+        'processed': str(processed), 'skipped': str(skipped), 'lost': str(lost),
+        'learnt': str(learnt), 'learning': str(learning).lower(),
+        'validation NMSE': _number(validation_nmse)})
+
+
+def simulator_health(*, period_s: float, nominal_hz: float, published: int, late: int,
+                     recent_published: int, recent_late: int, waiting: bool) -> Health:
+    """The simulator's health over the last ``period_s`` seconds.
+
+    Parameters
+    ----------
+    period_s : float
+        Seconds since the previous report, > 0.
+    nominal_hz : float
+        The rate it should publish at (``rate_hz`` times the real-time factor); 0: as fast
+        as possible, no rate check.
+    published, late : int
+        Samples published and samples late by more than one period, since start.
+    recent_published, recent_late : int
+        Their growth over the period.
+    waiting : bool
+        Still waiting for subscribers, nothing published yet on purpose.
+    """
+    rate = recent_published / period_s
+    problems: list[tuple[Level, str]] = []
+    if not waiting:
+        if nominal_hz > 0 and rate < RATE_ERROR * nominal_hz:
+            problems.append((Level.ERROR, f'publishing {rate:.0f} samples/s, less than '
+                             f'{RATE_ERROR:.0%} of {nominal_hz:g} Hz'))
+        if recent_published and recent_late / recent_published > LATE_WARN:
+            problems.append((Level.WARN, f'{recent_late} of {recent_published} samples late '
+                             f'(> {LATE_WARN:.0%}): the machine cannot keep real time'))
+    summary = ('waiting for subscribers' if waiting
+               else f'publishing {rate:.0f} samples/s')
+    level, message = _level(problems, summary)
+    return Health(level, message, {'samples/s': f'{rate:.1f}', 'nominal [Hz]': f'{nominal_hz:g}',
+                                   'published': str(published), 'late': str(late),
+                                   'late in period': str(recent_late)})
+
+
+def recorder_health(*, period_s: float, written: int, received: int, paused: int,
+                    recent_written: int, is_paused: bool, files: int, topics: int) -> Health:
+    """The recorder's health over the last ``period_s`` seconds.
+
+    Parameters
+    ----------
+    period_s : float
+        Seconds since the previous report, > 0.
+    written, received, paused : int
+        Messages written, received, and received while paused (not written), since start.
+    recent_written : int
+        Growth of ``written`` over the period.
+    is_paused : bool
+        Whether it is paused now.
+    files, topics : int
+        Storage files of the bag so far, topics recorded.
+    """
+    rate = recent_written / period_s
+    problems = ([(Level.WARN, 'paused: messages are not written, call ~/resume')]
+                if is_paused else [])
+    level, message = _level(problems, f'writing {rate:.0f} messages/s on {topics} topic(s)')
+    return Health(level, message, {
+        'write rate [msg/s]': f'{rate:.1f}', 'written': str(written),
+        'received': str(received), 'not written (paused)': str(paused),
+        'files': str(files), 'topics': str(topics)})

@@ -1,0 +1,115 @@
+"""The diagnostics levels of :mod:`scara_ident_ros.identification.health` follow the conditions."""
+from __future__ import annotations
+
+from typing import Any
+
+import pytest
+
+from scara_ident_ros.identification.health import (Deltas, Level, LossCounter,
+                                                   identifier_health, recorder_health,
+                                                   simulator_health)
+
+MS = 1_000_000  # ns
+
+
+def healthy_identifier(**changes: Any) -> dict[str, Any]:
+    """An identifier's figures over a 1 s period at 1 kHz with nothing wrong, changed."""
+    figures = dict(period_s=1.0, since_sample_s=0.001, processed=5000, skipped=10, lost=0,
+                   learnt=4500, recent_processed=1000, recent_skipped=0, recent_lost=0,
+                   lag_s=0.012, error_finite=True, validation_nmse=0.05, learning=True)
+    figures.update(changes)
+    return figures
+
+
+def test_identifier_ok_reports_its_figures() -> None:
+    health = identifier_health(**healthy_identifier())
+    assert health.level is Level.OK
+    assert health.message == 'identifying at 1000 samples/s, learning on'
+    assert health.values == {'samples/s': '1000.0', 'lag [ms]': '12', 'processed': '5000',
+                             'skipped': '10', 'lost': '0', 'learnt': '4500',
+                             'learning': 'true', 'validation NMSE': '0.05'}
+
+
+@pytest.mark.parametrize(('changes', 'level', 'words'), [
+    ({'since_sample_s': 1.5, 'recent_processed': 0}, Level.WARN, 'no sample for 1.5 s (> 1 s)'),
+    ({'since_sample_s': None, 'recent_processed': 0}, Level.WARN, 'no sample received yet'),
+    ({'recent_skipped': 200}, Level.WARN, '20% of the samples skipped (> 10%)'),
+    ({'validation_nmse': 1.2}, Level.WARN, 'validation NMSE 1.2 > 1'),
+    ({'recent_lost': 3, 'lost': 3}, Level.ERROR, '3 samples lost in the last 1.0 s'),
+    ({'error_finite': False}, Level.ERROR, 'not finite'),
+    ({'error_finite': False, 'validation_nmse': 2.0}, Level.ERROR, 'worse than the mean'),
+])
+def test_identifier_levels_follow_the_conditions(changes: dict[str, Any], level: Level,
+                                                 words: str) -> None:
+    health = identifier_health(**healthy_identifier(**changes))
+    assert health.level is level
+    assert words in health.message
+
+
+def test_identifier_thresholds_are_exclusive() -> None:
+    at_limits = healthy_identifier(since_sample_s=1.0, recent_skipped=100, validation_nmse=1.0)
+    assert identifier_health(**at_limits).level is Level.OK
+
+
+def test_identifier_without_validation_or_predictions_says_not_available() -> None:
+    health = identifier_health(**healthy_identifier(validation_nmse=float('nan'), lag_s=None))
+    assert health.level is Level.OK
+    assert health.values['validation NMSE'] == 'n/a'
+    assert health.values['lag [ms]'] == 'n/a'
+
+
+def test_simulator_levels() -> None:
+    ok = simulator_health(period_s=1.0, nominal_hz=1000.0, published=3000, late=0,
+                          recent_published=1000, recent_late=5, waiting=False)
+    assert ok.level is Level.OK and ok.values['samples/s'] == '1000.0'
+    late = simulator_health(period_s=1.0, nominal_hz=1000.0, published=3000, late=20,
+                            recent_published=1000, recent_late=20, waiting=False)
+    assert late.level is Level.WARN and '20 of 1000 samples late (> 1%)' in late.message
+    slow = simulator_health(period_s=1.0, nominal_hz=1000.0, published=3000, late=0,
+                            recent_published=400, recent_late=0, waiting=False)
+    assert slow.level is Level.ERROR and 'less than 50% of 1000 Hz' in slow.message
+    waiting = simulator_health(period_s=1.0, nominal_hz=1000.0, published=0, late=0,
+                               recent_published=0, recent_late=0, waiting=True)
+    assert waiting.level is Level.OK and waiting.message == 'waiting for subscribers'
+    as_fast = simulator_health(period_s=1.0, nominal_hz=0.0, published=10, late=0,
+                               recent_published=10, recent_late=0, waiting=False)
+    assert as_fast.level is Level.OK
+
+
+def test_recorder_warns_while_paused() -> None:
+    figures = dict(period_s=2.0, written=100, received=150, paused=50, recent_written=100,
+                   files=2, topics=3)
+    running = recorder_health(is_paused=False, **figures)
+    assert running.level is Level.OK and running.values['write rate [msg/s]'] == '50.0'
+    assert running.values['not written (paused)'] == '50'
+    paused = recorder_health(is_paused=True, **figures)
+    assert paused.level is Level.WARN and '~/resume' in paused.message
+
+
+def test_deltas_since_the_previous_call() -> None:
+    deltas = Deltas()
+    assert deltas(a=5, b=1) == {'a': 5, 'b': 1}
+    assert deltas(a=7, b=1) == {'a': 2, 'b': 0}
+
+
+def test_loss_counter_counts_missing_samples_from_stamp_gaps() -> None:
+    counter = LossCounter()
+    stamps = [0, 1, 2, 3, 5, 6, 10, 11, 11, 10, 12]  # ms: 4 and 7-9 missing; repeats ignored
+    for stamp in stamps:
+        counter.observe(stamp * MS)
+    assert counter.period_ns == MS
+    assert counter.lost == 4
+    for stamp in range(13, 13 + 128):  # a slower stream: its period replaces the old one
+        counter.observe(stamp * 2 * MS)
+    assert counter.period_ns == 2 * MS
+    lost = counter.lost
+    for stamp in range(141, 141 + 50):
+        counter.observe(stamp * 2 * MS)
+    assert counter.lost == lost
+
+
+def test_loss_counter_tolerates_jitter_and_ignores_restarts() -> None:
+    counter = LossCounter()
+    for stamp in [0.0, 1.0, 2.0, 3.4, 4.0, 5.3, 6.0, 5000.0, 5001.0]:  # ms; then 5 s
+        counter.observe(round(stamp * MS))
+    assert counter.lost == 0
