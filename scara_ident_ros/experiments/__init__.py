@@ -25,8 +25,9 @@ from scara_ident_ros.experiments.hyperparameters import (DEFAULT_GRID, QUICK_GRI
                                                          Hyperparameters, Scaling,
                                                          SearchResult, Trial, best_of,
                                                          build_network, search)
-from scara_ident_ros.experiments.offline import (DEFAULT_GOAL, OfflineFit, fit_offline,
-                                                 goal_iteration, offline_rows, run_offline)
+from scara_ident_ros.experiments.offline import (DEFAULT_GOAL, OfflineFit, OfflineRuns,
+                                                 fit_offline, goal_iteration, offline_rows,
+                                                 run_offline, train_offline)
 from scara_ident_ros.experiments.online import (DEFAULT_WINDOW, OnlineTrace, hold_rows,
                                                 learn_online, online_rows, run_online,
                                                 stream_data_names)
@@ -39,11 +40,12 @@ from scara_ident_ros.experiments.tables import (PAPER_ITERATIONS, PAPER_NOTE, PA
                                                 PAPER_TABLE2, PAPER_TABLE3, format_spread,
                                                 format_value, joint_markdown,
                                                 offline_markdown, online_markdown,
-                                                paper_ranking, ranking, read_csv, write_csv)
+                                                paper_ranking, ranking, ranking_text, read_csv,
+                                                write_csv)
 
 __all__ = [
     'ACCELERATIONS', 'DEFAULT_GOAL', 'DEFAULT_GRID', 'DEFAULT_WINDOW', 'Dataset',
-    'Evaluations', 'Grid', 'HOLD', 'Hyperparameters', 'OfflineFit', 'OnlineTrace',
+    'Evaluations', 'Grid', 'HOLD', 'Hyperparameters', 'OfflineFit', 'OfflineRuns', 'OnlineTrace',
     'PAPER_ITERATIONS', 'PAPER_NOTE', 'PAPER_SAMPLES', 'PAPER_TABLE2', 'PAPER_TABLE3',
     'QUICK_GRID', 'REFERENCE', 'ReferenceFit', 'ResultRow', 'Scaling', 'SearchResult',
     'Spread', 'Summary', 'Trial', 'best_of', 'build_network', 'dataset_from_record',
@@ -51,6 +53,7 @@ __all__ = [
     'format_value', 'goal_iteration', 'hold_rows', 'joint_markdown', 'learn_online',
     'make_dataset', 'offline_markdown', 'offline_rows', 'online_markdown',
     'online_reference_rows', 'online_rows', 'paper_ranking', 'predict_reference', 'ranking',
-    'read_csv', 'recent_errors', 'reference_rows', 'run_offline', 'run_online', 'search',
-    'simulate_dataset', 'simulate_record', 'stream_data_names', 'summarise', 'write_csv',
+    'ranking_text', 'read_csv', 'recent_errors', 'reference_rows', 'run_offline', 'run_online',
+    'search', 'simulate_dataset', 'simulate_record', 'stream_data_names', 'summarise',
+    'train_offline', 'write_csv',
 ]

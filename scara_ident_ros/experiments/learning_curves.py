@@ -37,7 +37,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
-from threadpoolctl import threadpool_limits
 
 from scara_ident_ros.dynamics import ScaraParams
 from scara_ident_ros.dynamics.recursive_least_squares import RecursiveLeastSquares
@@ -227,7 +226,9 @@ def _job(job: tuple[ScaraParams, str, str, int, float, bool, tuple[float, float]
          ) -> list[Curve]:
     # One BLAS thread: a worker's LM systems gain nothing from more, and two workers with
     # two threads each on 2 cores doubled the CPU time measured per curve.
-    with threadpool_limits(limits=1, user_api='blas'):
+    from scara_ident_ros.offline.blas_threads import single_blas_thread  # offline imports us
+
+    with single_blas_thread():
         return _curves(*job)
 
 

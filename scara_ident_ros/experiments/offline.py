@@ -19,18 +19,20 @@ Public API (plain arrays; X (N, 3n) = [q, q', q''], Y (N, n) efforts)::
                 scaling=None, n_hidden=40) -> OfflineFit
     goal_iteration(history, goal) -> int | None
     offline_rows(fit, evaluations, *, goal=None) -> list[ResultRow]
-    run_offline(X, Y, evaluations=None, *, methods=('ffmw', 'ffw', 'ffs'), seeds=range(5),
-                iterations=315, goal=1e-5, hyperparameters=None, scaling=None,
-                progress=None) -> list[ResultRow]
+    train_offline(X, Y, evaluations=None, *, methods=('ffmw', 'ffw', 'ffs'), seeds=range(5),
+                  iterations=315, goal=1e-5, hyperparameters=None, scaling=None,
+                  time_budget_s=None, progress=None) -> OfflineRuns
+    run_offline(X, Y, evaluations=None, **options) -> list[ResultRow]  (train_offline's rows)
 
 ``evaluations`` maps a data name to (X, Y), e.g. ``{'held-out': (X_test, Y_test)}``;
-`run_offline` always adds ``'train'`` (the fitted samples) first.
+`train_offline` always adds ``'train'`` (the fitted samples) first.
 """
 from __future__ import annotations
 
 import time
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -44,8 +46,8 @@ from scara_ident_ros.methods import METHODS
 from scara_ident_ros.methods import method as method_spec
 from scara_ident_ros.nn import FeedForwardNet, FitHistory
 
-__all__ = ['DEFAULT_GOAL', 'OfflineFit', 'fit_offline',
-           'goal_iteration', 'offline_rows', 'run_offline']
+__all__ = ['DEFAULT_GOAL', 'OfflineFit', 'OfflineRuns', 'fit_offline', 'goal_iteration',
+           'offline_rows', 'run_offline', 'train_offline']
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -152,13 +154,36 @@ def offline_rows(fit: OfflineFit, evaluations: Evaluations, *,
     return rows
 
 
-def run_offline(X: npt.ArrayLike, Y: npt.ArrayLike, evaluations: Evaluations | None = None, *,
-                methods: Sequence[str] = tuple(METHODS), seeds: Iterable[int] = range(5),
-                iterations: int = PAPER_ITERATIONS, goal: float = DEFAULT_GOAL,
-                hyperparameters: Mapping[str, Hyperparameters] | None = None,
-                scaling: Scaling | None = None,
-                progress: Callable[[str], None] | None = None) -> list[ResultRow]:
-    """Train every method from every seed and evaluate: the rows of the Table 2 analog.
+@dataclass(frozen=True)
+class OfflineRuns:
+    """What `train_offline` produced.
+
+    Attributes
+    ----------
+    rows : list of ResultRow
+        Method by method, seed by seed, data set by data set (``'train'`` first).
+    fits : dict of str to list of OfflineFit
+        Method key to its trained networks, one per seed done.
+    seeds, seeds_skipped : list of int
+        Seeds done for every method; seeds left out by the time budget.
+    """
+
+    rows: list[ResultRow]
+    fits: dict[str, list[OfflineFit]]
+    seeds: list[int]
+    seeds_skipped: list[int]
+
+
+def train_offline(X: npt.ArrayLike, Y: npt.ArrayLike, evaluations: Evaluations | None = None,
+                  *, methods: Sequence[str] = tuple(METHODS), seeds: Iterable[int] = range(5),
+                  iterations: int = PAPER_ITERATIONS, goal: float = DEFAULT_GOAL,
+                  hyperparameters: Mapping[str, Hyperparameters] | None = None,
+                  scaling: Scaling | None = None, time_budget_s: float | None = None,
+                  progress: Callable[[str], None] | None = None) -> OfflineRuns:
+    """Train every method from every seed and evaluate: the Table 2 analog.
+
+    Seeds run in rounds (seed 0 for every method, then seed 1, ...), so that a time budget
+    stops between rounds and every method has the same seeds.
 
     Parameters
     ----------
@@ -176,30 +201,44 @@ def run_offline(X: npt.ArrayLike, Y: npt.ArrayLike, evaluations: Evaluations | N
         See `fit_offline` and the module docstring.
     hyperparameters : mapping of method key to Hyperparameters, optional
         Missing methods take the METHODS defaults.
+    time_budget_s : float, optional
+        Wall time after which no new round of seeds starts: a round is skipped when the
+        time so far plus the mean time of the rounds done would exceed it. The first round
+        always runs.
     progress : callable, optional
         Called with a one-line message after each training.
 
     Returns
     -------
-    list of ResultRow
-        Method by method, seed by seed, data set by data set.
+    OfflineRuns
     """
     x = np.asarray(X, dtype=np.float64)
     y = np.asarray(Y, dtype=np.float64)
-    data: dict[str, tuple[npt.ArrayLike, npt.ArrayLike]] = {'train': (x, y)}
-    data.update(evaluations or {})
+    data: dict[str, tuple[npt.ArrayLike, npt.ArrayLike]] = {'train': (x, y), **(evaluations or {})}
     seeds = list(seeds)
-    rows: list[ResultRow] = []
-    for name in methods:
-        hyper = (hyperparameters or {}).get(name)
-        for seed in seeds:
-            fit = fit_offline(name, x, y, seed=seed, hyperparameters=hyper,
+    say = progress or (lambda line: None)
+    started = time.perf_counter()
+    rows: dict[str, list[ResultRow]] = {m: [] for m in methods}
+    fits: dict[str, list[OfflineFit]] = {m: [] for m in methods}
+    for k, seed in enumerate(seeds):
+        elapsed = time.perf_counter() - started
+        if time_budget_s is not None and k > 0 and elapsed * (k + 1) / k > time_budget_s:
+            say(f'time budget of {time_budget_s:g} s for offline training: seeds '
+                f'{", ".join(map(str, seeds[k:]))} left out after {elapsed:.1f} s')
+            return OfflineRuns(sum(rows.values(), []), fits, seeds[:k], seeds[k:])
+        for m in methods:
+            fit = fit_offline(m, x, y, seed=seed, hyperparameters=(hyperparameters or {}).get(m),
                               iterations=iterations, scaling=scaling)
+            fits[m].append(fit)
             new = offline_rows(fit, data, goal=goal)
-            rows.extend(new)
-            if progress is not None:
-                progress(f'offline {new[0].method} seed {seed}: {fit.history.iterations} it '
-                         f'in {fit.seconds:.1f} s, training MSE (scaled) '
-                         f'{fit.history.final_mse:.3g}, {new[-1].data} NMSE '
-                         f'{new[-1].nmse_mean:.3g}')
-    return rows
+            rows[m].extend(new)
+            say(f'offline {new[0].method} seed {seed}: {fit.history.iterations} LM iterations '
+                f'in {fit.seconds:.1f} s, training MSE (scaled) {fit.history.final_mse:.3g}; '
+                'NMSE ' + ', '.join(f'{row.data} {row.nmse_mean:.3g}' for row in new))
+    return OfflineRuns(sum(rows.values(), []), fits, seeds, [])
+
+
+def run_offline(X: npt.ArrayLike, Y: npt.ArrayLike, evaluations: Evaluations | None = None,
+                **options: Any) -> list[ResultRow]:
+    """The rows of `train_offline` (same arguments): method, seed, data set."""
+    return train_offline(X, Y, evaluations, **options).rows

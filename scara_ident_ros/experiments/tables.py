@@ -17,6 +17,7 @@ Public API::
     joint_markdown(summaries, *, table, data, joint_names=None, quantity='nmse') -> str
     ranking(summaries, *, table, data, key='nmse_mean', methods=None) -> list[str]
     paper_ranking(table) -> list[str]
+    ranking_text(summaries, table, criteria, labels) -> str
     write_csv(path, rows, *, joint_names=None) -> None
     read_csv(path) -> list[dict[str, str]]
 """
@@ -31,7 +32,8 @@ from scara_ident_ros.experiments.rows import HOLD, REFERENCE, ResultRow, Spread,
 
 __all__ = ['PAPER_ITERATIONS', 'PAPER_NOTE', 'PAPER_SAMPLES', 'PAPER_TABLE2', 'PAPER_TABLE3',
            'format_spread', 'format_value', 'joint_markdown', 'offline_markdown',
-           'online_markdown', 'paper_ranking', 'ranking', 'read_csv', 'write_csv']
+           'online_markdown', 'paper_ranking', 'ranking', 'ranking_text', 'read_csv',
+           'write_csv']
 
 #: Table 2 of the paper: MSE after 315 offline iterations.
 PAPER_TABLE2 = {'FFMW': 8.3457e-10, 'FFW': 1.0415e-6, 'FFS': 9.1036e-6}
@@ -215,6 +217,48 @@ def paper_ranking(table: str) -> list[str]:
     """The paper's order of the methods, best first, for ``'offline'`` or ``'online'``."""
     numbers = {'offline': PAPER_TABLE2, 'online': PAPER_TABLE3}[table]
     return sorted(numbers, key=numbers.__getitem__)
+
+
+def ranking_text(summaries: Iterable[Summary], table: str,
+                 criteria: Sequence[tuple[str, str, str]], labels: Sequence[str]) -> str:
+    """The measured rankings held against the paper's: Markdown bullets, '' if none.
+
+    Parameters
+    ----------
+    summaries : iterable of Summary
+    table : str
+        ``'offline'`` (the paper's Table 2) or ``'online'`` (Table 3).
+    criteria : sequence of (data, key, text)
+        Rank by the median of ``key`` (a `Summary` field) on ``data``, described as ``text``.
+    labels : sequence of str
+        The methods ranked.
+
+    Returns
+    -------
+    str
+        The paper's ranking, then per criterion the measured one and its verdict: the
+        paper's ranking holds or not (and whether its best is still best), and whether the
+        first two overlap (their min–max ranges over seeds intersect).
+    """
+    summaries = [s for s in summaries if s.table == table]
+    paper = [m for m in paper_ranking(table) if m in labels]
+    index = {(s.method, s.data): s for s in summaries}
+    figure = ('Table 2, MSE after 315 iterations' if table == 'offline'
+              else 'Table 3, error over 100 samples')
+    lines = [f"Paper's ranking ({figure}): {' < '.join(paper)}."]
+    for data, key, text in criteria:
+        order = ranking(summaries, table=table, data=data, key=key, methods=labels)
+        if not order:
+            continue
+        verdict = "the paper's ranking holds" if order == paper else (
+            "the paper's ranking does not hold"
+            + (f', but {order[0]} is best as in the paper' if order[:1] == paper[:1] else ''))
+        if len(order) > 1 and (getattr(index[(order[0], data)], key).high
+                               >= getattr(index[(order[1], data)], key).low):
+            verdict += (f' ({order[0]} and {order[1]} overlap: their min–max ranges over '
+                        'seeds intersect)')
+        lines.append(f'Measured by median {text}: {" < ".join(order)}: {verdict}.')
+    return '' if len(lines) == 1 else '\n'.join(f'- {line}' for line in lines) + '\n'
 
 
 def write_csv(path: str | Path, rows: Iterable[ResultRow], *,

@@ -11,6 +11,7 @@ What ``scara-ident train``, ``evaluate`` and ``tables`` are made of, one concept
 ``retraining``                the Table 2 analog: methods × seeds, Levenberg–Marquardt
 ``figures``                   Figures 6–15 as PNG files
 ``report``                    ``make_report``: everything into ``DIR/report.md``
+``comparison``                ``scara-ident compare``: the same tables on simulated data
 ``progress``                  a text progress bar for ``fit``
 ``blas_threads``              one BLAS thread while training
 ============================  ==========================================================

@@ -13,15 +13,22 @@ from __future__ import annotations
 import contextlib
 from collections.abc import Iterator
 
-__all__ = ['single_blas_thread']
+try:
+    from threadpoolctl import threadpool_limits
+except ImportError:  # pragma: no cover - optional
+    threadpool_limits = None
+
+__all__ = ['BLAS_THREADS', 'single_blas_thread']
+
+#: What :func:`single_blas_thread` does here, for reports.
+BLAS_THREADS = ('1 (threadpoolctl)' if threadpool_limits is not None
+                else 'library default (threadpoolctl not installed)')
 
 
 @contextlib.contextmanager
 def single_blas_thread() -> Iterator[None]:
     """Context in which the BLAS libraries use one thread (if threadpoolctl is available)."""
-    try:
-        from threadpoolctl import threadpool_limits
-    except ImportError:
+    if threadpool_limits is None:
         yield
         return
     with threadpool_limits(limits=1, user_api='blas'):

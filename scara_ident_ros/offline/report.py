@@ -36,20 +36,21 @@ from pathlib import Path
 
 import numpy as np
 
+from scara_ident_ros.offline.comparison import software_versions
 from scara_ident_ros.experiments.datasets import Dataset
 from scara_ident_ros.experiments.errors import effort_errors
 from scara_ident_ros.experiments.offline import DEFAULT_GOAL, PAPER_ITERATIONS, OfflineFit
 from scara_ident_ros.experiments.online import DEFAULT_WINDOW, stream_data_names
-from scara_ident_ros.experiments.rows import ResultRow, Summary, summarise
+from scara_ident_ros.experiments.rows import ResultRow, summarise
 from scara_ident_ros.experiments.tables import (PAPER_NOTE, PAPER_SAMPLES, PAPER_TABLE2,
                                                 PAPER_TABLE3, format_value,
                                                 joint_markdown, offline_markdown,
-                                                online_markdown, paper_ranking, ranking,
-                                                write_csv)
+                                                online_markdown, ranking_text, write_csv)
 from scara_ident_ros.identification import PAPER_WINDOW
 from scara_ident_ros.methods import METHODS
 from scara_ident_ros.methods import method as method_spec
 from scara_ident_ros.nn import DEFAULT_CONSTANTS
+from scara_ident_ros.offline.blas_threads import BLAS_THREADS
 from scara_ident_ros.offline.figures import plot_online_error, plot_torque, plot_training_mse
 from scara_ident_ros.offline.online_results import (STREAM_ALL, OnlinePredictions,
                                                     prediction_rows, read_identifier_mse,
@@ -306,7 +307,9 @@ def _markdown(bags: list[Path], run: Recording, held_out: list[Recording],
         parts.append(f'`{data}` ({len(dataset)} samples):')
         parts.append(joint_markdown(summaries, table='offline', data=data,
                                     joint_names=names).rstrip())
-    parts.append(_ranking_text(summaries, 'offline', ['train', offline.test], labels))
+    parts.append(ranking_text(summaries, 'offline', [(data, 'nmse_mean', f'`{data}` NMSE')
+                                                     for data in ('train', offline.test)],
+                              labels))
 
     parts.append('## Table 3 analog: online identification during the run')
     if online.predictions:
@@ -321,7 +324,8 @@ def _markdown(bags: list[Path], run: Recording, held_out: list[Recording],
             _published_table(online, names),
             f'Per-joint NMSE over the last {DEFAULT_WINDOW} samples:',
             joint_markdown(summaries, table='online', data=long, joint_names=names).rstrip(),
-            _ranking_text(summaries, 'online', [short, long], labels)]
+            ranking_text(summaries, 'online', [(data, 'nmse_mean', f'`{data}` NMSE')
+                                               for data in (short, long)], labels)]
     if online.missing:
         parts.append('No online predictions in the bag for '
                      + ', '.join(f'{method_spec(m).label} (`{torque_topic(m)}`)'
@@ -344,7 +348,7 @@ def _markdown(bags: list[Path], run: Recording, held_out: list[Recording],
                      f'{FIGURE_NMSE_WINDOW}.\n\n![Fig. 15]({figures["fig15"]})')
 
     parts += ['## Conditions (to reproduce)',
-              _conditions(bags, run, held_out, offline, settings),
+              _reproduction_text(bags, run, held_out, offline, settings),
               '## Time', _time_text(timer, offline, settings),
               'Files: `table2_offline.csv`, `table3_online.csv` (every row, every seed, '
               'per-joint columns) and the PNG figures above.']
@@ -359,22 +363,6 @@ def _paper_table() -> str:
     for label, mse in PAPER_TABLE2.items():
         lines.append(f'| {label} | {mse:.4e} | {PAPER_TABLE3[label]:.4e} |')
     return '\n'.join(lines)
-
-
-def _ranking_text(summaries: list[Summary], table: str, data_sets: list[str],
-                  labels: list[str]) -> str:
-    paper = [m for m in paper_ranking(table) if m in labels]
-    figure = 'MSE after 315 iterations' if table == 'offline' else 'error over 100 samples'
-    found = []
-    for data in data_sets:
-        ours = ranking(summaries, table=table, data=data, methods=labels)
-        if ours:
-            same = 'same as' if ours == paper else 'differs from'
-            found.append(f'on `{data}`: {", ".join(ours)} ({same} the paper)')
-    if not found:
-        return ''
-    return (f'Ranking by median NMSE, best first, {"; ".join(found)}. The paper\'s '
-            f'({figure}): {", ".join(paper)}.')
 
 
 def _published_table(online: _Online, names: tuple[str, ...]) -> str:
@@ -398,8 +386,8 @@ def _published_table(online: _Online, names: tuple[str, ...]) -> str:
     return '\n'.join(lines)
 
 
-def _conditions(bags: list[Path], run: Recording, held_out: list[Recording],
-                offline: Retraining, s: _Settings) -> str:
+def _reproduction_text(bags: list[Path], run: Recording, held_out: list[Recording],
+                       offline: Retraining, s: _Settings) -> str:
     lines = []
     for recording in [run, *held_out]:
         data = recording.samples
@@ -445,9 +433,9 @@ def _conditions(bags: list[Path], run: Recording, held_out: list[Recording],
     contiguous = offline.seeds == list(range(len(offline.seeds)))
     lines.append(f'- Command: `{" ".join(command)}`'
                  + ('' if contiguous else f' (the seeds here were {offline.seeds})'))
-    lines.append(f'- Software: Python {platform.python_version()}, numpy {np.__version__}, '
-                 f'{platform.system()} {platform.machine()}, BLAS on one thread while '
-                 'training.')
+    lines.append('- Software: ' + ', '.join(f'{k} {v}' for k, v in software_versions().items())
+                 + f', {platform.system()} {platform.machine()}, BLAS threads while training: '
+                 f'{BLAS_THREADS}.')
     return '\n'.join(lines)
 
 

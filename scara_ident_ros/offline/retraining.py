@@ -3,13 +3,13 @@
 The run's samples (made as the identifier makes them) are split by time: the first
 ``1 − validation_fraction`` is the training part, of which ``samples`` random samples (the
 same for every method and seed) train each method's network with Levenberg–Marquardt for
-``iterations`` iterations (:func:`scara_ident_ros.experiments.offline.fit_offline`, scaling
-from the training samples); the rest of the run ("validation", never trained on) and any
+``iterations`` iterations (:func:`scara_ident_ros.experiments.offline.train_offline`,
+scaling from the training samples); the rest of the run ("validation", never trained on) and any
 held-out runs are evaluated. With 4 joints, the SCARA's model-based least-squares reference
 (LS) is added.
 
-Seeds are run in rounds (seed 0 for every method, then seed 1, ...), so that a time budget
-can stop between rounds and every method still has the same seeds. Training holds the BLAS
+Seeds are run in rounds, so that a time budget can stop between rounds and every method
+still has the same seeds. Training holds the BLAS
 to one thread (:mod:`~scara_ident_ros.offline.blas_threads`).
 
 Public API::
@@ -27,9 +27,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from scara_ident_ros.experiments.datasets import Dataset
-from scara_ident_ros.experiments.offline import OfflineFit, fit_offline, offline_rows
+from scara_ident_ros.experiments.offline import OfflineFit, train_offline
 from scara_ident_ros.experiments.rows import ResultRow
-from scara_ident_ros.experiments.tables import format_value
 from scara_ident_ros.offline.blas_threads import single_blas_thread
 from scara_ident_ros.offline.dataset import time_split
 
@@ -114,7 +113,6 @@ def retrain(samples: Dataset, held_out: Sequence[Dataset] = (), *, methods: Sequ
     """
     if not seeds:
         raise ValueError('need at least one seed')
-    say = progress or (lambda line: None)
     started = time.perf_counter()
     train_part, validation = time_split(samples, validation_fraction)
     train = train_part.subsample(n_samples, seed=0, name='train') if n_samples else \
@@ -125,31 +123,15 @@ def retrain(samples: Dataset, held_out: Sequence[Dataset] = (), *, methods: Sequ
     for i, data in enumerate(held_out):
         evaluations['held-out' if i == 0 else f'held-out-{i + 1}'] = data
     arrays = {name: (d.X, d.Y) for name, d in evaluations.items()}
-    rows: list[ResultRow] = []
-    fits: dict[str, list[OfflineFit]] = {m: [] for m in methods}
-    done: list[int] = []
-    skipped: list[int] = []
     with single_blas_thread():
-        for k, seed in enumerate(seeds):
-            elapsed = time.perf_counter() - started
-            if time_budget_s is not None and k > 0 and elapsed * (k + 1) / k > time_budget_s:
-                skipped = list(seeds[k:])
-                say(f'time budget of {time_budget_s:g} s for offline training: seeds '
-                    f'{", ".join(map(str, skipped))} left out after {elapsed:.1f} s')
-                break
-            for m in methods:
-                fit = fit_offline(m, train.X, train.Y, seed=seed, iterations=iterations)
-                fits[m].append(fit)
-                new = offline_rows(fit, arrays, goal=goal)
-                rows.extend(new)
-                say(f'offline {new[0].method} seed {seed}: {fit.history.iterations} LM '
-                    f'iterations in {fit.seconds:.1f} s; NMSE ' + ', '.join(
-                        f'{row.data} {format_value(row.nmse_mean)}' for row in new))
-            done.append(seed)
+        runs = train_offline(train.X, train.Y, {k: v for k, v in arrays.items() if k != 'train'},
+                             methods=methods, seeds=seeds, iterations=iterations, goal=goal,
+                             time_budget_s=time_budget_s, progress=progress)
+    rows = runs.rows
     if samples.n_joints == 4:  # the SCARA's model-based reference
-        rows.extend(_reference_rows(train, arrays))
-    return Retraining(rows, fits, evaluations, done, skipped, len(train_part),
-                      time.perf_counter() - started)
+        rows += _reference_rows(train, arrays)
+    return Retraining(rows, runs.fits, evaluations, runs.seeds, runs.seeds_skipped,
+                      len(train_part), time.perf_counter() - started)
 
 
 def _reference_rows(train: Dataset, arrays: Mapping[str, tuple[np.ndarray, np.ndarray]]
