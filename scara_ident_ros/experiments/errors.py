@@ -6,12 +6,12 @@ Definitions used by every table::
     NMSE_j = MSE_j / var(y_j)                             var over the same samples
                                                           (population, ddof = 0)
     mse_total  = mean of MSE_j over the joints            mixes units, like the paper
-    nmse_total = mean of NMSE_j over the joints where var(y_j) > 0
+    nmse_total = mean of NMSE_j over the joints where NMSE_j is defined (var(y_j) > 0)
 
 NMSE = 1 is no better than predicting the mean effort; it is comparable across joints,
-robots and data scalings, the raw MSE is not. These are the definitions of
-:class:`~scara_ident_ros.identification.ErrorWindow`, and the results are its
-:class:`~scara_ident_ros.identification.ErrorStats`.
+robots and data scalings, the raw MSE is not. The definitions are
+:func:`~scara_ident_ros.identification.error_window.error_stats`, which
+:class:`~scara_ident_ros.identification.ErrorWindow` uses too.
 
 Public functions::
 
@@ -26,6 +26,7 @@ import numpy as np
 import numpy.typing as npt
 
 from scara_ident_ros.identification import PAPER_WINDOW, ErrorStats, ErrorWindow
+from scara_ident_ros.identification.error_window import error_stats
 
 __all__ = ['effort_errors', 'recent_errors']
 
@@ -56,18 +57,10 @@ def effort_errors(Y: npt.ArrayLike, Y_hat: npt.ArrayLike) -> ErrorStats:
         and wherever a prediction is NaN.
     """
     y, y_hat = _check(Y, Y_hat)
-    n = y.shape[1]
     if y.shape[0] == 0:
-        return ErrorStats(np.full(n, np.nan), np.full(n, np.nan), float('nan'), float('nan'),
-                          0)
-    mse = np.mean((y - y_hat) ** 2, axis=0)
+        return error_stats(np.full(y.shape[1], np.nan), *np.zeros((2, y.shape[1])), 0)
     var = np.var(y, axis=0)
-    defined = var > 0.0
-    nmse = np.full(n, np.nan)
-    np.divide(mse, var, out=nmse, where=defined)
-    nmse_total = float(nmse[defined].mean()) if defined.any() else float('nan')
-    return ErrorStats(mse=mse, nmse=nmse, mse_total=float(mse.mean()), nmse_total=nmse_total,
-                      count=int(y.shape[0]))
+    return error_stats(np.mean((y - y_hat) ** 2, axis=0), var, var, int(y.shape[0]))
 
 
 def recent_errors(Y: npt.ArrayLike, Y_hat: npt.ArrayLike,

@@ -4,7 +4,10 @@ Per joint: the mean squared error (MSE) of the a-priori predictions over the las
 samples, and the normalised MSE (NMSE): the MSE divided by the variance of that joint's
 measured effort over the same samples. The NMSE is free of units and of the effort's scale,
 so joints (N·m and N) and robots can be compared; NMSE = 1 is no better than predicting the
-window's mean effort.
+window's mean effort. NMSE is defined where the effort's variance over the samples exceeds
+:data:`VARIANCE_RESOLUTION` times the squared effort scale its rounding error is relative to
+(less is rounding, not motion): :func:`normalised_mse` holds that definition for every caller
+(this window, ``experiments.errors`` and ``offline.online_results``).
 
 The paper's online figure, "the error over the last 100 samples", is ``recent(100).mse``.
 """
@@ -15,9 +18,12 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ['ErrorStats', 'ErrorWindow', 'PAPER_WINDOW']
+__all__ = ['ErrorStats', 'ErrorWindow', 'PAPER_WINDOW', 'VARIANCE_RESOLUTION', 'error_stats',
+           'normalised_mse']
 
 PAPER_WINDOW = 100  # samples: the paper's "error over the last 100 samples"
+#: Variances at most this fraction of the squared effort scale are rounding: NMSE undefined.
+VARIANCE_RESOLUTION = 1e-12
 
 
 @dataclass(frozen=True)
@@ -30,7 +36,7 @@ class ErrorStats:
         Mean squared prediction error per joint, (N·m)² or N²; NaN when ``count`` is 0.
     nmse : ndarray of shape (n_joints,)
         ``mse`` divided by the (population) variance of the joint's measured effort over the
-        same samples; NaN where that variance is 0.
+        same samples; NaN where that variance is nil (see :func:`normalised_mse`).
     mse_total : float
         Mean of ``mse`` over the joints (mixing units, as the paper's figures do).
     nmse_total : float
@@ -119,9 +125,10 @@ class ErrorWindow:
         """Return the statistics over the whole window (the last ``count`` samples)."""
         c = self._count
         if c == 0:
-            return _stats(np.full(self.n_joints, np.nan), np.zeros(self.n_joints), 0)
+            return error_stats(np.full(self.n_joints, np.nan), *np.zeros((2, self.n_joints)), 0)
         mse, mean, mean_sq = self._sums / c  # rounding may leave sums of squares at -0
-        return _stats(np.maximum(mse, 0.0), np.maximum(mean_sq - mean * mean, 0.0), c)
+        return error_stats(np.maximum(mse, 0.0), np.maximum(mean_sq - mean * mean, 0.0),
+                           mean_sq, c)
 
     def recent(self, k: int = PAPER_WINDOW) -> ErrorStats:
         """Return the statistics over the last ``k`` samples, computed exactly, O(k n).
@@ -141,9 +148,10 @@ class ErrorWindow:
             raise ValueError(f'k must be in 1..{self.window}, got {k}')
         k = min(k, self._count)
         if k == 0:
-            return _stats(np.full(self.n_joints, np.nan), np.zeros(self.n_joints), 0)
+            return error_stats(np.full(self.n_joints, np.nan), *np.zeros((2, self.n_joints)), 0)
         rows = self._rows[np.arange(self._head - k, self._head) % self.window]
-        return _stats(rows[:, 0].mean(axis=0), rows[:, 1].var(axis=0), k)
+        var = rows[:, 1].var(axis=0)
+        return error_stats(rows[:, 0].mean(axis=0), var, var, k)
 
     def _recompute(self) -> None:
         """Re-centre the (full) ring buffer on its mean effort and recompute the sums."""
@@ -155,11 +163,39 @@ class ErrorWindow:
         self._sums = self._rows.sum(axis=0)
 
 
-def _stats(mse: NDArray[np.float64], var: NDArray[np.float64], count: int) -> ErrorStats:
-    """Assemble :class:`ErrorStats` from per-joint MSE and effort variance."""
-    defined = var > 0.0
-    nmse = np.full_like(mse, np.nan)
-    np.divide(mse, var, out=nmse, where=defined)
-    nmse_total = float(nmse[defined].mean()) if defined.any() else float('nan')
-    return ErrorStats(mse=mse, nmse=nmse, mse_total=float(mse.mean()), nmse_total=nmse_total,
-                      count=count)
+def normalised_mse(mse: NDArray[np.float64], var: NDArray[np.float64],
+                   scale: NDArray[np.float64]
+                   ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """NMSE per joint and its mean over the joints where it is defined: the one definition.
+
+    Parameters
+    ----------
+    mse, var : ndarray of shape (..., n)
+        Per joint: mean squared error, and the effort's variance over the same samples.
+    scale : ndarray of shape (..., n) or (n,)
+        The squared effort magnitude the rounding error of ``var`` is relative to: ``var``
+        itself for a two-pass variance, the mean square about the reference for running
+        sums. NMSE is defined where ``var > VARIANCE_RESOLUTION * scale``.
+
+    Returns
+    -------
+    nmse : ndarray of shape (..., n)
+        ``mse / var``, NaN where undefined.
+    nmse_total : ndarray of shape (...)
+        Mean of ``nmse`` over the joints where it is defined; NaN where it is nowhere.
+    """
+    defined = var > VARIANCE_RESOLUTION * scale
+    nmse = np.divide(mse, var, out=np.full(np.shape(mse), np.nan), where=defined)
+    n_defined = defined.sum(axis=-1)
+    total = np.divide(np.where(defined, nmse, 0.0).sum(axis=-1), n_defined,
+                      out=np.full(np.shape(n_defined), np.nan), where=n_defined > 0)
+    return nmse, total
+
+
+def error_stats(mse: NDArray[np.float64], var: NDArray[np.float64], scale: NDArray[np.float64],
+                count: int) -> ErrorStats:
+    """:class:`ErrorStats` of ``count`` samples from per-joint arrays of shape (n,)
+    (see :func:`normalised_mse`)."""
+    nmse, nmse_total = normalised_mse(mse, var, scale)
+    return ErrorStats(mse=mse, nmse=nmse, mse_total=float(mse.mean()),
+                      nmse_total=float(nmse_total), count=count)

@@ -30,6 +30,7 @@ from scara_ident_ros.experiments.errors import effort_errors, recent_errors
 from scara_ident_ros.experiments.online import DEFAULT_WINDOW, stream_data_names
 from scara_ident_ros.experiments.rows import ResultRow
 from scara_ident_ros.identification import PAPER_WINDOW
+from scara_ident_ros.identification.error_window import normalised_mse
 from scara_ident_ros.methods import method as method_spec
 
 if TYPE_CHECKING:
@@ -135,8 +136,9 @@ def rolling_errors(measured: NDArray[np.float64], predicted: NDArray[np.float64]
         Mean over joints of each joint's windowed MSE ((N·m)², N²; mixes units as the
         paper's figures do).
     nmse : ndarray of shape (N,)
-        Mean over the joints with a non-zero effort variance in the window of MSE / variance;
-        NaN where no joint has one.
+        Mean over the joints of MSE / effort variance in the window, where defined
+        (:func:`~scara_ident_ros.identification.error_window.normalised_mse`); NaN where
+        it is for no joint.
     """
     y = np.asarray(measured, dtype=np.float64)
     y_hat = np.asarray(predicted, dtype=np.float64)
@@ -156,14 +158,10 @@ def rolling_errors(measured: NDArray[np.float64], predicted: NDArray[np.float64]
     size = (stop - start)[:, None].astype(np.float64)
     means = (sums[stop] - sums[start]) / size
     n = y.shape[1]
-    mse = means[:, :n]
-    var = np.maximum(means[:, 2 * n:] - means[:, n:2 * n] ** 2, 0.0)
-    scale = np.abs(centred).max(axis=0) ** 2
-    defined = var > 1e-12 * np.where(scale > 0.0, scale, 1.0)
-    ratio = np.divide(mse, var, out=np.zeros_like(mse), where=defined)
-    n_defined = defined.sum(axis=1)
-    nmse = np.full(count, np.nan)
-    np.divide(ratio.sum(axis=1), n_defined, out=nmse, where=n_defined > 0)
+    mse, mean, mean_square = means[:, :n], means[:, n:2 * n], means[:, 2 * n:]
+    # the cumulative sums' rounding is relative to the whole run's spread, not the window's
+    _, nmse = normalised_mse(mse, np.maximum(mean_square - mean ** 2, 0.0),
+                             np.abs(centred).max(axis=0) ** 2)
     return mse.mean(axis=1), nmse
 
 
