@@ -12,7 +12,9 @@ setup(
     data_files=[
         ('share/ament_index/resource_index/packages', [f'resource/{PACKAGE}']),
         (f'share/{PACKAGE}', ['package.xml']),
-        (f'share/{PACKAGE}/config', glob('config/*.yaml')),
+        # parameter files, and the Foxglove (.json) and PlotJuggler (.xml) plot layouts
+        (f'share/{PACKAGE}/config',
+         sorted(glob('config/*.yaml') + glob('config/*.json') + glob('config/*.xml'))),
         (f'share/{PACKAGE}/launch', glob('launch/*.py')),
     ],
     package_data={PACKAGE: ['py.typed']},
