@@ -30,9 +30,9 @@ import statistics
 from dataclasses import dataclass, field
 from enum import IntEnum
 
-__all__ = ['Level', 'Health', 'Deltas', 'LossCounter', 'identifier_health',
-           'simulator_health', 'recorder_health', 'STALE_AFTER', 'SKIPPED_WARN', 'NMSE_WARN',
-           'LATE_WARN', 'RATE_ERROR']
+__all__ = ['LATE_WARN', 'NMSE_WARN', 'RATE_ERROR', 'SKIPPED_WARN', 'STALE_AFTER', 'Deltas',
+           'Health', 'Level', 'LossCounter', 'identifier_health', 'recorder_health',
+           'simulator_health']
 
 STALE_AFTER = 1.0  # s without a sample before the identifier warns
 SKIPPED_WARN = 0.1  # fraction of a period's samples skipped before the identifier warns
@@ -162,24 +162,27 @@ def identifier_health(*, period_s: float, since_sample_s: float | None, processe
     rate = recent_processed / period_s
     problems: list[tuple[Level, str]] = []
     if not error_finite:
-        problems.append((Level.ERROR, 'prediction error is not finite: the model diverged, '
-                         'call ~/reset'))
+        problems.append((Level.ERROR, 'prediction error is not finite: call ~/reset'))
     if recent_lost:
-        problems.append((Level.ERROR, f'{recent_lost} samples lost in the last '
-                         f'{period_s:.1f} s (stamp gaps > {LOST_GAP:g} periods): the '
-                         'publisher, the network or a full queue dropped them'))
+        text = (f'{recent_lost} samples lost in the last {period_s:.1f} s (stamp gaps > '
+                f'{LOST_GAP:g} periods): the publisher, the network or a full queue dropped '
+                'them')
+        problems.append((Level.ERROR, text))
     if since_sample_s is None:
-        problems.append((Level.WARN, 'no sample received yet: is joint_states published '
-                         'and remapped to this node?'))
+        text = 'no sample received yet: is joint_states published and remapped to this node?'
+        problems.append((Level.WARN, text))
     elif since_sample_s > STALE_AFTER:
-        problems.append((Level.WARN, f'no sample for {since_sample_s:.1f} s '
-                         f'(> {STALE_AFTER:g} s): has the joint_states publisher stopped?'))
+        text = (f'no sample for {since_sample_s:.1f} s (> {STALE_AFTER:g} s): has the '
+                'joint_states publisher stopped?')
+        problems.append((Level.WARN, text))
     if recent_processed and recent_skipped / recent_processed > SKIPPED_WARN:
-        problems.append((Level.WARN, f'{recent_skipped / recent_processed:.0%} of the '
-                         f'samples skipped (> {SKIPPED_WARN:.0%}): see the log for why'))
+        text = (f'{recent_skipped / recent_processed:.0%} of the samples skipped '
+                f'(> {SKIPPED_WARN:.0%}): see the log for why')
+        problems.append((Level.WARN, text))
     if validation_nmse is not None and validation_nmse > NMSE_WARN:
-        problems.append((Level.WARN, f'validation NMSE {validation_nmse:.3g} > {NMSE_WARN:g}: '
-                         'the model predicts worse than the mean'))
+        text = (f'validation NMSE {validation_nmse:.3g} > {NMSE_WARN:g}: the model predicts '
+                'worse than the mean (as it does in its first seconds of learning)')
+        problems.append((Level.WARN, text))
     level, message = _level(problems, f"identifying at {rate:.0f} samples/s, learning "
                                       f"{'on' if learning else 'off'}")
     return Health(level, message, {
@@ -212,17 +215,19 @@ def simulator_health(*, period_s: float, nominal_hz: float, published: int, late
     problems: list[tuple[Level, str]] = []
     if not waiting:
         if nominal_hz > 0 and rate < RATE_ERROR * nominal_hz:
-            problems.append((Level.ERROR, f'publishing {rate:.0f} samples/s, less than '
-                             f'{RATE_ERROR:.0%} of {nominal_hz:g} Hz'))
+            text = (f'publishing {rate:.0f} samples/s, less than {RATE_ERROR:.0%} of '
+                    f'{nominal_hz:g} Hz')
+            problems.append((Level.ERROR, text))
         if recent_published and recent_late / recent_published > LATE_WARN:
-            problems.append((Level.WARN, f'{recent_late} of {recent_published} samples late '
-                             f'(> {LATE_WARN:.0%}): the machine cannot keep real time'))
+            text = (f'{recent_late} of {recent_published} samples late (> {LATE_WARN:.0%}): '
+                    'the machine cannot keep real time')
+            problems.append((Level.WARN, text))
     summary = ('waiting for subscribers' if waiting
                else f'publishing {rate:.0f} samples/s')
     level, message = _level(problems, summary)
-    return Health(level, message, {'samples/s': f'{rate:.1f}', 'nominal [Hz]': f'{nominal_hz:g}',
-                                   'published': str(published), 'late': str(late),
-                                   'late in period': str(recent_late)})
+    return Health(level, message, {
+        'samples/s': f'{rate:.1f}', 'nominal [Hz]': f'{nominal_hz:g}',
+        'published': str(published), 'late': str(late), 'late in period': str(recent_late)})
 
 
 def recorder_health(*, period_s: float, written: int, received: int, paused: int,

@@ -34,16 +34,21 @@ from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.subscription import Subscription
+from rclpy.timer import Timer
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension
+from std_srvs.srv import Trigger
 
 from scara_ident_ros.dynamics import ParamError, ScaraParams
 from scara_ident_ros.identification import (DIFFERENTIATORS, TRAINERS, Bounds, Counts,
-                                            Holdout, JointMap, OnlineIdentifier, SampleCheck,
-                                            SkipReason, StepResult, make_differentiator,
-                                            make_trainer)
+                                            ErrorWindow, Holdout, JointMap, OnlineIdentifier,
+                                            ReservoirLM, SampleCheck, SkipReason, StepResult,
+                                            make_differentiator, make_trainer)
+from scara_ident_ros.identification.health import (Deltas, Health, LossCounter,
+                                                   identifier_health)
 from scara_ident_ros.methods import METHODS, limit_scaling, make_network
 from scara_ident_ros.nn import FeedForwardNet, ModelFormatError
+from scara_ident_ros.nodes.diagnostics import Diagnostics
 from scara_ident_ros.nodes.messages import joint_state, stamp_to_ns
 from scara_ident_ros.nodes.parameters import ParamSpec, declare_parameters
 from scara_ident_ros.nodes.runtime import ConfigError, run_node
@@ -59,77 +64,103 @@ MSE_TOPIC = 'identification_mse'
 MSE_METRICS_LABEL = 'metric:mse,nmse,validation_nmse'  # layout.dim[0] of MSE_TOPIC
 QOS_DEPTH = 5000  # messages: 5 s at 1 kHz may queue before any is dropped
 STREAM_QOS = QoSProfile(depth=QOS_DEPTH, history=HistoryPolicy.KEEP_LAST,
-                        reliability=ReliabilityPolicy.RELIABLE)  # joint_states, torques
+                        reliability=ReliabilityPolicy.RELIABLE)  # torques
+#: joint_states: reliable, keep all. Fast DDS then holds a bounded number of unread samples
+#: and stops acknowledging new ones while that is full, so a publisher that paces itself to
+#: acknowledgements (the player at rate max) loses nothing however slow the identifier;
+#: keep-last acknowledged every sample and dropped the oldest unread ones (7,091 of 10,000
+#: processed at rate max).
+INPUT_QOS = QoSProfile(depth=QOS_DEPTH, history=HistoryPolicy.KEEP_ALL,
+                       reliability=ReliabilityPolicy.RELIABLE)
 STATS_PERIOD = 10.0  # s between statistics log lines
 WARN_PERIOD = 5.0  # s between two warnings about skipped samples
 WAIT_POLL_PERIOD = 0.02  # s between two looks at the outputs' subscriber counts
 FLUSH_TIMEOUT = 2.0  # s on shutdown for the subscribers to acknowledge the last predictions
+# Why a read-only parameter is fixed at start (shown by `ros2 param describe`)
+NETWORK = "the network's shape and inputs (a saved model keeps them)"
+HOLDOUT = 'which samples are held out must not change under the validation score'
+ESTIMATE = "the q'' estimate keeps a history of samples"
+LIMITS = "the network's input and output scaling"
+START = 'used at start only'
 
 PARAMETERS = (
     ParamSpec('method', 'ffmw', 'Network: FFMW (MSLOG), FFW (SLOG) or FFS (sigmoid)',
-              choices=tuple(METHODS)),
+              choices=tuple(METHODS), fixed=NETWORK),
     ParamSpec('joint_names', [], 'Joints to identify, in this order; empty: the joints of '
-              'the first valid message (or of the warm-start model)', items=str),
+              'the first valid message (or of the warm-start model)', items=str, fixed=NETWORK),
     ParamSpec('min_joints', 1, 'Without joint_names: take the joints of the first valid '
               'message naming at least this many (a partial message does not fix the set)',
-              min=1, max=1000),
-    ParamSpec('hidden_units', 40, 'Hidden units of the network', min=1, max=10_000),
-    ParamSpec('seed', 0, 'Seed of the initial weights', min=0),
-    ParamSpec('learning_rate', 0.0, "Online learning rate; 0: the method's default",
-              min=0.0, max=10.0),
-    ParamSpec('momentum', -1.0, "Online momentum in [0, 1); negative: the method's default",
-              min=-1.0, max=0.999),
-    ParamSpec('k', 2.5, 'MSLOG gain K (ffmw only)'),
-    ParamSpec('a', 5.0, 'MSLOG divisor a in z = (x·v − b)/a (ffmw only)'),
-    ParamSpec('b', 5.0, 'MSLOG offset b (ffmw only)'),
-    ParamSpec('learn', True, 'Learn online; false: predict only'),
+              min=1, max=1000, fixed=NETWORK),
+    ParamSpec('hidden_units', 40, 'Hidden units of the network', min=1, max=10_000,
+              fixed=NETWORK),
+    ParamSpec('seed', 0, 'Seed of the initial weights, the reservoir and the validation '
+              'blocks', min=0, fixed='the weights are drawn once (~/reset draws them again)'),
+    ParamSpec('learning_rate', 0.0, "Online learning rate of trainer bp; 0: the method's "
+              'default', min=0.0, max=10.0, read_only=False),
+    ParamSpec('momentum', -1.0, "Online momentum in [0, 1) of trainer bp; negative: the "
+              "method's default", min=-1.0, max=0.999, read_only=False),
+    ParamSpec('k', 2.5, 'MSLOG gain K (ffmw only)', fixed=NETWORK),
+    ParamSpec('a', 5.0, 'MSLOG divisor a in z = (x·v − b)/a (ffmw only)', fixed=NETWORK),
+    ParamSpec('b', 5.0, 'MSLOG offset b (ffmw only)', fixed=NETWORK),
+    ParamSpec('learn', True, 'Learn online; false: predict only (samples without effort are '
+              'then predicted too)', read_only=False),
     ParamSpec('trainer', 'lm', 'Online training: lm (Levenberg-Marquardt steps on a reservoir '
               'of the whole stream, generalizes) or bp (the paper: one back-propagation step '
-              'per sample, tracks)', choices=TRAINERS),
+              'per sample, tracks)', choices=TRAINERS, fixed='the trainer keeps its state'),
     ParamSpec('reservoir_size', 4000, 'Samples of the stream kept for the lm trainer',
-              min=10, max=1_000_000),
+              min=10, max=1_000_000, fixed='the reservoir is allocated once'),
     ParamSpec('lm_steps', 2, 'Levenberg-Marquardt steps of the lm trainer per update', min=1,
-              max=100),
+              max=100, read_only=False),
     ParamSpec('lm_interval', 200, 'Samples between two updates of the lm trainer', min=1,
-              max=1_000_000),
+              max=1_000_000, read_only=False),
     ParamSpec('validation_fraction', 0.1, 'Fraction of the samples (in blocks) never learnt, '
-              'whose error is the validation NMSE; 0: none', min=0.0, max=0.9),
-    ParamSpec('validation_block', 500, 'Samples per held-out block', min=1, max=1_000_000),
-    ParamSpec('model_path', '', 'Warm-start from this saved model (.npz); empty: fresh'),
+              'whose error is the validation NMSE; 0: none', min=0.0, max=0.9,
+              fixed=HOLDOUT),
+    ParamSpec('validation_block', 500, 'Samples per held-out block', min=1, max=1_000_000,
+              fixed=HOLDOUT),
+    ParamSpec('model_path', '', 'Warm-start from this saved model (.npz); empty: fresh',
+              fixed='read once, at start'),
     ParamSpec('save_path', '', 'Save the model here periodically and on shutdown (atomically); '
               'a model already there is continued from, not replaced (unless model_path is '
-              'given); empty: never'),
+              'given); empty: never', fixed='a model there is continued from at start'),
     ParamSpec('checkpoint_period', 60.0, 'Seconds between checkpoints to save_path; 0: only '
-              'on shutdown', 's', min=0.0),
-    ParamSpec('mse_window', 1000, 'Samples in the windowed MSE', min=100),
-    ParamSpec('mse_rate_hz', 10.0, 'Rate of identification_mse', 'Hz', min=0.01, max=1000.0),
+              'on shutdown (and ~/save_model)', 's', min=0.0, read_only=False),
+    ParamSpec('mse_window', 1000, 'Samples in the windowed MSE (a change starts the window '
+              'anew)', min=100, read_only=False),
+    ParamSpec('mse_rate_hz', 10.0, 'Rate of identification_mse', 'Hz', min=0.01, max=1000.0,
+              read_only=False),
     ParamSpec('differentiator', 'centred', 'How acceleration is estimated from velocity: '
               'centred (zero-phase, window // 2 samples late) or a causal filter',
-              choices=DIFFERENTIATORS),
-    ParamSpec('cutoff_hz', 50.0, 'Cut-off of the lowpass differentiator', 'Hz', min=0.1),
+              choices=DIFFERENTIATORS, fixed=ESTIMATE),
+    ParamSpec('cutoff_hz', 50.0, 'Cut-off of the lowpass differentiator', 'Hz', min=0.1,
+              fixed=ESTIMATE),
     ParamSpec('window', 21, 'Samples of the centred (odd) and polynomial differentiators',
-              min=3, max=101),
+              min=3, max=101, fixed=ESTIMATE),
     ParamSpec('limit_margin', 0.5, 'Refuse samples (out_of_limits) whose position leaves the '
               'joint range by more than this fraction of the range, or whose velocity or '
               'effort exceeds its limit by more than this fraction; negative: no check',
-              min=-1.0, max=100.0),
+              min=-1.0, max=100.0, fixed=LIMITS),
     ParamSpec('max_gap', 0.02, 'A larger gap between stamps restarts the differentiator',
-              's', min=0.0),
+              's', min=0.0, fixed=ESTIMATE),
     ParamSpec('robot_config', '', "Robot YAML whose joint limits scale the network's inputs "
-              'and outputs; empty: the installed config/scara.yaml'),
+              'and outputs; empty: the installed config/scara.yaml', fixed=LIMITS),
     ParamSpec('position_min', [], 'Per-joint position lower limits (rad or m); with the four '
-              'below, replaces robot_config for another robot', items=float),
-    ParamSpec('position_max', [], 'Per-joint position upper limits (rad or m)', items=float),
-    ParamSpec('velocity_max', [], 'Per-joint |velocity| limits (rad/s or m/s)', items=float),
+              'below, replaces robot_config for another robot', items=float, fixed=LIMITS),
+    ParamSpec('position_max', [], 'Per-joint position upper limits (rad or m)', items=float,
+              fixed=LIMITS),
+    ParamSpec('velocity_max', [], 'Per-joint |velocity| limits (rad/s or m/s)', items=float,
+              fixed=LIMITS),
     ParamSpec('acceleration_max', [], 'Per-joint |acceleration| limits (rad/s² or m/s²)',
-              items=float),
-    ParamSpec('effort_max', [], 'Per-joint |effort| limits (N·m or N)', items=float),
+              items=float, fixed=LIMITS),
+    ParamSpec('effort_max', [], 'Per-joint |effort| limits (N·m or N)', items=float,
+              fixed=LIMITS),
     ParamSpec('wait_for_subscribers', 0, 'Subscribe joint_states only once identified_torque '
               'and identification_mse each have this many subscribers (e.g. a recorder), so '
-              'that no prediction goes unheard; 0: at once', min=0),
-    ParamSpec('wait_timeout', 30.0, 'Longest wait for those subscribers', 's', min=0.0),
+              'that no prediction goes unheard; 0: at once', min=0, fixed=START),
+    ParamSpec('wait_timeout', 30.0, 'Longest wait for those subscribers', 's', min=0.0,
+              fixed=START),
     ParamSpec('stats_file', '', 'Write the final counters and errors here as JSON on '
-              'shutdown; empty: never'),
+              'shutdown; empty: never', fixed='checked writable at start'),
 )
 #: Rejections that mean the message's joints are not the identifier's
 JOINT_SET_REASONS = (SkipReason.UNKNOWN_JOINT, SkipReason.MISSING_JOINT,
@@ -143,7 +174,7 @@ class IdentifierNode(Node):
 
     def __init__(self) -> None:
         super().__init__('identifier')
-        self.settings = s = declare_parameters(self, PARAMETERS)
+        self.settings = s = declare_parameters(self, PARAMETERS, on_change=self._apply)
         self.limits = self._limits()
         self.network: FeedForwardNet | None = None
         self.core: OnlineIdentifier | None = None
@@ -196,10 +227,18 @@ class IdentifierNode(Node):
         self.torque_publisher = self.create_publisher(JointState, TORQUE_TOPIC, STREAM_QOS)
         self.mse_publisher = self.create_publisher(Float64MultiArray, MSE_TOPIC, 10)
         self.subscription: Subscription | None = None
-        self.create_timer(1.0 / s['mse_rate_hz'], self.publish_mse)
+        self.mse_timer = self.create_timer(1.0 / s['mse_rate_hz'], self.publish_mse)
         self.create_timer(STATS_PERIOD, self.log_stats)
-        if s['save_path'] and s['checkpoint_period'] > 0:
-            self.create_timer(s['checkpoint_period'], self.checkpoint)
+        self.checkpoint_timer: Timer | None = None
+        self._start_checkpoints()
+        self.previous: list[dict[str, Any]] = []  # summaries from before each ~/reset
+        self.loss = LossCounter()  # samples missing from the stream, from the stamps
+        self.last_sample: float | None = None  # monotonic s of the latest sample
+        self.period_lag_ns = 0  # ns, largest lag since the last diagnostics report
+        self.deltas = Deltas()
+        self.diagnostics = Diagnostics(self, 'identification', self.health)
+        self.create_service(Trigger, '~/save_model', self.on_save_model)
+        self.create_service(Trigger, '~/reset', self.on_reset)
         self.joints_text = str(names or '(from the first message)')
         if s['wait_for_subscribers'] > 0:
             self.wait_deadline = time.monotonic() + s['wait_timeout']
@@ -214,7 +253,7 @@ class IdentifierNode(Node):
         """Subscribe ``joint_states``: from now on samples are processed."""
         s = self.settings
         self.subscription = self.create_subscription(
-            JointState, JOINT_STATES_TOPIC, self.on_joint_state, STREAM_QOS)
+            JointState, JOINT_STATES_TOPIC, self.on_joint_state, INPUT_QOS)
         self.get_logger().info(
             f"{s['method'].upper()} identifier on {self.subscription.topic_name} → "
             f'{self.torque_publisher.topic_name}, joints {self.joints_text}, '
@@ -234,6 +273,95 @@ class IdentifierNode(Node):
         self.wait_timer.cancel()
         self.destroy_timer(self.wait_timer)
         self._subscribe()
+
+    # ------------------------------------------------------------------ while running
+    def _apply(self, changed: dict[str, Any]) -> None:
+        """Make parameters set while running take effect (they passed their checks)."""
+        s = self.settings
+        self.get_logger().info('set ' + ', '.join(f'{k} = {v!r}' for k, v in changed.items()))
+        method = METHODS[s['method']]
+        if self.network is not None and 'learning_rate' in changed:
+            self.network.learning_rate = s['learning_rate'] or method.learning_rate
+        if self.network is not None and 'momentum' in changed:
+            self.network.momentum = s['momentum'] if s['momentum'] >= 0 else method.momentum
+        if self.core is not None:
+            self.core.learn = s['learn']
+            self.core.stage.check.need_effort = s['learn']  # predict-only takes any sample
+            if 'mse_window' in changed:
+                self.core.errors = ErrorWindow(self.core.n_joints, s['mse_window'])
+            if isinstance(self.core.trainer, ReservoirLM):
+                self.core.trainer.interval = s['lm_interval']
+                self.core.trainer.steps_per_update = s['lm_steps']
+        if 'mse_rate_hz' in changed:
+            self.destroy_timer(self.mse_timer)
+            self.mse_timer = self.create_timer(1.0 / s['mse_rate_hz'], self.publish_mse)
+        if 'checkpoint_period' in changed:
+            self._start_checkpoints()
+
+    def _start_checkpoints(self) -> None:
+        """(Re)start the checkpoint timer for the current ``checkpoint_period``."""
+        if self.checkpoint_timer is not None:
+            self.destroy_timer(self.checkpoint_timer)
+            self.checkpoint_timer = None
+        if self.settings['save_path'] and self.settings['checkpoint_period'] > 0:
+            self.checkpoint_timer = self.create_timer(self.settings['checkpoint_period'],
+                                                      self.checkpoint)
+
+    def on_save_model(self, request: Trigger.Request,
+                      response: Trigger.Response) -> Trigger.Response:
+        """Service ``~/save_model``: save to ``save_path`` now, or say why not."""
+        response.success, response.message = self.save_model()
+        self.get_logger().info(f'~/save_model: {response.message}')
+        return response
+
+    def on_reset(self, request: Trigger.Request, response: Trigger.Response
+                 ) -> Trigger.Response:
+        """Service ``~/reset``: start again from fresh weights, counters kept apart.
+
+        The summary of before (counters, errors) is logged and kept in ``previous`` of the
+        statistics; the samples whose prediction was pending are dropped.
+        """
+        names = self.names if self.core is not None else None
+        if names is None and self.network is None:
+            response.success = False
+            response.message = 'nothing to reset: no model yet (no valid sample so far)'
+            return response
+        before = self.summary()
+        self.previous.append(before)
+        self.network, self.core, self.early, self.deltas = None, None, Counts(), Deltas()
+        s = self.settings
+        self.differentiator = make_differentiator(s['differentiator'], window=s['window'],
+                                                  cutoff_hz=s['cutoff_hz'])
+        if names is not None:
+            self._build(names)
+        response.success = True
+        response.message = (f"fresh weights (seed {s['seed']}); before the reset: "
+                            f"processed {before['processed']}, learned "
+                            f"{before.get('learned', 0)}, validation NMSE "
+                            f"{before.get('validation_nmse_total')}")
+        self.get_logger().info(f'~/reset: {response.message}')
+        return response
+
+    def health(self, period_s: float) -> Health:
+        """The node's health over the last ``period_s`` s, for ``/diagnostics``."""
+        counts = self.core.counts if self.core is not None else self.early
+        skipped = sum(counts.skipped.values())
+        recent = self.deltas(processed=counts.processed, skipped=skipped, lost=self.loss.lost)
+        error_finite, validation = True, None
+        if self.core is not None:
+            if self.core.errors.count:
+                error_finite = bool(np.isfinite(self.core.error_stats().mse_total))
+            stats = self.core.validation_stats()
+            validation = float(stats.nmse_total) if stats is not None else None
+        lag_ns, self.period_lag_ns = self.period_lag_ns, 0
+        return identifier_health(
+            period_s=period_s, processed=counts.processed, skipped=skipped,
+            since_sample_s=(None if self.last_sample is None
+                            else time.monotonic() - self.last_sample),
+            lost=self.loss.lost, learnt=counts.learned, recent_processed=int(recent['processed']),
+            recent_skipped=int(recent['skipped']), recent_lost=int(recent['lost']),
+            lag_s=lag_ns / 1e9 if lag_ns else None, error_finite=error_finite,
+            validation_nmse=validation, learning=self.settings['learn'])
 
     # ------------------------------------------------------------------ configuration
     def _limits(self) -> dict[str, Any] | None:
@@ -323,6 +451,8 @@ class IdentifierNode(Node):
     # ------------------------------------------------------------------ per sample
     def on_joint_state(self, msg: JointState) -> None:
         """Predict, publish, learn: one input sample."""
+        self.last_sample = time.monotonic()
+        self.loss.observe(stamp_to_ns(msg.header.stamp))
         if self.core is None and not self._build_from(msg):
             return
         stamp_ns = stamp_to_ns(msg.header.stamp)
@@ -359,6 +489,7 @@ class IdentifierNode(Node):
             if not measure_lag:
                 continue
             lag_ns = time.time_ns() - result.stamp_ns
+            self.period_lag_ns = max(self.period_lag_ns, lag_ns)
             if lag_ns > self.max_lag_ns:
                 self.max_lag_ns = lag_ns
                 self.worst_lag_ns = max(self.worst_lag_ns, lag_ns)
@@ -411,6 +542,10 @@ class IdentifierNode(Node):
                     *stats.nmse.tolist(), float(stats.nmse_total), *vnmse]
         self.mse_publisher.publish(msg)
 
+    def handled(self) -> int:
+        """Samples taken from ``joint_states`` so far (a stop drains until it stays put)."""
+        return self.core.counts.processed if self.core is not None else self.early.processed
+
     def summary(self) -> dict[str, Any]:
         """Counters and errors so far, as plain data."""
         if self.core is None:
@@ -432,7 +567,8 @@ class IdentifierNode(Node):
             'validation_nmse': validation.nmse.tolist() if validation is not None else None,
             'validation_nmse_total': (float(validation.nmse_total) if validation is not None
                                       else None),
-            'max_lag_ms': self.worst_lag_ns / 1e6,
+            'max_lag_ms': self.worst_lag_ns / 1e6, 'lost': self.loss.lost,
+            **({'previous': self.previous} if self.previous else {}),
         }
 
     def log_stats(self) -> None:
@@ -448,19 +584,30 @@ class IdentifierNode(Node):
                 f"{math.nan if validation is None else validation:.4g}")
         self.max_lag_ns = 0
 
-    def checkpoint(self) -> None:
-        """Save the model to ``save_path`` (atomically); a failure is logged, not fatal.
+    def save_model(self) -> tuple[bool, str]:
+        """Save the model to ``save_path`` now (atomically); return success and what happened.
 
-        The save is atomic, so a failed checkpoint leaves the previous one intact, and
-        the network in memory keeps learning.
+        The save is atomic, so a failed one leaves the previous file intact, and the network
+        in memory keeps learning.
         """
         path = self.settings['save_path']
-        if path and self.network is not None and self.core is not None:
-            try:
-                Path(path).parent.mkdir(parents=True, exist_ok=True)
-                self.network.save(path)
-            except OSError as exc:
-                self.get_logger().error(f'checkpoint to {path} failed: {exc}')
+        if not path:
+            return False, 'no save_path: start the node with -p save_path:=<file>.npz'
+        if self.network is None or self.core is None:
+            return False, 'no model yet: no valid sample has fixed the joints'
+        try:
+            Path(path).parent.mkdir(parents=True, exist_ok=True)
+            self.network.save(path)
+        except OSError as exc:
+            return False, f'saving to {path} failed: {exc}'
+        return True, f'saved to {path} after {self.core.counts.learned} learned samples'
+
+    def checkpoint(self) -> None:
+        """Save the model to ``save_path``, if there is one; a failure is logged, not fatal."""
+        if self.settings['save_path'] and self.core is not None:
+            saved, message = self.save_model()
+            if not saved:
+                self.get_logger().error(f'checkpoint: {message}')
 
     def close(self) -> None:
         """On shutdown: predict and learn the pending samples, checkpoint, final statistics.

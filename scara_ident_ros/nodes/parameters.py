@@ -3,13 +3,17 @@
 Each parameter gets a descriptor (description with its unit, numeric range,
 read-only flag) and is validated when declared (overrides from ``-p`` or a
 ``--params-file``) and whenever it is set later; a bad value raises
-:class:`~scara_ident_ros.nodes.runtime.ConfigError` naming the parameter.
+:class:`~scara_ident_ros.nodes.runtime.ConfigError` naming the parameter, and a bad
+``ros2 param set`` is refused with the same reason. Parameters declared with
+``read_only=False`` can be set while the node runs: ``on_change`` of
+:func:`declare_parameters` is then called with the new values, to apply them; the
+description of every other one says why it is fixed at start.
 """
 from __future__ import annotations
 
 import array
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -37,12 +41,17 @@ class ParamSpec:
     choices: tuple[str, ...] | None = None
     read_only: bool = True
     items: type | None = None  # element type of a list parameter (str or float)
+    fixed: str = ''  # why a read-only parameter cannot change while the node runs
 
     def descriptor(self) -> ParameterDescriptor:
         """Return the ROS descriptor shown by ``ros2 param describe``."""
         text = self.description + (f' [{self.unit}]' if self.unit else '')
         if self.choices:
             text += f" (one of: {', '.join(self.choices)})"
+        if self.read_only:
+            text += f" (fixed at start{': ' + self.fixed if self.fixed else ''})"
+        else:
+            text += ' (settable while running)'
         # An empty list has no ROS type of its own, and `-p rate_hz:=1000` is an integer
         # where a float is declared: let the override decide the type, then check it.
         descriptor = ParameterDescriptor(
@@ -88,8 +97,15 @@ class ParamSpec:
         return None
 
 
-def declare_parameters(node: Node, specs: Sequence[ParamSpec]) -> dict[str, Any]:
+def declare_parameters(node: Node, specs: Sequence[ParamSpec], *,
+                       on_change: Callable[[dict[str, Any]], None] | None = None
+                       ) -> dict[str, Any]:
     """Declare ``specs`` on ``node`` and return their values by name.
+
+    The returned dict stays current: a value set later (only the specs with
+    ``read_only=False`` can be), once it passed its spec's check, replaces the old one in
+    it, and then ``on_change`` is called with the changed values by name (in the thread
+    that spins the node) to make them take effect.
 
     Raises
     ------
@@ -123,4 +139,22 @@ def declare_parameters(node: Node, specs: Sequence[ParamSpec]) -> dict[str, Any]
             values[spec.name] = float(values[spec.name])
         elif values[spec.name] is None and spec.default == []:
             values[spec.name] = []
+
+    def on_set_done(parameters: list[Parameter]) -> None:
+        changed = {p.name: _typed(by_name[p.name], p.value) for p in parameters
+                   if p.name in by_name}
+        values.update(changed)
+        if on_change is not None and changed:
+            on_change(changed)
+
+    node.add_post_set_parameters_callback(on_set_done)  # after the declarations: sets only
     return values
+
+
+def _typed(spec: ParamSpec, value: Any) -> Any:
+    """``value`` as the spec's type (an integer set where a float is declared: float)."""
+    if isinstance(spec.default, float):
+        return float(value)
+    if spec.items is not None:
+        return list(value)
+    return value

@@ -14,9 +14,10 @@ MS = 1_000_000  # ns
 
 def healthy_identifier(**changes: Any) -> dict[str, Any]:
     """An identifier's figures over a 1 s period at 1 kHz with nothing wrong, changed."""
-    figures = dict(period_s=1.0, since_sample_s=0.001, processed=5000, skipped=10, lost=0,
-                   learnt=4500, recent_processed=1000, recent_skipped=0, recent_lost=0,
-                   lag_s=0.012, error_finite=True, validation_nmse=0.05, learning=True)
+    figures: dict[str, Any] = {
+        'period_s': 1.0, 'since_sample_s': 0.001, 'processed': 5000, 'skipped': 10, 'lost': 0,
+        'learnt': 4500, 'recent_processed': 1000, 'recent_skipped': 0, 'recent_lost': 0,
+        'lag_s': 0.012, 'error_finite': True, 'validation_nmse': 0.05, 'learning': True}
     figures.update(changes)
     return figures
 
@@ -77,8 +78,8 @@ def test_simulator_levels() -> None:
 
 
 def test_recorder_warns_while_paused() -> None:
-    figures = dict(period_s=2.0, written=100, received=150, paused=50, recent_written=100,
-                   files=2, topics=3)
+    figures: dict[str, Any] = {'period_s': 2.0, 'written': 100, 'received': 150, 'paused': 50,
+                               'recent_written': 100, 'files': 2, 'topics': 3}
     running = recorder_health(is_paused=False, **figures)
     assert running.level is Level.OK and running.values['write rate [msg/s]'] == '50.0'
     assert running.values['not written (paused)'] == '50'

@@ -26,13 +26,17 @@ from dataclasses import dataclass
 from typing import Any
 
 import rclpy
+from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
+from rcl_interfaces.srv import DescribeParameters, SetParameters
 from rclpy.context import Context
 from rclpy.experimental import EventsExecutor
+from rclpy.parameter import Parameter
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 
 __all__ = ['NodeOutput', 'NodeProcess', 'Listener', 'reliable']
 
 STOP_TIMEOUT = 20.0  # seconds a node gets to exit after a signal (the machine is shared)
+SERVICE_TIMEOUT = 20.0  # seconds for a service to appear, and then to answer
 
 
 def reliable(depth: int = 1000) -> QoSProfile:
@@ -164,6 +168,30 @@ class Listener:
                 return False
             self.executor.spin_once(timeout_sec=0.01)
         return True
+
+    def call(self, srv_type: Any, name: str, request: Any,
+             timeout: float = SERVICE_TIMEOUT) -> Any:
+        """Call service ``name`` over DDS; return the response (fail after ``timeout`` s)."""
+        client = self.node.create_client(srv_type, name)
+        try:
+            assert self.spin_until(client.service_is_ready, timeout), f'no service {name}'
+            future = client.call_async(request)
+            assert self.spin_until(future.done, timeout), f'{name}: no answer in {timeout} s'
+            return future.result()
+        finally:
+            self.node.destroy_client(client)
+
+    def set_parameters(self, node: str, **values: Any) -> list[SetParametersResult]:
+        """Set parameters of ``node`` (its name) through its ``set_parameters`` service."""
+        request = SetParameters.Request(parameters=[
+            Parameter(name, value=value).to_parameter_msg() for name, value in values.items()])
+        return list(self.call(SetParameters, f'{node}/set_parameters', request).results)
+
+    def describe_parameters(self, node: str, *names: str) -> list[ParameterDescriptor]:
+        """The descriptors of parameters ``names`` of ``node`` (its name)."""
+        request = DescribeParameters.Request(names=list(names))
+        return list(self.call(DescribeParameters, f'{node}/describe_parameters',
+                              request).descriptors)
 
     def close(self) -> None:
         """Destroy the node and shut the context down."""
