@@ -22,7 +22,14 @@ after splits), written by :class:`~scara_ident_ros.bag.BagWriter`.
 - Received and written messages are logged every ``report_period`` and on shutdown,
   and saved to ``stats_file`` as JSON. (DDS's own count of lost messages is not
   used: with the EventsExecutor of these wheels, a subscription with a
-  ``message_lost`` event callback hung inside ``spin_once`` once messages were lost.)
+  ``message_lost`` event callback hung inside ``spin_once`` once messages were lost, and
+  one whose callback takes the message info, to see gaps in the publication sequence
+  numbers, raises ``SystemError``. Messages lost before the recorder are not seen.)
+- Services (``std_srvs/Trigger``), as rosbag2's recorder has them: ``~/split`` closes the
+  current ``.mcap`` file and continues in the next one; ``~/pause`` stops writing (what
+  arrives meanwhile is counted as ``paused``, not written) until ``~/resume``.
+- ``/diagnostics`` (1 Hz): write rate, written, received and paused messages; WARN while
+  paused (:mod:`scara_ident_ros.identification.health`).
 """
 from __future__ import annotations
 
@@ -38,12 +45,15 @@ from typing import Any
 from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from std_srvs.srv import Trigger
 
 from scara_ident_ros.bag.errors import BagError
 from scara_ident_ros.bag.message_class import message_class
 from scara_ident_ros.bag.qos import adapt_to_offers, qos_from_profile
 from scara_ident_ros.bag.topic_filter import TopicFilter
 from scara_ident_ros.bag.writer import BagWriter
+from scara_ident_ros.identification.health import Deltas, Health, recorder_health
+from scara_ident_ros.nodes.diagnostics import Diagnostics
 from scara_ident_ros.nodes.parameters import ParamSpec, declare_parameters
 from scara_ident_ros.nodes.runtime import POLL_PERIOD, ConfigError, run_node
 
@@ -115,11 +125,18 @@ class RecorderNode(Node):
         self._ignored: set[str] = set()  # topics that cannot be recorded (warned once)
         self._started = time.monotonic()
         self._closed = False
+        self._paused = False
+        self._not_written = 0  # messages received while paused
+        self._deltas = Deltas()
         self._last_report = (self._started, 0)
         self.create_timer(p['discovery_period'], self._discover)
         self.create_timer(CHUNK_POLL_PERIOD, self.writer.poll)
         if p['report_period'] > 0:
             self.create_timer(p['report_period'], self._report)
+        self.create_service(Trigger, '~/split', self.on_split)
+        self.create_service(Trigger, '~/pause', self.on_pause)
+        self.create_service(Trigger, '~/resume', self.on_resume)
+        self.diagnostics = Diagnostics(self, 'recording', self.health)
         selection = 'all topics' if p['all'] else ', '.join(self._filter.patterns)
         self.get_logger().info(f'recording {selection} into {output}')
         self._discover()
@@ -219,6 +236,10 @@ class RecorderNode(Node):
         if not pending:
             return
         self._received += len(pending)
+        if self._paused:
+            self._not_written += len(pending)
+            pending.clear()
+            return
         try:
             self.writer.write_batch(pending)
         except (BagError, OSError) as exc:
@@ -227,14 +248,65 @@ class RecorderNode(Node):
             raise SystemExit(1) from None
         pending.clear()
 
+    # -- services ------------------------------------------------------------------------
+
+    def on_split(self, request: Trigger.Request, response: Trigger.Response
+                 ) -> Trigger.Response:
+        """``~/split``: write what arrived, close the storage file, continue in a new one."""
+        try:
+            self._flush_pending()
+            self.writer.split()
+        except (BagError, OSError) as exc:
+            response.success, response.message = False, f'split failed: {exc}'
+        else:
+            response.success = True
+            response.message = f'now writing {self.writer.file_names[-1]}'
+        self.get_logger().info(f'~/split: {response.message}')
+        return response
+
+    def on_pause(self, request: Trigger.Request, response: Trigger.Response
+                 ) -> Trigger.Response:
+        """``~/pause``: write what arrived until now, then nothing until ``~/resume``."""
+        self._flush_pending()
+        response.success = True
+        response.message = 'already paused' if self._paused else 'paused'
+        self._paused = True
+        self.get_logger().info(f'~/pause: {response.message}')
+        return response
+
+    def on_resume(self, request: Trigger.Request, response: Trigger.Response
+                  ) -> Trigger.Response:
+        """``~/resume``: write again (what arrived while paused is not written)."""
+        self._flush_pending()
+        response.success = True
+        response.message = 'resumed' if self._paused else 'not paused'
+        self._paused = False
+        self.get_logger().info(f'~/resume: {response.message} ({self._not_written} messages '
+                               'not written while paused so far)')
+        return response
+
     # -- reporting and closing -----------------------------------------------------------
+
+    def health(self, period_s: float) -> Health:
+        """The recorder's health over the last ``period_s`` s, for ``/diagnostics``."""
+        counters = self.counters()
+        recent = self._deltas(written=counters['written'])
+        return recorder_health(
+            period_s=period_s, written=counters['written'], received=counters['received'],
+            paused=counters['paused'], recent_written=int(recent['written']),
+            is_paused=self._paused, files=len(counters['files']), topics=len(self._topics))
+
+    def handled(self) -> int:
+        """Messages received so far (a stop drains the subscriptions until it stays put)."""
+        return self._received + len(self._pending)
 
     def counters(self) -> dict[str, Any]:
         """Received and written messages, per topic and in total."""
         written = self.writer.counts_by_id()
         topics = {topic: written.get(cid, 0) for topic, cid in sorted(self._topics.items())}
         return {'bag': str(self.writer.path), 'received': self._received + len(self._pending),
-                'written': sum(topics.values()), 'topics': topics, 'files': self.writer.file_names,
+                'written': sum(topics.values()), 'paused': self._not_written, 'topics': topics,
+                'files': self.writer.file_names,
                 'seconds': round(time.monotonic() - self._started, 3)}
 
     def _report(self) -> None:
