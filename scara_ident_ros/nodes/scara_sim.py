@@ -4,7 +4,9 @@ The physics (Lagrangian model, excitation, computed-torque controller, RK4) live
 :mod:`scara_ident_ros.sim`; this node only paces the simulator against absolute
 deadlines and converts each sample to a ``sensor_msgs/JointState``:
 ``position`` (rad, m), ``velocity`` (rad/s, m/s) and ``effort`` (N·m, N) = the
-torque/force actually applied, ``header.stamp`` = simulated time.
+torque/force actually applied, ``header.stamp`` = simulated time. Once a second it
+reports on ``/diagnostics`` (hardware_id ``scara_sim``) its rate and its late samples
+(:func:`~scara_ident_ros.identification.health.simulator_health`).
 """
 from __future__ import annotations
 
@@ -23,6 +25,8 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 
 from scara_ident_ros.dynamics import ParamError, ScaraParams
+from scara_ident_ros.identification.health import Deltas, Health, simulator_health
+from scara_ident_ros.nodes.diagnostics import Diagnostics
 from scara_ident_ros.nodes.messages import NS_PER_S, joint_state, ns_to_stamp
 from scara_ident_ros.nodes.parameters import ParamSpec, declare_parameters
 from scara_ident_ros.nodes.runtime import POLL_PERIOD, ConfigError, run_node
@@ -111,6 +115,9 @@ class ScaraSimNode(Node):
         self.msg = joint_state(0, names, frame_id=s['frame_id'])
         self.published = 0
         self.pacer = DeadlinePacer(self.period_ns, real_time_factor=s['real_time_factor'])
+        self.waiting = True  # for subscribers: nothing published yet on purpose
+        self.deltas = Deltas()
+        self.diagnostics = Diagnostics(self, 'simulation', self.health, hardware_id='scara_sim')
         self.get_logger().info(
             f'simulating {path} at {s["rate_hz"]:g} Hz, trajectory {s["trajectory"]!r}, '
             f'seed {s["seed"]}, publishing {self.publisher.topic_name}')
@@ -134,6 +141,7 @@ class ScaraSimNode(Node):
         """Publish on absolute deadlines until ``stop`` is set or the duration is reached."""
         if not self.wait_for_subscribers(executor, stop):
             return
+        self.waiting = False
         # Time zero is now, not at start-up: waiting for subscribers must not put the
         # wall-clock stamps behind the wall clock.
         if self.settings['stamp_origin'] == 'wall':
@@ -172,6 +180,16 @@ class ScaraSimNode(Node):
                 break
             executor.spin_once(timeout_sec=0.05)
         return True
+
+    def health(self, period_s: float) -> Health:
+        """The simulator's health over the last ``period_s`` s, for ``/diagnostics``."""
+        recent = self.deltas(published=self.published, late=self.pacer.late)
+        s = self.settings
+        return simulator_health(
+            period_s=period_s, nominal_hz=s['rate_hz'] * s['real_time_factor'],
+            published=self.published, late=self.pacer.late,
+            recent_published=int(recent['published']), recent_late=int(recent['late']),
+            waiting=self.waiting)
 
     def log_stats(self) -> None:
         """Log how many samples were published and how many were late."""

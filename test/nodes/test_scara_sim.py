@@ -236,3 +236,25 @@ def test_joint_names_come_from_the_robot_file_unless_given(
     assert output.returncode == 0, output.stderr
     assert len(messages) == 200
     assert {tuple(m.name) for m in messages} == {tuple(names)}
+
+
+def test_reports_its_rate_on_diagnostics(listener: Listener) -> None:
+    """Waiting for its subscriber, then publishing 1 kHz, as /diagnostics says at 1 Hz."""
+    from diagnostic_msgs.msg import DiagnosticArray
+
+    name = '/scara_sim: simulation'
+    statuses = []
+    listener.node.create_subscription(
+        DiagnosticArray, '/diagnostics',
+        lambda msg: statuses.extend(s for s in msg.status if s.name == name), 10)
+    with NodeProcess(MODULE, ['-p', 'wait_for_subscribers:=1']) as node:
+        assert listener.spin_until(lambda: bool(statuses), RECEIVE_TIMEOUT), node.stderr_so_far()
+        assert statuses[0].message == 'waiting for subscribers'
+        assert statuses[0].level == b'\x00' and statuses[0].hardware_id == 'scara_sim'
+        listener.subscribe(JointState, JOINT_STATES_TOPIC)
+        assert listener.spin_until(lambda: len(statuses) >= 4, RECEIVE_TIMEOUT)
+        publishing = [s for s in statuses if s.message.startswith('publishing')]
+        assert publishing, [s.message for s in statuses]
+        values = {kv.key: kv.value for kv in publishing[-1].values}
+    assert 800 < float(values['samples/s']) < 1200, values
+    assert values['nominal [Hz]'] == '1000' and int(values['published']) > 0
