@@ -17,13 +17,18 @@ fixed constants, eq. 2). Default constants per activation are in `DEFAULT_CONSTA
 `ACTIVATIONS` and `DERIVATIVES` map each name to ``f(z, k)`` and ``f'(z, k)`` (the derivative
 with respect to z). Unlike scikit-learn's tables, the derivatives take z, not f(z): a sum of
 sigmoids cannot be differentiated from its value alone. These reference functions are exact
-to rounding for any z (no overflow, no warnings, tails not flushed to zero); the network's
-hot path uses the equivalent form σ(u) = (1 + tanh(u/2))/2, which needs one transcendental
-call for all four terms of SLOG and agrees with them to ~1e-16 absolute.
+to rounding for any z (no overflow, no warnings, tails not flushed to zero). The network
+evaluates the same `LOGISTIC_TERMS` in the equivalent `TanhForm` (σ(u) = (1 + tanh(u/2))/2),
+which needs one transcendental call for all four terms of SLOG and agrees with them to
+~1e-16 absolute: `hidden_layer` for batches; the per-sample path reads the same coefficients.
+The reference functions are 7× slower on a 1000 × 40 batch (9.5 ms against 1.3 ms) and 4× on
+one sample of 40 units (39 µs against ~10 µs for the whole prediction), too slow for LM and
+the 1 kHz path.
 """
 from __future__ import annotations
 
-from typing import Callable, NamedTuple
+from collections.abc import Callable
+from typing import NamedTuple
 
 import numpy as np
 import numpy.typing as npt
@@ -34,6 +39,8 @@ __all__ = [
     'DEFAULT_CONSTANTS',
     'DERIVATIVES',
     'LOGISTIC_TERMS',
+    'TanhForm',
+    'hidden_layer',
     'logistic',
     'logistic_derivative',
     'mslog',
@@ -42,6 +49,7 @@ __all__ = [
     'sigmoid_derivative',
     'slog',
     'slog_derivative',
+    'tanh_form',
 ]
 
 FloatArray = npt.NDArray[np.float64]
@@ -205,3 +213,75 @@ DERIVATIVES: dict[str, Activation] = {
     'slog': slog_derivative,
     'mslog': mslog_derivative,
 }
+
+
+class TanhForm(NamedTuple):
+    """An activation of `LOGISTIC_TERMS` with its constants, as the network evaluates it.
+
+    With p = x·v + c the net input, z = (p − b)/a and σ(u) = (1 + tanh(u/2))/2::
+
+        t_i   = tanh(p·scale + offset_i)      scale = 1/(2a), offset_i = (shift_i − b/a)/2
+        h     = h_const + Σ h_coef_i·t_i      h_coef_i = k·s_i/2,       h_const = Σ h_coef_i
+        dh/dp = g_const + Σ g_coef_i·t_i²     g_coef_i = −k·s_i/(4a),   g_const = −Σ g_coef_i
+
+    ``tau_i = tanh(shift_i/2)`` gives every t_i from T = tanh(z/2) with one tanh:
+    t_i = (T + τ_i)/(1 + T·τ_i), where 1 + T·τ_i >= 1 − |τ_i| > 0.
+    """
+
+    scale: float
+    offset: FloatArray  # (n_terms, 1)
+    tau: FloatArray  # (n_terms,)
+    h_coef: FloatArray  # (n_terms,)
+    h_const: float
+    g_coef: FloatArray  # (n_terms,)
+    g_const: float
+    b: float
+
+
+def tanh_form(name: str, constants: ActivationConstants) -> TanhForm:
+    """Return the `TanhForm` of activation ``name`` with constants (k, a, b)."""
+    shifts, signs = (np.array(terms) for terms in LOGISTIC_TERMS[name])
+    k, a, b = constants
+    return TanhForm(scale=1.0 / (2.0 * a), offset=((shifts - b / a) / 2.0)[:, None],
+                    tau=np.tanh(shifts / 2.0), h_coef=k / 2.0 * signs,
+                    h_const=k / 2.0 * float(signs.sum()), g_coef=-k / (4.0 * a) * signs,
+                    g_const=k / (4.0 * a) * float(signs.sum()), b=b)
+
+
+def hidden_layer(p: FloatArray, form: TanhForm, *, derivative: bool = False
+                 ) -> tuple[FloatArray, FloatArray | None]:
+    """Hidden outputs h and, if asked, g = dh/dp of net inputs p = x·v + c.
+
+    Parameters
+    ----------
+    p : ndarray of shape (n, n_hidden)
+        Net inputs; overwritten (with tanh(z/2)).
+    form : TanhForm
+    derivative : bool
+        Also return g.
+
+    Returns
+    -------
+    h : ndarray of shape (n, n_hidden)
+    g : ndarray of shape (n, n_hidden) or None
+    """
+    T = p
+    T -= form.b
+    T *= form.scale
+    np.tanh(T, out=T)
+    h = np.full_like(T, form.h_const)
+    g = np.full_like(T, form.g_const) if derivative else None
+    t = np.empty_like(T)
+    work = np.empty_like(T)
+    for tau, h_coef, g_coef in zip(form.tau, form.h_coef, form.g_coef):
+        np.multiply(T, tau, out=work)
+        work += 1.0
+        np.add(T, tau, out=t)
+        t /= work
+        np.multiply(t, h_coef, out=work)
+        h += work
+        if g is not None:
+            np.multiply(t, t, out=work)
+            work *= g_coef
+            g += work
+    return h, g
