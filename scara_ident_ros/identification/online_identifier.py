@@ -107,8 +107,10 @@ class Counts:
     held_out : int
         Samples predicted and kept for validation, never learnt from.
     refused : int
-        Samples predicted but not learnt from, because the model refused the step (it
-        would not have been finite); the weights were left unchanged.
+        Samples predicted but not learnt from, because the step was refused (it would not
+        have been finite, or it overshot: see ``trainer``); the weights were left unchanged.
+    clipped : int
+        Predictions beyond the effort bounds, clipped to them before being handed out.
     skipped : dict of SkipReason to int
         Samples without a prediction, per reason (every reason present, from 0).
     pending : int
@@ -120,6 +122,7 @@ class Counts:
     learned: int = 0
     held_out: int = 0
     refused: int = 0
+    clipped: int = 0
     skipped: dict[SkipReason, int] = field(
         default_factory=lambda: dict.fromkeys(SkipReason, 0))
     pending: int = 0
@@ -154,7 +157,8 @@ class OnlineIdentifier:
         acceleration estimate.
     bounds : Bounds, optional
         Samples with values beyond them (in joint order) are refused as ``OUT_OF_LIMITS``:
-        never predicted, never learnt.
+        never predicted, never learnt; predictions beyond their effort bounds are clipped
+        to them (counted in ``clipped``), so that no absurd effort is ever handed out.
 
     Raises
     ------
@@ -182,6 +186,7 @@ class OnlineIdentifier:
         self.holdout = holdout
         self.errors = ErrorWindow(n, mse_window)
         self.counts = Counts(skipped=self.stage.skipped)
+        self._effort_bounds = None if bounds is None else (bounds.lo[2], bounds.hi[2])
 
     @property
     def n_joints(self) -> int:
@@ -260,6 +265,11 @@ class OnlineIdentifier:
                 counts.refused += 1
         else:
             predicted = self.model.predict(item.x)
+        if self._effort_bounds is not None:
+            lo, hi = self._effort_bounds
+            if not np.all((predicted >= lo) & (predicted <= hi)):
+                np.clip(predicted, lo, hi, out=predicted)
+                counts.clipped += 1
         if effort is not None:
             self.errors.update(effort, predicted)
         return StepResult(item.stamp_ns, predicted, None, held_out)

@@ -5,6 +5,9 @@ import numpy as np
 
 from scara_ident_ros.dynamics import ScaraParams
 from scara_ident_ros.experiments import simulate_dataset
+import pytest
+
+from scara_ident_ros.identification import trainer as trainer_module
 from scara_ident_ros.identification import (BackPropagation, Bounds, Holdout, OnlineIdentifier,
                                             Reservoir, ReservoirLM, SkipReason, make_trainer)
 from scara_ident_ros.methods import limit_scaling, make_network
@@ -57,8 +60,9 @@ class _Counting(BackPropagation):
         self.learnt: list[bytes] = []
 
     def learn(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        predicted = super().learn(x, y)  # raises if the guard undid the step
         self.learnt.append(x.tobytes())
-        return super().learn(x, y)
+        return predicted
 
 
 def test_validation_samples_are_never_learnt_and_score_the_current_model() -> None:
@@ -75,7 +79,7 @@ def test_validation_samples_are_never_learnt_and_score_the_current_model() -> No
     held = {r.stamp_ns for r in results if r.held_out}
     counts = ident.counts
     assert counts.held_out == len(held) > 0 and counts.learned == len(trainer.learnt)
-    assert counts.learned + counts.held_out == counts.predicted == len(data)
+    assert counts.learned + counts.held_out + counts.refused == counts.predicted == len(data)
     held_x = {x.tobytes() for x in holdout.reservoir.X}
     assert held_x and held_x.isdisjoint(trainer.learnt)
     stats = ident.validation_stats()
@@ -111,7 +115,10 @@ def test_reservoir_lm_identifies_where_bp_only_tracks() -> None:
             net = network()
             trainer = make_trainer(name, net)  # the node's defaults
             for x, y in zip(stream.X, stream.Y):
-                trainer.learn(x, y)
+                try:
+                    trainer.learn(x, y)
+                except ValueError:  # a BP step undone by its guard
+                    pass
             scores[name] = nmse(net, unseen_X, unseen_Y)
     # Joints 1-3 after 60 s; joint 4, whose effort is mostly Coulomb friction (a step in
     # q'4), converges last (about 100 s: benchmarks/bench_learning_curves.py).
@@ -137,3 +144,59 @@ def test_impossible_samples_never_reach_the_reservoir() -> None:
     assert ident.counts.skipped[SkipReason.OUT_OF_LIMITS] == 10
     assert np.abs(trainer.reservoir.X[:, 0]).max() < 3.0
     assert len(trainer.reservoir) == ident.counts.learned == 990
+
+
+def _bp_stream(learning_rate: float) -> tuple[BackPropagation, np.ndarray, np.ndarray]:
+    """5 s of ``sequence`` learnt by BP at ``learning_rate``: (trainer, predictions, Y)."""
+    data = simulate_dataset(PARAMS, seconds=5.0, seed=1, preset='sequence')
+    net = network()
+    net.learning_rate = learning_rate
+    bp = BackPropagation(net)
+    predicted = np.empty_like(data.Y)
+    for i, (x, y) in enumerate(zip(data.X, data.Y)):
+        try:
+            predicted[i] = bp.learn(x, y)
+        except ValueError:
+            predicted[i] = net.predict(x)
+    return bp, predicted, data.Y
+
+
+def _last_nmse(predicted: np.ndarray, Y: np.ndarray) -> np.ndarray:
+    return np.mean((Y[-2000:] - predicted[-2000:]) ** 2, axis=0) / Y[-2000:].var(axis=0)
+
+
+def test_bp_guard_keeps_a_too_large_learning_rate_from_exploding(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    guarded, predicted, Y = _bp_stream(3.0)
+    assert guarded.undone > 0 and guarded.model.learning_rate < 3.0
+    assert np.all(_last_nmse(predicted, Y) < 2.0)
+    monkeypatch.setattr(trainer_module, 'GROWTH', np.inf)  # no guard: the same stream explodes
+    unguarded, predicted, Y = _bp_stream(3.0)
+    assert unguarded.undone == 0 and np.all(_last_nmse(predicted, Y) > 1e3)
+
+
+def test_bp_guard_leaves_the_papers_learning_rate_alone() -> None:
+    bp, predicted, Y = _bp_stream(0.1)
+    assert bp.undone <= 5  # of 5000 steps
+    assert bp.model.learning_rate == 0.1
+    assert np.all(_last_nmse(predicted, Y) < 1e-3)
+
+
+def test_predictions_beyond_the_effort_bounds_are_clipped() -> None:
+    data = simulate_dataset(PARAMS, seconds=0.5, seed=3)
+    net = network()
+    net.set_params(net.get_params() * 50.0)  # a network that predicts absurd efforts
+    bounds = Bounds.from_limits(*(PARAMS.array(name) for name in (
+        'position_min', 'position_max', 'velocity_max', 'effort_max')))
+    ident = OnlineIdentifier(net, joint_names=PARAMS.joint_names, learn=False, bounds=bounds)
+    results = []
+    for stamp, x, y in zip(data.stamp_ns, data.X, data.Y):
+        results += ident.process(int(stamp), PARAMS.joint_names, x[:4], x[4:8], y)
+    results += ident.finish()
+    efforts = np.array([r.effort for r in results if r.effort is not None])
+    assert len(efforts) == len(data)
+    raw = net.predict(data.X)
+    assert np.any(np.abs(raw) > bounds.hi[2])  # the test would catch a missing clip
+    assert np.all((efforts >= bounds.lo[2]) & (efforts <= bounds.hi[2]))
+    outside = np.any((raw < bounds.lo[2]) | (raw > bounds.hi[2]), axis=1)
+    assert ident.counts.clipped == int(outside.sum()) > 0
