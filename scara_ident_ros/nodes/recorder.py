@@ -65,30 +65,36 @@ CHUNK_POLL_PERIOD = 0.1  # s between checks of the open chunk's age when idle
 BATCH_SIZE = 512  # most messages handed to the writer at once
 GATHER_PERIOD = 0.005  # s to let messages queue up after a quiet spell (one wake-up, not N)
 SPARSE_RATE = 20_000  # messages/s below which the loop gathers before taking
+WRITER = 'the storage files are opened with it'  # why a writer option is fixed at start
 
 PARAMETERS = (
     ParamSpec('output', '', "Bag directory to create; '' = rosbag2_<date>-<time> in the "
-              'working directory; an existing one is never overwritten'),
+              'working directory; an existing one is never overwritten',
+              fixed='the bag is created at start'),
     ParamSpec('topics', DEFAULT_TOPICS, 'Topic names or glob patterns to record '
-              '(* = within one name component, ** = across)', items=str),
-    ParamSpec('all', False, 'Record every topic except hidden ones; topics is then ignored'),
+              '(* = within one name component, ** = across)', items=str,
+              fixed='a recorded topic stays recorded'),
+    ParamSpec('all', False, 'Record every topic except hidden ones; topics is then ignored',
+              fixed='a recorded topic stays recorded'),
     ParamSpec('compression', 'none', 'MCAP chunk compression',
-              choices=('none', 'zstd', 'lz4')),
+              choices=('none', 'zstd', 'lz4'), fixed=WRITER),
     ParamSpec('max_bag_size', 0, 'Continue in a new .mcap file once one is this big; '
-              '0 = never split', 'bytes', min=0),
+              '0 = never split', 'bytes', min=0, read_only=False),
     ParamSpec('max_bag_duration', 0.0, 'Continue in a new .mcap file once one spans this '
-              'long; 0 = never split', 's', min=0.0),
+              'long; 0 = never split', 's', min=0.0, read_only=False),
     ParamSpec('max_chunk_size', 1048576, 'Write a chunk once it holds this much',
-              'bytes', min=4096),
+              'bytes', min=4096, fixed=WRITER),
     ParamSpec('max_chunk_duration', 1.0, 'Write a chunk once its first message is this old; '
-              'bounds what a SIGKILL loses; 0 = size only', 's', min=0.0),
+              'bounds what a SIGKILL loses; 0 = size only', 's', min=0.0, fixed=WRITER),
     ParamSpec('qos_depth', 0, 'History depth of the subscriptions; 0 = keep all (fewest '
-              'losses when publishers outrun the recorder)', 'messages', min=0),
+              'losses when publishers outrun the recorder)', 'messages', min=0,
+              fixed='subscriptions keep the QoS they were made with'),
     ParamSpec('discovery_period', 1.0, 'Period of the search for new topics', 's',
-              min=0.05, max=60.0),
+              min=0.05, max=60.0, fixed='a timer made at start'),
     ParamSpec('report_period', 10.0, 'Period of the progress log line; 0 = none', 's',
-              min=0.0),
-    ParamSpec('stats_file', '', "Write the final counters here as JSON; '' = no file"),
+              min=0.0, fixed='a timer made at start'),
+    ParamSpec('stats_file', '', "Write the final counters here as JSON; '' = no file",
+              fixed='used at shutdown as given at start'),
 )
 
 
@@ -102,7 +108,7 @@ class RecorderNode(Node):
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__('recorder', **kwargs)
-        self.params = declare_parameters(self, PARAMETERS)
+        self.params = declare_parameters(self, PARAMETERS, on_change=self._apply)
         p = self.params
         try:
             self._filter = TopicFilter(p['topics'], all_topics=p['all'])
@@ -247,6 +253,14 @@ class RecorderNode(Node):
             pending.clear()
             raise SystemExit(1) from None
         pending.clear()
+
+    # -- while running -------------------------------------------------------------------
+
+    def _apply(self, changed: dict[str, Any]) -> None:
+        """Parameters set while running: the split limits apply from the next message."""
+        self.writer.max_file_size = self.params['max_bag_size']
+        self.writer.max_file_duration_ns = round(self.params['max_bag_duration'] * 1e9)
+        self.get_logger().info('set ' + ', '.join(f'{k} = {v!r}' for k, v in changed.items()))
 
     # -- services ------------------------------------------------------------------------
 

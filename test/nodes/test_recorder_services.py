@@ -102,6 +102,9 @@ def test_split_pause_resume_and_diagnostics(tmp_path: Path,
         publish_batch()  # 0-299 into bag_0.mcap
         first = received(BATCH)
         assert first.level == OK and first.hardware_id == ''
+        assert listener.set_parameters(NODE, max_bag_duration=3600.0)[0].successful
+        fixed = listener.set_parameters(NODE, compression='zstd')[0]
+        assert not fixed.successful and 'read-only' in fixed.reason
         split = call('split')
         assert split.success and split.message == 'now writing bag_1.mcap'
 
