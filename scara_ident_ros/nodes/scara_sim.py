@@ -14,7 +14,7 @@ import json
 import sys
 import threading
 import time
-
+from dataclasses import replace
 from pathlib import Path
 
 from rclpy.duration import Duration
@@ -79,6 +79,9 @@ PARAMETERS = (
               'never'),
     ParamSpec('frame_id', '', 'header.frame_id of the published JointState'),
 )
+# None is settable while running (ros2 param describe says why).
+PARAMETERS = tuple(replace(spec, fixed=spec.fixed or 'the simulator and its pacer are built '
+                           'once') for spec in PARAMETERS)
 
 
 class ScaraSimNode(Node):
