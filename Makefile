@@ -2,6 +2,7 @@
 #   make demo   runs the whole identification graph and writes a bag and a report
 #   make test   runs the test suite
 # Both create or reuse the virtual environment .venv and install everything into it.
+# While working on the maths, make test-core runs the pure-numpy tests alone, in seconds.
 
 PYTHON ?= $(shell command -v python3.11 || command -v python3)
 VENV ?= .venv
@@ -14,7 +15,7 @@ export ROS_AUTOMATIC_DISCOVERY_RANGE ?= LOCALHOST
 DEMO_DURATION ?= 60
 DEMO_OUT ?= out/demo
 
-.PHONY: demo test bench venv clean
+.PHONY: demo test test-core bench venv clean
 
 venv: $(STAMP)
 
@@ -33,6 +34,17 @@ demo: $(STAMP)
 
 test: $(STAMP)
 	$(PY) -m pytest test
+
+# The pure-numpy tests: dynamics, networks, training, the identification core, the
+# simulator, offline data sets and figures. Nothing here imports rclpy, joins DDS or starts
+# a process; tests marked slow and the deselected 40-60 s learning-curve comparison are
+# left to make test, which runs everything.
+CORE_TESTS := test/core test/dynamics test/nn test/identification test/sim test/offline
+CORE_DESELECT := \
+	test/identification/test_trainer.py::test_reservoir_lm_identifies_where_bp_only_tracks
+
+test-core: $(STAMP)
+	$(PY) -m pytest -m 'not slow' $(addprefix --deselect ,$(CORE_DESELECT)) $(CORE_TESTS)
 
 bench: $(STAMP)
 	$(PY) -m pip install --quiet -r requirements-bench.txt -c constraints.txt
