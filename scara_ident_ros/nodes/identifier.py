@@ -530,16 +530,11 @@ class IdentifierNode(Node):
             return
         stats = self.core.error_stats()
         validation = self.core.validation_stats()
-        n = len(self.names)
-        msg = Float64MultiArray()
-        msg.layout.dim = [
-            MultiArrayDimension(label=MSE_METRICS_LABEL, size=3, stride=3 * (n + 1)),
-            MultiArrayDimension(label='joint:' + ','.join([*self.names, 'total']),
-                                size=n + 1, stride=n + 1)]
-        vnmse = ([*validation.nmse.tolist(), validation.nmse_total] if validation is not None
-                 else [math.nan] * (n + 1))
-        msg.data = [*stats.mse.tolist(), float(stats.mse_total),
-                    *stats.nmse.tolist(), float(stats.nmse_total), *vnmse]
+        from scara_ident_ros.mse_layout import encode_mse
+
+        dims, data = encode_mse(self.names, stats, validation)
+        msg = Float64MultiArray(data=data)
+        msg.layout.dim = [MultiArrayDimension(**dim._asdict()) for dim in dims]
         self.mse_publisher.publish(msg)
 
     def handled(self) -> int:

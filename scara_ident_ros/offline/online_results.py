@@ -233,17 +233,16 @@ def read_identifier_mse(bag: Path, method: str
     Returns
     -------
     (log_time_ns, data) or None
-        Receive times (M,) in ns and the messages' ``data`` (M, 3(n + 1)) =
-        [mse_1..mse_n, mse_total, nmse_1..nmse_n, nmse_total, validation_nmse_1..n, total]
-        per message (M, 2(n + 1) without the validation row, from older runs); None if the
-        bag has no such topic or no message.
+        Receive times (M,) in ns and the messages' ``data`` (M, 3(n + 1)), laid out as
+        :mod:`scara_ident_ros.mse_layout` says (``decode_mse`` splits it); None if the bag
+        has no such topic or no message.
     """
     from rosbags.typesys import Stores, get_typestore
 
     from scara_ident_ros.bag import open_bag
 
     topic = mse_topic(method)
-    store = get_typestore(Stores.ROS2_HUMBLE)
+    store = get_typestore(Stores.ROS2_JAZZY)
     times: list[int] = []
     rows: list[NDArray[np.float64]] = []
     with open_bag(bag) as reader:

@@ -49,6 +49,7 @@ from scara_ident_ros.experiments.tables import (PAPER_NOTE, PAPER_SAMPLES, PAPER
 from scara_ident_ros.identification import PAPER_WINDOW
 from scara_ident_ros.methods import METHODS
 from scara_ident_ros.methods import method as method_spec
+from scara_ident_ros.mse_layout import METRICS, decode_mse
 from scara_ident_ros.nn import DEFAULT_CONSTANTS
 from scara_ident_ros.offline.blas_threads import BLAS_THREADS
 from scara_ident_ros.offline.figures import plot_online_error, plot_torque, plot_training_mse
@@ -375,12 +376,12 @@ def _published_table(online: _Online, names: tuple[str, ...]) -> str:
              '|---|---|---|---|---|---|---|']
     for m, pred in online.predictions.items():
         data = online.published.get(m)
-        mse = nmse = validation = '—'
-        # [mse.., mse_total, nmse.., nmse_total(, validation_nmse.., total)]: 2 or 3 rows
-        if data is not None and data.shape[0] in (2 * (n + 1), 3 * (n + 1)):
-            mse, nmse = format_value(float(data[n])), format_value(float(data[2 * n + 1]))
-            if data.shape[0] == 3 * (n + 1):
-                validation = format_value(float(data[3 * n + 2]))
+        try:
+            rows = decode_mse(data, n) if data is not None else {}
+        except ValueError:  # not the layout of these joints
+            rows = {}
+        mse, nmse, validation = (format_value(float(rows[metric][-1])) if metric in rows
+                                 else '—' for metric in METRICS)
         lines.append(f'| {method_spec(m).label} | {mse} | {nmse} | {validation} | '
                      f'{pred.n_published} | {pred.stamp_ns.shape[0]} | {pred.n_unmatched} |')
     return '\n'.join(lines)
