@@ -15,11 +15,12 @@ How to recover, from Python (no ROS needed)::
     print(report.summary())
 
 :func:`recover_bag` reads each ``.mcap`` file of the bag: a complete one (valid footer
-and summary) is kept as it is; a damaged one is scanned record by record from the
-start, stopping at the first record that is cut off or a chunk whose length, CRC or
-compression does not check out, and everything before that point is rewritten into a
-new complete file under the same name (the damaged original is kept next to it as
-``<name>.mcap.damaged`` unless ``keep_damaged=False``). Finally ``metadata.yaml`` is
+and summary) is kept as it is; a damaged one is read record by record from the start with
+``mcap``'s ``StreamReader`` (CRCs checked), stopping at the first record that is cut off or
+a chunk whose CRC, compression or content does not check out, and everything before that
+point is copied, in the same pass, into a new complete file under the same name (the
+damaged original is kept next to it as ``<name>.mcap.damaged`` unless
+``keep_damaged=False``). Finally ``metadata.yaml`` is
 written from what the files hold (topics, types, message counts, offered QoS and type
 hashes from the channel metadata), so every rosbag2 reader opens the bag again. A bare
 ``.mcap`` file can be recovered the same way (no ``metadata.yaml`` then). Running it on
@@ -30,40 +31,19 @@ in an incomplete chunk, and would be rewritten under the recorder's feet.
 from __future__ import annotations
 
 import re
-import struct
-import sys
-import zlib
-from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import BinaryIO
 
-import lz4.frame
-
-if sys.version_info >= (3, 14):  # pragma: no cover
-    from compression import zstd
-else:
-    from backports import zstd
+from mcap.records import Channel, Chunk, DataEnd, Footer, Message, Schema
+from mcap.stream_reader import StreamReader, breakup_chunk
 
 from scara_ident_ros.bag.errors import BagError
-from scara_ident_ros.bag.mcap_file import MAGIC, McapFileWriter, Opcode
+from scara_ident_ros.bag.mcap_file import MAGIC, McapFileWriter
 from scara_ident_ros.bag.metadata import FileSummary, TopicSummary, write_metadata
 from scara_ident_ros.bag.qos import parse_offered_qos
 
 __all__ = ['FileRecovery', 'RecoveryReport', 'recover_bag']
-
-_DECOMPRESS: dict[str, Callable[[bytes], bytes]] = {
-    '': lambda data: data,
-    'zstd': zstd.decompress,
-    'lz4': lz4.frame.decompress,
-}
-_RECORD = struct.Struct('<BQ')
-_MESSAGE = struct.Struct('<HIQQ')
-_CHUNK = struct.Struct('<QQQI')
-_U16 = struct.Struct('<H')
-_U32 = struct.Struct('<I')
-_U64 = struct.Struct('<Q')
-
 
 @dataclass(frozen=True)
 class FileRecovery:
@@ -211,24 +191,23 @@ def _recover_file(file: Path, keep_damaged: bool) -> tuple[FileRecovery, _Conten
         return FileRecovery(file.name, content.message_count), content
     tmp = file.with_name(file.name + '.recovering')
     tmp.unlink(missing_ok=True)
-    with file.open('rb') as stream:
-        size = stream.seek(0, 2)
-        stream.seek(0)
-        writer: McapFileWriter | None = None
-        try:
-            content, used, reason, compression = _scan(stream, file, size)
-            writer = McapFileWriter(tmp, compression=compression, chunk_duration_ns=0)
-            _rewrite(stream, file, used, writer)
-            writer.close()
-        except BaseException:
-            if writer is not None:
-                writer.abort()
-            tmp.unlink(missing_ok=True)
-            raise
+    salvage = _Salvage(tmp)
+    try:
+        with file.open('rb') as stream:
+            size = stream.seek(0, 2)
+            stream.seek(0)
+            reason = salvage.run(stream, size, file)
+        salvage.close()
+    except BaseException:
+        salvage.abort()
+        tmp.unlink(missing_ok=True)
+        raise
     if keep_damaged:
         file.replace(file.with_name(file.name + '.damaged'))
     tmp.replace(file)
-    return FileRecovery(file.name, content.message_count, True, size - used, reason), content
+    content = salvage.content
+    return (FileRecovery(file.name, content.message_count, True, size - salvage.used, reason),
+            content)
 
 
 def _read_intact(file: Path) -> _Content | None:
@@ -261,175 +240,116 @@ def _read_intact(file: Path) -> _Content | None:
     return content
 
 
-def _read_string(body: bytes, pos: int) -> tuple[str, int]:
-    length = _U32.unpack_from(body, pos)[0]
-    end = pos + 4 + length
-    if end > len(body):
-        raise ValueError('string runs past its record')
-    return body[pos + 4:end].decode(), end
+class _Exact:
+    """A file read through ``mcap``'s StreamReader that raises on a read it cannot fill.
 
-
-def _parse_schema(body: bytes) -> tuple[int, tuple[str, str, bytes]]:
-    schema_id = _U16.unpack_from(body, 0)[0]
-    name, pos = _read_string(body, 2)
-    encoding, pos = _read_string(body, pos)
-    length = _U32.unpack_from(body, pos)[0]
-    return schema_id, (name, encoding, body[pos + 4:pos + 4 + length])
-
-
-def _parse_channel(body: bytes) -> tuple[int, _Channel]:
-    channel_id, schema_id = struct.unpack_from('<HH', body, 0)
-    topic, pos = _read_string(body, 4)
-    encoding, pos = _read_string(body, pos)
-    end = pos + 4 + _U32.unpack_from(body, pos)[0]
-    pos += 4
-    metadata = {}
-    while pos < end:
-        key, pos = _read_string(body, pos)
-        value, pos = _read_string(body, pos)
-        metadata[key] = value
-    return channel_id, _Channel(schema_id, topic, encoding, metadata)
-
-
-def _records(data: bytes, where: str) -> list[tuple[int, bytes]]:
-    """Split a chunk's content into (opcode, body); raise _Damaged if it does not add up."""
-    records = []
-    pos = 0
-    while pos < len(data):
-        if pos + 9 > len(data):
-            raise _Damaged(f'{where}: record header cut off')
-        opcode, length = _RECORD.unpack_from(data, pos)
-        if pos + 9 + length > len(data):
-            raise _Damaged(f'{where}: record at {pos} runs past the chunk')
-        records.append((opcode, data[pos + 9:pos + 9 + length]))
-        pos += 9 + length
-    return records
-
-
-def _chunk_records(body: bytes, offset: int) -> tuple[str, list[tuple[int, bytes]]]:
-    """Check and decompress one chunk record body; return its compression and records."""
-    where = f'chunk at offset {offset}'
-    try:
-        _, _, size, crc = _CHUNK.unpack_from(body, 0)
-        compression, pos = _read_string(body, _CHUNK.size)
-        length = _U64.unpack_from(body, pos)[0]
-        if pos + 8 + length != len(body):
-            raise _Damaged(f'{where}: inconsistent lengths')
-        if compression not in _DECOMPRESS:
-            raise _Damaged(f'{where}: unknown compression {compression!r}')
-        data = _DECOMPRESS[compression](body[pos + 8:])
-    except _Damaged:
-        raise
-    except Exception as exc:  # noqa: BLE001 - struct, zstd or lz4 errors
-        raise _Damaged(f'{where}: cannot decode ({exc})') from exc
-    if len(data) != size or (crc and zlib.crc32(data) != crc):
-        raise _Damaged(f'{where}: size or CRC mismatch')
-    return compression, _records(data, where)
-
-
-def _top_level(stream: BinaryIO, file: Path, size: int) -> Iterator[tuple[int, int, bytes]]:
-    """Yield (offset, opcode, body) of the data section; raise _Damaged where it breaks."""
-    head = stream.read(len(MAGIC))
-    if head != MAGIC:
-        if len(head) < len(MAGIC) and MAGIC.startswith(head):
-            raise _Damaged('file cut off inside the magic')
-        raise BagError(f'{file}: not an MCAP file (bad magic at offset 0)')
-    offset = len(MAGIC)
-    while offset < size:
-        header = stream.read(9)
-        if len(header) < 9:
-            raise _Damaged(f'record header at offset {offset} cut off')
-        opcode, length = _RECORD.unpack(header)
-        if offset + 9 + length > size:
-            raise _Damaged(f'record at offset {offset} cut off ({length} bytes announced, '
-                           f'{size - offset - 9} on disk)')
-        body = stream.read(length)
-        yield offset, opcode, body
-        offset += 9 + length
-        if opcode in (Opcode.DATA_END, Opcode.FOOTER):
-            raise _Damaged(f'data section ends at offset {offset} but the summary is '
-                           'unreadable')
-
-
-def _apply(content: _Content, opcode: int, body: bytes,
-           on_message: Callable[[int, int, bytes], None] | None) -> None:
-    if opcode == Opcode.SCHEMA:
-        schema_id, schema = _parse_schema(body)
-        content.schemas[schema_id] = schema
-    elif opcode == Opcode.CHANNEL:
-        channel_id, channel = _parse_channel(body)
-        content.channels[channel_id] = channel
-        content.counts.setdefault(channel_id, 0)
-    elif opcode == Opcode.MESSAGE:
-        channel_id, _, log_time, _ = _MESSAGE.unpack_from(body, 0)
-        if channel_id not in content.channels:
-            raise ValueError(f'message on undeclared channel {channel_id}')
-        content.counts[channel_id] += 1
-        content.start_ns = min(content.start_ns, log_time)
-        content.end_ns = max(content.end_ns, log_time)
-        if on_message is not None:
-            on_message(channel_id, log_time, body[_MESSAGE.size:])
-
-
-def _scan(stream: BinaryIO, file: Path, size: int) -> tuple[_Content, int, str, str]:
-    """Find how much of a damaged file is usable.
-
-    Returns the content of the usable part, its length in bytes, why the scan stopped
-    and the compression of its chunks ('none' if none was compressed).
+    The StreamReader takes a short read (a record cut off by the kill) for the whole record;
+    here it is where the usable part ends. ``tell`` is the end of the last record read.
     """
-    content = _Content()
-    used = 0
-    compression = 'none'
-    reason = 'end of file'
-    try:
-        for offset, opcode, body in _top_level(stream, file, size):
-            trial = _Content(dict(content.schemas), dict(content.channels),
-                             dict(content.counts), content.start_ns, content.end_ns)
-            if opcode == Opcode.CHUNK:
-                name, records = _chunk_records(body, offset)
-                for inner, inner_body in records:
-                    _apply(trial, inner, inner_body, None)
-                compression = name or compression
+
+    def __init__(self, stream: BinaryIO, size: int) -> None:
+        self._raw = stream
+        self._size = size
+        self._offset = stream.tell()
+
+    def read(self, length: int) -> bytes:
+        data = self._raw.read(length)
+        if len(data) < length:
+            raise _Damaged(f'{length} bytes wanted at offset {self._offset}, '
+                           f'{self._size - self._offset} on disk')
+        self._offset += length
+        return data
+
+    def tell(self) -> int:
+        return self._offset
+
+
+class _Salvage:
+    """The complete records of a damaged file, copied into a new file as they are read.
+
+    Each top-level record is taken whole or not at all: a chunk only once its content is
+    decompressed, its CRC checked and every record in it is consistent.
+    """
+
+    def __init__(self, tmp: Path) -> None:
+        self.content = _Content()
+        self.used = 0  # bytes of the damaged file that were used
+        self._tmp = tmp
+        self._writer: McapFileWriter | None = None
+        self._declared: list[Schema | Channel] = []  # written with the first chunk
+
+    def run(self, raw: BinaryIO, size: int, file: Path) -> str:
+        """Copy what can be used of ``raw`` (``size`` bytes); return why the copy stopped."""
+        head = raw.read(len(MAGIC))
+        if head != MAGIC:
+            if len(head) < len(MAGIC) and MAGIC.startswith(head):
+                return 'file cut off inside the magic'
+            raise BagError(f'{file}: not an MCAP file (bad magic at offset 0)')
+        self.used = len(MAGIC)
+        stream = _Exact(raw, size)
+        reader = StreamReader(stream, skip_magic=True, emit_chunks=True,  # type: ignore[arg-type]
+                              validate_crcs=True)
+        try:
+            for record in reader.records:
+                if isinstance(record, (DataEnd, Footer)):
+                    self.used = stream.tell()
+                    return (f'data section ends at offset {self.used} but the summary is '
+                            'unreadable')
+                self._take(record)
+                self.used = stream.tell()
+        except _Damaged as exc:
+            return f'record at offset {self.used} cut off ({exc})'
+        except Exception as exc:  # noqa: BLE001 - struct, CRC, zstd, lz4 or record errors
+            return f'bad record after offset {self.used}: {exc}'
+        return 'end of file'
+
+    def _take(self, record: object) -> None:
+        inner = breakup_chunk(record, validate_crc=True) if isinstance(record, Chunk) else [record]
+        trial = _Content(dict(self.content.schemas), dict(self.content.channels),
+                         dict(self.content.counts), self.content.start_ns, self.content.end_ns)
+        declared: list[Schema | Channel] = []
+        batch: list[tuple[int, int, bytes]] = []
+        for r in inner:
+            if isinstance(r, Schema):
+                trial.schemas[r.id] = (r.name, r.encoding, r.data)
+                declared.append(r)
+            elif isinstance(r, Channel):
+                trial.channels[r.id] = _Channel(r.schema_id, r.topic, r.message_encoding,
+                                                dict(r.metadata))
+                trial.counts.setdefault(r.id, 0)
+                declared.append(r)
+            elif isinstance(r, Message):
+                if r.channel_id not in trial.channels:
+                    raise ValueError(f'message on undeclared channel {r.channel_id}')
+                trial.counts[r.channel_id] += 1
+                trial.start_ns = min(trial.start_ns, r.log_time)
+                trial.end_ns = max(trial.end_ns, r.log_time)
+                batch.append((r.channel_id, r.log_time, r.data))
+        self.content = trial
+        self._declared += declared
+        if isinstance(record, Chunk) and self._writer is None:  # the first chunk's compression
+            self._writer = McapFileWriter(self._tmp, compression=record.compression or 'none',
+                                          chunk_duration_ns=0)
+        if self._writer is not None:
+            self._declare(self._writer)
+            self._writer.write_batch(batch)
+
+    def _declare(self, writer: McapFileWriter) -> None:
+        for r in self._declared:
+            if isinstance(r, Schema):
+                writer.add_schema(r.id, r.name, r.encoding, r.data)
             else:
-                _apply(trial, opcode, body, None)
-            content = trial
-            used = offset + 9 + len(body)
-    except _Damaged as exc:
-        reason = str(exc)
-    except (ValueError, struct.error, UnicodeDecodeError) as exc:
-        reason = f'bad record after offset {used}: {exc}'
-    return content, used, reason, compression
+                writer.add_channel(r.id, r.schema_id, r.topic, r.message_encoding, r.metadata)
+        self._declared.clear()
 
+    def close(self) -> None:
+        """Finish the new file (summary and footer)."""
+        if self._writer is None:  # no chunk: schemas and channels only, if any
+            self._writer = McapFileWriter(self._tmp, chunk_duration_ns=0)
+        self._declare(self._writer)
+        self._writer.close()
 
-def _rewrite(stream: BinaryIO, file: Path, used: int, writer: McapFileWriter) -> None:
-    """Copy the first ``used`` bytes' schemas, channels and messages into ``writer``."""
-    stream.seek(0)
-    content = _Content()
-    batch: list[tuple[int, int, bytes]] = []
-
-    def on_message(channel_id: int, log_time: int, data: bytes) -> None:
-        batch.append((channel_id, log_time, data))
-
-    def apply(opcode: int, body: bytes) -> None:
-        known_schemas = set(content.schemas)
-        known_channels = set(content.channels)
-        _apply(content, opcode, body, on_message)
-        for schema_id in content.schemas.keys() - known_schemas:
-            name, encoding, data = content.schemas[schema_id]
-            writer.add_schema(schema_id, name, encoding, data)
-        for channel_id in content.channels.keys() - known_channels:
-            channel = content.channels[channel_id]
-            writer.add_channel(channel_id, channel.schema_id, channel.topic, channel.encoding,
-                               channel.metadata)
-
-    try:
-        for offset, opcode, body in _top_level(stream, file, used):
-            if opcode == Opcode.CHUNK:
-                for inner, inner_body in _chunk_records(body, offset)[1]:
-                    apply(inner, inner_body)
-            else:
-                apply(opcode, body)
-            writer.write_batch(batch)
-            batch.clear()
-    except _Damaged:
-        pass  # the end of the usable part (already established by _scan)
+    def abort(self) -> None:
+        """Close the new file as it is."""
+        if self._writer is not None:
+            self._writer.abort()
