@@ -74,7 +74,7 @@ class ScipyRun:
 
     def residuals(self, theta: np.ndarray) -> np.ndarray:
         self.nfev += 1
-        r = (self.net._predict_scaled(self.xs, theta) - self.ys).ravel()
+        r = (self.net.predict_scaled(self.xs, theta) - self.ys).ravel()
         mse = float(r @ r) / r.size
         self.best = min(self.best, mse)
         elapsed = time.perf_counter() - self.start

@@ -83,7 +83,7 @@ def torch_sgd(activation: str, xs: np.ndarray, ys: np.ndarray,
     import torch
 
     k, a, b = reference.constants
-    Vt, Wt = reference._unpack(reference.get_params())
+    Vt, Wt = reference.unpack(reference.get_params())
     shifts = (0.0,) if activation == 'sigmoid' else (2.0, 3.0, -3.0, -1.0)
     signs = (1.0,) if activation == 'sigmoid' else (1.0, -1.0, -1.0, 1.0)
 
@@ -131,7 +131,7 @@ def sklearn_sgd(xs: np.ndarray, ys: np.ndarray,
     with warnings.catch_warnings():
         warnings.simplefilter('ignore')
         model.partial_fit(xs[:1], ys[:1])  # allocates; then start from our weights
-    Vt, Wt = reference._unpack(reference.get_params())
+    Vt, Wt = reference.unpack(reference.get_params())
     model.coefs_[0][...] = Vt[:12]
     model.intercepts_[0][...] = Vt[12]
     model.coefs_[1][...] = Wt[:, :40].T

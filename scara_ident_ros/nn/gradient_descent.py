@@ -46,7 +46,7 @@ class GradientDescent:
 
     def start(self, history: FitHistory) -> float:
         """Return the training MSE at the current weights (and keep their gradient)."""
-        sse, self._gradient = self._net._loss_gradient(self._xs, self._ys)
+        sse, self._gradient = self._net.loss_gradient(self._xs, self._ys)
         return sse / self._size
 
     def step(self) -> float:
@@ -58,12 +58,12 @@ class GradientDescent:
             'diverged' if the error became infinite or NaN; the weights are then restored.
         """
         net = self._net
-        theta = net._theta
+        theta = net.theta
         self._velocity *= net.momentum
         self._velocity -= net.learning_rate * self._gradient
         np.copyto(self._previous, theta)
         theta += self._velocity
-        sse, self._gradient = net._loss_gradient(self._xs, self._ys)
+        sse, self._gradient = net.loss_gradient(self._xs, self._ys)
         if not math.isfinite(sse):
             np.copyto(theta, self._previous)
             raise StopTraining(STOP_DIVERGED)

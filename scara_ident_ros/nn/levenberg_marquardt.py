@@ -82,8 +82,8 @@ def normal_equations(net: FeedForwardNet, xs: FloatArray, ys: FloatArray, *,
     jtj, jtr = out if out is not None else (np.empty((n_params, n_params)),
                                             np.empty(n_params))
     jtr.fill(0.0)
-    jtr_V, jtr_W = net._unpack(jtr)
-    W = net._unpack(net._theta)[1][:, :n_hid]
+    jtr_V, jtr_W = net.unpack(jtr)
+    W = net.unpack(net.theta)[1][:, :n_hid]
     chunk = min(chunk_size, xs.shape[0])
     wide = np.float32 if single else np.float64  # type of the hidden-layer products
     xt = np.ones((chunk, n_in + 1))
@@ -96,7 +96,7 @@ def normal_equations(net: FeedForwardNet, xs: FloatArray, ys: FloatArray, *,
     for start in range(0, xs.shape[0], chunk):
         x_chunk = xs[start:start + chunk]
         n = x_chunk.shape[0]
-        layers = net._forward(x_chunk, derivative=True)
+        layers = net.forward_scaled(x_chunk, derivative=True)
         g = layers.g
         assert g is not None
         r = layers.y
@@ -189,7 +189,7 @@ class LevenbergMarquardt:
             Scaled targets.
         """
         self._xs, self._ys = xs, ys
-        self._sse = self._net._mse_scaled(xs, ys) * ys.size
+        self._sse = self._net.mse_scaled(xs, ys) * ys.size
         self._stale = True
         return self._sse / ys.size
 
@@ -215,10 +215,10 @@ class LevenbergMarquardt:
                 self.mu *= self._mu_increase
                 continue
             delta = cho_solve((lower, True), self._jtr, check_finite=False)
-            np.subtract(net._theta, delta, out=self._trial)
-            sse = net._mse_scaled(self._xs, self._ys, self._trial) * self._ys.size
+            np.subtract(net.theta, delta, out=self._trial)
+            sse = net.mse_scaled(self._xs, self._ys, self._trial) * self._ys.size
             if sse < self._sse:
-                np.copyto(net._theta, self._trial)
+                np.copyto(net.theta, self._trial)
                 self._sse = sse
                 self._stale = True
                 if self._history is not None:

@@ -11,7 +11,7 @@ to [-1, 1] from its range, like MATLAB's ``mapminmax``) the network computes::
 with trainable V (n_inputs, n_hidden), c (n_hidden), W (n_outputs, n_hidden), d (n_outputs)
 and fixed constants k, a, b (`activations.DEFAULT_CONSTANTS`). All weights live in one packed
 vector ``θ = [Vt.ravel(), Wt.ravel()]`` with Vt = [V; c] of shape (n_inputs + 1, n_hidden) and
-Wt = [W, d] of shape (n_outputs, n_hidden + 1); `FeedForwardNet._unpack` returns views.
+Wt = [W, d] of shape (n_outputs, n_hidden + 1); `FeedForwardNet.unpack` returns views.
 
 Public methods take and return physical units; training minimises errors of scaled outputs.
 """
@@ -31,7 +31,7 @@ from scara_ident_ros.nn.model_file import read_model, write_model
 from scara_ident_ros.nn.scaling import MinMaxScaling
 from scara_ident_ros.nn.training import Callback, FitHistory, run_training
 
-__all__ = ['ALGORITHMS', 'FeedForwardNet']
+__all__ = ['ALGORITHMS', 'FeedForwardNet', 'Layers']
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -41,8 +41,8 @@ ALGORITHMS = ('lm', 'gd')
 _DEFAULT_CHUNK = 1024  # samples per block in batched computations (bounds memory)
 
 
-class _Layers(NamedTuple):
-    """Batched forward pass in scaled units, for n samples."""
+class Layers(NamedTuple):
+    """Batched forward pass in scaled units, for n samples (`FeedForwardNet.forward_scaled`)."""
 
     h: FloatArray  # (n, n_hidden) hidden outputs
     g: FloatArray | None  # (n, n_hidden) dh/d(x·v + c) = k·f'(z)/a, if asked for
@@ -124,7 +124,7 @@ class FeedForwardNet:
         self._theta = np.zeros(self.n_params)
         self._velocity = np.zeros(self.n_params)  # momentum of partial_fit
         self._grad = np.zeros(self.n_params)  # partial_fit's step, packed like θ
-        self._Vt, self._Wt = self._unpack(self._theta)
+        self._Vt, self._Wt = self.unpack(self._theta)
         self._initialise_weights()
 
         self._x_scaling = MinMaxScaling.identity(n_in)
@@ -221,7 +221,16 @@ class FeedForwardNet:
         return self._scaling_set
 
     # ------------------------------------------------------------------------------ weights
-    def _unpack(self, theta: FloatArray) -> tuple[FloatArray, FloatArray]:
+    # The training interface: what the training algorithms (levenberg_marquardt,
+    # gradient_descent, training) use, all in scaled units: `theta`, `unpack`,
+    # `forward_scaled`, `predict_scaled`, `mse_scaled` and `loss_gradient`.
+    @property
+    def theta(self) -> FloatArray:
+        """The packed weights θ (n_params,): the network's own array, which trainers update
+        in place (`get_params` returns a copy)."""
+        return self._theta
+
+    def unpack(self, theta: FloatArray) -> tuple[FloatArray, FloatArray]:
         """Return views (Vt, Wt) of a packed vector: no copy.
 
         Parameters
@@ -300,8 +309,8 @@ class FeedForwardNet:
         np.divide(1.0, self._y_scaling.gain, out=self._y_inv_gain)
 
     # ------------------------------------------------------------------------------ forward
-    def _forward(self, xs: FloatArray, theta: FloatArray | None = None, *,
-                 derivative: bool = False) -> _Layers:
+    def forward_scaled(self, xs: FloatArray, theta: FloatArray | None = None, *,
+                 derivative: bool = False) -> Layers:
         """Batched forward pass in scaled units.
 
         Parameters
@@ -315,36 +324,36 @@ class FeedForwardNet:
 
         Returns
         -------
-        _Layers
+        Layers
             h (n, n_hidden), g (n, n_hidden) or None, y (n, n_outputs).
         """
-        Vt, Wt = self._unpack(self._theta if theta is None else theta)
+        Vt, Wt = self.unpack(self._theta if theta is None else theta)
         n_in, n_hid = self._n_in, self._n_hid
         p = xs @ Vt[:n_in]
         p += Vt[n_in]
         h, g = hidden_layer(p, self._form, derivative=derivative)
         y = h @ Wt[:, :n_hid].T
         y += Wt[:, n_hid]
-        return _Layers(h, g, y)
+        return Layers(h, g, y)
 
-    def _predict_scaled(self, xs: FloatArray, theta: FloatArray | None = None) -> FloatArray:
+    def predict_scaled(self, xs: FloatArray, theta: FloatArray | None = None) -> FloatArray:
         """Scaled outputs (n, n_outputs) of scaled inputs (n, n_inputs), in bounded blocks."""
         if xs.shape[0] <= _DEFAULT_CHUNK:
-            return self._forward(xs, theta).y
+            return self.forward_scaled(xs, theta).y
         out = np.empty((xs.shape[0], self._n_out))
         for start in range(0, xs.shape[0], _DEFAULT_CHUNK):
             stop = start + _DEFAULT_CHUNK
-            out[start:stop] = self._forward(xs[start:stop], theta).y
+            out[start:stop] = self.forward_scaled(xs[start:stop], theta).y
         return out
 
-    def _mse_scaled(self, xs: FloatArray, ys: FloatArray,
+    def mse_scaled(self, xs: FloatArray, ys: FloatArray,
                     theta: FloatArray | None = None) -> float:
         """Mean squared error over samples and outputs, in scaled units."""
-        r = self._predict_scaled(xs, theta)
+        r = self.predict_scaled(xs, theta)
         r -= ys
         return float(np.vdot(r, r)) / r.size
 
-    def _loss_gradient(self, xs: FloatArray, ys: FloatArray,
+    def loss_gradient(self, xs: FloatArray, ys: FloatArray,
                        theta: FloatArray | None = None) -> tuple[float, FloatArray]:
         """Back-propagation over a batch, in bounded blocks.
 
@@ -365,14 +374,14 @@ class FeedForwardNet:
             Gradient of L = sse / (2n), the mean over samples of ½·Σ_j e_j².
         """
         theta = self._theta if theta is None else theta
-        W = self._unpack(theta)[1][:, :self._n_hid]
+        W = self.unpack(theta)[1][:, :self._n_hid]
         grad = np.zeros(self.n_params)
-        grad_V, grad_W = self._unpack(grad)
+        grad_V, grad_W = self.unpack(grad)
         n_in, n_hid = self._n_in, self._n_hid
         sse = 0.0
         for start in range(0, xs.shape[0], _DEFAULT_CHUNK):
             x_chunk = xs[start:start + _DEFAULT_CHUNK]
-            layers = self._forward(x_chunk, theta, derivative=True)
+            layers = self.forward_scaled(x_chunk, theta, derivative=True)
             assert layers.g is not None
             r = layers.y - ys[start:start + _DEFAULT_CHUNK]
             sse += float(np.vdot(r, r))
@@ -400,7 +409,7 @@ class FeedForwardNet:
         if x.ndim == 1 and x.shape[0] == self._n_in:
             return self._predict_one(x)
         xs = self._check_inputs(x, 'X')
-        return self._y_scaling.inverse_transform(self._predict_scaled(
+        return self._y_scaling.inverse_transform(self.predict_scaled(
             self._x_scaling.transform(xs)))
 
     def jacobian(self, X: npt.ArrayLike) -> FloatArray:
@@ -419,7 +428,7 @@ class FeedForwardNet:
         """
         xs = self._x_scaling.transform(self._check_inputs(np.asarray(X, float), 'X'))
         n, n_hid, n_out = xs.shape[0], self._n_hid, self._n_out
-        layers = self._forward(xs, derivative=True)
+        layers = self.forward_scaled(xs, derivative=True)
         assert layers.g is not None
         W = self._Wt[:, :n_hid]
         xt = np.hstack([xs, np.ones((n, 1))])
@@ -521,7 +530,7 @@ class FeedForwardNet:
         g = np.empty(n_hid)
         dz = np.empty(n_hid)
         grad, velocity, theta = self._grad, self._velocity, self._theta
-        grad_V, grad_W = self._unpack(grad)
+        grad_V, grad_W = self.unpack(grad)
         lr, momentum = self._learning_rate, self._momentum
         multiply, add, subtract, dot, tanh = np.multiply, np.add, np.subtract, np.dot, np.tanh
         limit = math.inf

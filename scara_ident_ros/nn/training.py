@@ -156,7 +156,7 @@ def run_training(net: FeedForwardNet, algorithm: str, step: TrainingStep, *,
     best_val = math.inf
     fails = 0
     if validation is not None:
-        history.val_mse = [net._mse_scaled(*validation)]
+        history.val_mse = [net.mse_scaled(*validation)]
         best_val = history.val_mse[0]
         best_params = net.get_params()
     reason = STOP_GOAL if history.mse[0] <= goal else ''
@@ -173,7 +173,7 @@ def run_training(net: FeedForwardNet, algorithm: str, step: TrainingStep, *,
         history.iterations += 1
         history.mse.append(mse)
         if validation is not None and history.val_mse is not None:
-            val = net._mse_scaled(*validation)
+            val = net.mse_scaled(*validation)
             history.val_mse.append(val)
             if val < best_val:
                 best_val, fails = val, 0

@@ -95,10 +95,10 @@ def test_lm_steps_only_lower_the_reservoir_error() -> None:
         trainer.learn(x, y)
     xs = net.x_scaling.transform(trainer.reservoir.X)
     ys = net.y_scaling.transform(trainer.reservoir.Y)
-    errors = [net._mse_scaled(xs, ys)]
+    errors = [net.mse_scaled(xs, ys)]
     for _ in range(15):
         trainer.step()
-        errors.append(net._mse_scaled(xs, ys))
+        errors.append(net.mse_scaled(xs, ys))
     assert all(b <= a for a, b in zip(errors, errors[1:]))
     assert errors[-1] < errors[0] / 100
 

@@ -73,9 +73,9 @@ def test_network_hidden_layer_is_the_table_activation(name: str) -> None:
     """The network's fused tanh forms agree with the reference functions."""
     net = FeedForwardNet(5, 7, 2, name, k=1.7, a=0.8, b=0.3, weight_scale=6.0, seed=3)
     xs = np.random.default_rng(0).uniform(-1, 1, (30, 5))
-    layers = net._forward(xs, derivative=True)
+    layers = net.forward_scaled(xs, derivative=True)
     k, a, b = net.constants
-    Vt, _ = net._unpack(net.get_params())
+    Vt, _ = net.unpack(net.get_params())
     z = (xs @ Vt[:5] + Vt[5] - b) / a
     np.testing.assert_allclose(layers.h, ACTIVATIONS[name](z, k), atol=1e-14)
     assert layers.g is not None

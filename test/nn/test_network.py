@@ -21,9 +21,9 @@ def test_sizes_and_parameter_count() -> None:
     net = FeedForwardNet(12, 40, 4)
     assert net.n_params == 40 * 13 + 4 * 41 == 684
     assert FeedForwardNet(9, 25, 3, 'slog').n_params == 25 * 10 + 3 * 26
-    Vt, Wt = net._unpack(net._theta)
+    Vt, Wt = net.unpack(net.theta)
     assert Vt.shape == (13, 40) and Wt.shape == (4, 41)
-    assert np.shares_memory(Vt, net._theta) and np.shares_memory(Wt, net._theta)
+    assert np.shares_memory(Vt, net.theta) and np.shares_memory(Wt, net.theta)
 
 
 def test_constructor_rejects_bad_arguments() -> None:
@@ -78,11 +78,11 @@ def test_loss_gradient_matches_central_differences(name: str) -> None:
     rng = np.random.default_rng(1)
     xs, ys = rng.uniform(-1, 1, (20, 12)), rng.uniform(-1, 1, (20, 4))
     theta = net.get_params()
-    sse, grad = net._loss_gradient(xs, ys)
-    assert sse == pytest.approx(net._mse_scaled(xs, ys) * ys.size, rel=1e-12)
+    sse, grad = net.loss_gradient(xs, ys)
+    assert sse == pytest.approx(net.mse_scaled(xs, ys) * ys.size, rel=1e-12)
 
     def loss(t: np.ndarray) -> float:
-        return net._mse_scaled(xs, ys, t) * ys.size / (2 * len(xs))
+        return net.mse_scaled(xs, ys, t) * ys.size / (2 * len(xs))
 
     step = 1e-6
     numeric = np.empty_like(theta)
@@ -107,7 +107,7 @@ def test_jacobian_matches_central_differences(name: str) -> None:
         plus, minus = theta.copy(), theta.copy()
         plus[i] += step
         minus[i] -= step
-        numeric[:, i] = ((net._forward(x, plus).y - net._forward(x, minus).y)
+        numeric[:, i] = ((net.forward_scaled(x, plus).y - net.forward_scaled(x, minus).y)
                          / (2 * step)).ravel()
     np.testing.assert_allclose(jac, numeric, rtol=1e-6, atol=1e-9)
 
@@ -118,7 +118,7 @@ def test_structured_normal_equations_equal_dense_ones(name: str) -> None:
     rng = np.random.default_rng(3)
     x, y = rng.uniform(-1, 1, (23, 5)), rng.uniform(-1, 1, (23, 3))
     jac = net.jacobian(x)
-    r = (net._forward(x).y - y).ravel()
+    r = (net.forward_scaled(x).y - y).ravel()
     jtj, jtr, sse = normal_equations(net, x, y, chunk_size=7)  # several uneven chunks
     np.testing.assert_allclose(jtj, jac.T @ jac, rtol=1e-12, atol=1e-12)
     np.testing.assert_allclose(jtr, jac.T @ r, rtol=1e-12, atol=1e-12)
@@ -131,13 +131,13 @@ def test_online_step_is_sgd_with_momentum(name: str) -> None:
     rng = np.random.default_rng(4)
     x, y = rng.uniform(-1, 1, (2, 12)), rng.uniform(-1, 1, (2, 4))
     theta0 = net.get_params()
-    _, g0 = net._loss_gradient(x[:1], y[:1])
+    _, g0 = net.loss_gradient(x[:1], y[:1])
     prior = net.predict(x[0])
     error = net.partial_fit(x[0], y[0])
     np.testing.assert_allclose(error, y[0] - prior, rtol=1e-12, atol=1e-14)
     theta1 = net.get_params()
     np.testing.assert_allclose(theta1, theta0 - 0.01 * g0, rtol=1e-11, atol=1e-15)
-    _, g1 = net._loss_gradient(x[1:], y[1:])
+    _, g1 = net.loss_gradient(x[1:], y[1:])
     net.partial_fit(x[1], y[1])
     expected = theta1 + 0.5 * (theta1 - theta0) - 0.01 * g1
     np.testing.assert_allclose(net.get_params(), expected, rtol=1e-11, atol=1e-15)
@@ -149,7 +149,7 @@ def test_online_step_learns_in_physical_units() -> None:
     theta0 = net.get_params()
     x, y = np.array([2.0, 7.0]), np.array([30.0])
     xs, ys = np.array([[-0.6, 0.4]]), np.array([[-0.4]])
-    _, grad = net._loss_gradient(xs, ys)
+    _, grad = net.loss_gradient(xs, ys)
     net.partial_fit(x, y)
     np.testing.assert_allclose(net.get_params(), theta0 - 0.1 * grad, rtol=1e-12)
 
@@ -201,7 +201,7 @@ def test_learning_rate_and_momentum_can_change_online() -> None:
     net.learning_rate = 0.0125
     theta0 = net.get_params()
     x, y = np.full(12, 0.3), np.full(4, -0.2)
-    _, grad = net._loss_gradient(x[None], y[None])
+    _, grad = net.loss_gradient(x[None], y[None])
     net.partial_fit(x, y)
     np.testing.assert_allclose(net.get_params(), theta0 - 0.0125 * grad, rtol=1e-11)
     with pytest.raises(ValueError):

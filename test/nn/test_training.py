@@ -37,7 +37,7 @@ def test_history_records_every_iteration(smooth_data: Data) -> None:
     assert all(b < a for a, b in zip(history.mse, history.mse[1:]))  # LM steps only downhill
     assert all(t > 0 for t in history.time)
     xs, ys = net.x_scaling.transform(x), net.y_scaling.transform(y)
-    assert history.final_mse == pytest.approx(np.mean((net._forward(xs).y - ys) ** 2))
+    assert history.final_mse == pytest.approx(np.mean((net.forward_scaled(xs).y - ys) ** 2))
 
 
 def test_fit_sets_scaling_from_data_once(smooth_data: Data) -> None:
@@ -82,7 +82,7 @@ def test_validation_stops_and_restores_best_weights() -> None:
     best = int(np.argmin(history.val_mse))
     assert history.best_iteration == best == history.iterations - 4
     xvs, yvs = net.x_scaling.transform(xv), net.y_scaling.transform(yv)
-    assert net._mse_scaled(xvs, yvs) == pytest.approx(history.val_mse[best], rel=1e-12)
+    assert net.mse_scaled(xvs, yvs) == pytest.approx(history.val_mse[best], rel=1e-12)
     assert history.final_mse == history.mse[best]
 
 
@@ -124,13 +124,13 @@ def test_gd_step_is_batch_gradient_descent_with_momentum(smooth_data: Data) -> N
     net.fit(x, y, iterations=0)
     xs, ys = net.x_scaling.transform(x), net.y_scaling.transform(y)
     theta0 = net.get_params()
-    _, g0 = net._loss_gradient(xs, ys)
+    _, g0 = net.loss_gradient(xs, ys)
     step = GradientDescent(net, xs, ys)
     step.start(FitHistory('gd'))
     step.step()
     theta1 = net.get_params()
     np.testing.assert_allclose(theta1, theta0 - 0.1 * g0, rtol=1e-12)
-    _, g1 = net._loss_gradient(xs, ys)
+    _, g1 = net.loss_gradient(xs, ys)
     step.step()
     np.testing.assert_allclose(net.get_params(), theta1 + 0.5 * (theta1 - theta0) - 0.1 * g1,
                                rtol=1e-12)
@@ -171,7 +171,7 @@ class _ScriptedNet:
     def set_params(self, theta: np.ndarray) -> None:
         self.theta = np.array(theta)
 
-    def _mse_scaled(self, x: np.ndarray, y: np.ndarray) -> float:
+    def mse_scaled(self, x: np.ndarray, y: np.ndarray) -> float:
         return self.val_mse[int(self.theta[0])]
 
 
