@@ -281,22 +281,22 @@ class RecorderNode(Node):
     def on_pause(self, request: Trigger.Request, response: Trigger.Response
                  ) -> Trigger.Response:
         """``~/pause``: write what arrived until now, then nothing until ``~/resume``."""
-        self._flush_pending()
-        response.success = True
-        response.message = 'already paused' if self._paused else 'paused'
-        self._paused = True
-        self.get_logger().info(f'~/pause: {response.message}')
-        return response
+        return self._pause(True, response)
 
     def on_resume(self, request: Trigger.Request, response: Trigger.Response
                   ) -> Trigger.Response:
         """``~/resume``: write again (what arrived while paused is not written)."""
-        self._flush_pending()
+        return self._pause(False, response)
+
+    def _pause(self, paused: bool, response: Trigger.Response) -> Trigger.Response:
+        self._flush_pending()  # what arrived before the call: as the state was until now
+        unchanged = self._paused == paused
+        self._paused = paused
         response.success = True
-        response.message = 'resumed' if self._paused else 'not paused'
-        self._paused = False
-        self.get_logger().info(f'~/resume: {response.message} ({self._not_written} messages '
-                               'not written while paused so far)')
+        response.message = ({True: 'already paused', False: 'not paused'} if unchanged
+                            else {True: 'paused', False: 'resumed'})[paused]
+        self.get_logger().info(f'~/{"pause" if paused else "resume"}: {response.message} '
+                               f'({self._not_written} messages not written while paused)')
         return response
 
     # -- reporting and closing -----------------------------------------------------------

@@ -24,57 +24,29 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import Trigger
 
-from scara_ident_ros.dynamics import ScaraParams
-from scara_ident_ros.identification import Holdout
-from scara_ident_ros.nodes.messages import NS_PER_S, ns_to_stamp
-from scara_ident_ros.resources import config_path
-from scara_ident_ros.sim import SimConfig, Simulator, make_trajectory
 from scara_ident_ros.sim.simulator import SimRecord
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import rostest  # noqa: E402  (test/nodes is not a package: see rostest's docstring)
+from test_identifier import (DEPTH, DISCOVERY_TIMEOUT, IDENTIFIER,  # noqa: E402
+                             JOINT_STATES_TOPIC, LAG, MSE_TOPIC, PERIOD_NS, SETTLE, T0_NS,
+                             TORQUE_TOPIC, held_out_indices, sample_msg, simulated)
 
-IDENTIFIER = 'scara_ident_ros.nodes.identifier'
 NODE = '/identifier'
-JOINT_STATES_TOPIC = '/joint_states'
-TORQUE_TOPIC = '/identified_torque'
-MSE_TOPIC = '/identification_mse'
 DIAGNOSTICS_TOPIC = '/diagnostics'
 STATUS_NAME = '/identifier: identification'
-NAMES = ('joint1', 'joint2', 'joint3', 'joint4')
-PERIOD_NS = 1_000_000  # 1 kHz
-T0_NS = 1_000 * NS_PER_S  # stamp of the first sample
-LAG = 10  # samples a prediction follows its sample (centred q'', window 21)
-DEPTH = 20_000  # messages: every test's stream fits in the history
-DISCOVERY_TIMEOUT = 20.0  # s, the machine is shared
 STREAM_TIMEOUT = 60.0  # s for a published stream to come back predicted
-SETTLE = 1.0  # s after discovery on our side, for the node's side
 OK, WARN = b'\x00', b'\x01'  # DiagnosticStatus levels
-
-
-def simulated(n: int) -> SimRecord:
-    """``n`` samples of the simulated SCARA (noise-free, standard excitation) at 1 kHz."""
-    params = ScaraParams.from_yaml(config_path('scara.yaml'))
-    return Simulator(params, make_trajectory('standard', params, seed=0),
-                     SimConfig(seed=0)).simulate(n)
 
 
 def sample(record: SimRecord, i: int) -> JointState:
     """Sample ``i`` of ``record``, stamped ``T0_NS + i`` ms."""
-    msg = JointState()
-    msg.header.stamp = ns_to_stamp(T0_NS + i * PERIOD_NS)
-    msg.name = list(NAMES)
-    msg.position = record.q[i].tolist()
-    msg.velocity = record.qd[i].tolist()
-    msg.effort = record.effort[i].tolist()
-    return msg
+    return sample_msg(record, i, T0_NS + i * PERIOD_NS)
 
 
 def learnt_of(predicted: int) -> int:
-    """Samples learnt among the first ``predicted`` predictions (the rest are held out by
-    the node's default :class:`Holdout`, seed 0)."""
-    rule = Holdout(12, 4, fraction=0.1, block=500, seed=0)
-    return sum(not rule.held_out(i) for i in range(predicted))
+    """Samples learnt among the first ``predicted`` predictions (the others held out)."""
+    return predicted - len(held_out_indices(predicted))
 
 
 def digest(path: Path) -> str:
