@@ -94,7 +94,8 @@ class StepResult:
 class Counts:
     """Counters of an :class:`OnlineIdentifier`.
 
-    ``processed == predicted + sum(skipped.values()) + pending`` always holds.
+    ``processed == predicted + sum(skipped.values()) + pending`` always holds, and
+    ``predicted == learned + held_out + refused + no_effort`` while learning.
 
     Attributes
     ----------
@@ -109,6 +110,10 @@ class Counts:
     refused : int
         Samples predicted but not learnt from, because the step was refused (it would not
         have been finite, or it overshot: see ``trainer``); the weights were left unchanged.
+    no_effort : int
+        Samples predicted without a measured effort (an empty effort array, or NaN for some
+        joint, as a joint_state_broadcaster reports a joint without an effort interface):
+        neither learnt nor scored.
     clipped : int
         Predictions beyond the effort bounds, clipped to them before being handed out.
     skipped : dict of SkipReason to int
@@ -122,6 +127,7 @@ class Counts:
     learned: int = 0
     held_out: int = 0
     refused: int = 0
+    no_effort: int = 0
     clipped: int = 0
     skipped: dict[SkipReason, int] = field(
         default_factory=lambda: dict.fromkeys(SkipReason, 0))
@@ -150,8 +156,9 @@ class OnlineIdentifier:
         Number of latest predictions the error statistics cover, at least 100 (the paper's
         figure is over the last 100).
     learn : bool
-        Learn from each sample. Without learning the model only predicts, and samples without
-        effort are accepted (they are predicted but leave the error statistics unchanged).
+        Learn from each sample that has a measured effort. Without learning the model only
+        predicts. Either way samples without effort (empty, or NaN for some joint) are
+        predicted but neither learnt nor scored (``Counts.no_effort``).
     max_gap_ns : int
         A clock jump of more than this (ns) between accepted samples restarts the
         acceleration estimate.
@@ -180,7 +187,7 @@ class OnlineIdentifier:
         self.model = model
         self.learn = learn
         self.joint_map = JointMap(joint_names, n_joints=n)
-        self.stage = InputStage(self.joint_map, need_effort=learn, max_gap_ns=max_gap_ns,
+        self.stage = InputStage(self.joint_map, need_effort=False, max_gap_ns=max_gap_ns,
                                 differentiator=differentiator, bounds=bounds)
         self.trainer: Trainer = trainer if trainer is not None else BackPropagation(model)
         self.holdout = holdout
@@ -249,6 +256,8 @@ class OnlineIdentifier:
         index = counts.predicted
         counts.predicted += 1
         effort = item.effort
+        if effort is None:
+            counts.no_effort += 1
         held_out = (effort is not None and self.holdout is not None
                     and self.holdout.held_out(index))
         if held_out:

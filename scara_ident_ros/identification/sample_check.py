@@ -3,9 +3,22 @@
 A sample either passes every check and comes out as a :class:`Sample` in joint order, or is
 rejected with a :class:`SkipReason` and changes no state at all: a rejected sample can never
 reach the network or the differentiator.
+
+Real drivers differ from the simulator in two ways handled here:
+
+- **Rates and jitter.** A ros2_control ``joint_state_broadcaster`` publishes at its
+  controller's rate (125 Hz to 1 kHz), with jittered stamps and now and then a lost sample.
+  What counts as a clock gap therefore scales with the observed sample period (the median
+  of the last :data:`PERIOD_SAMPLES` intervals): more than ``max_gap_ns`` *and* more than
+  :data:`GAP_PERIODS` periods.
+- **Missing effort.** A broadcaster fills NaN for a joint without an effort interface, and
+  some drivers publish no effort at all. Unless the effort is required (``need_effort``),
+  such a sample is accepted without effort (``Sample.effort`` None): it can be predicted,
+  not learnt or scored.
 """
 from __future__ import annotations
 
+from collections import deque
 from collections.abc import Sequence
 from typing import NamedTuple
 
@@ -15,12 +28,15 @@ from numpy.typing import NDArray
 from scara_ident_ros.identification.joint_map import JointMap
 from scara_ident_ros.identification.skip_reason import SkipReason
 
-__all__ = ['Bounds', 'FloatArrayLike', 'Sample', 'SampleCheck', 'DEFAULT_MAX_GAP_NS']
+__all__ = ['Bounds', 'FloatArrayLike', 'Sample', 'SampleCheck', 'DEFAULT_MAX_GAP_NS',
+           'GAP_PERIODS', 'PERIOD_SAMPLES']
 
 FloatArrayLike = Sequence[float] | NDArray[np.float64]
 """A message array: a list, an ``array.array('d')`` (what rclpy gives) or an ndarray."""
 
 DEFAULT_MAX_GAP_NS = 20_000_000  # ns: 20 missed samples at 1 kHz
+GAP_PERIODS = 5  # a gap is also longer than this many observed sample periods (4 lost)
+PERIOD_SAMPLES = 15  # intervals whose median is the observed sample period
 
 
 class Sample(NamedTuple):
@@ -35,10 +51,12 @@ class Sample(NamedTuple):
     velocity : ndarray of shape (n_joints,)
         q', rad/s or m/s.
     effort : ndarray of shape (n_joints,) or None
-        Measured joint effort, N·m or N; None if the message carried none.
+        Measured joint effort, N·m or N; None if the message carried none, or NaN for
+        some joint (not measured).
     gap : bool
-        The clock jumped by more than the maximum gap since the previous accepted sample:
-        the sample is good but starts a new history (derivatives must restart).
+        The clock jumped by more than the maximum gap (see :class:`SampleCheck`) since the
+        previous accepted sample: the sample is good but starts a new history (derivatives
+        must restart).
     """
 
     stamp_ns: int
@@ -86,11 +104,13 @@ class SampleCheck:
     joint_map : JointMap
         The joint order; if it has none yet, the first valid sample's names are adopted.
     need_effort : bool
-        Reject samples without effort (``NO_EFFORT``); set when the effort is learnt from.
-        Without it an empty effort is accepted (``Sample.effort`` is None), but a non-empty one
-        must still have the right length and be finite.
+        Reject samples without effort, an empty effort or NaN for some joint
+        (``NO_EFFORT``): for offline training, where every sample is learnt. Without it
+        such a sample is accepted with ``Sample.effort`` None; a non-empty effort must
+        still have the right length, and an infinite one is ``NON_FINITE``.
     max_gap_ns : int
-        A clock jump larger than this (ns), forwards or backwards, marks a sample as ``gap``.
+        A clock jump (ns), forwards or backwards, larger than this and than
+        :data:`GAP_PERIODS` observed periods (:attr:`period_ns`) marks a sample as ``gap``.
         Smaller steps backwards are rejected as ``STAMP_BACKWARDS``.
     bounds : Bounds, optional
         Reject finite values outside them as ``OUT_OF_LIMITS``; None checks none.
@@ -100,7 +120,10 @@ class SampleCheck:
     Checks run in this order, and the first that fails names the reason: stamp (repeated,
     backwards), presence (``NO_VELOCITY``, ``NO_POSITION``, ``NO_EFFORT``), lengths, names
     (see :meth:`JointMap.permutation`), finiteness, bounds. Stamps are compared with the last
-    *accepted* sample only.
+    *accepted* sample only. The observed period is the median of the last
+    :data:`PERIOD_SAMPLES` forward intervals between accepted samples, gaps included (a
+    median is not moved by a few lost samples, and a slow stream still learns its period);
+    until there are that many, a gap is ``max_gap_ns`` alone.
     """
 
     def __init__(self, joint_map: JointMap, *, need_effort: bool = True,
@@ -112,6 +135,21 @@ class SampleCheck:
         self.need_effort = need_effort
         self.max_gap_ns = int(max_gap_ns)
         self._last_stamp: int | None = None
+        self._intervals: deque[int] = deque(maxlen=PERIOD_SAMPLES)  # ns, latest last
+        self._period: int | None = None
+        self._gap_ns = self.max_gap_ns
+
+    @property
+    def period_ns(self) -> int | None:
+        """Observed sample period (ns): the median of the last :data:`PERIOD_SAMPLES`
+        intervals; None until there are that many."""
+        return self._period
+
+    @property
+    def gap_ns(self) -> int:
+        """The longest interval (ns) that is not a gap: ``max_gap_ns`` or
+        :data:`GAP_PERIODS` observed periods, whichever is longer."""
+        return self._gap_ns
 
     @property
     def last_stamp_ns(self) -> int | None:
@@ -119,8 +157,12 @@ class SampleCheck:
         return self._last_stamp
 
     def reset(self) -> None:
-        """Forget the last stamp: the next valid sample is accepted whatever its time."""
+        """Forget the last stamp and the period: the next valid sample is accepted whatever
+        its time."""
         self._last_stamp = None
+        self._intervals.clear()
+        self._period = None
+        self._gap_ns = self.max_gap_ns
 
     def check(self, stamp_ns: int, names: Sequence[str], position: FloatArrayLike,
               velocity: FloatArrayLike, effort: FloatArrayLike = ()) -> Sample | SkipReason:
@@ -144,13 +186,14 @@ class SampleCheck:
         """
         gap = False
         last = self._last_stamp
+        dt = 0
         if last is not None:
             dt = stamp_ns - last
             if dt == 0:
                 return SkipReason.STAMP_REPEATED
-            if dt < 0 and dt >= -self.max_gap_ns:
+            if dt < 0 and dt >= -self._gap_ns:
                 return SkipReason.STAMP_BACKWARDS
-            gap = dt > self.max_gap_ns or dt < 0
+            gap = dt > self._gap_ns or dt < 0
         m = len(names)
         if len(velocity) == 0:
             return SkipReason.NO_VELOCITY
@@ -170,7 +213,10 @@ class SampleCheck:
         if has_effort:
             raw[2] = effort
         if not np.isfinite(raw).all():
-            return SkipReason.NON_FINITE
+            reason = _missing_effort(raw)
+            if reason is not None or self.need_effort:
+                return reason or SkipReason.NO_EFFORT
+            raw, has_effort = raw[:2], False  # NaN effort: not measured for some joint
         values = raw[:, perm]
         bounds = self.bounds
         if bounds is not None:
@@ -180,4 +226,22 @@ class SampleCheck:
         if self.joint_map.names is None:
             self.joint_map.adopt(names)
         self._last_stamp = stamp_ns
+        if dt > 0:
+            self._observe(dt)
         return Sample(stamp_ns, values[0], values[1], values[2] if has_effort else None, gap)
+
+    def _observe(self, interval_ns: int) -> None:
+        """Take one forward interval into the observed period and the gap threshold."""
+        intervals = self._intervals
+        intervals.append(interval_ns)
+        if len(intervals) == PERIOD_SAMPLES:
+            self._period = sorted(intervals)[PERIOD_SAMPLES // 2]
+            self._gap_ns = max(self.max_gap_ns, GAP_PERIODS * self._period)
+
+
+def _missing_effort(raw: NDArray[np.float64]) -> SkipReason | None:
+    """Why a sample with a non-finite value (rows q, q'[, effort]) is refused: None if
+    only effort entries are NaN (not measured), else ``NON_FINITE``."""
+    if raw.shape[0] < 3 or not np.isfinite(raw[:2]).all():
+        return SkipReason.NON_FINITE
+    return SkipReason.NON_FINITE if np.isinf(raw[2]).any() else None

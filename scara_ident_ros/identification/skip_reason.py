@@ -17,7 +17,9 @@ class SkipReason(str, Enum):
 
     - ``NON_FINITE``: a position, velocity or effort is NaN or infinite.
     - ``NO_POSITION``, ``NO_VELOCITY``: the array is empty.
-    - ``NO_EFFORT``: the effort array is empty while learning needs it.
+    - ``NO_EFFORT``: the effort array is empty, or NaN for some joint, where every sample
+      must have one (offline training). The online identifier does not refuse such a
+      sample: it predicts it and counts it (``Counts.no_effort``), without learning it.
     - ``LENGTH_MISMATCH``: a non-empty array whose length differs from that of ``names``.
     - ``UNKNOWN_JOINT``: a name that is not one of the configured joints.
     - ``MISSING_JOINT``: a configured joint absent from the message.

@@ -555,6 +555,7 @@ class IdentifierNode(Node):
             'joint_names': self.names,
             'processed': counts.processed, 'predicted': counts.predicted,
             'learned': counts.learned, 'held_out': counts.held_out, 'refused': counts.refused,
+            'no_effort': counts.no_effort,
             'pending': counts.pending,
             'skipped': {reason.value: n for reason, n in counts.skipped.items() if n},
             'mse': stats.mse.tolist(), 'nmse': stats.nmse.tolist(),

@@ -8,7 +8,8 @@ sample ``k`` is stamped
     t_k = k · T + e_k,    e_k ~ N(0, jitter²) clipped to ±min(3 jitter, 0.45 T),
 
 independent draws around the nominal times: the mean period stays ``T``, two stamps are
-always at least ``0.1 T`` apart and in order. The draws are seeded and random-access (one
+always at least ``0.1 T`` apart and in order. The first stamp is exactly 0 (``e_0 = 0``):
+the loop's time zero, where a trajectory starts. The draws are seeded and random-access (one
 generator per block of samples), so a stamp is the same whichever way it is asked for.
 """
 from __future__ import annotations
@@ -76,4 +77,7 @@ class StampJitter:
         """The offsets of one block of samples (ns), from its own seeded generator."""
         rng = np.random.default_rng([self.seed, block])
         offsets = rng.standard_normal(_BLOCK) * (self.jitter * 1e9)
-        return np.rint(np.clip(offsets, -self._clip_ns, self._clip_ns)).astype(np.int64)
+        offsets = np.rint(np.clip(offsets, -self._clip_ns, self._clip_ns)).astype(np.int64)
+        if block == 0:
+            offsets[0] = 0
+        return offsets

@@ -120,7 +120,6 @@ def test_hostile_stream() -> None:
     feed(T0 + 2 * MS, bad(2, 3, INF), SkipReason.NON_FINITE)
     feed(T0 + 2 * MS, (names, q, [], eff), SkipReason.NO_VELOCITY)
     feed(T0 + 2 * MS, (names, [], qd, eff), SkipReason.NO_POSITION)
-    feed(T0 + 2 * MS, (names, q, qd, []), SkipReason.NO_EFFORT)
     feed(T0 + 2 * MS, (names, q[:3], qd, eff), SkipReason.LENGTH_MISMATCH)
     feed(T0 + 2 * MS, (names, q, qd, eff + [1.0]), SkipReason.LENGTH_MISMATCH)
     feed(T0 + 2 * MS, (['joint1', 'joint2', 'jointX', 'joint4'], q, qd, eff),
@@ -142,7 +141,7 @@ def test_hostile_stream() -> None:
 
     counts = ident.counts
     expected_skips = {SkipReason.NON_FINITE: 5, SkipReason.NO_VELOCITY: 1,
-                      SkipReason.NO_POSITION: 1, SkipReason.NO_EFFORT: 1,
+                      SkipReason.NO_POSITION: 1,
                       SkipReason.LENGTH_MISMATCH: 2, SkipReason.UNKNOWN_JOINT: 1,
                       SkipReason.MISSING_JOINT: 1, SkipReason.DUPLICATE_JOINT: 1,
                       SkipReason.STAMP_REPEATED: 1, SkipReason.STAMP_BACKWARDS: 1,

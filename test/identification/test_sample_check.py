@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from scara_ident_ros.identification import Bounds, JointMap, Sample, SampleCheck, SkipReason
+from scara_ident_ros.identification.sample_check import PERIOD_SAMPLES
 
 NAMES = ['joint1', 'joint2', 'joint3']
 T0 = 1_000_000_000_000  # ns
@@ -95,14 +96,51 @@ def test_a_clock_jump_either_way_is_a_gap() -> None:
     assert not good(check, T0 - 10**12).gap  # after a reset, any time is a fresh start
 
 
-def test_effort_is_optional_when_not_learning_but_checked_when_present() -> None:
+def test_what_counts_as_a_gap_scales_with_the_observed_period() -> None:
+    """20 ms is 20 lost samples at 1 kHz but one at 100 Hz: a gap is also > 5 periods."""
+    check = SampleCheck(JointMap(NAMES, n_joints=3), max_gap_ns=20 * MS)
+    stamp = T0
+    good(check, stamp)
+    assert good(check, stamp + 30 * MS).gap  # no period observed yet: max_gap alone
+    stamp += 30 * MS
+    for _ in range(PERIOD_SAMPLES):  # 100 Hz
+        stamp += 10 * MS
+        assert not good(check, stamp).gap
+    assert check.period_ns == 10 * MS and check.gap_ns == 50 * MS
+    assert not good(check, stamp + 30 * MS).gap  # two samples lost: bridged
+    stamp += 30 * MS
+    assert check.check(stamp - 40 * MS, NAMES, [1, 2, 3], [4, 5, 6], [7, 8, 9]) is \
+        SkipReason.STAMP_BACKWARDS
+    assert good(check, stamp + 51 * MS).gap
+    check.reset()
+    assert check.period_ns is None and check.gap_ns == 20 * MS
+    # at 1 kHz, jittered, the threshold stays max_gap
+    rng = np.random.default_rng(0)
+    stamps = T0 + np.arange(200) * MS + rng.integers(-300_000, 300_000, 200)
+    assert not any(good(check, int(t)).gap for t in stamps)
+    assert 0.9 * MS < (check.period_ns or 0) < 1.1 * MS and check.gap_ns == 20 * MS
+    assert good(check, int(stamps[-1]) + 21 * MS).gap
+
+
+def test_effort_is_optional_when_not_required_but_checked_when_present() -> None:
     check = make_check(need_effort=False)
     sample = check.check(T0, NAMES, [1, 2, 3], [4, 5, 6], [])
     assert isinstance(sample, Sample) and sample.effort is None
-    assert check.check(T0 + MS, NAMES, [1, 2, 3], [4, 5, 6], [7, NAN, 9]) is \
+    # NaN: a joint_state_broadcaster's "no effort interface on this joint"
+    sample = check.check(T0 + MS, NAMES, [1, 2, 3], [4, 5, 6], [7, NAN, 9])
+    assert isinstance(sample, Sample) and sample.effort is None
+    assert sample.position.tolist() == [1.0, 2.0, 3.0]
+    assert check.check(T0 + 2 * MS, NAMES, [1, 2, 3], [4, 5, 6], [7, INF, NAN]) is \
         SkipReason.NON_FINITE
-    assert check.check(T0 + MS, NAMES, [1, 2, 3], [4, 5, 6], [7]) is \
+    assert check.check(T0 + 2 * MS, NAMES, [1, NAN, 3], [4, 5, 6], [7, NAN, 9]) is \
+        SkipReason.NON_FINITE
+    assert check.check(T0 + 2 * MS, NAMES, [1, 2, 3], [4, 5, 6], [7]) is \
         SkipReason.LENGTH_MISMATCH
+    required = make_check(need_effort=True)
+    for effort in ([], [7, NAN, 9], [NAN, NAN, NAN]):
+        assert required.check(T0, NAMES, [1, 2, 3], [4, 5, 6], effort) is \
+            SkipReason.NO_EFFORT
+    assert required.last_stamp_ns is None
 
 
 def test_joint_order_adopted_from_the_first_valid_message_only() -> None:

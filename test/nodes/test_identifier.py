@@ -391,12 +391,13 @@ CYCLES = 3  # times the whole list of bad inputs is sent
 
 
 def hostile_stream(record: SimRecord
-                   ) -> tuple[list[JointState], Counter[str], list[int], int]:
+                   ) -> tuple[list[JointState], Counter[str], list[int], int, set[int]]:
     """Good samples interleaved with every kind of bad input.
 
     Returns the messages, the skip reasons they must be counted under (warm-up included),
-    the stamps of the samples that must be predicted, in order, and how many of those
-    come only when the node stops.
+    the stamps of the samples that must be predicted, in order, how many of those
+    come only when the node stops, and the stamps of the samples without effort (an
+    empty effort, NaN for a joint): accepted and predicted, never learnt.
 
     With the centred q'' a clock gap does not skip a sample: it ends a history, whose
     samples are all predicted if there are at least WINDOW of them (its last LAG at the
@@ -410,6 +411,7 @@ def hostile_stream(record: SimRecord
     offset = T0_NS  # moved by the clock jumps
     last_good = None  # stamp of the last accepted sample
     history: list[int] = []  # stamps of the accepted samples since the last gap
+    unmeasured: set[int] = set()  # stamps of the accepted samples without effort
 
     def stamp() -> int:
         return offset + slot * PERIOD_NS
@@ -421,9 +423,14 @@ def hostile_stream(record: SimRecord
             reasons['warming_up'] += len(history)
         history.clear()
 
-    def good(order: Sequence[int] = (0, 1, 2, 3), gap: bool = False) -> None:
+    def good(order: Sequence[int] = (0, 1, 2, 3), gap: bool = False,
+             effort: Sequence[float] | None = None) -> None:
         nonlocal slot, last_good
-        msgs.append(sample_msg(record, slot, stamp(), order))
+        msg = sample_msg(record, slot, stamp(), order)
+        if effort is not None:  # not measured: predicted, not learnt
+            msg.effort = list(effort)
+            unmeasured.add(stamp())
+        msgs.append(msg)
         if gap:
             end_history()
         history.append(stamp())
@@ -453,11 +460,11 @@ def hostile_stream(record: SimRecord
             lambda: corrupt('non_finite', 0, 0, math.inf),
             lambda: corrupt('non_finite', 1, 2, math.nan),
             lambda: corrupt('non_finite', 1, 3, -math.inf),
-            lambda: corrupt('non_finite', 2, 0, math.nan),
+            lambda: good(effort=[*e[:2], math.nan, e[3]]),  # no effort interface
             lambda: corrupt('non_finite', 2, 3, math.inf),
             lambda: bad('no_velocity', NAMES, q, (), e),
             lambda: bad('no_position', NAMES, (), qd, e),
-            lambda: bad('no_effort', NAMES, q, qd, ()),  # learning needs the effort
+            lambda: good(effort=()),  # no effort measured: predicted, not learnt
             lambda: bad('length_mismatch', NAMES, q[:3], qd, e),
             lambda: bad('length_mismatch', NAMES, q, qd, [*e, 1.0]),
             lambda: bad('unknown_joint', [*NAMES[:3], 'joint5'], q, qd, e),
@@ -483,12 +490,12 @@ def hostile_stream(record: SimRecord
             good()
     on_shutdown = LAG if len(history) >= WINDOW else 0
     end_history()  # the node's finish() on shutdown
-    return msgs, reasons, predicted, on_shutdown
+    return msgs, reasons, predicted, on_shutdown, unmeasured
 
 
 def test_survives_hostile_stream(tmp_path: Path, listener: rostest.Listener) -> None:
     record = simulated(1000)
-    msgs, reasons, predicted, on_shutdown = hostile_stream(record)
+    msgs, reasons, predicted, on_shutdown, unmeasured = hostile_stream(record)
     # The short histories (1 + GOOD_BETWEEN samples) after each forward clock jump, and the
     # last one, are lost to the centred fit's warm-up; every longer one is predicted whole.
     assert reasons['warming_up'] == (CYCLES + 1) * (1 + GOOD_BETWEEN)
@@ -505,7 +512,9 @@ def test_survives_hostile_stream(tmp_path: Path, listener: rostest.Listener) -> 
     assert info['skipped'] == dict(reasons)
     # No held-out block yet (the first is the third, predictions 1000-1499): all learnt.
     assert held_out_indices(len(predicted)) == []
-    assert info['predicted'] == info['learned'] == len(predicted)
+    no_effort = len(unmeasured.intersection(predicted))
+    assert no_effort > 0 and info['no_effort'] == no_effort
+    assert info['predicted'] == info['learned'] + no_effort == len(predicted)
     assert info['held_out'] == info['pending'] == 0
     assert stamps(feed.torques) == predicted
     assert all(tuple(msg.name) == NAMES for msg in feed.torques)
