@@ -6,9 +6,9 @@ Pure numpy (no rclpy). ``scara-ident compare`` feeds these functions with simula
 Modules, one concept each:
 
 ``datasets``         X = [q, q', q''], Y = efforts, stamps; from the simulator or any arrays
-``errors``           MSE and normalised MSE (MSE / effort variance) per joint
 ``rows``             `ResultRow` (one model on one data set), `summarise` over seeds
 ``hyperparameters``  the per-method grid search of online-learning settings
+``metrics``          MSE and normalised MSE (MSE / effort variance) per joint
 ``offline``          Table 2 analog: LM training from several seeds
 ``online``           Table 3 analog: per-sample learning over a stream
 ``reference``        the model-based least-squares row
@@ -20,11 +20,11 @@ from scara_ident_ros.experiments.datasets import (ACCELERATIONS, Dataset, Evalua
                                                   dataset_from_record,
                                                   make_dataset, simulate_dataset,
                                                   simulate_record)
-from scara_ident_ros.experiments.errors import effort_errors, recent_errors
 from scara_ident_ros.experiments.hyperparameters import (DEFAULT_GRID, QUICK_GRID, Grid,
                                                          Hyperparameters, Scaling,
                                                          SearchResult, Trial, best_of,
                                                          build_network, search)
+from scara_ident_ros.experiments.metrics import effort_errors, recent_errors
 from scara_ident_ros.experiments.offline import (DEFAULT_GOAL, OfflineFit, OfflineRuns,
                                                  fit_offline, goal_iteration, offline_rows,
                                                  run_offline, train_offline)

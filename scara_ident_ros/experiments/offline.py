@@ -38,8 +38,8 @@ import numpy as np
 import numpy.typing as npt
 
 from scara_ident_ros.experiments.datasets import Evaluations
-from scara_ident_ros.experiments.errors import effort_errors
 from scara_ident_ros.experiments.hyperparameters import Hyperparameters, Scaling, build_network
+from scara_ident_ros.experiments.metrics import effort_errors
 from scara_ident_ros.experiments.rows import ResultRow
 from scara_ident_ros.experiments.tables import PAPER_ITERATIONS
 from scara_ident_ros.methods import METHODS

@@ -42,8 +42,8 @@ import numpy as np
 import numpy.typing as npt
 
 from scara_ident_ros.experiments.datasets import Evaluations
-from scara_ident_ros.experiments.errors import effort_errors, recent_errors
 from scara_ident_ros.experiments.hyperparameters import Hyperparameters, Scaling, build_network
+from scara_ident_ros.experiments.metrics import effort_errors, recent_errors
 from scara_ident_ros.experiments.rows import HOLD, ResultRow
 from scara_ident_ros.identification import PAPER_WINDOW
 from scara_ident_ros.methods import METHODS

@@ -7,7 +7,7 @@ so joints (N·m and N) and robots can be compared; NMSE = 1 is no better than pr
 window's mean effort. NMSE is defined where the effort's variance over the samples exceeds
 :data:`VARIANCE_RESOLUTION` times the squared effort scale its rounding error is relative to
 (less is rounding, not motion): :func:`normalised_mse` holds that definition for every caller
-(this window, ``experiments.errors`` and ``offline.online_results``).
+(this window, ``experiments.metrics`` and ``offline.online_results``).
 
 The paper's online figure, "the error over the last 100 samples", is ``recent(100).mse``.
 """

@@ -18,7 +18,7 @@ import numpy as np
 import numpy.typing as npt
 
 from scara_ident_ros.errors import ScaraIdentError
-from scara_ident_ros.experiments.errors import effort_errors
+from scara_ident_ros.experiments.metrics import effort_errors
 from scara_ident_ros.experiments.tables import format_value
 from scara_ident_ros.identification import ErrorStats
 from scara_ident_ros.methods import METHODS

@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
-from scara_ident_ros.experiments.errors import effort_errors, recent_errors
+from scara_ident_ros.experiments.metrics import effort_errors, recent_errors
 from scara_ident_ros.experiments.online import DEFAULT_WINDOW, stream_data_names
 from scara_ident_ros.experiments.rows import ResultRow
 from scara_ident_ros.identification import PAPER_WINDOW

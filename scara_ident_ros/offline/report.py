@@ -36,9 +36,8 @@ from pathlib import Path
 
 import numpy as np
 
-from scara_ident_ros.offline.comparison import software_versions
 from scara_ident_ros.experiments.datasets import Dataset
-from scara_ident_ros.experiments.errors import effort_errors
+from scara_ident_ros.experiments.metrics import effort_errors
 from scara_ident_ros.experiments.offline import DEFAULT_GOAL, PAPER_ITERATIONS, OfflineFit
 from scara_ident_ros.experiments.online import DEFAULT_WINDOW, stream_data_names
 from scara_ident_ros.experiments.rows import ResultRow, summarise
@@ -52,6 +51,7 @@ from scara_ident_ros.methods import method as method_spec
 from scara_ident_ros.mse_layout import METRICS, decode_mse
 from scara_ident_ros.nn import DEFAULT_CONSTANTS
 from scara_ident_ros.offline.blas_threads import BLAS_THREADS
+from scara_ident_ros.offline.comparison import software_versions
 from scara_ident_ros.offline.figures import plot_online_error, plot_torque, plot_training_mse
 from scara_ident_ros.offline.online_results import (STREAM_ALL, OnlinePredictions,
                                                     prediction_rows, read_identifier_mse,
