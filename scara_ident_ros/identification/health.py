@@ -73,14 +73,20 @@ class Health:
 
 
 class Deltas:
-    """How much cumulative counters grew since the previous call (the first: since 0)."""
+    """How much cumulative counters grew since the previous call (the first: since 0).
+
+    A counter smaller than at the previous call was restarted from 0 (``~/reset``): its
+    growth is its value.
+    """
 
     def __init__(self) -> None:
         self._last: dict[str, float] = {}
 
     def __call__(self, **counters: float) -> dict[str, float]:
         """Return each counter's growth since the previous call, by name."""
-        grown = {name: value - self._last.get(name, 0) for name, value in counters.items()}
+        last = self._last
+        grown = {name: value - last.get(name, 0) if value >= last.get(name, 0) else value
+                 for name, value in counters.items()}
         self._last = counters
         return grown
 

@@ -327,8 +327,9 @@ class IdentifierNode(Node):
             response.message = 'nothing to reset: no model yet (no valid sample so far)'
             return response
         before = self.summary()
+        before.pop('previous', None)  # each reset's own counters, one entry per reset
         self.previous.append(before)
-        self.network, self.core, self.early, self.deltas = None, None, Counts(), Deltas()
+        self.network, self.core, self.early = None, None, Counts()
         s = self.settings
         self.differentiator = make_differentiator(s['differentiator'], window=s['window'],
                                                   cutoff_hz=s['cutoff_hz'])
@@ -555,7 +556,7 @@ class IdentifierNode(Node):
             'joint_names': self.names,
             'processed': counts.processed, 'predicted': counts.predicted,
             'learned': counts.learned, 'held_out': counts.held_out, 'refused': counts.refused,
-            'no_effort': counts.no_effort,
+            'clipped': counts.clipped, 'no_effort': counts.no_effort,
             'pending': counts.pending,
             'skipped': {reason.value: n for reason, n in counts.skipped.items() if n},
             'mse': stats.mse.tolist(), 'nmse': stats.nmse.tolist(),

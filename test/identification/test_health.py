@@ -91,6 +91,7 @@ def test_deltas_since_the_previous_call() -> None:
     deltas = Deltas()
     assert deltas(a=5, b=1) == {'a': 5, 'b': 1}
     assert deltas(a=7, b=1) == {'a': 2, 'b': 0}
+    assert deltas(a=3, b=1) == {'a': 3, 'b': 0}  # a restarted from 0
 
 
 def test_loss_counter_counts_missing_samples_from_stamp_gaps() -> None:

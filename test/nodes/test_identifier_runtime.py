@@ -197,7 +197,7 @@ def test_save_model_and_reset_services(tmp_path: Path, listener: rostest.Listene
         session.dropped = LAG  # the pending samples of before the reset
         session.send(record, 1000)
         stats = session.stop(tmp_path)
-    previous, = stats['previous']
+    previous, = stats['previous']  # the counters of before the reset, apart
     assert previous['processed'] == 2000 and previous['predicted'] == 2000 - LAG
     assert previous['learned'] == learnt_of(2000 - LAG)
     assert stats['processed'] == 1000 and stats['predicted'] == 1000
