@@ -36,7 +36,7 @@ NODE = '/identifier'
 DIAGNOSTICS_TOPIC = '/diagnostics'
 STATUS_NAME = '/identifier: identification'
 STREAM_TIMEOUT = 60.0  # s for a published stream to come back predicted
-OK, WARN = b'\x00', b'\x01'  # DiagnosticStatus levels
+OK, WARN, ERROR = b'\x00', b'\x01', b'\x02'  # DiagnosticStatus levels
 
 
 def sample(record: SimRecord, i: int) -> JointState:
@@ -217,8 +217,9 @@ def test_save_model_without_save_path_says_why(tmp_path: Path,
 
 @pytest.mark.slow
 def test_diagnostics_follow_the_stream(tmp_path: Path, listener: rostest.Listener) -> None:
-    """WARN before any sample, OK with figures while fed, WARN once the samples stop."""
-    record = simulated(3000)
+    """WARN before any sample, OK with figures while fed, ERROR when samples are lost,
+    WARN once the samples stop."""
+    record = simulated(3100)
     # No validation: a model learning for 3 s predicts held-out samples worse than their
     # mean, which is a WARN of its own (test_health.py).
     with start(tmp_path, 'validation_fraction:=0.0') as node:
@@ -240,6 +241,13 @@ def test_diagnostics_follow_the_stream(tmp_path: Path, listener: rostest.Listene
         assert float(values['samples/s']) > 100
         assert values['lost'] == '0' and values['learning'] == 'true'
         assert int(values['learnt']) > 0
+
+        first = session.sent  # 50 samples, 5 of them never sent: lost on the way
+        for i in [*range(first, first + 20), *range(first + 25, first + 50)]:
+            session.publisher.publish(sample(record, i))
+        lost = session.status(lambda s: s.level == ERROR)
+        assert '5 samples lost' in lost.message
+        assert {kv.key: kv.value for kv in lost.values}['lost'] == '5'
 
         stale = session.status(lambda s: s.level == WARN)
         assert 'no sample for' in stale.message and '(> 1 s)' in stale.message
