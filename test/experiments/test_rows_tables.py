@@ -9,8 +9,8 @@ import pytest
 
 from scara_ident_ros.experiments import (PAPER_TABLE2, ResultRow, Spread, effort_errors,
                                          format_spread, joint_markdown, offline_markdown,
-                                         online_markdown, paper_ranking, ranking, read_csv,
-                                         summarise, write_csv)
+                                         online_markdown, paper_ranking, ranking,
+                                         ranking_text, read_csv, summarise, write_csv)
 
 
 def _row(method: str, seed: int | None, data: str, nmse: float, **extra: object) -> ResultRow:
@@ -68,6 +68,24 @@ def test_ranking_and_paper_ranking() -> None:
     assert ranking(summaries, table='offline', data='held-out') == ['FFW', 'FFS', 'FFMW']
     assert paper_ranking('offline') == ['FFMW', 'FFW', 'FFS']
     assert paper_ranking('online') == ['FFMW', 'FFS', 'FFW']
+
+
+def test_ranking_text_gives_one_verdict_per_criterion() -> None:
+    rows = [_row(m, s, d, v * (1 + s)) for s in (0, 1)
+            for d, values in (('train', (1.0, 2.0, 3.0)), ('held-out', (1.0, 5.0, 1.5)))
+            for m, v in zip(('FFMW', 'FFW', 'FFS'), values)]
+    text = ranking_text(summarise(rows), 'offline', [('train', 'nmse_mean', 'train NMSE'),
+                                                     ('held-out', 'nmse_mean', 'NMSE')],
+                        ['FFMW', 'FFW', 'FFS'])
+    lines = text.splitlines()
+    assert lines[0] == "- Paper's ranking (Table 2, MSE after 315 iterations): FFMW < FFW < FFS."
+    assert lines[1] == ("- Measured by median train NMSE: FFMW < FFW < FFS: the paper's ranking "
+                        'holds (FFMW and FFW overlap: their min–max ranges over seeds '
+                        'intersect).')
+    assert lines[2] == ("- Measured by median NMSE: FFMW < FFS < FFW: the paper's ranking does "
+                        'not hold, but FFMW is best as in the paper (FFMW and FFS overlap: '
+                        'their min–max ranges over seeds intersect).')
+    assert ranking_text(summarise(rows), 'online', [('none', 'nmse_mean', 'x')], ['FFW']) == ''
 
 
 def test_online_markdown_has_the_paper_column() -> None:
