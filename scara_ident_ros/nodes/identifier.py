@@ -19,6 +19,12 @@ vnmse_1 .. vnmse_n, vnmse_total]`` with ``layout.dim[0]`` labelled
 ``joint:<name_1>,...,<name_n>,total`` (size n + 1). MSE is in (N·m)² or N²; NMSE is MSE
 divided by the variance of that joint's effort over the same window; the validation NMSE
 is the current model's over the held-out samples kept so far (NaN until there are 100).
+
+While it runs: ``learn``, ``learning_rate``, ``momentum``, ``mse_window``, ``mse_rate_hz``,
+``checkpoint_period``, ``lm_steps`` and ``lm_interval`` can be set (``ros2 param set``) and
+take effect at once; ``~/save_model`` and ``~/reset`` (``std_srvs/Trigger``) save the model
+now or start again from fresh weights; ``/diagnostics`` says once a second how it does
+(:mod:`scara_ident_ros.identification.health`).
 """
 from __future__ import annotations
 
