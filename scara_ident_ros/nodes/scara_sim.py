@@ -43,7 +43,7 @@ STATS_PERIOD = 10.0  # seconds between statistics log lines
 SPIN_PERIOD = 0.01  # seconds between two executor.spin_once calls while publishing
 ACK_TIMEOUT = 5.0  # seconds the last samples may take to be acknowledged at shutdown
 
-PARAMETERS = (
+PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec('robot_config', '', 'YAML file of the robot parameters; empty: the installed '
               'config/scara.yaml'),
     ParamSpec('joint_names', [], 'Joint names on the wire, in the order joint1..joint4; '
