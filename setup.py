@@ -16,6 +16,7 @@ setup(
         (f'share/{PACKAGE}/config',
          sorted(glob('config/*.yaml') + glob('config/*.json') + glob('config/*.xml'))),
         (f'share/{PACKAGE}/launch', glob('launch/*.py')),
+        (f'share/{PACKAGE}/urdf', glob('urdf/*.urdf')),
     ],
     package_data={PACKAGE: ['py.typed']},
     install_requires=['setuptools', 'numpy', 'pyyaml'],

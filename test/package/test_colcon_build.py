@@ -54,6 +54,7 @@ def test_every_executable_is_installed_where_ros2_run_looks(install: Path) -> No
     assert (share / 'package.xml').is_file()
     assert sorted(p.name for p in (share / 'config').glob('*.yaml'))
     assert (share / 'launch' / 'identification.launch.py').is_file()
+    assert (share / 'urdf' / 'scara.urdf').is_file()
     marker = install / PACKAGE / 'share' / 'ament_index' / 'resource_index' / 'packages'
     assert (marker / PACKAGE).is_file()
 
