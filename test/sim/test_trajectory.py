@@ -31,9 +31,9 @@ def test_series_matches_the_formula() -> None:
     wf = 2 * np.pi * 0.25
     q, qd, _ = traj.evaluate(t)
     for i in range(4):
-        expected = q0[i] + sum(a[i, l] / (wf * (l + 1)) * np.sin(wf * (l + 1) * t)
-                               - b[i, l] / (wf * (l + 1)) * np.cos(wf * (l + 1) * t)
-                               for l in range(3))
+        expected = q0[i] + sum(a[i, k] / (wf * (k + 1)) * np.sin(wf * (k + 1) * t)
+                               - b[i, k] / (wf * (k + 1)) * np.cos(wf * (k + 1) * t)
+                               for k in range(3))
         assert q[i] == pytest.approx(expected, rel=1e-13)
     assert traj.period == pytest.approx(4.0)
     assert traj.n_harmonics == 3
