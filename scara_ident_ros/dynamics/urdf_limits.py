@@ -17,7 +17,8 @@ Public API::
                                                 effort_max (n,), unlimited, source
     parse_urdf(text, *, source='robot_description') -> UrdfLimits
     read_urdf(path) -> UrdfLimits
-    identifier_limits(urdf, acceleration_max) -> dict   the identifier's limit structure
+    identifier_limits(urdf, acceleration_max, *, required=()) -> dict
+                                                the identifier's limit structure
 """
 from __future__ import annotations
 
@@ -173,8 +174,8 @@ def _limit_row(limit: ET.Element, where: str) -> tuple[float, float, float, floa
     return lower, upper, velocity, effort
 
 
-def identifier_limits(urdf: UrdfLimits,
-                      acceleration_max: Mapping[str, float]) -> dict[str, Any]:
+def identifier_limits(urdf: UrdfLimits, acceleration_max: Mapping[str, float], *,
+                      required: Sequence[str] = ()) -> dict[str, Any]:
     """The identifier's joint limits: the URDF's, with acceleration limits by joint name.
 
     Parameters
@@ -183,6 +184,8 @@ def identifier_limits(urdf: UrdfLimits,
         Position, velocity and effort limits.
     acceleration_max : mapping of str to float
         |q''| limit per joint name (rad/s² or m/s²); URDF has none.
+    required : sequence of str
+        Joints that must have every limit (the identifier's ``joint_names``).
 
     Returns
     -------
@@ -190,7 +193,18 @@ def identifier_limits(urdf: UrdfLimits,
         ``{'names': [...], 'position_min': (n,), 'position_max': (n,), 'velocity_max': (n,),
         'acceleration_max': (n,), 'effort_max': (n,), 'source': str}`` for the URDF's
         joints that have an acceleration limit, in the URDF's order.
+
+    Raises
+    ------
+    UrdfError
+        Naming the ``required`` joints that the URDF has no limits for, or that have no
+        acceleration limit.
     """
+    urdf.select(required)
+    lacking = [name for name in required if name not in acceleration_max]
+    if lacking:
+        raise UrdfError(f'{urdf.source}: no acceleration limit for {lacking} (URDF has none): '
+                        'give acceleration_max for joint_names, or a robot_config naming them')
     names = [name for name in urdf.names if name in acceleration_max]
     chosen = urdf.select(names)
     return {'names': names, 'position_min': chosen.position_min,

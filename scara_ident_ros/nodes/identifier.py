@@ -46,6 +46,8 @@ from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 from std_srvs.srv import Trigger
 
 from scara_ident_ros.dynamics import ParamError, ScaraParams
+from scara_ident_ros.dynamics.urdf_limits import (UrdfError, identifier_limits, parse_urdf,
+                                                  read_urdf)
 from scara_ident_ros.identification import (DIFFERENTIATORS, TRAINERS, Bounds, Counts,
                                             ErrorWindow, Holdout, JointMap, OnlineIdentifier,
                                             ReservoirLM, SampleCheck, SkipReason, StepResult,
@@ -150,6 +152,12 @@ PARAMETERS = (
               's', min=0.0, fixed=ESTIMATE),
     ParamSpec('robot_config', '', "Robot YAML whose joint limits scale the network's inputs "
               'and outputs; empty: the installed config/scara.yaml', fixed=LIMITS),
+    ParamSpec('urdf_file', '', 'URDF whose joint <limit>s (position, velocity, effort), '
+              'matched by joint name, replace those of robot_config; acceleration limits '
+              "(URDF has none) stay robot_config's, or acceleration_max with joint_names; "
+              'empty: none', fixed=LIMITS),
+    ParamSpec('robot_description', '', 'The URDF as a string, as robot_state_publisher has '
+              'it: used like urdf_file', fixed=LIMITS),
     ParamSpec('position_min', [], 'Per-joint position lower limits (rad or m); with the four '
               'below, replaces robot_config for another robot', items=float, fixed=LIMITS),
     ParamSpec('position_max', [], 'Per-joint position upper limits (rad or m)', items=float,
@@ -372,8 +380,10 @@ class IdentifierNode(Node):
 
     # ------------------------------------------------------------------ configuration
     def _limits(self) -> dict[str, Any] | None:
-        """Joint limits by joint name from explicit parameters or the robot config."""
+        """Joint limits by joint name from a URDF, explicit parameters or the robot config."""
         s = self.settings
+        if s['urdf_file'] or s['robot_description']:
+            return self._urdf_limits()
         given = [name for name in LIMIT_NAMES if len(s[name])]
         if given:
             lengths = {len(s[name]) for name in LIMIT_NAMES}
@@ -391,6 +401,29 @@ class IdentifierNode(Node):
             raise ConfigError(str(exc)) from None
         return {'names': list(robot.joint_names),
                 **{name: robot.array(name) for name in LIMIT_NAMES}}
+
+    def _urdf_limits(self) -> dict[str, Any]:
+        """Limits from the URDF, with acceleration limits from acceleration_max or robot_config."""
+        s = self.settings
+        if s['urdf_file'] and s['robot_description']:
+            raise ConfigError('give urdf_file or robot_description, not both')
+        clash = [name for name in LIMIT_NAMES if name != 'acceleration_max' and len(s[name])]
+        if clash:
+            raise ConfigError(f'{", ".join(clash)}: the URDF gives these limits, leave them '
+                              'empty')
+        try:
+            urdf = (read_urdf(s['urdf_file']) if s['urdf_file']
+                    else parse_urdf(s['robot_description']))
+            if len(s['acceleration_max']):
+                if len(s['acceleration_max']) != len(s['joint_names']):
+                    raise ConfigError('acceleration_max needs joint_names, one name per value')
+                acceleration = dict(zip(s['joint_names'], s['acceleration_max']))
+            else:
+                robot = ScaraParams.from_yaml(s['robot_config'] or config_path('scara.yaml'))
+                acceleration = dict(zip(robot.joint_names, robot.array('acceleration_max')))
+            return identifier_limits(urdf, acceleration, required=s['joint_names'])
+        except (UrdfError, ParamError, OSError) as exc:
+            raise ConfigError(str(exc)) from None
 
     def _load(self, path: str) -> FeedForwardNet:
         try:
@@ -449,7 +482,8 @@ class IdentifierNode(Node):
         known = self.limits['names']
         missing = [name for name in names if name not in known]
         if missing:
-            self._warn(f'no joint limits for {missing} (limits are known for {known}): set '
+            self._warn(f'no joint limits for {missing} (limits are known for {known}, from '
+                       f"{self.limits.get('source', 'robot_config')}): set urdf_file, "
                        'robot_config or position_min, position_max, velocity_max, '
                        'acceleration_max, effort_max and joint_names')
             return None

@@ -90,8 +90,13 @@ def test_joints_missing_in_the_urdf_are_reported() -> None:
     spinning = parse_urdf(robot(joint('a'), joint('wrist', 'continuous')))
     with pytest.raises(UrdfError, match=r'wrist \(continuous\)'):
         spinning.select(['a', 'wrist'])
-    # a joint without an acceleration limit is left out of the identifier's limits
+    # a joint without an acceleration limit is left out of the identifier's limits, and
+    # reported if required
     assert identifier_limits(urdf, {'joint2': 50.0})['names'] == ['joint2']
+    with pytest.raises(UrdfError, match=r"no acceleration limit for \['joint1'\]"):
+        identifier_limits(urdf, {'joint2': 50.0}, required=['joint2', 'joint1'])
+    with pytest.raises(UrdfError, match=r'no joint limits for shoulder'):
+        identifier_limits(urdf, {'shoulder': 50.0}, required=['shoulder'])
 
 
 @pytest.mark.parametrize(('text', 'fragment'), [
