@@ -90,8 +90,9 @@ class InputStage:
     need_effort : bool
         Reject samples without effort (see :class:`SampleCheck`).
     max_gap_ns : int
-        A larger clock jump (ns) ends the history: its last samples are let out and the
-        estimate restarts.
+        A larger clock jump (ns), if also longer than
+        :data:`~scara_ident_ros.identification.sample_check.GAP_PERIODS` observed sample
+        periods, ends the history: its last samples are let out and the estimate restarts.
     differentiator : Differentiator or CentredDifferentiator, optional
         The q'' estimate; default ``CentredDifferentiator(21, 2)``.
     bounds : Bounds, optional

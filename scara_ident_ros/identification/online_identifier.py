@@ -160,8 +160,8 @@ class OnlineIdentifier:
         predicts. Either way samples without effort (empty, or NaN for some joint) are
         predicted but neither learnt nor scored (``Counts.no_effort``).
     max_gap_ns : int
-        A clock jump of more than this (ns) between accepted samples restarts the
-        acceleration estimate.
+        A clock jump of more than this (ns) and than 5 observed sample periods between
+        accepted samples restarts the acceleration estimate (see :class:`SampleCheck`).
     bounds : Bounds, optional
         Samples with values beyond them (in joint order) are refused as ``OUT_OF_LIMITS``:
         never predicted, never learnt; predictions beyond their effort bounds are clipped

@@ -148,8 +148,9 @@ PARAMETERS = (
               'joint range by more than this fraction of the range, or whose velocity or '
               'effort exceeds its limit by more than this fraction; negative: no check',
               min=-1.0, max=100.0, fixed=LIMITS),
-    ParamSpec('max_gap', 0.02, 'A larger gap between stamps restarts the differentiator',
-              's', min=0.0, fixed=ESTIMATE),
+    ParamSpec('max_gap', 0.02, 'A larger gap between stamps, if also longer than 5 observed '
+              'sample periods (100 Hz: 50 ms), restarts the differentiator', 's', min=0.0,
+              fixed=ESTIMATE),
     ParamSpec('robot_config', '', "Robot YAML whose joint limits scale the network's inputs "
               'and outputs; empty: the installed config/scara.yaml', fixed=LIMITS),
     ParamSpec('urdf_file', '', 'URDF whose joint <limit>s (position, velocity, effort), '
