@@ -146,9 +146,9 @@ def parse_urdf(text: str, *, source: str = 'robot_description') -> UrdfLimits:
             continue
         rows.append(_limit_row(limit, f'{source}: joint {name!r}'))
         names.append(name)
-    values = np.array(rows, dtype=float).reshape(len(rows), 4)
-    return UrdfLimits(source, tuple(names), *(values[:, i].copy() for i in range(4)),
-                      unlimited=unlimited)
+    values = np.array(rows, dtype=float).reshape(len(rows), 4).T.copy()  # (4, n)
+    return UrdfLimits(source, tuple(names), values[0], values[1], values[2], values[3],
+                      unlimited)
 
 
 def _limit_row(limit: ET.Element, where: str) -> tuple[float, float, float, float]:

@@ -216,11 +216,11 @@ class InputStage:
             Their efforts (NaN rows for samples without one).
         """
         no_effort: tuple[float, ...] = ()
-        has_effort = effort is not None and effort.ndim == 2 and effort.shape[1] > 0
+        efforts = effort if effort is not None and effort.ndim == 2 and effort.shape[1] else None
         inputs: list[Input] = []
         for i in np.argsort(stamp_ns, kind='stable').tolist():
             inputs += self.push(int(stamp_ns[i]), names, position[i], velocity[i],
-                                effort[i] if has_effort else no_effort)[1]
+                                efforts[i] if efforts is not None else no_effort)[1]
         inputs += self.flush()
         k = len(inputs)
         n = len(names)

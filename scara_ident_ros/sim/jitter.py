@@ -76,8 +76,8 @@ class StampJitter:
     def _draw(self, block: int) -> NDArray[np.int64]:
         """The offsets of one block of samples (ns), from its own seeded generator."""
         rng = np.random.default_rng([self.seed, block])
-        offsets = rng.standard_normal(_BLOCK) * (self.jitter * 1e9)
-        offsets = np.rint(np.clip(offsets, -self._clip_ns, self._clip_ns)).astype(np.int64)
+        draws = rng.standard_normal(_BLOCK) * (self.jitter * 1e9)  # ns
+        offsets = np.rint(np.clip(draws, -self._clip_ns, self._clip_ns)).astype(np.int64)
         if block == 0:
             offsets[0] = 0
         return offsets
