@@ -6,8 +6,12 @@ the CPU of the default executor at 1 kHz (see ``benchmarks/bench_executor.py``),
 while its ``spin()`` fired a 1 ms timer at most once and ignored Ctrl-C.
 
 SIGINT and SIGTERM set a stop flag that the loop checks at least every
-:data:`POLL_PERIOD`; the node is then closed (``close()`` if it has one: flush
-files, save models), destroyed, and the process exits 0 with no traceback.
+:data:`POLL_PERIOD`. A node with a ``handled()`` count (messages taken so far) then
+drains: the messages already queued in its subscriptions are still taken, until none
+comes for :data:`DRAIN_QUIET` (at most :data:`DRAIN_TIMEOUT`), so a sample that a
+publisher saw acknowledged is not dropped. The node is then closed (``close()`` if it
+has one: flush files, save models), destroyed, and the process exits 0 with no
+traceback.
 A :class:`ConfigError` raised while the node is built ends the process with one
 line naming the problem and exit status 2.
 """
@@ -16,6 +20,7 @@ from __future__ import annotations
 import signal
 import sys
 import threading
+import time
 from collections.abc import Callable, Sequence
 from types import FrameType
 from typing import TYPE_CHECKING, Protocol
@@ -32,9 +37,11 @@ from scara_ident_ros.rosenv import ensure_local_dds
 if TYPE_CHECKING:  # parameters imports ConfigError from here
     from scara_ident_ros.nodes.parameters import ParamSpec
 
-__all__ = ['ConfigError', 'LoopingNode', 'help_text', 'run_node', 'POLL_PERIOD']
+__all__ = ['ConfigError', 'LoopingNode', 'drain', 'help_text', 'run_node', 'POLL_PERIOD']
 
 POLL_PERIOD = 0.1  # seconds: the longest a stop request waits to be seen
+DRAIN_TIMEOUT = 10.0  # seconds a stopping node may spend on the messages already queued
+DRAIN_QUIET = 0.05  # seconds without a new message that end the drain
 
 
 class ConfigError(Exception):
@@ -107,6 +114,11 @@ def run_node(name: str, factory: Callable[[], Node], args: list[str] | None = No
         else:
             while not stop.is_set():
                 executor.spin_once(timeout_sec=POLL_PERIOD)
+        handled = getattr(node, 'handled', None)
+        if handled is not None:
+            taken = drain(executor, handled)
+            if taken:
+                node.get_logger().info(f'took the {taken} message(s) still queued on stop')
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:
@@ -117,6 +129,40 @@ def run_node(name: str, factory: Callable[[], Node], args: list[str] | None = No
             node.destroy_node()
         rclpy.try_shutdown()
     return 0
+
+
+def drain(executor: EventsExecutor, handled: Callable[[], int], *,
+          timeout: float = DRAIN_TIMEOUT, quiet: float = DRAIN_QUIET) -> int:
+    """Take what is queued: ``spin_once`` with zero timeout until nothing comes.
+
+    Parameters
+    ----------
+    executor : EventsExecutor
+        The node's executor.
+    handled : callable returning int
+        The node's count of messages taken; the drain ends once it has not grown for
+        ``quiet`` seconds (messages still in flight get that long to arrive).
+    timeout : float
+        Longest drain, in seconds: a publisher that goes on is not waited for.
+
+    Returns
+    -------
+    int
+        How many messages the drain took.
+    """
+    start = handled()
+    last = start
+    now = time.monotonic()
+    deadline, quiet_until = now + timeout, now + quiet
+    while now < min(deadline, quiet_until):
+        executor.spin_once(timeout_sec=0.0)
+        count = handled()
+        now = time.monotonic()
+        if count != last:
+            last, quiet_until = count, now + quiet
+        else:
+            time.sleep(0.001)  # nothing ready: do not spin the CPU while waiting
+    return last - start
 
 
 def help_text(name: str, description: str, parameters: Sequence[ParamSpec]) -> str:

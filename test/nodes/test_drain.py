@@ -1,0 +1,48 @@
+"""``runtime.drain``: a stopping node takes what is queued, and no more than it may wait."""
+from __future__ import annotations
+
+import time
+
+from scara_ident_ros.nodes.runtime import drain
+
+
+class QueueExecutor:
+    """Stands for an executor whose subscription holds ``queued`` messages; each
+    ``spin_once`` takes one (``arrive`` more come after ``delay`` seconds)."""
+
+    def __init__(self, queued: int, *, arrive: int = 0, delay: float = 0.0) -> None:
+        self.queued = queued
+        self.taken = 0
+        self.arrive_at = time.monotonic() + delay if arrive else None
+        self.arrive = arrive
+
+    def spin_once(self, timeout_sec: float) -> None:
+        assert timeout_sec == 0.0
+        if self.arrive_at is not None and time.monotonic() >= self.arrive_at:
+            self.queued += self.arrive
+            self.arrive_at = None
+        if self.queued:
+            self.queued -= 1
+            self.taken += 1
+
+
+def test_drain_takes_everything_queued_then_stops() -> None:
+    executor = QueueExecutor(5000)
+    assert drain(executor, lambda: executor.taken) == 5000  # type: ignore[arg-type]
+    assert executor.queued == 0
+
+
+def test_drain_waits_for_messages_in_flight_for_the_quiet_time() -> None:
+    executor = QueueExecutor(10, arrive=7, delay=0.02)
+    assert drain(executor, lambda: executor.taken, quiet=0.1) == 17  # type: ignore[arg-type]
+
+
+def test_drain_is_bounded_in_time() -> None:
+    class Endless(QueueExecutor):
+        def spin_once(self, timeout_sec: float) -> None:
+            self.taken += 1  # a publisher that goes on
+
+    executor = Endless(0)
+    started = time.monotonic()
+    drain(executor, lambda: executor.taken, timeout=0.2)  # type: ignore[arg-type]
+    assert time.monotonic() - started < 1.0
