@@ -5,19 +5,30 @@ only the rclpy wheels: each node runs as ``python -m <module> --ros-args ...`` i
 its own process, its output goes to a log file, and stopping sends SIGINT in the
 given order (escalating to SIGTERM, then SIGKILL, after a grace period) so that
 every node closes its files and saves its models.
+
+Each node runs in a session of its own, so a Ctrl-C in the terminal reaches only the
+program that started the graph (:class:`StopSignals` turns it into a flag), which then
+stops the nodes in order, each with exactly one SIGINT. In the terminal's process group
+the nodes would get the terminal's SIGINT all at once, in no order (the recorder could
+close before the last samples reached it), and a second one from :meth:`ProcessGraph.stop`.
+Should the program itself die, the kernel sends each node SIGTERM
+(``PR_SET_PDEATHSIG``): no node outlives it.
 """
 from __future__ import annotations
 
+import ctypes
 import os
 import signal
 import subprocess
 import sys
-import time
 from dataclasses import dataclass, field
 from pathlib import Path
+from types import FrameType, TracebackType
 from typing import IO
 
-__all__ = ['NodeProcess', 'ProcessGraph']
+__all__ = ['NodeProcess', 'ProcessGraph', 'StopSignals']
+
+PR_SET_PDEATHSIG = 1  # prctl option: signal this process when its parent dies (Linux)
 
 
 @dataclass
@@ -75,23 +86,13 @@ class ProcessGraph:
         node.process = subprocess.Popen(
             [sys.executable, '-m', node.module, '--ros-args', *node.ros_args],
             stdout=node.log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
-            env=self.env)
+            env=self.env, start_new_session=True, preexec_fn=_terminate_with_parent)
         self.nodes.append(node)
         return node
 
     def failed(self) -> list[NodeProcess]:
         """Return the nodes that have exited with a non-zero status."""
         return [node for node in self.nodes if node.returncode not in (None, 0)]
-
-    def wait(self, seconds: float, *, poll: float = 0.2) -> list[NodeProcess]:
-        """Wait ``seconds`` (or until a node fails); return the failed nodes."""
-        deadline = time.monotonic() + seconds
-        while time.monotonic() < deadline:
-            failed = self.failed()
-            if failed:
-                return failed
-            time.sleep(min(poll, max(0.0, deadline - time.monotonic())))
-        return self.failed()
 
     def stop(self, node: NodeProcess, *, grace: float = 20.0) -> int:
         """Stop one node: SIGINT, then SIGTERM and SIGKILL after ``grace`` seconds each.
@@ -127,3 +128,45 @@ class ProcessGraph:
     def log_text(self, node: NodeProcess) -> str:
         """Return what ``node`` has written to its log so far."""
         return (self.log_dir / f'{node.name}.log').read_text(errors='replace')
+
+
+def _terminate_with_parent() -> None:
+    """In the child, before ``exec``: get SIGTERM when the parent dies (Linux only)."""
+    try:
+        ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, signal.SIGTERM)
+    except (OSError, AttributeError):  # not Linux: the node may outlive a killed parent
+        pass
+
+
+class StopSignals:
+    """Within ``with``: SIGINT and SIGTERM set :attr:`received` instead of interrupting.
+
+    The program polls :attr:`received` and stops its graph in order; the previous
+    handlers are restored on the way out, so a Ctrl-C after the graph (e.g. during a
+    report) interrupts as usual.
+
+    Attributes
+    ----------
+    received : int or None
+        The first stop signal received (``signal.SIGINT`` ...), None while there is none.
+    """
+
+    SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+    def __init__(self) -> None:
+        self.received: int | None = None
+        self._previous: dict[int, object] = {}
+
+    def _handler(self, signum: int, frame: FrameType | None) -> None:
+        if self.received is None:
+            self.received = signum
+
+    def __enter__(self) -> StopSignals:
+        for sig in self.SIGNALS:
+            self._previous[sig] = signal.signal(sig, self._handler)
+        return self
+
+    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
+                 traceback: TracebackType | None) -> None:
+        for sig, handler in self._previous.items():
+            signal.signal(sig, handler)  # type: ignore[arg-type]

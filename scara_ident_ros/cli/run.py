@@ -14,6 +14,13 @@ and validation NMSE. Unless
 ``--no-report``, the run's tables and figures are then produced from the bag
 (``scara-ident tables``).
 
+Ctrl-C (SIGINT) or SIGTERM stops the graph the same way, early: the nodes run in
+sessions of their own, so only this command gets the terminal's SIGINT, and it sends
+each node exactly one, in the order above. The bag then holds every sample the
+simulator published, the summary says what was recorded, the report is made from it
+(a second Ctrl-C skips the report), and the exit status is 130 (0 after a run that
+ended by itself, 1 if a node failed).
+
 Output directory layout (``--out DIR``)::
 
     DIR/bag/            the MCAP rosbag2 bag (or --bag PATH)
@@ -27,6 +34,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import signal
 import time
 from pathlib import Path
 from typing import Any
@@ -37,13 +45,15 @@ from scara_ident_ros.cli import CliError
 from scara_ident_ros.identification.trainer import TRAINERS
 from scara_ident_ros.methods import METHODS
 from scara_ident_ros.paths import unwritable_dir
-from scara_ident_ros.process_graph import NodeProcess, ProcessGraph
+from scara_ident_ros.process_graph import NodeProcess, ProcessGraph, StopSignals
 from scara_ident_ros.sim.trajectory import SEQUENCE, TRAJECTORIES
 
 __all__ = ['add_parser', 'run', 'bag_message_counts']
 
 STARTUP_TIMEOUT = 60.0  # s allowed for the processes to start and discover each other
 DRAIN_TIME = 1.0  # s the consumers get to drain their queues after the last sample
+POLL_PERIOD = 0.1  # s between two looks at the processes and the stop signals
+INTERRUPTED = 130  # exit status after a Ctrl-C (128 + SIGINT), as a shell reports it
 #: lm_interval of each identifier per identifier run (benchmarks/bench_graph.py: three at
 #: 200 took 55-57 % of a core each and lost 17 % of the samples on 2 cores)
 LM_INTERVAL_PER_IDENTIFIER = 200
@@ -143,21 +153,15 @@ def run(args: argparse.Namespace) -> int:
         '-p', f'stats_file:={stats / "scara_sim.json"}']))
     print(f'scara-ident run: {args.duration:g} s at 1 kHz, identifiers '
           f'{", ".join(m.upper() for m in args.methods)}, recording {bag}', flush=True)
-    started = time.monotonic()
-    try:
-        while sim.returncode is None and not graph.failed():
-            time.sleep(0.5)
-            if time.monotonic() - started > args.duration * 3 + STARTUP_TIMEOUT:
-                print('scara-ident run: the simulator is far behind real time; stopping',
-                      flush=True)
-                break
-        time.sleep(DRAIN_TIME)
-    except KeyboardInterrupt:
-        print('scara-ident run: interrupted, stopping the graph', flush=True)
-    finally:
-        codes = graph.stop_all()
+    with StopSignals() as signals:
+        try:
+            _watch(graph, sim, signals, args.duration)
+        finally:
+            codes = graph.stop_all()
+    interrupted = signals.received is not None
     failed = {name: code for name, code in codes.items() if code != 0}
     summary = _summary(args.methods, stats, bag, out, codes)
+    summary['interrupted'] = interrupted
     (out / 'summary.json').write_text(json.dumps(summary, indent=1))
     _print_summary(summary)
     if failed:
@@ -166,10 +170,48 @@ def run(args: argparse.Namespace) -> int:
             print(graph.log_text(next(n for n in graph.nodes if n.name == name))[-2000:])
         return 1
     if args.report:
-        from scara_ident_ros.cli.tables import make_report
-        report = make_report([bag], out / 'report', methods=args.methods)
-        print(f'scara-ident run: report in {report}')
-    return 0
+        _report(bag, out / 'report', args.methods, interrupted=interrupted)
+    return INTERRUPTED if interrupted else 0
+
+
+def _watch(graph: ProcessGraph, sim: NodeProcess, signals: StopSignals,
+           duration: float) -> None:
+    """Return when the simulator is done (and the consumers had time to drain), a node has
+    failed, the simulator is hopelessly slow, or a stop signal came (Ctrl-C)."""
+    started = time.monotonic()
+    while sim.returncode is None and not graph.failed():
+        if signals.received is not None:
+            break
+        time.sleep(POLL_PERIOD)
+        if time.monotonic() - started > duration * 3 + STARTUP_TIMEOUT:
+            print('scara-ident run: the simulator is far behind real time; stopping',
+                  flush=True)
+            return
+    drained = time.monotonic() + DRAIN_TIME
+    while signals.received is None and time.monotonic() < drained:
+        time.sleep(POLL_PERIOD)
+    if signals.received is not None:
+        print(f'scara-ident run: {signal.Signals(signals.received).name}: stopping the graph '
+              '(simulator, identifiers, recorder, in that order)', flush=True)
+
+
+def _report(bag: Path, out: Path, methods: list[str], *, interrupted: bool) -> None:
+    """Make the tables and figures from the bag; after a Ctrl-C, from what it recorded."""
+    from scara_ident_ros.bag import BagError
+    from scara_ident_ros.cli.tables import make_report
+    from scara_ident_ros.offline.recording import RecordingError
+
+    if interrupted:
+        print('scara-ident run: making the report from the samples recorded (Ctrl-C again '
+              'to skip it)', flush=True)
+    try:
+        report = make_report([bag], out, methods=methods)
+    except (BagError, RecordingError, ValueError) as exc:
+        if not interrupted:
+            raise
+        print(f'scara-ident run: no report: {exc}')
+        return
+    print(f'scara-ident run: report in {report}')
 
 
 def _summary(methods: list[str], stats: Path, bag: Path, out: Path,
