@@ -34,7 +34,6 @@ from typing import Any
 
 import pytest
 import rclpy
-import setuptools
 from rclpy.node import Node
 
 from scara_ident_ros.methods import METHODS
@@ -70,13 +69,13 @@ class Graph:
         timers that did not fire, such as ``/diagnostics``).
     """
 
-    types: dict[str, type]
+    types: dict[str, Any]
     messages: dict[str, Any]
 
 
 @contextmanager
 def recorded(make_node: Callable[[], Node], ros_args: list[str],
-             graph: dict[str, list[Any]], types: dict[str, type]) -> Iterator[Node]:
+             graph: dict[str, list[Any]], types: dict[str, Any]) -> Iterator[Node]:
     """Build a node in the default context initialised with ``ros_args``.
 
     Each of its publishers appends a copy of what it would publish to ``graph[topic]``
@@ -104,7 +103,7 @@ def recorded(make_node: Callable[[], Node], ros_args: list[str],
 def published() -> Graph:
     """Run the simulator and every identifier in-process on SAMPLES samples."""
     sent: dict[str, list[Any]] = {}
-    types: dict[str, type] = {}
+    types: dict[str, Any] = {}
     with recorded(ScaraSimNode, [], sent, types) as sim:
         assert isinstance(sim, ScaraSimNode)
         for _ in range(SAMPLES):
@@ -391,7 +390,7 @@ def test_the_error_array_is_laid_out_as_the_layouts_assume(published: Graph) -> 
 
 def test_setup_installs_both_layouts_into_share_config(monkeypatch: pytest.MonkeyPatch) -> None:
     arguments: dict[str, Any] = {}
-    monkeypatch.setattr(setuptools, 'setup', arguments.update)  # what setup.py would do
+    monkeypatch.setattr('setuptools.setup', arguments.update)  # what setup.py would do
     monkeypatch.chdir(REPO)  # setup.py globs relative to its directory
     runpy.run_path('setup.py')
     installed = dict(arguments['data_files'])['share/scara_ident_ros/config']
