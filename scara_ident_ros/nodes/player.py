@@ -13,16 +13,28 @@
 - Publishers are reliable with a history of ``qos_depth`` (1 s at 1 kHz by default) and
   transient-local when every recorded publisher was; each needs the message package of
   its type (topics without one are skipped with a warning).
+- Nothing is lost to a slow subscriber: after every ``qos_depth`` messages the player
+  waits until every subscriber has acknowledged them (``wait_for_all_acked``), so its
+  history never overwrites a message not yet delivered. A subscriber that keeps all it
+  has not read (the identifier, the recorder) acknowledges only what it has room for, so
+  ``rate`` 0 goes as fast as the slowest subscriber takes the messages; a keep-last
+  subscriber acknowledges everything and drops unread messages itself. The timing of
+  rate > 0 slips while it waits (and catches up afterwards). A message the transport
+  dropped is only sent again after the writer's next heartbeat: the player's writers
+  beat every 20 ms (``config/player_fastdds.xml``, unless a Fast DDS profile file is
+  set) instead of Fast DDS's 3 s, which stalled a window for up to 3 s.
 - Before the first message the player waits, at most ``wait_for_subscribers`` seconds,
   until every topic it plays has a subscriber, so subscribers started just before it
   miss nothing.
 - With ``clock`` it publishes ``/clock`` (rosgraph_msgs/Clock) at ``clock_rate`` with the
   recorded time, for nodes that run with ``use_sim_time``.
 - When the bag is done (never with ``loop``) it waits for the subscribers to acknowledge
-  everything (reliable topics) and exits 0.
+  everything (reliable topics) and exits 0; it reports how many messages it published
+  and how many every subscriber acknowledged, and exits 1 if those differ.
 """
 from __future__ import annotations
 
+import os
 import sys
 import threading
 import time
@@ -43,13 +55,19 @@ from scara_ident_ros.bag.reader import BagSource, open_bag
 from scara_ident_ros.bag.topic_filter import TopicFilter
 from scara_ident_ros.nodes.parameters import ParamSpec, declare_parameters
 from scara_ident_ros.nodes.runtime import POLL_PERIOD, ConfigError, run_node
+from scara_ident_ros.resources import config_path
 
-__all__ = ['PARAMETERS', 'PlayerNode', 'main']
+__all__ = ['PARAMETERS', 'PlayerNode', 'main', 'use_player_profile']
 
 CLOCK_TOPIC = '/clock'
 ACK_TIMEOUT = 10.0  # s to wait at the end for subscribers to acknowledge everything
+ACK_POLL = 0.1  # s: one wait for acknowledgements between two looks at the stop flag
+ACK_WARN = 10.0  # s a window may wait for acknowledgements before the player says so
 SPIN_PERIOD_NS = 100_000_000  # ns between two spin_once calls while publishing flat out
 SLEEP_SLACK_NS = 2_000_000  # ns: shorter waits are slept, longer ones spent spinning
+PROFILE_FILE = 'player_fastdds.xml'  # in config/: the writers' 20 ms heartbeat
+PROFILE_VARIABLES = ('FASTRTPS_DEFAULT_PROFILES_FILE', 'FASTDDS_DEFAULT_PROFILES_FILE')
+FAST_DDS = ('', 'rmw_fastrtps_cpp', 'rmw_fastrtps_dynamic_cpp')  # RMW_IMPLEMENTATION values
 
 PARAMETERS = (
     ParamSpec('bag', '', 'Bag directory, .mcap or .db3 file to play (required)'),
@@ -97,6 +115,7 @@ class PlayerNode(Node):
         self._clock_publisher = (self.create_publisher(Clock, CLOCK_TOPIC, QoSProfile(
             depth=10, reliability=ReliabilityPolicy.RELIABLE)) if p['clock'] else None)
         self.published = 0
+        self.acknowledged = 0  # messages every subscriber had acknowledged at the last look
         self.passes = 0
 
     def _create_publishers(self, selection: TopicFilter) -> dict[str, Publisher]:
@@ -145,8 +164,8 @@ class PlayerNode(Node):
         except BagError as exc:
             print(f'player: error: {exc}', file=sys.stderr)
             raise SystemExit(1) from None
-        if not stop.is_set():
-            self._wait_for_acks()
+        if not stop.is_set() and not self._wait_for_acks():
+            raise SystemExit(1)
 
     def _wait_for_subscribers(self, executor: EventsExecutor, stop: threading.Event) -> bool:
         timeout = self.params['wait_for_subscribers']
@@ -173,6 +192,8 @@ class PlayerNode(Node):
         next_clock_wall = start  # wall time of the next /clock while waiting
         last_clock = None  # recorded time last published on /clock
         current_pass = 0
+        window = self.params['qos_depth']  # unacknowledged messages the history can hold
+        unacknowledged = 0
         last_item: Scheduled | None = None
         items = schedule(lambda: self.bag.messages(publishers), timeline=self._timeline,
                          loop=self.params['loop'])
@@ -209,6 +230,11 @@ class PlayerNode(Node):
             publishers[item.message.topic].publish(item.message.data)
             self.published += 1
             last_item = item
+            unacknowledged += 1
+            if unacknowledged >= window:
+                if not self._acknowledged(stop):
+                    return
+                unacknowledged = 0
             if now >= next_spin:
                 executor.spin_once(timeout_sec=0.0)
                 next_spin = now + SPIN_PERIOD_NS
@@ -223,23 +249,65 @@ class PlayerNode(Node):
         msg.clock.sec, msg.clock.nanosec = divmod(recorded_ns, 1_000_000_000)
         self._clock_publisher.publish(msg)
 
-    def _wait_for_acks(self) -> None:
+    def _acknowledged(self, stop: threading.Event) -> bool:
+        """Wait until every subscriber has acknowledged all published; False if stopped."""
+        started = time.monotonic()
+        warned = False
+        poll = Duration(nanoseconds=round(ACK_POLL * 1e9))
+        for publisher in self._outputs.values():
+            while not publisher.wait_for_all_acked(poll):
+                if stop.is_set():
+                    return False
+                if not warned and time.monotonic() - started > ACK_WARN:
+                    warned = True
+                    self.get_logger().warning(
+                        f'{publisher.topic_name}: a subscriber has acknowledged nothing for '
+                        f'{ACK_WARN:g} s; waiting for it (nothing is dropped)')
+        self.acknowledged = self.published
+        return True
+
+    def _wait_for_acks(self) -> bool:
+        """At the end: wait at most ACK_TIMEOUT for every acknowledgement; False if missing."""
         deadline = time.monotonic() + ACK_TIMEOUT
+        complete = True
         for publisher in self._outputs.values():
             left = max(deadline - time.monotonic(), 0.0)
             if not publisher.wait_for_all_acked(Duration(nanoseconds=round(left * 1e9))):
+                complete = False
                 self.get_logger().warning(f'{publisher.topic_name}: not every message was '
                                           f'acknowledged within {ACK_TIMEOUT:g} s')
+        if complete:
+            self.acknowledged = self.published
+        return complete
 
     def close(self) -> None:
         """Close the bag and log what was played."""
         self.bag.close()
+        acknowledged = ('every one acknowledged' if self.acknowledged == self.published else
+                        f'{self.acknowledged} acknowledged by every subscriber')
         self.get_logger().info(f'played {self.published} messages from {self.bag.path}'
-                               f'{f" ({self.passes} passes)" if self.params["loop"] else ""}')
+                               f'{f" ({self.passes} passes)" if self.params["loop"] else ""}'
+                               f', {acknowledged}')
+
+
+def use_player_profile() -> None:
+    """Use ``config/player_fastdds.xml`` (20 ms heartbeats); call before ``rclpy.init``.
+
+    Not when the user has set a Fast DDS profile file, or another middleware.
+    """
+    if any(os.environ.get(name) for name in PROFILE_VARIABLES):
+        return
+    if os.environ.get('RMW_IMPLEMENTATION', '') not in FAST_DDS:
+        return
+    try:
+        os.environ[PROFILE_VARIABLES[0]] = str(config_path(PROFILE_FILE))
+    except FileNotFoundError:  # an install without it: Fast DDS's 3 s heartbeat
+        pass
 
 
 def main(args: list[str] | None = None) -> None:
     """Entry point of the ``player`` executable."""
+    use_player_profile()
     sys.exit(run_node('player', PlayerNode, args,
                       description=__doc__ or '', parameters=PARAMETERS))
 
