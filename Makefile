@@ -37,18 +37,16 @@ test: $(STAMP)
 
 # The pure-numpy tests: dynamics, networks, training, the identification core, the
 # simulator, offline data sets and figures. Nothing here imports rclpy, joins DDS or starts
-# a process; tests marked slow and the deselected 40-60 s learning-curve comparison are
-# left to make test, which runs everything. One BLAS thread by default: on a busy 2-core
+# a process; tests marked slow (such as the 40-60 s learning-curve comparison) are left to
+# make test, which runs everything. One BLAS thread by default: on a busy 2-core
 # machine OpenBLAS's thread pool made the LM tests 5-10 times slower (46 s instead of 18 s).
 CORE_TESTS := test/core test/dynamics test/nn test/identification test/sim test/offline
-CORE_DESELECT := \
-	test/identification/test_trainer.py::test_reservoir_lm_identifies_where_bp_only_tracks
 CORE_BLAS_THREADS ?= 1
 
 test-core: $(STAMP)
 	OPENBLAS_NUM_THREADS=$(CORE_BLAS_THREADS) OMP_NUM_THREADS=$(CORE_BLAS_THREADS) \
 	MKL_NUM_THREADS=$(CORE_BLAS_THREADS) \
-	$(PY) -m pytest -m 'not slow' $(addprefix --deselect ,$(CORE_DESELECT)) $(CORE_TESTS)
+	$(PY) -m pytest -m 'not slow' $(CORE_TESTS)
 
 bench: $(STAMP)
 	$(PY) -m pip install --quiet -r requirements-bench.txt -c constraints.txt

@@ -103,6 +103,7 @@ def test_lm_steps_only_lower_the_reservoir_error() -> None:
     assert errors[-1] < errors[0] / 100
 
 
+@pytest.mark.slow
 def test_reservoir_lm_identifies_where_bp_only_tracks() -> None:
     """60 s of varied motion: frozen LM predicts unseen excitations, BP does not (loose:
     benchmarks/bench_learning_curves.py measures the real figures)."""
