@@ -6,20 +6,31 @@ e.g. with a real robot or ``scara-ident play``), three identifiers side by side
 (FFMW, FFW, FFS in the namespaces /ffmw, /ffw, /ffs, all fed by /joint_states) and
 the MCAP recorder. The simulator waits (at most WAIT_TIMEOUT s) until the identifiers and
 the recorder have subscribed to /joint_states before its first sample.
-"""
-from launch import LaunchDescription
-from launch.actions import DeclareLaunchArgument
-from launch.conditions import IfCondition
-from launch.substitutions import LaunchConfiguration, PathJoinSubstitution
-from launch_ros.actions import Node
-from launch_ros.substitutions import FindPackageShare
 
+When the recorder exits, for whatever reason (``bag:=`` names a directory that exists
+already, a full disk, a SIGINT of its own), the launch ends: the simulator and the
+identifiers would otherwise go on with nothing recording them.
+
+``launch`` and ``launch_ros`` are imported when the description is generated, not when
+the file is imported, so that the file can be read and checked without them.
+"""
 METHODS = ('ffmw', 'ffw', 'ffs')
 WAIT_TIMEOUT = 60.0  # s, longest wait of the simulator for its subscribers (as scara-ident run)
 
 
 def generate_launch_description():
+    from launch import LaunchDescription
+    from launch.actions import DeclareLaunchArgument, LogInfo, RegisterEventHandler, Shutdown
+    from launch.conditions import IfCondition
+    from launch.event_handlers import OnProcessExit
+    from launch.substitutions import LaunchConfiguration, PathJoinSubstitution
+    from launch_ros.actions import Node
+    from launch_ros.substitutions import FindPackageShare
+
     config = PathJoinSubstitution([FindPackageShare('scara_ident_ros'), 'config'])
+    recorder = Node(package='scara_ident_ros', executable='recorder', name='recorder',
+                    parameters=[PathJoinSubstitution([config, 'recorder.yaml']),
+                                {'output': LaunchConfiguration('bag')}])
     actions = [
         DeclareLaunchArgument('bag', default_value='scara_ident_run',
                               description='Directory of the MCAP bag to record'),
@@ -34,9 +45,12 @@ def generate_launch_description():
                          {'wait_for_subscribers': len(METHODS) + 1,
                           'wait_timeout': WAIT_TIMEOUT}],
              condition=IfCondition(LaunchConfiguration('sim'))),
-        Node(package='scara_ident_ros', executable='recorder', name='recorder',
-             parameters=[PathJoinSubstitution([config, 'recorder.yaml']),
-                         {'output': LaunchConfiguration('bag')}]),
+        recorder,
+        # Nothing is worth running once nothing records: end the launch with the recorder.
+        RegisterEventHandler(OnProcessExit(
+            target_action=recorder,
+            on_exit=[LogInfo(msg='the recorder has exited: ending the launch'),
+                     Shutdown(reason='the recorder exited')])),
     ]
     for method in METHODS:
         actions.append(Node(

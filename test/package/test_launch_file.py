@@ -1,0 +1,92 @@
+"""``launch/identification.launch.py``, checked without ``launch`` installed.
+
+There is no ``launch`` or ``launch_ros`` here (no full ROS 2 install): the file is run
+against stand-ins for their classes, which only keep the arguments they were given,
+and the tests look at the description it builds: the nodes ``scara-ident run`` starts,
+and a handler that ends the launch when the recorder exits.
+"""
+from __future__ import annotations
+
+import importlib.util
+import sys
+import types
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+LAUNCH_FILE = Path(__file__).resolve().parents[2] / 'launch' / 'identification.launch.py'
+STAND_INS = {
+    'launch': ['LaunchDescription'],
+    'launch.actions': ['DeclareLaunchArgument', 'LogInfo', 'RegisterEventHandler', 'Shutdown'],
+    'launch.conditions': ['IfCondition'],
+    'launch.event_handlers': ['OnProcessExit'],
+    'launch.substitutions': ['LaunchConfiguration', 'PathJoinSubstitution'],
+    'launch_ros.actions': ['Node'],
+    'launch_ros.substitutions': ['FindPackageShare'],
+}
+
+
+class StandIn:
+    """Any launch class: keeps its positional and keyword arguments."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        self.args = args
+        self.kwargs = kwargs
+
+
+def _stand_in_modules() -> dict[str, types.ModuleType]:
+    modules = {}
+    for name, classes in STAND_INS.items():
+        module = types.ModuleType(name)
+        for cls in classes:
+            setattr(module, cls, type(cls, (StandIn,), {}))
+        modules[name] = module
+    modules['launch_ros'] = types.ModuleType('launch_ros')
+    return modules
+
+
+@pytest.fixture
+def description(monkeypatch: pytest.MonkeyPatch) -> list[StandIn]:
+    """The actions of the launch description the file generates."""
+    for name, module in _stand_in_modules().items():
+        monkeypatch.setitem(sys.modules, name, module)
+    spec = importlib.util.spec_from_file_location('identification_launch', LAUNCH_FILE)
+    assert spec is not None and spec.loader is not None
+    launch_file = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(launch_file)
+    generated = launch_file.generate_launch_description()
+    assert type(generated).__name__ == 'LaunchDescription'
+    return list(generated.args[0])
+
+
+def of_type(actions: list[StandIn], name: str) -> list[StandIn]:
+    return [action for action in actions if type(action).__name__ == name]
+
+
+def test_the_file_imports_without_launch_installed() -> None:
+    spec = importlib.util.spec_from_file_location('identification_launch', LAUNCH_FILE)
+    assert spec is not None and spec.loader is not None
+    spec.loader.exec_module(importlib.util.module_from_spec(spec))  # no ImportError
+
+
+def test_it_starts_the_graph_of_scara_ident_run(description: list[StandIn]) -> None:
+    nodes = of_type(description, 'Node')
+    executables = sorted(node.kwargs['executable'] for node in nodes)
+    assert executables == ['identifier'] * 3 + ['recorder', 'scara_sim']
+    namespaces = {node.kwargs.get('namespace') for node in nodes
+                  if node.kwargs['executable'] == 'identifier'}
+    assert namespaces == {'ffmw', 'ffw', 'ffs'}
+    arguments = {action.args[0] for action in of_type(description, 'DeclareLaunchArgument')}
+    assert arguments == {'bag', 'sim'}
+
+
+def test_the_launch_ends_when_the_recorder_exits(description: list[StandIn]) -> None:
+    recorder = next(node for node in of_type(description, 'Node')
+                    if node.kwargs['executable'] == 'recorder')
+    handlers = [register.args[0] for register in of_type(description, 'RegisterEventHandler')]
+    on_exit = [handler for handler in handlers if type(handler).__name__ == 'OnProcessExit']
+    assert len(on_exit) == 1, handlers
+    assert on_exit[0].kwargs['target_action'] is recorder
+    assert [type(action).__name__ for action in on_exit[0].kwargs['on_exit']] == \
+        ['LogInfo', 'Shutdown']
