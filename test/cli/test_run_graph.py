@@ -11,12 +11,12 @@ processes reported.
 """
 from __future__ import annotations
 
-import itertools
 import json
 import os
 import signal
 import subprocess
 import sys
+import tempfile
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -31,6 +31,9 @@ from scara_ident_ros.offline.online_results import (OnlinePredictions, read_iden
                                                     read_online_predictions, rolling_errors,
                                                     torque_topic)
 
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from ros_domains import claim_domain  # noqa: E402  (test/ is no package)
+
 pytestmark = pytest.mark.slow
 
 DURATION = 6.0  # s of simulated samples
@@ -43,16 +46,7 @@ FIRST = 100  # samples: the first 100 ms of predictions
 LAST = 1000  # samples: the last second of predictions
 FALL = 0.5  # the final validation NMSE must be below this fraction of the first published
 
-_domains = itertools.count(70)
-
-
-def own_domain() -> int:
-    """A ROS domain for one run (100-199), not the test session's default one."""
-    default = os.environ.get('ROS_DOMAIN_ID')
-    while True:
-        value = 100 + (os.getpid() + 37 * next(_domains)) % 100
-        if str(value) != default:
-            return value
+DOMAIN_LOCKS = Path(tempfile.gettempdir()) / 'scara_ident_ros-domains'  # as test/conftest.py
 
 
 @dataclass(frozen=True)
@@ -104,10 +98,17 @@ def _stop_group(process: subprocess.Popen[bytes]) -> None:
 def run_graph(out: Path, *args: str, timeout: float = RUN_TIMEOUT) -> Run:
     """Run ``scara-ident run --out OUT *args`` in its own ROS domain and session.
 
-    Its process group is stopped before returning, whatever happens (a timeout fails
-    the test after the cleanup).
+    The domain is claimed by a lock, as the session's is, so that no other test run on
+    this machine uses it meanwhile. The run's process group is stopped before returning,
+    whatever happens (a timeout fails the test after the cleanup); its nodes end with it.
     """
-    env = {**os.environ, 'ROS_DOMAIN_ID': str(own_domain()),
+    domain, lock = claim_domain(DOMAIN_LOCKS)
+    with lock:
+        return _run_graph(out, args, timeout, domain)
+
+
+def _run_graph(out: Path, args: tuple[str, ...], timeout: float, domain: int) -> Run:
+    env = {**os.environ, 'ROS_DOMAIN_ID': str(domain),
            'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST', 'PYTHONUNBUFFERED': '1'}
     log = out.parent / f'{out.name}.out'
     timed_out = False
