@@ -13,6 +13,9 @@ the nodes would get the terminal's SIGINT all at once, in no order (the recorder
 close before the last samples reached it), and a second one from :meth:`ProcessGraph.stop`.
 Should the program itself die, the kernel sends each node SIGTERM
 (``PR_SET_PDEATHSIG``): no node outlives it.
+
+:func:`publishers_on` looks, before a graph starts, for another graph already
+publishing its topics on the same ROS domain (whose samples would mix with its own).
 """
 from __future__ import annotations
 
@@ -21,14 +24,18 @@ import os
 import signal
 import subprocess
 import sys
+import time
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import FrameType, TracebackType
 from typing import IO
 
-__all__ = ['NodeProcess', 'ProcessGraph', 'StopSignals']
+__all__ = ['NodeProcess', 'ProcessGraph', 'StopSignals', 'publishers_on']
 
 PR_SET_PDEATHSIG = 1  # prctl option: signal this process when its parent dies (Linux)
+PROBE_TIME = 2.0  # s of discovery before concluding that no other graph publishes
+PROBE_POLL = 0.1  # s between two looks at the publisher counts
 
 
 @dataclass
@@ -170,3 +177,31 @@ class StopSignals:
                  traceback: TracebackType | None) -> None:
         for sig, handler in self._previous.items():
             signal.signal(sig, handler)  # type: ignore[arg-type]
+
+
+def publishers_on(topics: Sequence[str], *, wait: float = PROBE_TIME) -> dict[str, int]:
+    """Publishers already on the ROS domain of each topic that has some.
+
+    A node of its own (in its own rclpy Context, shut down before returning) looks at the
+    graph for up to ``wait`` seconds (discovery takes a moment), returning as soon as one
+    of ``topics`` has a publisher.
+    """
+    import rclpy
+    from rclpy.context import Context
+    from rclpy.signals import SignalHandlerOptions
+
+    context = Context()
+    rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
+    try:
+        node = rclpy.create_node('scara_ident_graph_probe', context=context,
+                                 enable_rosout=False, start_parameter_services=False)
+        deadline = time.monotonic() + wait
+        while True:
+            found = {topic: node.count_publishers(topic) for topic in topics}
+            if any(found.values()) or time.monotonic() >= deadline:
+                break
+            time.sleep(PROBE_POLL)
+        node.destroy_node()
+    finally:
+        context.try_shutdown()
+    return {topic: count for topic, count in found.items() if count}

@@ -14,6 +14,11 @@ and validation NMSE. Unless
 ``--no-report``, the run's tables and figures are then produced from the bag
 (``scara-ident tables``).
 
+Before anything starts, the run looks for another graph on the ROS domain (a second
+``scara-ident run``, a simulator, a player): if one already publishes ``/joint_states``
+or the identifiers' topics, whose samples would mix with this run's, it refuses to
+start (one line, exit 2) unless ``--allow-other-graph``.
+
 Ctrl-C (SIGINT) or SIGTERM stops the graph the same way, early: the nodes run in
 sessions of their own, so only this command gets the terminal's SIGINT, and it sends
 each node exactly one, in the order above. The bag then holds every sample the
@@ -34,6 +39,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import signal
 import time
 from pathlib import Path
@@ -45,7 +51,8 @@ from scara_ident_ros.cli import CliError
 from scara_ident_ros.identification.trainer import TRAINERS
 from scara_ident_ros.methods import METHODS
 from scara_ident_ros.paths import unwritable_dir
-from scara_ident_ros.process_graph import NodeProcess, ProcessGraph, StopSignals
+from scara_ident_ros.process_graph import (NodeProcess, ProcessGraph, StopSignals,
+                                           publishers_on)
 from scara_ident_ros.sim.trajectory import SEQUENCE, TRAJECTORIES
 
 __all__ = ['add_parser', 'run', 'bag_message_counts']
@@ -54,6 +61,8 @@ STARTUP_TIMEOUT = 60.0  # s allowed for the processes to start and discover each
 DRAIN_TIME = 1.0  # s the consumers get to drain their queues after the last sample
 POLL_PERIOD = 0.1  # s between two looks at the processes and the stop signals
 INTERRUPTED = 130  # exit status after a Ctrl-C (128 + SIGINT), as a shell reports it
+JOINT_STATES = '/joint_states'
+IDENTIFIER_TOPICS = ('identified_torque', 'identification_mse')  # under /<method>/
 #: lm_interval of each identifier per identifier run (benchmarks/bench_graph.py: three at
 #: 200 took 55-57 % of a core each and lost 17 % of the samples on 2 cores)
 LM_INTERVAL_PER_IDENTIFIER = 200
@@ -89,6 +98,10 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
                         help='MCAP chunk compression of the bag (default: zstd)')
     parser.add_argument('--no-report', dest='report', action='store_false',
                         help='skip the tables and figures at the end')
+    parser.add_argument('--allow-other-graph', action='store_true',
+                        help='start even if another graph already publishes /joint_states '
+                             "or the identifiers' topics on this ROS domain (its samples "
+                             'then mix with this run\'s)')
     parser.set_defaults(func=run)
 
 
@@ -129,6 +142,8 @@ def run(args: argparse.Namespace) -> int:
     bag: Path = args.bag or out / 'bag'
     if bag.exists():
         raise CliError(f'{bag} exists already, not overwriting (choose another --out or --bag)')
+    if not args.allow_other_graph:
+        _refuse_other_graph(args.methods)
     stats, models = out / 'stats', out / 'models'
     for directory in (stats, models):
         directory.mkdir(parents=True, exist_ok=True)
@@ -172,6 +187,20 @@ def run(args: argparse.Namespace) -> int:
     if args.report:
         _report(bag, out / 'report', args.methods, interrupted=interrupted)
     return INTERRUPTED if interrupted else 0
+
+
+def _refuse_other_graph(methods: list[str]) -> None:
+    """Raise CliError if another graph already publishes this run's topics on the domain."""
+    topics = [JOINT_STATES, *(f'/{method}/{topic}' for method in methods
+                              for topic in IDENTIFIER_TOPICS)]
+    found = publishers_on(topics)
+    if found:
+        listed = ', '.join(f'{topic} ({count} publisher{"s" if count > 1 else ""})'
+                           for topic, count in found.items())
+        domain = os.environ.get('ROS_DOMAIN_ID', '0')
+        raise CliError(f'another graph already publishes on ROS domain {domain}: {listed}; '
+                       "its samples would mix with this run's. Stop it, set another "
+                       'ROS_DOMAIN_ID, or pass --allow-other-graph')
 
 
 def _watch(graph: ProcessGraph, sim: NodeProcess, signals: StopSignals,

@@ -59,6 +59,7 @@ from scara_ident_ros.nn import FeedForwardNet, ModelFormatError
 from scara_ident_ros.nodes.diagnostics import Diagnostics
 from scara_ident_ros.nodes.messages import joint_state, stamp_to_ns
 from scara_ident_ros.nodes.parameters import ParamSpec, declare_parameters
+from scara_ident_ros.nodes.publisher_watch import PublisherWatch
 from scara_ident_ros.nodes.runtime import ConfigError, run_node
 from scara_ident_ros.offline.blas_threads import single_blas_thread
 from scara_ident_ros.paths import unwritable_file
@@ -269,6 +270,7 @@ class IdentifierNode(Node):
         s = self.settings
         self.subscription = self.create_subscription(
             JointState, JOINT_STATES_TOPIC, self.on_joint_state, INPUT_QOS)
+        self.publisher_watch = PublisherWatch(self, self.subscription.topic_name)
         self.get_logger().info(
             f"{s['method'].upper()} identifier on {self.subscription.topic_name} → "
             f'{self.torque_publisher.topic_name}, joints {self.joints_text}, '
@@ -495,6 +497,7 @@ class IdentifierNode(Node):
         """Predict, publish, learn: one input sample."""
         self.last_sample = time.monotonic()
         self.loss.observe(stamp_to_ns(msg.header.stamp))
+        self.publisher_watch.stamps.observe(stamp_to_ns(msg.header.stamp))
         if self.core is None and not self._build_from(msg):
             return
         stamp_ns = stamp_to_ns(msg.header.stamp)
@@ -606,6 +609,8 @@ class IdentifierNode(Node):
             'validation_nmse_total': (float(validation.nmse_total) if validation is not None
                                       else None),
             'max_lag_ms': self.worst_lag_ns / 1e6, 'lost': self.loss.lost,
+            'joint_states_publishers': self.publisher_watch.most_publishers,
+            'stamps_backward': self.publisher_watch.stamps.backward,
             **({'previous': self.previous} if self.previous else {}),
         }
 

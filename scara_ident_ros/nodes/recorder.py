@@ -52,9 +52,12 @@ from scara_ident_ros.bag.message_class import message_class
 from scara_ident_ros.bag.qos import adapt_to_offers, qos_from_profile
 from scara_ident_ros.bag.topic_filter import TopicFilter
 from scara_ident_ros.bag.writer import BagWriter
-from scara_ident_ros.identification.health import Deltas, Health, recorder_health
+from scara_ident_ros.identification.health import (Deltas, Health, LossCounter,
+                                                    recorder_health)
+from scara_ident_ros.identification.stamp_order import header_stamp_ns
 from scara_ident_ros.nodes.diagnostics import Diagnostics
 from scara_ident_ros.nodes.parameters import ParamSpec, declare_parameters
+from scara_ident_ros.nodes.publisher_watch import PublisherWatch
 from scara_ident_ros.nodes.runtime import POLL_PERIOD, ConfigError, run_node
 
 __all__ = ['DEFAULT_TOPICS', 'PARAMETERS', 'RecorderNode', 'default_output', 'main']
@@ -65,6 +68,7 @@ CHUNK_POLL_PERIOD = 0.1  # s between checks of the open chunk's age when idle
 BATCH_SIZE = 512  # most messages handed to the writer at once
 GATHER_PERIOD = 0.005  # s to let messages queue up after a quiet spell (one wake-up, not N)
 SPARSE_RATE = 20_000  # messages/s below which the loop gathers before taking
+JOINT_STATE_TYPE = 'sensor_msgs/msg/JointState'  # watched for a second publisher and losses
 WRITER = 'the storage files are opened with it'  # why a writer option is fixed at start
 
 PARAMETERS = (
@@ -128,6 +132,8 @@ class RecorderNode(Node):
         self._pending: list[tuple[int, int, bytes]] = []
         self._received = 0
         self._topics: dict[str, int] = {}  # topic -> connection id
+        # JointState topics: a second publisher, and samples lost (gaps in the stamps)
+        self._watches: dict[str, tuple[PublisherWatch, LossCounter]] = {}
         self._ignored: set[str] = set()  # topics that cannot be recorded (warned once)
         self._started = time.monotonic()
         self._closed = False
@@ -188,20 +194,43 @@ class RecorderNode(Node):
             self._ignore(topic, str(exc))
             return
         self._topics[topic] = connection.id
-        self.create_subscription(cls, topic, self._on_message(connection.id), qos, raw=True)
+        stamps = self._watch(topic) if msgtype == JOINT_STATE_TYPE else None
+        self.create_subscription(cls, topic, self._on_message(connection.id, stamps), qos,
+                                 raw=True)
         self.get_logger().info(
             f'recording {topic} ({msgtype}; {"reliable" if adapted.reliable else "best effort"}'
             f'{", transient local" if adapted.transient_local else ""}; '
             f'{len(offers)} publisher(s))')
 
-    def _on_message(self, connection_id: int) -> Callable[[bytes], None]:
+    def _on_message(self, connection_id: int,
+                    stamps: Callable[[bytes], None] | None = None) -> Callable[[bytes], None]:
         append = self._pending.append
         now = time.time_ns
 
         def callback(data: bytes) -> None:
             append((connection_id, now(), data))
 
-        return callback
+        def watched(data: bytes) -> None:
+            append((connection_id, now(), data))
+            stamps(data)
+
+        return callback if stamps is None else watched
+
+    def _watch(self, topic: str) -> Callable[[bytes], None]:
+        """Watch a JointState topic for a second publisher and for samples lost on the way
+        (gaps in the stamps, read from the serialized header); return what takes each
+        message."""
+        watch, loss = PublisherWatch(self, topic), LossCounter()
+        self._watches[topic] = (watch, loss)
+        order, lost = watch.stamps.observe, loss.observe
+
+        def observe(data: bytes) -> None:
+            stamp_ns = header_stamp_ns(data)
+            if stamp_ns is not None:
+                order(stamp_ns)
+                lost(stamp_ns)
+
+        return observe
 
     # -- the loop ------------------------------------------------------------------------
 
@@ -321,7 +350,10 @@ class RecorderNode(Node):
         return {'bag': str(self.writer.path), 'received': self._received + len(self._pending),
                 'written': sum(topics.values()), 'paused': self._not_written, 'topics': topics,
                 'files': self.writer.file_names,
-                'seconds': round(time.monotonic() - self._started, 3)}
+                'seconds': round(time.monotonic() - self._started, 3),
+                'lost': {topic: loss.lost for topic, (_, loss) in self._watches.items()},
+                'publishers': {topic: watch.most_publishers
+                               for topic, (watch, _) in self._watches.items()}}
 
     def _report(self) -> None:
         counters = self.counters()
@@ -349,6 +381,10 @@ class RecorderNode(Node):
         self.get_logger().info(
             f"bag closed: {counters['bag']}: {counters['written']} of {counters['received']} "
             f"received messages written in {len(counters['files'])} file(s): {per_topic}")
+        for topic, lost in counters['lost'].items():
+            if lost:
+                self.get_logger().warning(f'{topic}: {lost} samples lost before they reached '
+                                          'the recorder (gaps in their stamps)')
         if self.params['stats_file']:
             path = Path(self.params['stats_file'])
             path.parent.mkdir(parents=True, exist_ok=True)
