@@ -99,9 +99,13 @@ class LossCounter:
     difference ``dt`` with ``LOST_GAP`` periods <= dt <= ``LOST_SPAN`` s counts
     ``round(dt / period) - 1`` lost samples. Larger jumps (a replay or simulator restarting,
     a pause) and stamps repeated or going backwards count nothing.
+
+    ``span_s`` replaces ``LOST_SPAN``: a recorder, which must report what a network
+    partition cost, counts jumps of up to a minute as lost samples.
     """
 
-    def __init__(self) -> None:
+    def __init__(self, *, span_s: float = LOST_SPAN) -> None:
+        self.span_ns = span_s * 1e9  #: longest stamp jump counted as lost samples, ns
         self.lost = 0  #: samples estimated lost so far
         self.period_ns: float | None = None  #: the stream's sample period, once known
         self._last_ns: int | None = None
@@ -115,7 +119,7 @@ class LossCounter:
         if last is None or stamp_ns <= last:
             return  # the first, a repeated or a late one: nothing known missing
         dt = stamp_ns - last
-        if dt > LOST_SPAN * 1e9:
+        if dt > self.span_ns:
             return
         dts = self._dts
         dts.append(dt)

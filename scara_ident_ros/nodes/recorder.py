@@ -24,7 +24,11 @@ after splits), written by :class:`~scara_ident_ros.bag.BagWriter`.
   used: with the EventsExecutor of these wheels, a subscription with a
   ``message_lost`` event callback hung inside ``spin_once`` once messages were lost, and
   one whose callback takes the message info, to see gaps in the publication sequence
-  numbers, raises ``SystemError``. Messages lost before the recorder are not seen.)
+  numbers, raises ``SystemError``.) Samples of a ``sensor_msgs/JointState`` topic lost
+  before the recorder (a network partition longer than the publisher's history) are
+  counted from the gaps in their stamps (``lost`` per topic in the counters, and a
+  warning on shutdown); so is a second publisher on such a topic, which makes the stamps
+  go back in time (``publishers``, and a warning while it lasts).
 - Services (``std_srvs/Trigger``), as rosbag2's recorder has them: ``~/split`` closes the
   current ``.mcap`` file and continues in the next one; ``~/pause`` stops writing (what
   arrives meanwhile is counted as ``paused``, not written) until ``~/resume``.
@@ -69,6 +73,7 @@ BATCH_SIZE = 512  # most messages handed to the writer at once
 GATHER_PERIOD = 0.005  # s to let messages queue up after a quiet spell (one wake-up, not N)
 SPARSE_RATE = 20_000  # messages/s below which the loop gathers before taking
 JOINT_STATE_TYPE = 'sensor_msgs/msg/JointState'  # watched for a second publisher and losses
+LOST_SPAN = 60.0  # s: the longest gap in a JointState stream's stamps counted as lost samples
 WRITER = 'the storage files are opened with it'  # why a writer option is fixed at start
 
 PARAMETERS = (
@@ -220,7 +225,7 @@ class RecorderNode(Node):
         """Watch a JointState topic for a second publisher and for samples lost on the way
         (gaps in the stamps, read from the serialized header); return what takes each
         message."""
-        watch, loss = PublisherWatch(self, topic), LossCounter()
+        watch, loss = PublisherWatch(self, topic), LossCounter(span_s=LOST_SPAN)
         self._watches[topic] = (watch, loss)
         order, lost = watch.stamps.observe, loss.observe
 
