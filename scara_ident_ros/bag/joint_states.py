@@ -207,8 +207,7 @@ def _via_rosbags(bag: BagSource, raw: bytes, index: int, error: Exception
     store = get_typestore(Stores.ROS2_JAZZY)
     try:
         message = store.deserialize_cdr(raw, JOINT_STATE)
-        little = store.serialize_cdr(message, JOINT_STATE, little_endian=True)
-        little = bytes(little)
+        little = bytes(store.serialize_cdr(message, JOINT_STATE, little_endian=True))
         return little, split_joint_state(little)
     except Exception as exc:  # noqa: BLE001 - rosbags' SerdeError and struct errors
         raise BagError(f'{bag.path}: JointState message {index} cannot be decoded '

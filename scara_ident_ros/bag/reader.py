@@ -38,7 +38,9 @@ class TopicInfo(NamedTuple):
     """A topic of a bag: its message type and how many messages it holds."""
 
     msgtype: str
-    count: int
+    # Shadows tuple.count on purpose: callers read info.count and compare TopicInfo with
+    # plain (msgtype, count) tuples, so it stays a NamedTuple with this field name.
+    count: int  # type: ignore[assignment]
 
 
 class BagMessage(NamedTuple):

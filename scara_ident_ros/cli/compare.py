@@ -40,7 +40,7 @@ DEFAULT_WALL_TIME = ('163 s wall without the learning curves (--curve-seconds 0)
                      'add about 16 min (963 s, two worker processes, load average 2.4)')
 
 
-def add_parser(subparsers: argparse._SubParsersAction) -> None:
+def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Register ``scara-ident compare``."""
     parser = subparsers.add_parser(
         'compare', help="reproduce the paper's Tables 2 and 3 on simulated data",

@@ -19,7 +19,7 @@ from scara_ident_ros.cli import CliError
 __all__ = ['add_parser', 'run']
 
 
-def add_parser(subparsers: argparse._SubParsersAction) -> None:
+def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Register ``scara-ident evaluate``."""
     parser = subparsers.add_parser(
         'evaluate', help='per-joint MSE and NMSE of a saved network on a bag',

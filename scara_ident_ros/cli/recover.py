@@ -17,7 +17,7 @@ from scara_ident_ros.bag import recover_bag
 __all__ = ['add_parser', 'run']
 
 
-def add_parser(subparsers: argparse._SubParsersAction) -> None:
+def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Register ``scara-ident recover``."""
     parser = subparsers.add_parser(
         'recover', help='rebuild a bag left behind by a killed recorder',

@@ -39,7 +39,7 @@ from scara_ident_ros.paths import unwritable_dir
 __all__ = ['add_parser', 'make_report', 'run']
 
 
-def add_parser(subparsers: argparse._SubParsersAction) -> None:
+def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Register ``scara-ident tables``."""
     parser = subparsers.add_parser(
         'tables', help="the paper's Tables 2-3 and Figures 6-15 from recorded runs",

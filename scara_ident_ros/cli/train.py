@@ -61,7 +61,7 @@ MAX_FAIL = 50              # validation failures in a row that stop training
 MIN_ITERATIONS = 50        # iterations before validation failures count
 
 
-def add_parser(subparsers: argparse._SubParsersAction) -> None:
+def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Register ``scara-ident train``."""
     parser = subparsers.add_parser(
         'train', help='train a network offline from the joint states of a bag',

@@ -59,13 +59,14 @@ import math
 from collections.abc import Sequence
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from scara_ident_ros.dynamics.params import N_JOINTS, ScaraParams
 
 __all__ = ['ScaraModel']
 
 
-def _as_states(*arrays: np.ndarray | Sequence[float]) -> tuple[list[np.ndarray], bool]:
+def _as_states(*arrays: ArrayLike) -> tuple[list[np.ndarray], bool]:
     """Return the arrays as broadcast (N, 4) float arrays and whether all were single (4,)."""
     out = []
     single = True

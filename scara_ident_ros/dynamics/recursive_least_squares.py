@@ -39,7 +39,7 @@ class RecursiveLeastSquares:
     """
 
     def __init__(self, *, p0: float = 1e6, coulomb_eps: float = _DEFAULT_EPS) -> None:
-        self.theta = np.zeros(N_PARAMETERS)
+        self.theta: NDArray[np.floating] = np.zeros(N_PARAMETERS)
         self._a = np.eye(N_PARAMETERS) / p0  # information matrix P⁻¹
         self._b = np.zeros(N_PARAMETERS)
         self.coulomb_eps = coulomb_eps

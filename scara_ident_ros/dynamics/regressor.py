@@ -22,9 +22,8 @@ inertias and centre-of-mass distances are not identifiable from joint efforts al
 """
 from __future__ import annotations
 
-from collections.abc import Sequence
-
 import numpy as np
+from numpy.typing import ArrayLike
 
 from scara_ident_ros.dynamics.model import _as_states
 from scara_ident_ros.dynamics.params import N_JOINTS, ScaraParams
@@ -39,11 +38,10 @@ PARAMETER_NAMES: tuple[str, ...] = (
     + tuple(f'fc{i + 1}' for i in range(N_JOINTS)))
 N_PARAMETERS = len(PARAMETER_NAMES)
 
-_DEFAULT_EPS = ScaraParams.__dataclass_fields__['coulomb_eps'].default
+_DEFAULT_EPS: float = ScaraParams().coulomb_eps
 
 
-def regressor(q: np.ndarray | Sequence[float], qd: np.ndarray | Sequence[float],
-              qdd: np.ndarray | Sequence[float], *,
+def regressor(q: ArrayLike, qd: ArrayLike, qdd: ArrayLike, *,
               coulomb_eps: float = _DEFAULT_EPS) -> np.ndarray:
     """Regressor matrix Y with τ = Y θ for the base parameters :data:`PARAMETER_NAMES`.
 

@@ -94,7 +94,7 @@ class Dataset:
         """Time spanned from the first to the last sample (s)."""
         return float(self.stamp_ns[-1] - self.stamp_ns[0]) * 1e-9 if len(self) else 0.0
 
-    def take(self, index: npt.ArrayLike, name: str | None = None) -> Dataset:
+    def take(self, index: slice | npt.ArrayLike, name: str | None = None) -> Dataset:
         """Return the samples at ``index`` (a slice, integer indices or a boolean mask)."""
         idx = index if isinstance(index, slice) else np.asarray(index)
         return Dataset(self.stamp_ns[idx], self.X[idx], self.Y[idx], self.acceleration,

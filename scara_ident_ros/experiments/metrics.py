@@ -26,7 +26,7 @@ import numpy as np
 import numpy.typing as npt
 
 from scara_ident_ros.identification import PAPER_WINDOW, ErrorStats, ErrorWindow
-from scara_ident_ros.identification.error_window import error_stats
+from scara_ident_ros.identification.error_window import error_stats, no_error_stats
 
 __all__ = ['effort_errors', 'recent_errors']
 
@@ -58,7 +58,7 @@ def effort_errors(Y: npt.ArrayLike, Y_hat: npt.ArrayLike) -> ErrorStats:
     """
     y, y_hat = _check(Y, Y_hat)
     if y.shape[0] == 0:
-        return error_stats(np.full(y.shape[1], np.nan), *np.zeros((2, y.shape[1])), 0)
+        return no_error_stats(y.shape[1])
     var = np.var(y, axis=0)
     return error_stats(np.mean((y - y_hat) ** 2, axis=0), var, var, int(y.shape[0]))
 

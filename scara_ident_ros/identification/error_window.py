@@ -19,7 +19,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 __all__ = ['ErrorStats', 'ErrorWindow', 'PAPER_WINDOW', 'VARIANCE_RESOLUTION', 'error_stats',
-           'normalised_mse']
+           'no_error_stats', 'normalised_mse']
 
 PAPER_WINDOW = 100  # samples: the paper's "error over the last 100 samples"
 #: Variances at most this fraction of the squared effort scale are rounding: NMSE undefined.
@@ -125,7 +125,7 @@ class ErrorWindow:
         """Return the statistics over the whole window (the last ``count`` samples)."""
         c = self._count
         if c == 0:
-            return error_stats(np.full(self.n_joints, np.nan), *np.zeros((2, self.n_joints)), 0)
+            return no_error_stats(self.n_joints)
         mse, mean, mean_sq = self._sums / c  # rounding may leave sums of squares at -0
         return error_stats(np.maximum(mse, 0.0), np.maximum(mean_sq - mean * mean, 0.0),
                            mean_sq, c)
@@ -148,7 +148,7 @@ class ErrorWindow:
             raise ValueError(f'k must be in 1..{self.window}, got {k}')
         k = min(k, self._count)
         if k == 0:
-            return error_stats(np.full(self.n_joints, np.nan), *np.zeros((2, self.n_joints)), 0)
+            return no_error_stats(self.n_joints)
         rows = self._rows[np.arange(self._head - k, self._head) % self.window]
         var = rows[:, 1].var(axis=0)
         return error_stats(rows[:, 0].mean(axis=0), var, var, k)
@@ -199,3 +199,9 @@ def error_stats(mse: NDArray[np.float64], var: NDArray[np.float64], scale: NDArr
     nmse, nmse_total = normalised_mse(mse, var, scale)
     return ErrorStats(mse=mse, nmse=nmse, mse_total=float(mse.mean()),
                       nmse_total=float(nmse_total), count=count)
+
+
+def no_error_stats(n_joints: int) -> ErrorStats:
+    """:class:`ErrorStats` of no samples: MSE and NMSE NaN for each of ``n_joints``, count 0."""
+    zeros = np.zeros(n_joints)
+    return error_stats(np.full(n_joints, np.nan), zeros, zeros, 0)

@@ -17,11 +17,15 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from typing import Any
 from pathlib import Path
+from types import ModuleType
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 __all__ = ['DPI', 'MAX_POINTS', 'WIDTH_IN', 'effort_unit', 'figure_size_px', 'plot_online_error',
            'plot_torque', 'plot_training_mse']
@@ -58,7 +62,8 @@ def _height_in(kind: str, n_joints: int) -> float:
     raise ValueError(f'unknown figure kind {kind!r}')
 
 
-def _pyplot():  # type: ignore[no-untyped-def]
+def _pyplot() -> ModuleType:
+    """matplotlib.pyplot on the Agg backend, imported when a figure is drawn."""
     import matplotlib
     matplotlib.use('Agg', force=True)
     import matplotlib.pyplot as plt
@@ -71,7 +76,7 @@ def _thin(*arrays: NDArray[np.float64]) -> list[NDArray[np.float64]]:
     return [a[::step] for a in arrays]
 
 
-def _save(fig, path: Path) -> Path:  # type: ignore[no-untyped-def]
+def _save(fig: Figure, path: Path) -> Path:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=DPI, format='png')
@@ -146,9 +151,9 @@ def plot_training_mse(path: Path, curves: Mapping[str, Sequence[Sequence[float]]
     """
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=(WIDTH_IN, _height_in('training', 0)), layout='constrained')
-    for label, runs in curves.items():
+    for label, seeds in curves.items():
         colour = _COLOURS.get(label)
-        runs = [np.asarray(r, float) for r in runs if len(r)]
+        runs = [np.asarray(r, float) for r in seeds if len(r)]
         if not runs:
             continue
         for run in runs:

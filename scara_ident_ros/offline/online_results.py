@@ -180,7 +180,7 @@ def prediction_rows(predictions: OnlinePredictions, *, window: int = DEFAULT_WIN
                                                    f'{predictions.n_unmatched} unmatched')
     short, long = stream_data_names(window, paper_window)
     return [ResultRow.from_stats(stats, table='online', method=label, seed=None, data=data,
-                                 **extra)  # type: ignore[arg-type]
+                                 **extra)
             for data, stats in ((short, recent_errors(y, y_hat, paper_window)),
                                 (long, effort_errors(y[-window:], y_hat[-window:])),
                                 (STREAM_ALL, effort_errors(y, y_hat)))]
@@ -235,9 +235,11 @@ def read_identifier_mse(bag: Path, method: str
     (log_time_ns, data) or None
         Receive times (M,) in ns and the messages' ``data`` (M, 3(n + 1)), laid out as
         :mod:`scara_ident_ros.mse_layout` says (``decode_mse`` splits it); None if the bag
-        has no such topic or no message.
+        has no such topic, no message, or messages other than ``std_msgs/Float64MultiArray``.
     """
     from rosbags.typesys import Stores, get_typestore
+    from rosbags.typesys.stores.ros2_jazzy import (
+        std_msgs__msg__Float64MultiArray as Float64MultiArray)
 
     from scara_ident_ros.bag import open_bag
 
@@ -250,6 +252,8 @@ def read_identifier_mse(bag: Path, method: str
             return None
         for _, msgtype, log_time_ns, raw in reader.messages([topic]):
             msg = store.deserialize_cdr(raw, msgtype)
+            if not isinstance(msg, Float64MultiArray):
+                return None
             times.append(int(log_time_ns))
             rows.append(np.asarray(msg.data, dtype=np.float64))
     if not rows or len({row.shape for row in rows}) != 1:

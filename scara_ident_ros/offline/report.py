@@ -38,11 +38,11 @@ import numpy as np
 
 from scara_ident_ros.experiments.datasets import Dataset
 from scara_ident_ros.experiments.metrics import effort_errors
-from scara_ident_ros.experiments.offline import DEFAULT_GOAL, PAPER_ITERATIONS, OfflineFit
+from scara_ident_ros.experiments.offline import DEFAULT_GOAL, OfflineFit
 from scara_ident_ros.experiments.online import DEFAULT_WINDOW, stream_data_names
 from scara_ident_ros.experiments.rows import ResultRow, summarise
-from scara_ident_ros.experiments.tables import (PAPER_NOTE, PAPER_SAMPLES, PAPER_TABLE2,
-                                                PAPER_TABLE3, format_value,
+from scara_ident_ros.experiments.tables import (PAPER_ITERATIONS, PAPER_NOTE, PAPER_SAMPLES,
+                                                PAPER_TABLE2, PAPER_TABLE3, format_value,
                                                 joint_markdown, offline_markdown,
                                                 online_markdown, ranking_text, write_csv)
 from scara_ident_ros.identification import PAPER_WINDOW
