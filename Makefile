@@ -3,6 +3,7 @@
 #   make test   runs the test suite
 # Both create or reuse the virtual environment .venv and install everything into it.
 # While working on the maths, make test-core runs the pure-numpy tests alone, in seconds.
+# make lint runs ruff and mypy on the package, as CI (.ci/run) does before make test.
 
 PYTHON ?= $(shell command -v python3.11 || command -v python3)
 VENV ?= .venv
@@ -15,7 +16,7 @@ export ROS_AUTOMATIC_DISCOVERY_RANGE ?= LOCALHOST
 DEMO_DURATION ?= 60
 DEMO_OUT ?= out/demo
 
-.PHONY: demo test test-core bench venv clean
+.PHONY: demo test test-core lint bench venv clean
 
 venv: $(STAMP)
 
@@ -47,6 +48,11 @@ test-core: $(STAMP)
 	OPENBLAS_NUM_THREADS=$(CORE_BLAS_THREADS) OMP_NUM_THREADS=$(CORE_BLAS_THREADS) \
 	MKL_NUM_THREADS=$(CORE_BLAS_THREADS) \
 	$(PY) -m pytest -m 'not slow' $(CORE_TESTS)
+
+# ruff (ruff.toml) and mypy (mypy.ini), as .ci/run runs them before the tests.
+lint: $(STAMP)
+	$(VENV)/bin/ruff check .
+	$(PY) -m mypy
 
 bench: $(STAMP)
 	$(PY) -m pip install --quiet -r requirements-bench.txt -c constraints.txt
