@@ -31,6 +31,7 @@ from scara_ident_ros.dynamics.params import (N_JOINTS, ParamError, ScaraParams, 
                                              _integer, _scalar, _vector4)
 from scara_ident_ros.sim.controller import ComputedTorqueController
 from scara_ident_ros.sim.jitter import MAX_JITTER_FRACTION, StampJitter
+from scara_ident_ros.sim.sequence import SequenceTrajectory
 from scara_ident_ros.sim.trajectory import FourierTrajectory
 
 __all__ = ['DISTURBANCES', 'SimConfig', 'SimSample', 'SimRecord', 'Simulator']
@@ -197,7 +198,7 @@ class Simulator:
     ----------
     params : ScaraParams
         The true robot.
-    trajectory : FourierTrajectory
+    trajectory : FourierTrajectory or SequenceTrajectory
         Desired motion; the state starts on it at t = 0.
     config : SimConfig, optional
         Simulation settings; default ``SimConfig()``.
@@ -210,7 +211,7 @@ class Simulator:
         The controller, with the true or a perturbed model.
     """
 
-    def __init__(self, params: ScaraParams, trajectory: FourierTrajectory,
+    def __init__(self, params: ScaraParams, trajectory: FourierTrajectory | SequenceTrajectory,
                  config: SimConfig | None = None) -> None:
         self.params = params
         self.trajectory = trajectory

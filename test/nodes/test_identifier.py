@@ -698,7 +698,7 @@ BAD_CONFIGS = {
         'sigmoid'),
     'mse_window too small': (lambda d: ['mse_window:=10'], 'mse_window'),
     'joint names not strings': (lambda d: ['joint_names:=[1, 2, 3, 4]'], 'joint_names'),
-    'joints without limits': (lambda d: ['joint_names:=[a, b]'], "no joint limits for"),
+    'joints without limits': (lambda d: ['joint_names:=[a, b]'], 'no joint limits for'),
     'a typo in the joints': (lambda d: ['joint_names:=[joint1, joint9]'], "'joint9'"),
     'a NaN gain': (lambda d: ['k:=nan'], 'must be finite'),
     'a NaN limit': (lambda d: ['joint_names:=[a]', 'position_min:=[nan]',
