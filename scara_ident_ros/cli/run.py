@@ -266,7 +266,9 @@ def _summary(methods: list[str], stats: Path, bag: Path, out: Path,
         }
     return {'bag': str(bag), 'exit_codes': codes,
             'joint_states': {'published': sim.get('published'), 'late': sim.get('late'),
-                             'recorded': counts.get('/joint_states')},
+                             'recorded': counts.get(JOINT_STATES),
+                             'lost': recorder.get('lost', {}).get(JOINT_STATES),
+                             'publishers': recorder.get('publishers', {}).get(JOINT_STATES)},
             'recorder': recorder, 'methods': rows}
 
 
@@ -281,7 +283,10 @@ def _fmt(value: Any) -> str:
 def _print_summary(summary: dict[str, Any]) -> None:
     js = summary['joint_states']
     print(f"\n/joint_states: published {_fmt(js['published'])}, recorded "
-          f"{_fmt(js['recorded'])}, late {_fmt(js['late'])}")
+          f"{_fmt(js['recorded'])}, late {_fmt(js['late'])}, lost {_fmt(js['lost'])}")
+    if (js['publishers'] or 0) > 1:
+        print(f"WARNING: {js['publishers']} publishers on /joint_states during the run: "
+              "another graph's samples are mixed with this run's in the bag and the models")
     print('\n| method | trainer | processed | learned | held out | skipped '
           '| identified_torque published | recorded | final MSE (windowed) | final NMSE '
           '| validation NMSE |')

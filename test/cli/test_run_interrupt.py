@@ -107,6 +107,8 @@ def test_ctrl_c_stops_the_graph_once_in_order_and_keeps_every_sample(
     assert summary['joint_states']['recorded'] == len(joint_states) == published, \
         summary['joint_states']
     assert (np.diff(joint_states.stamp_ns) == PERIOD_NS).all()
+    # the recorder saw one publisher and no gap in the stamps
+    assert summary['joint_states']['lost'] == 0 and summary['joint_states']['publishers'] == 1
     for method, row in summary['methods'].items():
         # each identifier took the samples still queued when it was stopped, predicted
         # them all, and the recorder (stopped last) recorded every prediction
