@@ -25,7 +25,7 @@ import signal
 import subprocess
 import sys
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import FrameType, TracebackType
@@ -137,12 +137,22 @@ class ProcessGraph:
         return (self.log_dir / f'{node.name}.log').read_text(errors='replace')
 
 
+def _find_prctl() -> Callable[..., int] | None:
+    """libc's ``prctl``, looked up in the parent (a child of a threaded parent must not
+    load libraries between fork and exec); None where there is none (not Linux)."""
+    try:
+        return ctypes.CDLL(None, use_errno=True).prctl
+    except (OSError, AttributeError):
+        return None
+
+
+_PRCTL = _find_prctl()
+
+
 def _terminate_with_parent() -> None:
     """In the child, before ``exec``: get SIGTERM when the parent dies (Linux only)."""
-    try:
-        ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, signal.SIGTERM)
-    except (OSError, AttributeError):  # not Linux: the node may outlive a killed parent
-        pass
+    if _PRCTL is not None:
+        _PRCTL(PR_SET_PDEATHSIG, signal.SIGTERM)
 
 
 class StopSignals:
