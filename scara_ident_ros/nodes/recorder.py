@@ -215,11 +215,15 @@ class RecorderNode(Node):
         def callback(data: bytes) -> None:
             append((connection_id, now(), data))
 
+        if stamps is None:
+            return callback
+        observe = stamps
+
         def watched(data: bytes) -> None:
             append((connection_id, now(), data))
-            stamps(data)
+            observe(data)
 
-        return callback if stamps is None else watched
+        return watched
 
     def _watch(self, topic: str) -> Callable[[bytes], None]:
         """Watch a JointState topic for a second publisher and for samples lost on the way

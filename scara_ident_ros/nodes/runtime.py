@@ -131,13 +131,20 @@ def run_node(name: str, factory: Callable[[], Node], args: list[str] | None = No
     return 0
 
 
-def drain(executor: EventsExecutor, handled: Callable[[], int], *,
+class Spinner(Protocol):
+    """What :func:`drain` needs of an executor."""
+
+    def spin_once(self, timeout_sec: float | None = None) -> None:
+        """Execute one ready callback, waiting at most ``timeout_sec``."""
+
+
+def drain(executor: Spinner, handled: Callable[[], int], *,
           timeout: float = DRAIN_TIMEOUT, quiet: float = DRAIN_QUIET) -> int:
     """Take what is queued: ``spin_once`` with zero timeout until nothing comes.
 
     Parameters
     ----------
-    executor : EventsExecutor
+    executor : Spinner
         The node's executor.
     handled : callable returning int
         The node's count of messages taken; the drain ends once it has not grown for

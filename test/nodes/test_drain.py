@@ -28,13 +28,13 @@ class QueueExecutor:
 
 def test_drain_takes_everything_queued_then_stops() -> None:
     executor = QueueExecutor(5000)
-    assert drain(executor, lambda: executor.taken) == 5000  # type: ignore[arg-type]
+    assert drain(executor, lambda: executor.taken) == 5000
     assert executor.queued == 0
 
 
 def test_drain_waits_for_messages_in_flight_for_the_quiet_time() -> None:
     executor = QueueExecutor(10, arrive=7, delay=0.02)
-    assert drain(executor, lambda: executor.taken, quiet=0.1) == 17  # type: ignore[arg-type]
+    assert drain(executor, lambda: executor.taken, quiet=0.1) == 17
 
 
 def test_drain_is_bounded_in_time() -> None:
@@ -44,5 +44,5 @@ def test_drain_is_bounded_in_time() -> None:
 
     executor = Endless(0)
     started = time.monotonic()
-    drain(executor, lambda: executor.taken, timeout=0.2)  # type: ignore[arg-type]
+    drain(executor, lambda: executor.taken, timeout=0.2)
     assert time.monotonic() - started < 1.0
