@@ -68,7 +68,7 @@ IDENTIFIER_TOPICS = ('identified_torque', 'identification_mse')  # under /<metho
 LM_INTERVAL_PER_IDENTIFIER = 200
 
 
-def add_parser(subparsers: argparse._SubParsersAction) -> None:
+def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Register ``scara-ident run``."""
     parser = subparsers.add_parser(
         'run', help='run simulator, three identifiers and the recorder; summarise',
