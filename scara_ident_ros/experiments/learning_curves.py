@@ -44,7 +44,7 @@ from scara_ident_ros.experiments.datasets import Dataset, dataset_from_record, s
 from scara_ident_ros.experiments.reference import fit_reference, predict_reference
 from scara_ident_ros.experiments.tables import format_value
 from scara_ident_ros.identification import (Holdout, InputStage, JointMap, OnlineIdentifier,
-                                            make_trainer)
+                                            make_differentiator, make_trainer)
 from scara_ident_ros.methods import limit_scaling, make_network, method as method_spec
 from scara_ident_ros.sim import SimConfig, SimRecord
 
@@ -116,18 +116,23 @@ def _nmse(Y: FloatArray, predicted: FloatArray) -> FloatArray:
 
 def network_curve(record: SimRecord, held_out: Dataset, params: ScaraParams, *, method: str,
                   trainer: str, seed: int = 0, lm_steps: int = 2,
-                  checkpoints: Sequence[float] = CHECKPOINTS_S) -> Curve:
+                  checkpoints: Sequence[float] = CHECKPOINTS_S, window: int = 21,
+                  lm_interval: int = 200, validation_block: int = 500) -> Curve:
     """Stream ``record`` through an identifier of ``method`` and ``trainer`` (node defaults).
 
     The network's scaling comes from the robot's limits, as in the node; 10 % of the
-    samples (blocks of 500) are held back for the identifier's own validation, as in the
-    node. ``lm_steps`` is the ``lm`` trainer's steps per update (the node's ``lm_steps``).
+    samples (blocks of ``validation_block``) are held back for the identifier's own
+    validation, as in the node. ``lm_steps``, ``lm_interval``, ``window`` and
+    ``validation_block`` are the node's parameters of those names (the ``lm`` trainer's
+    steps per update and samples between updates, the centred q'' fit's samples).
     """
     net = make_network(method, 4, seed=seed)
     net.set_scaling(*limit_scaling(*(params.array(name) for name in _LIMITS)))
     ident = OnlineIdentifier(net, joint_names=params.joint_names,
-                             trainer=make_trainer(trainer, net, steps=lm_steps, seed=seed),
-                             holdout=Holdout(12, 4, seed=seed))
+                             differentiator=make_differentiator('centred', window=window),
+                             trainer=make_trainer(trainer, net, steps=lm_steps,
+                                                  interval=lm_interval, seed=seed),
+                             holdout=Holdout(12, 4, block=validation_block, seed=seed))
     names = params.joint_names
     stamps = record.stamp_ns
     marks = [int(stamps[0] + round(s * 1e9)) for s in checkpoints]
