@@ -41,7 +41,7 @@ import time
 from typing import Any
 
 from rclpy.duration import Duration
-from rclpy.experimental import EventsExecutor
+from rclpy.executors import Executor
 from rclpy.node import Node
 from rclpy.publisher import Publisher
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
@@ -155,7 +155,7 @@ class PlayerNode(Node):
 
     # -- the loop ------------------------------------------------------------------------
 
-    def loop(self, executor: EventsExecutor, stop: threading.Event) -> None:
+    def loop(self, executor: Executor, stop: threading.Event) -> None:
         """Wait for subscribers, then publish every message on time; return when done."""
         if not self._wait_for_subscribers(executor, stop):
             return
@@ -167,7 +167,7 @@ class PlayerNode(Node):
         if not stop.is_set() and not self._wait_for_acks():
             raise SystemExit(1)
 
-    def _wait_for_subscribers(self, executor: EventsExecutor, stop: threading.Event) -> bool:
+    def _wait_for_subscribers(self, executor: Executor, stop: threading.Event) -> bool:
         timeout = self.params['wait_for_subscribers']
         deadline = time.monotonic() + timeout
         waiting = list(self._outputs.values())
@@ -182,7 +182,7 @@ class PlayerNode(Node):
                 ' playing anyway')
         return not stop.is_set()
 
-    def _play(self, executor: EventsExecutor, stop: threading.Event) -> None:
+    def _play(self, executor: Executor, stop: threading.Event) -> None:
         publishers = self._outputs
         clock = self._clock_publisher
         clock_period = round(1e9 / self.params['clock_rate'])
