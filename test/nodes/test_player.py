@@ -8,8 +8,6 @@ mcap-ros2-support, from ``test/bag/bag_files.py``) are compared message by messa
 """
 from __future__ import annotations
 
-import itertools
-import os
 import signal
 import subprocess
 import sys
@@ -29,18 +27,6 @@ JOINT_STATES = '/joint_states'
 MSE = '/ffmw/identification_mse'
 START_NS = 1_700_000_000_000_000_000
 RUN_TIMEOUT = 60.0  # s for a player run to end by itself (the machine is shared)
-
-_domains = itertools.count(50)
-
-
-@pytest.fixture
-def domain(monkeypatch: pytest.MonkeyPatch) -> int:
-    """A ROS domain of this test's own (100-199), inherited by every child process."""
-    value = 100 + (os.getpid() + 37 * next(_domains)) % 100
-    monkeypatch.setenv('ROS_DOMAIN_ID', str(value))
-    monkeypatch.setenv('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
-    return value
-
 
 @pytest.fixture
 def listener(domain: int) -> Iterator[Any]:

@@ -8,32 +8,17 @@ reception is the order of publication.)
 """
 from __future__ import annotations
 
-import itertools
-import os
 import signal
 import subprocess
 import sys
 from pathlib import Path
 
-import pytest
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
 RECORDER = 'scara_ident_ros.nodes.recorder'
 PLAYER = 'scara_ident_ros.nodes.player'
-
-_domains = itertools.count(90)
-
-
-@pytest.fixture
-def domain(monkeypatch: pytest.MonkeyPatch) -> int:
-    """A ROS domain of this test's own (100-199), inherited by every child process."""
-    value = 100 + (os.getpid() + 37 * next(_domains)) % 100
-    monkeypatch.setenv('ROS_DOMAIN_ID', str(value))
-    monkeypatch.setenv('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
-    return value
-
 
 def read(bag: Path) -> list[tuple[str, int, bytes]]:
     from scara_ident_ros.bag import open_bag

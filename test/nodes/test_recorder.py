@@ -6,14 +6,13 @@ publisher: JointState number i on ``/joint_states`` carries i in ``header.stamp`
 ``--mse-every``-th step a Float64MultiArray ``[i]`` follows on
 ``/ffmw/identification_mse`` half a period later.
 
-Each test gets its own ROS domain; children are always killed on the way out.
+Each test gets its own ROS domain (the ``domain`` fixture of conftest.py, claimed by a
+lock); children are always killed on the way out.
 """
 from __future__ import annotations
 
 import argparse
-import itertools
 import json
-import os
 import signal
 import subprocess
 import sys
@@ -31,18 +30,6 @@ JOINT_STATES = '/joint_states'
 MSE = '/ffmw/identification_mse'
 NAMES = ['joint1', 'joint2', 'joint3', 'joint4']
 PUBLISH_TIMEOUT = 90.0  # s for a publisher run, matching included (the machine is shared)
-
-_domains = itertools.count()
-
-
-@pytest.fixture
-def domain(monkeypatch: pytest.MonkeyPatch) -> int:
-    """A ROS domain of this test's own (100-199), inherited by every child process."""
-    value = 100 + (os.getpid() + 37 * next(_domains)) % 100
-    monkeypatch.setenv('ROS_DOMAIN_ID', str(value))
-    monkeypatch.setenv('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
-    return value
-
 
 # -- the publisher process ---------------------------------------------------------------
 

@@ -1,0 +1,35 @@
+"""Fixtures of the node tests: a ROS domain of each test's own, claimed by a lock."""
+from __future__ import annotations
+
+import sys
+import tempfile
+from pathlib import Path
+from typing import IO
+
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from ros_domains import claim_domain  # noqa: E402  (test/ is no package)
+
+DOMAIN_LOCKS = Path(tempfile.gettempdir()) / 'scara_ident_ros-domains'  # as test/conftest.py
+
+#: the last test's domain lock, released once the next test holds its own: two tests in a
+#: row never share a domain, so nothing a test left behind is heard by the next one
+_previous: list[IO[str]] = []
+
+
+@pytest.fixture
+def domain(monkeypatch: pytest.MonkeyPatch) -> int:
+    """A ROS domain of this test's own, inherited by every process the test starts.
+
+    Claimed with the lock of ``test/ros_domains.py``, as the session's domain is: no other
+    test run on this machine uses it meanwhile (a pid modulo could give two runs the same
+    domain, and one run's bag then held the other's samples).
+    """
+    value, lock = claim_domain(DOMAIN_LOCKS)
+    while _previous:
+        _previous.pop().close()
+    _previous.append(lock)
+    monkeypatch.setenv('ROS_DOMAIN_ID', str(value))
+    monkeypatch.setenv('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
+    return value
