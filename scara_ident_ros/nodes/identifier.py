@@ -216,11 +216,11 @@ class IdentifierNode(Node):
             # The network's inputs and outputs are in the saved order: another order would
             # feed each joint's values to another joint's weights.
             if names and saved and names != saved:
-                raise ConfigError(f"model {model_path} was trained for joints {saved} "
+                raise ConfigError(f'model {model_path} was trained for joints {saved} '
                                   f'(in that order), not joint_names {names}')
             names = names or saved
             if names and len(names) != self.network.n_outputs:
-                raise ConfigError(f"model {model_path} has {self.network.n_outputs} "
+                raise ConfigError(f'model {model_path} has {self.network.n_outputs} '
                                   f'outputs, not {len(names)} joints')
             if continuing:
                 self.get_logger().info(f'continuing from the model at save_path {model_path}')
@@ -382,7 +382,7 @@ class IdentifierNode(Node):
             validation_nmse=validation, learning=self.settings['learn'])
 
     # ------------------------------------------------------------------ configuration
-    def _limits(self) -> dict[str, Any] | None:
+    def _limits(self) -> dict[str, Any]:
         """Joint limits by joint name from a URDF, explicit parameters or the robot config."""
         s = self.settings
         if s['urdf_file'] or s['robot_description']:
@@ -462,8 +462,8 @@ class IdentifierNode(Node):
         known = self.limits['names']
         bounds = None
         if s['limit_margin'] >= 0 and all(name in known for name in names):
-            order = [known.index(name) for name in names]
-            bounds = Bounds.from_limits(*(self.limits[key][order] for key in (
+            index = [known.index(name) for name in names]
+            bounds = Bounds.from_limits(*(self.limits[key][index] for key in (
                 'position_min', 'position_max', 'velocity_max', 'effort_max')),
                 margin=s['limit_margin'])
         holdout = (Holdout(3 * n, n, fraction=s['validation_fraction'],
@@ -500,6 +500,7 @@ class IdentifierNode(Node):
         self.publisher_watch.stamps.observe(stamp_to_ns(msg.header.stamp))
         if self.core is None and not self._build_from(msg):
             return
+        assert self.core is not None  # built by _build_from
         stamp_ns = stamp_to_ns(msg.header.stamp)
         self.frame_id = msg.header.frame_id
         results = self.core.process(stamp_ns, msg.name, msg.position, msg.velocity,
