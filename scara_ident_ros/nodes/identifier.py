@@ -543,7 +543,8 @@ class IdentifierNode(Node):
     def _build_from(self, msg: JointState) -> bool:
         """Build for the joints of ``msg`` if it is valid; else count it as skipped."""
         n_joints = self.network.n_outputs if self.network is not None else None  # warm start
-        check = SampleCheck(JointMap(n_joints=n_joints), need_effort=self.settings['learn'])
+        # Without effort a sample still fixes the joints: it is predicted, not learnt.
+        check = SampleCheck(JointMap(n_joints=n_joints), need_effort=False)
         reason = check.check(stamp_to_ns(msg.header.stamp), msg.name, msg.position,
                              msg.velocity, msg.effort)
         if not isinstance(reason, SkipReason) and len(msg.name) < self.settings['min_joints']:
@@ -619,10 +620,14 @@ class IdentifierNode(Node):
         """Log counters, skipped samples by reason, lag and the windowed error."""
         info = self.summary()
         validation = info.get('validation_nmse_total')
-        if info['processed']:
+        if info['processed'] and self.core is None:
+            self.get_logger().info(f"processed {info['processed']}, no valid sample yet: "
+                                   f"skipped {info['skipped']}")
+        elif info['processed']:
+            no_effort = f", {info['no_effort']} without effort" if info['no_effort'] else ''
             self.get_logger().info(
                 f"processed {info['processed']}, learned {info['learned']}, held out "
-                f"{info['held_out']}, skipped {info['skipped'] or 0}, max lag "
+                f"{info['held_out']}{no_effort}, skipped {info['skipped'] or 0}, max lag "
                 f"{self.max_lag_ns / 1e6:.2f} ms, windowed MSE {info['mse_total']:.4g}, NMSE "
                 f"{info['nmse_total']:.4g}, validation NMSE "
                 f"{math.nan if validation is None else validation:.4g}")
