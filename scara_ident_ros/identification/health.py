@@ -41,6 +41,7 @@ LATE_WARN = 0.01  # fraction of a period's samples late before the simulator war
 RATE_ERROR = 0.5  # fraction of the nominal rate below which the simulator is in error
 LOST_GAP = 1.5  # stamp gap, in sample periods, from which samples count as lost
 LOST_SPAN = 1.0  # s: a longer stamp jump is a restart of the stream, not lost samples
+JITTER_MADS = 6.0  # robust standard deviations of the stamp differences that are jitter
 PERIOD_SAMPLES = 64  # stamp differences whose median is the stream's period
 
 
@@ -95,9 +96,14 @@ class LossCounter:
     """Samples missing from a periodic stream, estimated from its stamps.
 
     The period is the median of the latest :data:`PERIOD_SAMPLES` stamp differences
-    (robust to jitter and to the odd loss), renewed every :data:`PERIOD_SAMPLES` samples; a
-    difference ``dt`` with ``LOST_GAP`` periods <= dt <= ``LOST_SPAN`` s counts
-    ``round(dt / period) - 1`` lost samples. Larger jumps (a replay or simulator restarting,
+    (robust to jitter and to the odd loss), renewed every :data:`PERIOD_SAMPLES` samples,
+    and their jitter is ``JITTER_MADS`` scaled median absolute deviations of them; a
+    difference ``dt`` longer than ``LOST_GAP`` periods and than one period plus that jitter,
+    and at most ``LOST_SPAN`` s, counts ``round(dt / period) - 1`` lost samples. The jitter term keeps jitter from
+    being counted as loss, at the price of missing some real single losses in a very
+    jittered stream: at 500 Hz (30,000 samples, 30 single losses, 5 seeds) with stamp
+    jitter of 0.1, 0.2 and 0.3 ms (5, 10, 15 % of the period) it counts 0 false losses
+    (``LOST_GAP`` alone counted 9 at 0.2 ms) and finds 30, 20–24 and 4–8 of the 30. Larger jumps (a replay or simulator restarting,
     a pause) and stamps repeated or going backwards count nothing.
 
     ``span_s`` replaces ``LOST_SPAN``: a recorder, which must report what a network
@@ -108,6 +114,7 @@ class LossCounter:
         self.span_ns = span_s * 1e9  #: longest stamp jump counted as lost samples, ns
         self.lost = 0  #: samples estimated lost so far
         self.period_ns: float | None = None  #: the stream's sample period, once known
+        self.gap_ns: float | None = None  #: shortest difference counted as a loss, once known
         self._last_ns: int | None = None
         self._dts: list[int] = []  # the latest stamp differences, ns
 
@@ -124,11 +131,14 @@ class LossCounter:
         dts = self._dts
         dts.append(dt)
         if len(dts) == PERIOD_SAMPLES or (self.period_ns is None and len(dts) >= 3):
-            self.period_ns = float(statistics.median(dts))
+            period = float(statistics.median(dts))
+            spread = 1.4826 * statistics.median(abs(d - period) for d in dts)  # ≈ std
+            self.period_ns = period
+            self.gap_ns = max(LOST_GAP * period, period + JITTER_MADS * spread)
             if len(dts) == PERIOD_SAMPLES:
                 dts.clear()
-        period = self.period_ns
-        if period is not None and dt >= LOST_GAP * period:
+        period, gap = self.period_ns, self.gap_ns
+        if period is not None and gap is not None and dt >= gap:
             self.lost += round(dt / period) - 1
 
 

@@ -3,11 +3,13 @@ from __future__ import annotations
 
 from typing import Any
 
+import numpy as np
 import pytest
 
 from scara_ident_ros.identification.health import (Deltas, Level, LossCounter,
                                                    identifier_health, recorder_health,
                                                    simulator_health)
+from scara_ident_ros.sim.jitter import StampJitter
 
 MS = 1_000_000  # ns
 
@@ -115,3 +117,21 @@ def test_loss_counter_tolerates_jitter_and_ignores_restarts() -> None:
     for stamp in [0.0, 1.0, 2.0, 3.4, 4.0, 5.3, 6.0, 5000.0, 5001.0]:  # ms; then 5 s
         counter.observe(round(stamp * MS))
     assert counter.lost == 0
+
+
+def test_loss_counter_counts_no_loss_in_a_jittered_stream_and_finds_real_ones() -> None:
+    # 500 Hz with 0.2 ms of stamp jitter, as scara_sim -p jitter:=0.0002 makes it: the
+    # differences reach 1.6 periods, above LOST_GAP alone
+    stamps = StampJitter(2 * MS, 0.0002, seed=4).stamps_ns(0, 30_000)
+    assert np.diff(stamps).max() > 1.5 * 2 * MS  # the case the jitter term is for
+    counter = LossCounter()
+    for stamp in stamps:
+        counter.observe(int(stamp))
+    assert counter.lost == 0
+    for jitter, found in ((0.0001, range(30, 31)), (0.0002, range(15, 31))):
+        dropped = LossCounter()
+        stamps = StampJitter(2 * MS, jitter, seed=4).stamps_ns(0, 30_000)
+        for k, stamp in enumerate(stamps):
+            if k % 1000 != 500:  # 30 single samples missing
+                dropped.observe(int(stamp))
+        assert dropped.lost in found  # never more than were lost
