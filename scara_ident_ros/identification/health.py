@@ -98,13 +98,16 @@ class LossCounter:
     The period is the median of the latest :data:`PERIOD_SAMPLES` stamp differences
     (robust to jitter and to the odd loss), renewed every :data:`PERIOD_SAMPLES` samples,
     and their jitter is ``JITTER_MADS`` scaled median absolute deviations of them; a
-    difference ``dt`` longer than ``LOST_GAP`` periods and than one period plus that jitter,
-    and at most ``LOST_SPAN`` s, counts ``round(dt / period) - 1`` lost samples. The jitter term keeps jitter from
-    being counted as loss, at the price of missing some real single losses in a very
-    jittered stream: at 500 Hz (30,000 samples, 30 single losses, 5 seeds) with stamp
-    jitter of 0.1, 0.2 and 0.3 ms (5, 10, 15 % of the period) it counts 0 false losses
-    (``LOST_GAP`` alone counted 9 at 0.2 ms) and finds 30, 20–24 and 4–8 of the 30. Larger jumps (a replay or simulator restarting,
-    a pause) and stamps repeated or going backwards count nothing.
+    difference ``dt`` longer than ``LOST_GAP`` periods and than one period plus that
+    jitter, and at most ``LOST_SPAN`` s, counts ``round(dt / period) - 1`` lost samples.
+    Larger jumps (a replay or simulator restarting, a pause) and stamps repeated or going
+    backwards count nothing.
+
+    The jitter term keeps jitter from being counted as loss, at the price of missing some
+    real single losses in a very jittered stream: at 500 Hz (30,000 samples, 30 single
+    losses, 5 seeds) with stamp jitter of 0.1, 0.2 and 0.3 ms (5, 10, 15 % of the period)
+    it counts no false loss (``LOST_GAP`` alone counted 9 at 0.2 ms) and finds 30, 20–24
+    and 4–8 of the 30.
 
     ``span_s`` replaces ``LOST_SPAN``: a recorder, which must report what a network
     partition cost, counts jumps of up to a minute as lost samples.
