@@ -27,7 +27,7 @@ from typing import TYPE_CHECKING, Protocol
 
 import rclpy
 from rclpy.exceptions import ParameterException
-from rclpy.executors import ExternalShutdownException
+from rclpy.executors import Executor, ExternalShutdownException
 from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
@@ -51,7 +51,7 @@ class ConfigError(Exception):
 class LoopingNode(Protocol):
     """A node that drives its own loop (e.g. a real-time publisher)."""
 
-    def loop(self, executor: EventsExecutor, stop: threading.Event) -> None:
+    def loop(self, executor: Executor, stop: threading.Event) -> None:
         """Run until ``stop`` is set, calling ``executor.spin_once`` regularly."""
 
 
