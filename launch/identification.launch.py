@@ -14,6 +14,8 @@ identifiers would otherwise go on with nothing recording them.
 ``launch`` and ``launch_ros`` are imported when the description is generated, not when
 the file is imported, so that the file can be read and checked without them.
 """
+from scara_ident_ros.topics import JOINT_STATES, in_namespace
+
 METHODS = ('ffmw', 'ffw', 'ffs')
 WAIT_TIMEOUT = 60.0  # s, longest wait of the simulator for its subscribers (as scara-ident run)
 
@@ -59,5 +61,5 @@ def generate_launch_description():
             parameters=[PathJoinSubstitution([config, 'identifier.yaml']),
                         {'method': method, 'wait_for_subscribers': 1,
                          'wait_timeout': WAIT_TIMEOUT}],
-            remappings=[('joint_states', '/joint_states')]))
+            remappings=[(JOINT_STATES, in_namespace(JOINT_STATES))]))
     return LaunchDescription(actions)

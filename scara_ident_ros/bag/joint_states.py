@@ -26,12 +26,13 @@ from numpy.typing import NDArray
 from scara_ident_ros.bag.cdr import JointStateSpans, decode_names, split_joint_state
 from scara_ident_ros.bag.errors import BagError
 from scara_ident_ros.bag.reader import BagSource, open_bag
+from scara_ident_ros.topics import JOINT_STATES, in_namespace
 
 __all__ = ['JOINT_STATE', 'JOINT_STATES_TOPIC', 'JointStateSeries', 'find_joint_state_topic',
            'read_joint_states']
 
 JOINT_STATE = 'sensor_msgs/msg/JointState'
-JOINT_STATES_TOPIC = '/joint_states'
+JOINT_STATES_TOPIC = in_namespace(JOINT_STATES)
 _FIELDS = ('position', 'velocity', 'effort')
 
 

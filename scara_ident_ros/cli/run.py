@@ -54,6 +54,7 @@ from scara_ident_ros.paths import unwritable_dir
 from scara_ident_ros.process_graph import (NodeProcess, ProcessGraph, StopSignals,
                                            publishers_on)
 from scara_ident_ros.sim.trajectory import SEQUENCE, TRAJECTORIES
+from scara_ident_ros.topics import IDENTIFIER_OUTPUTS, JOINT_STATES, in_namespace, torque_topic
 
 __all__ = ['add_parser', 'run', 'bag_message_counts']
 
@@ -61,8 +62,7 @@ STARTUP_TIMEOUT = 60.0  # s allowed for the processes to start and discover each
 DRAIN_TIME = 1.0  # s the consumers get to drain their queues after the last sample
 POLL_PERIOD = 0.1  # s between two looks at the processes and the stop signals
 INTERRUPTED = 130  # exit status after a Ctrl-C (128 + SIGINT), as a shell reports it
-JOINT_STATES = '/joint_states'
-IDENTIFIER_TOPICS = ('identified_torque', 'identification_mse')  # under /<method>/
+JOINT_STATES_TOPIC = in_namespace(JOINT_STATES)  # the robot's: every identifier takes it
 #: lm_interval of each identifier per identifier run (benchmarks/bench_graph.py: three at
 #: 200 took 55-57 % of a core each and lost 17 % of the samples on 2 cores)
 LM_INTERVAL_PER_IDENTIFIER = 200
@@ -154,7 +154,7 @@ def run(args: argparse.Namespace) -> int:
         '-p', f'stats_file:={stats / "recorder.json"}']))
     for name in args.methods:
         graph.start(NodeProcess(name, 'scara_ident_ros.nodes.identifier', [
-            '-r', f'__ns:=/{name}', '-r', 'joint_states:=/joint_states',
+            '-r', f'__ns:=/{name}', '-r', f'{JOINT_STATES}:={JOINT_STATES_TOPIC}',
             '-p', f'method:={name}', '-p', f'save_path:={models / name}.npz',
             '-p', f'trainer:={args.trainer}', '-p', f'lm_interval:={lm_interval}',
             # subscribe /joint_states only once the recorder records this identifier's
@@ -191,9 +191,8 @@ def run(args: argparse.Namespace) -> int:
 
 def _refuse_other_graph(methods: list[str]) -> None:
     """Raise CliError if another graph already publishes this run's topics on the domain."""
-    topics = [JOINT_STATES, *(f'/{method}/{topic}' for method in methods
-                              for topic in IDENTIFIER_TOPICS)]
-    found = publishers_on(topics)
+    found = publishers_on([JOINT_STATES_TOPIC, *(
+        in_namespace(topic, method) for method in methods for topic in IDENTIFIER_OUTPUTS)])
     if found:
         listed = ', '.join(f'{topic} ({count} publisher{"s" if count > 1 else ""})'
                            for topic, count in found.items())
@@ -261,14 +260,14 @@ def _summary(methods: list[str], stats: Path, bag: Path, out: Path,
             'validation_nmse_total': info.get('validation_nmse_total'),
             'validation_nmse': info.get('validation_nmse'),
             'published': info.get('predicted'),
-            'recorded': counts.get(f'/{name}/identified_torque'),
+            'recorded': counts.get(torque_topic(name)),
             'model': str(out / 'models' / f'{name}.npz'),
         }
     return {'bag': str(bag), 'exit_codes': codes,
             'joint_states': {'published': sim.get('published'), 'late': sim.get('late'),
-                             'recorded': counts.get(JOINT_STATES),
-                             'lost': recorder.get('lost', {}).get(JOINT_STATES),
-                             'publishers': recorder.get('publishers', {}).get(JOINT_STATES)},
+                             'recorded': counts.get(JOINT_STATES_TOPIC),
+                             'lost': recorder.get('lost', {}).get(JOINT_STATES_TOPIC),
+                             'publishers': recorder.get('publishers', {}).get(JOINT_STATES_TOPIC)},
             'recorder': recorder, 'methods': rows}
 
 

@@ -14,10 +14,10 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.node import Node
 
 from scara_ident_ros.identification.health import Health
+from scara_ident_ros.topics import DIAGNOSTICS
 
-__all__ = ['DIAGNOSTICS_TOPIC', 'PERIOD', 'Diagnostics', 'to_status']
+__all__ = ['PERIOD', 'Diagnostics', 'to_status']
 
-DIAGNOSTICS_TOPIC = '/diagnostics'
 PERIOD = 1.0  # s between two reports
 
 
@@ -51,7 +51,7 @@ class Diagnostics:
         self.name = f'{node.get_fully_qualified_name()}: {what}'
         self.check = check
         self.hardware_id = hardware_id
-        self.publisher = node.create_publisher(DiagnosticArray, DIAGNOSTICS_TOPIC, 10)
+        self.publisher = node.create_publisher(DiagnosticArray, DIAGNOSTICS, 10)
         self._last = time.monotonic()
         self.timer = node.create_timer(PERIOD, self.publish)
 

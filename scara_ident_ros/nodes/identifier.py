@@ -64,13 +64,11 @@ from scara_ident_ros.nodes.runtime import ConfigError, run_node
 from scara_ident_ros.offline.blas_threads import single_blas_thread
 from scara_ident_ros.paths import unwritable_file
 from scara_ident_ros.resources import config_path
+from scara_ident_ros.topics import JOINT_STATES, MSE, TORQUE
 
-__all__ = ['IdentifierNode', 'main', 'JOINT_STATES_TOPIC', 'TORQUE_TOPIC', 'MSE_TOPIC']
+__all__ = ['IdentifierNode', 'main']
 
-JOINT_STATES_TOPIC = 'joint_states'
-TORQUE_TOPIC = 'identified_torque'
-MSE_TOPIC = 'identification_mse'
-MSE_METRICS_LABEL = 'metric:mse,nmse,validation_nmse'  # layout.dim[0] of MSE_TOPIC
+MSE_METRICS_LABEL = 'metric:mse,nmse,validation_nmse'  # layout.dim[0] of MSE
 QOS_DEPTH = 5000  # messages: 5 s at 1 kHz may queue before any is dropped
 STREAM_QOS = QoSProfile(depth=QOS_DEPTH, history=HistoryPolicy.KEEP_LAST,
                         reliability=ReliabilityPolicy.RELIABLE)  # torques
@@ -240,8 +238,8 @@ class IdentifierNode(Node):
                     'velocity_max, acceleration_max and effort_max for these joints')
             self._build(names)
         self.frame_id = ''  # header.frame_id of the latest sample, given to its predictions
-        self.torque_publisher = self.create_publisher(JointState, TORQUE_TOPIC, STREAM_QOS)
-        self.mse_publisher = self.create_publisher(Float64MultiArray, MSE_TOPIC, 10)
+        self.torque_publisher = self.create_publisher(JointState, TORQUE, STREAM_QOS)
+        self.mse_publisher = self.create_publisher(Float64MultiArray, MSE, 10)
         self.subscription: Subscription | None = None
         self.mse_timer = self.create_timer(1.0 / s['mse_rate_hz'], self.publish_mse)
         self.create_timer(STATS_PERIOD, self.log_stats)
@@ -269,7 +267,7 @@ class IdentifierNode(Node):
         """Subscribe ``joint_states``: from now on samples are processed."""
         s = self.settings
         self.subscription = self.create_subscription(
-            JointState, JOINT_STATES_TOPIC, self.on_joint_state, INPUT_QOS)
+            JointState, JOINT_STATES, self.on_joint_state, INPUT_QOS)
         self.publisher_watch = PublisherWatch(self, self.subscription.topic_name)
         self.get_logger().info(
             f"{s['method'].upper()} identifier on {self.subscription.topic_name} → "

@@ -56,10 +56,10 @@ from scara_ident_ros.bag.topic_filter import TopicFilter
 from scara_ident_ros.nodes.parameters import ParamSpec, declare_parameters
 from scara_ident_ros.nodes.runtime import POLL_PERIOD, ConfigError, run_node
 from scara_ident_ros.resources import config_path
+from scara_ident_ros.topics import CLOCK
 
 __all__ = ['PARAMETERS', 'PlayerNode', 'main', 'use_player_profile']
 
-CLOCK_TOPIC = '/clock'
 ACK_TIMEOUT = 10.0  # s to wait at the end for subscribers to acknowledge everything
 ACK_POLL = 0.1  # s: one wait for acknowledgements between two looks at the stop flag
 ACK_WARN = 10.0  # s a window may wait for acknowledgements before the player says so
@@ -112,7 +112,7 @@ class PlayerNode(Node):
         except ConfigError:
             self.bag.close()
             raise
-        self._clock_publisher = (self.create_publisher(Clock, CLOCK_TOPIC, QoSProfile(
+        self._clock_publisher = (self.create_publisher(Clock, CLOCK, QoSProfile(
             depth=10, reliability=ReliabilityPolicy.RELIABLE)) if p['clock'] else None)
         self.published = 0
         self.acknowledged = 0  # messages every subscriber had acknowledged at the last look

@@ -63,11 +63,13 @@ from scara_ident_ros.nodes.diagnostics import Diagnostics
 from scara_ident_ros.nodes.parameters import ParamSpec, declare_parameters
 from scara_ident_ros.nodes.publisher_watch import PublisherWatch
 from scara_ident_ros.nodes.runtime import POLL_PERIOD, ConfigError, run_node
+from scara_ident_ros.topics import IDENTIFIER_OUTPUTS, JOINT_STATES, in_namespace
 
 __all__ = ['DEFAULT_TOPICS', 'PARAMETERS', 'RecorderNode', 'default_output', 'main']
 
-DEFAULT_TOPICS = ['/joint_states', '/identified_torque', '/identification_mse',
-                  '/*/identified_torque', '/*/identification_mse']
+DEFAULT_TOPICS = [in_namespace(JOINT_STATES), *(in_namespace(topic, namespace)
+                                                 for namespace in ('', '*')
+                                                 for topic in IDENTIFIER_OUTPUTS)]
 CHUNK_POLL_PERIOD = 0.1  # s between checks of the open chunk's age when idle
 BATCH_SIZE = 512  # most messages handed to the writer at once
 GATHER_PERIOD = 0.005  # s to let messages queue up after a quiet spell (one wake-up, not N)

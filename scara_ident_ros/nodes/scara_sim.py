@@ -34,12 +34,10 @@ from scara_ident_ros.nodes.runtime import POLL_PERIOD, ConfigError, run_node
 from scara_ident_ros.pacer import DeadlinePacer
 from scara_ident_ros.resources import config_path
 from scara_ident_ros.sim import SEQUENCE, TRAJECTORIES, SimConfig, Simulator, make_trajectory
+from scara_ident_ros.topics import CLOCK, JOINT_STATES
 
-__all__ = ['ScaraSimNode', 'main', 'history_depth', 'HISTORY', 'JOINT_STATES_TOPIC',
-           'CLOCK_TOPIC']
+__all__ = ['ScaraSimNode', 'main', 'history_depth', 'HISTORY']
 
-JOINT_STATES_TOPIC = 'joint_states'
-CLOCK_TOPIC = '/clock'
 #: s of samples the publisher keeps for reliable subscribers (history depth = rate_hz x this):
 #: a subscriber cut off for up to 5 s (a network partition, a stalled process) gets every
 #: sample once it is back, with as much again for the samples not yet acknowledged when the
@@ -130,8 +128,8 @@ class ScaraSimNode(Node):
                       if s['duration'] > 0 else None)
         qos = QoSProfile(depth=history_depth(s['rate_hz'], s['history']),
                          reliability=ReliabilityPolicy.RELIABLE)
-        self.publisher = self.create_publisher(JointState, JOINT_STATES_TOPIC, qos)
-        self.clock_publisher = (self.create_publisher(Clock, CLOCK_TOPIC, 10)
+        self.publisher = self.create_publisher(JointState, JOINT_STATES, qos)
+        self.clock_publisher = (self.create_publisher(Clock, CLOCK, 10)
                                 if s['publish_clock'] else None)
         self.msg = joint_state(0, names, frame_id=s['frame_id'])
         self.published = 0

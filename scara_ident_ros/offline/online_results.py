@@ -32,6 +32,7 @@ from scara_ident_ros.experiments.rows import ResultRow
 from scara_ident_ros.identification import PAPER_WINDOW
 from scara_ident_ros.identification.error_window import normalised_mse
 from scara_ident_ros.methods import method as method_spec
+from scara_ident_ros.topics import mse_topic, torque_topic
 
 if TYPE_CHECKING:
     from scara_ident_ros.offline.dataset import JointStateArrays
@@ -41,16 +42,6 @@ __all__ = ['STREAM_ALL', 'OnlinePredictions', 'mse_topic', 'pair_by_stamp', 'pre
 
 #: ``data`` name of the rows over the whole run.
 STREAM_ALL = 'stream-all'
-
-
-def torque_topic(method: str) -> str:
-    """The topic of ``method``'s a-priori predictions in a run bag."""
-    return f'/{method}/identified_torque'
-
-
-def mse_topic(method: str) -> str:
-    """The topic of ``method``'s windowed errors in a run bag."""
-    return f'/{method}/identification_mse'
 
 
 @dataclass(frozen=True)
