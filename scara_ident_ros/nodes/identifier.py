@@ -55,6 +55,7 @@ from scara_ident_ros.identification import (DIFFERENTIATORS, TRAINERS, Bounds, C
 from scara_ident_ros.identification.health import (Deltas, Health, LossCounter,
                                                    identifier_health)
 from scara_ident_ros.methods import METHODS, limit_scaling, make_network
+from scara_ident_ros.mse_layout import encode_mse
 from scara_ident_ros.nn import FeedForwardNet, ModelFormatError
 from scara_ident_ros.nodes.diagnostics import Diagnostics
 from scara_ident_ros.nodes.messages import joint_state, stamp_to_ns
@@ -68,7 +69,6 @@ from scara_ident_ros.topics import JOINT_STATES, MSE, TORQUE
 
 __all__ = ['IdentifierNode', 'main']
 
-MSE_METRICS_LABEL = 'metric:mse,nmse,validation_nmse'  # layout.dim[0] of MSE
 QOS_DEPTH = 5000  # messages: 5 s at 1 kHz may queue before any is dropped
 STREAM_QOS = QoSProfile(depth=QOS_DEPTH, history=HistoryPolicy.KEEP_LAST,
                         reliability=ReliabilityPolicy.RELIABLE)  # torques
@@ -575,8 +575,6 @@ class IdentifierNode(Node):
             return
         stats = self.core.error_stats()
         validation = self.core.validation_stats()
-        from scara_ident_ros.mse_layout import encode_mse
-
         dims, data = encode_mse(self.names, stats, validation)
         msg = Float64MultiArray(data=data)
         msg.layout.dim = [MultiArrayDimension(**dim._asdict()) for dim in dims]
