@@ -27,7 +27,7 @@ from typing import TYPE_CHECKING, Protocol
 
 import rclpy
 from rclpy.exceptions import ParameterException
-from rclpy.executors import Executor, ExternalShutdownException
+from rclpy.executors import ExternalShutdownException
 from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
@@ -37,7 +37,7 @@ from scara_ident_ros.rosenv import ensure_local_dds
 if TYPE_CHECKING:  # parameters imports ConfigError from here
     from scara_ident_ros.nodes.parameters import ParamSpec
 
-__all__ = ['ConfigError', 'LoopingNode', 'drain', 'help_text', 'run_node', 'POLL_PERIOD']
+__all__ = ['ConfigError', 'drain', 'help_text', 'run_node', 'POLL_PERIOD']
 
 POLL_PERIOD = 0.1  # seconds: the longest a stop request waits to be seen
 DRAIN_TIMEOUT = 10.0  # seconds a stopping node may spend on the messages already queued
@@ -46,13 +46,6 @@ DRAIN_QUIET = 0.05  # seconds without a new message that end the drain
 
 class ConfigError(Exception):
     """A bad parameter or configuration file: reported as one line, exit status 2."""
-
-
-class LoopingNode(Protocol):
-    """A node that drives its own loop (e.g. a real-time publisher)."""
-
-    def loop(self, executor: Executor, stop: threading.Event) -> None:
-        """Run until ``stop`` is set, calling ``executor.spin_once`` regularly."""
 
 
 def _install_stop_handlers(stop: threading.Event) -> None:
@@ -109,7 +102,7 @@ def run_node(name: str, factory: Callable[[], Node], args: list[str] | None = No
             return 2
         executor = EventsExecutor()
         executor.add_node(node)
-        if hasattr(node, 'loop'):
+        if hasattr(node, 'loop'):  # it paces itself (scara_sim, player, recorder)
             node.loop(executor, stop)
         else:
             while not stop.is_set():
