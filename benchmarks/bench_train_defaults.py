@@ -74,7 +74,7 @@ from scara_ident_ros.experiments.datasets import (Dataset, simulate_dataset,  # 
                                                   simulate_record)
 from scara_ident_ros.methods import make_network  # noqa: E402
 from scara_ident_ros.nn import FeedForwardNet  # noqa: E402
-from scara_ident_ros.offline.blas_threads import single_blas_thread  # noqa: E402
+from scara_ident_ros.blas_threads import single_blas_thread  # noqa: E402
 from scara_ident_ros.offline.dataset import time_split  # noqa: E402
 from scara_ident_ros.offline.evaluation import evaluate  # noqa: E402
 from scara_ident_ros.offline.recording import load_recording  # noqa: E402

@@ -108,7 +108,7 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
 
 def run(args: argparse.Namespace) -> int:
     """Train and save; print the errors on the training and validation data."""
-    from scara_ident_ros.offline.blas_threads import single_blas_thread
+    from scara_ident_ros.blas_threads import single_blas_thread
     from scara_ident_ros.offline.evaluation import errors_markdown, evaluate
     from scara_ident_ros.offline.progress import TrainingProgress
     from scara_ident_ros.offline.recording import load_recording, skipped_text

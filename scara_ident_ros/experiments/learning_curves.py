@@ -38,6 +38,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
+from scara_ident_ros.blas_threads import single_blas_thread
 from scara_ident_ros.dynamics import ScaraParams
 from scara_ident_ros.dynamics.recursive_least_squares import RecursiveLeastSquares
 from scara_ident_ros.experiments.datasets import Dataset, dataset_from_record, simulate_record
@@ -231,8 +232,6 @@ def _job(job: tuple[ScaraParams, str, str, int, float, bool, tuple[float, float]
          ) -> list[Curve]:
     # One BLAS thread: a worker's LM systems gain nothing from more, and two workers with
     # two threads each on 2 cores doubled the CPU time measured per curve.
-    from scara_ident_ros.offline.blas_threads import single_blas_thread  # offline imports us
-
     with single_blas_thread():
         return _curves(*job)
 

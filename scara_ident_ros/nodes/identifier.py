@@ -62,7 +62,7 @@ from scara_ident_ros.nodes.messages import joint_state, stamp_to_ns
 from scara_ident_ros.nodes.parameters import ParamSpec, declare_parameters
 from scara_ident_ros.nodes.publisher_watch import PublisherWatch
 from scara_ident_ros.nodes.runtime import ConfigError, run_node
-from scara_ident_ros.offline.blas_threads import single_blas_thread
+from scara_ident_ros.blas_threads import single_blas_thread
 from scara_ident_ros.paths import unwritable_file
 from scara_ident_ros.resources import config_path
 from scara_ident_ros.topics import JOINT_STATES, MSE, TORQUE

@@ -13,7 +13,6 @@ What ``scara-ident train``, ``evaluate`` and ``tables`` are made of, one concept
 ``report``                    ``make_report``: everything into ``DIR/report.md``
 ``comparison``                ``scara-ident compare``: the same tables on simulated data
 ``progress``                  a text progress bar for ``fit``
-``blas_threads``              one BLAS thread while training
 ============================  ==========================================================
 
 The numerical core (samples, pairing, windowed errors) is plain numpy; reading bags goes

@@ -27,7 +27,7 @@ Writes to ``--out DIR``: ``tables.md`` (what is printed), ``table2.csv`` and ``t
 ``fig_learning_curves.png`` and ``conditions.json`` (sizes, seeds, settings, timings,
 versions).
 
-BLAS runs on one thread (:mod:`~scara_ident_ros.offline.blas_threads`): the LM systems
+BLAS runs on one thread (:mod:`~scara_ident_ros.blas_threads`): the LM systems
 (684 × 684) gain nothing from more, and on a shared 2-core machine two BLAS threads made single
 LM trainings take 10× longer at random. Wall time of the default run: see
 ``scara_ident_ros.cli.compare.DEFAULT_WALL_TIME``; ``--quick`` runs in seconds (for tests).
@@ -64,7 +64,7 @@ from scara_ident_ros.experiments.tables import (PAPER_NOTE, format_value, joint_
 from scara_ident_ros.identification import PAPER_WINDOW, TRAINERS
 from scara_ident_ros.methods import limit_scaling
 from scara_ident_ros.methods import method as method_spec
-from scara_ident_ros.offline.blas_threads import BLAS_THREADS, single_blas_thread
+from scara_ident_ros.blas_threads import BLAS_THREADS, single_blas_thread
 from scara_ident_ros.offline.figures import plot_learning_curves
 
 __all__ = ['HELD_OUT', 'CompareSettings', 'run_comparison', 'software_versions']

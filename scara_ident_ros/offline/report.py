@@ -50,7 +50,7 @@ from scara_ident_ros.methods import METHODS
 from scara_ident_ros.methods import method as method_spec
 from scara_ident_ros.mse_layout import METRICS, decode_mse
 from scara_ident_ros.nn import DEFAULT_CONSTANTS
-from scara_ident_ros.offline.blas_threads import BLAS_THREADS
+from scara_ident_ros.blas_threads import BLAS_THREADS
 from scara_ident_ros.offline.comparison import software_versions
 from scara_ident_ros.offline.figures import plot_online_error, plot_torque, plot_training_mse
 from scara_ident_ros.offline.online_results import (STREAM_ALL, OnlinePredictions,

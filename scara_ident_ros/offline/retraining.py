@@ -10,7 +10,7 @@ held-out runs are evaluated. With 4 joints, the SCARA's model-based least-square
 
 Seeds are run in rounds, so that a time budget can stop between rounds and every method
 still has the same seeds. Training holds the BLAS
-to one thread (:mod:`~scara_ident_ros.offline.blas_threads`).
+to one thread (:mod:`~scara_ident_ros.blas_threads`).
 
 Public API::
 
@@ -29,7 +29,7 @@ import numpy as np
 from scara_ident_ros.experiments.datasets import Dataset
 from scara_ident_ros.experiments.offline import OfflineFit, train_offline
 from scara_ident_ros.experiments.rows import ResultRow
-from scara_ident_ros.offline.blas_threads import single_blas_thread
+from scara_ident_ros.blas_threads import single_blas_thread
 from scara_ident_ros.offline.dataset import time_split
 
 __all__ = ['Retraining', 'retrain']

@@ -12,7 +12,7 @@ from scara_ident_ros.identification import (BackPropagation, Bounds, Holdout, On
                                             Reservoir, ReservoirLM, SkipReason, make_trainer)
 from scara_ident_ros.methods import limit_scaling, make_network
 from scara_ident_ros.nn import FeedForwardNet
-from scara_ident_ros.offline.blas_threads import single_blas_thread
+from scara_ident_ros.blas_threads import single_blas_thread
 
 PARAMS = ScaraParams()
 LIMITS = ('position_min', 'position_max', 'velocity_max', 'acceleration_max', 'effort_max')

@@ -1,4 +1,4 @@
-"""Hold the BLAS to one thread while training offline.
+"""Hold the BLAS to one thread while training (offline, in experiments and in the identifier).
 
 Levenberg–Marquardt spends its time in a Cholesky factorisation and matrix products of a
 few hundred unknowns: too small to gain from a second BLAS thread, and on a busy machine
