@@ -93,8 +93,7 @@ class PlayerNode(Node):
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__('player', **kwargs)
-        self.params = declare_parameters(self, PARAMETERS)
-        p = self.params
+        self.settings = p = declare_parameters(self, PARAMETERS)
         if not p['bag']:
             raise ConfigError("parameter 'bag' is required: the bag to play")
         try:
@@ -125,7 +124,7 @@ class PlayerNode(Node):
             raise ConfigError(f'{self.bag.path}: no topic matches {list(selection.patterns)} '
                               f'(the bag has {self.bag.describe_topics()})')
         publishers: dict[str, Publisher] = {}
-        depth = self.params['qos_depth']
+        depth = self.settings['qos_depth']
         for topic in chosen:
             info = topics[topic]
             cls = message_class(info.msgtype)
@@ -150,7 +149,7 @@ class PlayerNode(Node):
         rate = 'as fast as possible' if self._timeline.as_fast_as_possible else \
             f'at {self._timeline.rate:g}x'
         self.get_logger().info(f'playing {self.bag.path} {rate}'
-                               f'{" in a loop" if self.params["loop"] else ""}: {names}')
+                               f'{" in a loop" if self.settings["loop"] else ""}: {names}')
         return publishers
 
     # -- the loop ------------------------------------------------------------------------
@@ -168,7 +167,7 @@ class PlayerNode(Node):
             raise SystemExit(1)
 
     def _wait_for_subscribers(self, executor: Executor, stop: threading.Event) -> bool:
-        timeout = self.params['wait_for_subscribers']
+        timeout = self.settings['wait_for_subscribers']
         deadline = time.monotonic() + timeout
         waiting = list(self._outputs.values())
         while timeout > 0 and waiting and time.monotonic() < deadline:
@@ -185,18 +184,18 @@ class PlayerNode(Node):
     def _play(self, executor: Executor, stop: threading.Event) -> None:
         publishers = self._outputs
         clock = self._clock_publisher
-        clock_period = round(1e9 / self.params['clock_rate'])
+        clock_period = round(1e9 / self.settings['clock_rate'])
         rate = self._timeline.rate
         start = time.monotonic_ns()
         next_spin = start + SPIN_PERIOD_NS
         next_clock_wall = start  # wall time of the next /clock while waiting
         last_clock = None  # recorded time last published on /clock
         current_pass = 0
-        window = self.params['qos_depth']  # unacknowledged messages the history can hold
+        window = self.settings['qos_depth']  # unacknowledged messages the history can hold
         unacknowledged = 0
         last_item: Scheduled | None = None
         items = schedule(lambda: self.bag.messages(publishers), timeline=self._timeline,
-                         loop=self.params['loop'])
+                         loop=self.settings['loop'])
         for item in items:
             if stop.is_set():
                 break
@@ -286,7 +285,7 @@ class PlayerNode(Node):
         acknowledged = ('every one acknowledged' if self.acknowledged == self.published else
                         f'{self.acknowledged} acknowledged by every subscriber')
         self.get_logger().info(f'played {self.published} messages from {self.bag.path}'
-                               f'{f" ({self.passes} passes)" if self.params["loop"] else ""}'
+                               f'{f" ({self.passes} passes)" if self.settings["loop"] else ""}'
                                f', {acknowledged}')
 
 

@@ -119,8 +119,7 @@ class RecorderNode(Node):
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__('recorder', **kwargs)
-        self.params = declare_parameters(self, PARAMETERS, on_change=self._apply)
-        p = self.params
+        self.settings = p = declare_parameters(self, PARAMETERS, on_change=self._apply)
         try:
             self._filter = TopicFilter(p['topics'], all_topics=p['all'])
         except ValueError as exc:
@@ -187,7 +186,7 @@ class RecorderNode(Node):
 
     def _subscribe(self, topic: str, msgtype: str, cls: Any, offers: list[Any]) -> None:
         adapted = adapt_to_offers(offers)
-        depth = self.params['qos_depth']
+        depth = self.settings['qos_depth']
         qos = QoSProfile(
             history=HistoryPolicy.KEEP_LAST if depth else HistoryPolicy.KEEP_ALL,
             depth=depth or 1,
@@ -298,8 +297,8 @@ class RecorderNode(Node):
 
     def _apply(self, changed: dict[str, Any]) -> None:
         """Parameters set while running: the split limits apply from the next message."""
-        self.writer.max_file_size = self.params['max_bag_size']
-        self.writer.max_file_duration_ns = round(self.params['max_bag_duration'] * 1e9)
+        self.writer.max_file_size = self.settings['max_bag_size']
+        self.writer.max_file_duration_ns = round(self.settings['max_bag_duration'] * 1e9)
         self.get_logger().info('set ' + ', '.join(f'{k} = {v!r}' for k, v in changed.items()))
 
     # -- services ------------------------------------------------------------------------
@@ -396,8 +395,8 @@ class RecorderNode(Node):
             if lost:
                 self.get_logger().warning(f'{topic}: {lost} samples lost before they reached '
                                           'the recorder (gaps in their stamps)')
-        if self.params['stats_file']:
-            path = Path(self.params['stats_file'])
+        if self.settings['stats_file']:
+            path = Path(self.settings['stats_file'])
             path.parent.mkdir(parents=True, exist_ok=True)
             path.write_text(json.dumps(counters, indent=1))
 
