@@ -45,8 +45,6 @@ import time
 from pathlib import Path
 from typing import Any
 
-import yaml
-
 from scara_ident_ros.cli import CliError
 from scara_ident_ros.identification.trainer import TRAINERS
 from scara_ident_ros.methods import METHODS
@@ -106,12 +104,13 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
 
 
 def bag_message_counts(bag: Path) -> dict[str, int]:
-    """Messages per topic from a rosbag2 bag's ``metadata.yaml`` (empty if unreadable)."""
+    """Messages per topic of a bag, as its ``metadata.yaml`` says (empty if unreadable)."""
+    from scara_ident_ros.bag import BagError, open_bag
+
     try:
-        info = yaml.safe_load((bag / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
-        return {entry['topic_metadata']['name']: int(entry['message_count'])
-                for entry in info['topics_with_message_count']}
-    except (OSError, KeyError, TypeError, yaml.YAMLError):
+        with open_bag(bag) as source:
+            return {topic: info.count for topic, info in source.topics.items()}
+    except BagError:
         return {}
 
 
