@@ -1,8 +1,9 @@
 """The package's base exception.
 
 Every domain exception derives from :class:`ScaraIdentError` (``BagError``,
-``ModelFormatError``, ``ParamError``, ``RecordingError``, ``ModelMismatch``, ``CliError``), so
-``scara-ident`` prints any of them as one line with exit status 2 from a single handler.
+``ModelFormatError``, ``ParamError``, ``RecordingError``, ``ModelMismatch``, ``CliError``, the
+nodes' ``ConfigError``), so ``scara-ident`` prints any of them as one line with exit status 2
+from a single handler, and a node started by ``run_node`` does the same.
 """
 from __future__ import annotations
 

@@ -23,12 +23,17 @@ import re
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 
+from scara_ident_ros.bag.errors import BagError
 from scara_ident_ros.bag.reader import BagMessage
 
-__all__ = ['SINGLE_MESSAGE_PERIOD_NS', 'Scheduled', 'Timeline', 'parse_rate', 'parse_remaps',
-           'schedule']
+__all__ = ['PlaybackError', 'SINGLE_MESSAGE_PERIOD_NS', 'Scheduled', 'Timeline', 'parse_rate',
+           'parse_remaps', 'schedule']
 
 SINGLE_MESSAGE_PERIOD_NS = 1_000_000_000  # ns between passes over a one-message bag
+
+
+class PlaybackError(BagError, ValueError):
+    """A bad playback rate or remapping (one line); a ValueError, as any bad value."""
 
 
 def parse_rate(value: str | float) -> float:
@@ -36,7 +41,7 @@ def parse_rate(value: str | float) -> float:
 
     Raises
     ------
-    ValueError
+    PlaybackError
         If it is negative, not finite or not a number.
     """
     if isinstance(value, str) and value.strip().lower() in ('max', 'inf'):
@@ -44,9 +49,9 @@ def parse_rate(value: str | float) -> float:
     try:
         rate = float(value)
     except ValueError:
-        raise ValueError(f"rate must be a number > 0, or 0 or 'max', got {value!r}") from None
+        raise PlaybackError(f"rate must be a number > 0, or 0 or 'max', got {value!r}") from None
     if rate < 0 or not math.isfinite(rate):
-        raise ValueError(f"rate must be a number > 0, or 0 or 'max', got {value!r}")
+        raise PlaybackError(f"rate must be a number > 0, or 0 or 'max', got {value!r}")
     return rate
 
 
@@ -58,7 +63,7 @@ def parse_remaps(items: Iterable[str]) -> dict[str, str]:
 
     Raises
     ------
-    ValueError
+    PlaybackError
         If an item has no ``:=``, an empty side, a side that is not a valid ROS topic name
         (tokens of letters, digits and ``_``, not starting with a digit, joined by ``/``), or
         a topic is remapped twice.
@@ -68,14 +73,14 @@ def parse_remaps(items: Iterable[str]) -> dict[str, str]:
         old, sep, new = item.partition(':=')
         old, new = old.strip(), new.strip()
         if not sep or not old or not new:
-            raise ValueError(f"remap must look like 'old:=new', got {item!r}")
+            raise PlaybackError(f"remap must look like 'old:=new', got {item!r}")
         old = old if old.startswith('/') else '/' + old
         new = new if new.startswith('/') else '/' + new
         for name in (old, new):
             if not _TOPIC_NAME.fullmatch(name):
-                raise ValueError(f'{name!r} in remap {item!r} is not a valid ROS topic name')
+                raise PlaybackError(f'{name!r} in remap {item!r} is not a valid ROS topic name')
         if old in remaps:
-            raise ValueError(f'topic {old} is remapped twice')
+            raise PlaybackError(f'topic {old} is remapped twice')
         remaps[old] = new
     return remaps
 

@@ -44,20 +44,14 @@ def add_parser(subparsers: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Check the options and the bag, then run the player node until the bag is done."""
-    from scara_ident_ros.bag import BagError, open_bag, parse_rate, parse_remaps
+    from scara_ident_ros.bag import open_bag, parse_rate, parse_remaps
 
-    try:
-        rate = parse_rate(args.rate)
-        parse_remaps(args.remap)
-    except ValueError as exc:
-        raise CliError(str(exc)) from None
+    rate = parse_rate(args.rate)  # a bad rate, remapping or bag: one line from cli.main
+    parse_remaps(args.remap)
     if args.wait_for_subscribers < 0 or args.clock_rate <= 0:
         raise CliError('--wait-for-subscribers must be >= 0 and --clock-rate > 0')
-    try:
-        with open_bag(args.bag):
-            pass
-    except BagError as exc:
-        raise CliError(str(exc)) from None
+    with open_bag(args.bag):
+        pass
 
     from rclpy.parameter import Parameter
 

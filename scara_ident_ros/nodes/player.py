@@ -96,16 +96,11 @@ class PlayerNode(Node):
         self.settings = p = declare_parameters(self, PARAMETERS)
         if not p['bag']:
             raise ConfigError("parameter 'bag' is required: the bag to play")
-        try:
-            self._remap = parse_remaps(p['remap'])
-            selection = TopicFilter(p['topics'] or ['/**'])
-        except ValueError as exc:
-            raise ConfigError(str(exc)) from None
+        # A bad remapping, topic pattern or bag is reported by run_node in one line.
+        self._remap = parse_remaps(p['remap'])
+        selection = TopicFilter(p['topics'] or ['/**'])
         self._timeline = Timeline(p['rate'])
-        try:
-            self.bag: BagSource = open_bag(p['bag'])
-        except BagError as exc:
-            raise ConfigError(str(exc)) from None
+        self.bag: BagSource = open_bag(p['bag'])
         try:
             self._outputs = self._create_publishers(selection)
         except ConfigError:

@@ -12,8 +12,9 @@ comes for :data:`DRAIN_QUIET` (at most :data:`DRAIN_TIMEOUT`), so a sample that 
 publisher saw acknowledged is not dropped. The node is then closed (``close()`` if it
 has one: flush files, save models), destroyed, and the process exits 0 with no
 traceback.
-A :class:`ConfigError` raised while the node is built ends the process with one
-line naming the problem and exit status 2.
+A :class:`ConfigError` (or any :class:`~scara_ident_ros.errors.ScaraIdentError`, such as a
+``BagError``) raised while the node is built ends the process with one line naming the
+problem and exit status 2.
 """
 from __future__ import annotations
 
@@ -32,6 +33,7 @@ from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 
+from scara_ident_ros.errors import ScaraIdentError
 from scara_ident_ros.rosenv import ensure_local_dds
 
 if TYPE_CHECKING:  # parameters imports ConfigError from here
@@ -44,7 +46,7 @@ DRAIN_TIMEOUT = 10.0  # seconds a stopping node may spend on the messages alread
 DRAIN_QUIET = 0.05  # seconds without a new message that end the drain
 
 
-class ConfigError(Exception):
+class ConfigError(ScaraIdentError):
     """A bad parameter or configuration file: reported as one line, exit status 2."""
 
 
@@ -96,7 +98,7 @@ def run_node(name: str, factory: Callable[[], Node], args: list[str] | None = No
     try:
         try:
             node = factory()
-        except (ConfigError, ParameterException, ValueError) as exc:
+        except (ScaraIdentError, ParameterException, ValueError) as exc:
             message = ' '.join(str(exc).split())  # one line, even for a YAML parser's report
             print(f'{name}: error: {message}', file=sys.stderr)
             return 2
