@@ -9,9 +9,11 @@ Fig. 14        offline training MSE against iteration           :func:`plot_trai
 Fig. 15        online error against time                        :func:`plot_online_error`
 =============  ==============================================  ==========================
 
-Each figure is ``WIDTH_IN`` inches wide at ``DPI`` dots per inch, so its size in pixels is
-known in advance (no tight bounding box). Long series are thinned to at most
-``MAX_POINTS`` points per line by taking every k-th sample.
+Each ``plot_*`` function saves the :class:`~matplotlib.figure.Figure` its ``*_figure``
+twin builds (``plot_torque`` draws ``torque_figure``), which tests can inspect. Each figure
+is ``WIDTH_IN`` inches wide at ``DPI`` dots per inch, so its size in pixels is known in
+advance (no tight bounding box). Long series are thinned to at most ``MAX_POINTS`` points
+per line by taking every k-th sample.
 """
 from __future__ import annotations
 
@@ -27,8 +29,10 @@ from numpy.typing import NDArray
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-__all__ = ['DPI', 'MAX_POINTS', 'WIDTH_IN', 'effort_unit', 'figure_size_px', 'plot_online_error',
-           'plot_torque', 'plot_training_mse']
+__all__ = ['DPI', 'MAX_POINTS', 'WIDTH_IN', 'effort_unit', 'figure_size_px',
+           'learning_curves_figure', 'online_error_figure', 'plot_learning_curves',
+           'plot_online_error', 'plot_torque', 'plot_training_mse', 'torque_figure',
+           'training_mse_figure']
 
 DPI = 100  # dots per inch
 WIDTH_IN = 10.0  # inches
@@ -87,12 +91,18 @@ def _save(fig: Figure, path: Path) -> Path:
 def plot_torque(path: Path, time_s: NDArray[np.float64], measured: NDArray[np.float64],
                 predicted: NDArray[np.float64], names: Sequence[str], *, title: str,
                 predicted_label: str = 'identified') -> Path:
+    """Write :func:`torque_figure` to ``path`` (PNG of ``figure_size_px('torque', n)``)."""
+    return _save(torque_figure(time_s, measured, predicted, names, title=title,
+                               predicted_label=predicted_label), path)
+
+
+def torque_figure(time_s: NDArray[np.float64], measured: NDArray[np.float64],
+                  predicted: NDArray[np.float64], names: Sequence[str], *, title: str,
+                  predicted_label: str = 'identified') -> Figure:
     """Measured against identified effort, one panel per joint (Figs 6–13 of the paper).
 
     Parameters
     ----------
-    path : Path
-        PNG file to write; its size is ``figure_size_px('torque', n)``.
     time_s : ndarray of shape (N,)
         Time of each sample, s.
     measured, predicted : ndarray of shape (N, n)
@@ -106,8 +116,8 @@ def plot_torque(path: Path, time_s: NDArray[np.float64], measured: NDArray[np.fl
 
     Returns
     -------
-    Path
-        ``path``.
+    Figure
+        One axes per joint: the measured line (black), then the prediction (red, dashed).
     """
     plt = _pyplot()
     n = len(names)
@@ -125,17 +135,21 @@ def plot_torque(path: Path, time_s: NDArray[np.float64], measured: NDArray[np.fl
             ax.legend(loc='upper right', fontsize='small')
     axes[-1, 0].set_xlabel('time (s)')
     fig.suptitle(title)
-    return _save(fig, path)
+    return fig
 
 
 def plot_training_mse(path: Path, curves: Mapping[str, Sequence[Sequence[float]]], *,
                       title: str, goal: float | None = None) -> Path:
+    """Write :func:`training_mse_figure` to ``path`` (PNG of ``figure_size_px('training')``)."""
+    return _save(training_mse_figure(curves, title=title, goal=goal), path)
+
+
+def training_mse_figure(curves: Mapping[str, Sequence[Sequence[float]]], *, title: str,
+                        goal: float | None = None) -> Figure:
     """Training MSE against iteration for each method, log scale (Fig. 14 of the paper).
 
     Parameters
     ----------
-    path : Path
-        PNG file to write; its size is ``figure_size_px('training')``.
     curves : mapping of str to sequences of sequences of float
         Method label (``'FFMW'``) to one MSE curve per seed (``FitHistory.mse``: before
         training, then after each iteration), in the networks' scaled output units. The
@@ -147,7 +161,8 @@ def plot_training_mse(path: Path, curves: Mapping[str, Sequence[Sequence[float]]
 
     Returns
     -------
-    Path
+    Figure
+        One axes: per method its seeds (thin), then their median (bold, in the legend).
     """
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=(WIDTH_IN, _height_in('training', 0)), layout='constrained')
@@ -170,7 +185,7 @@ def plot_training_mse(path: Path, curves: Mapping[str, Sequence[Sequence[float]]
     ax.grid(True, which='both', alpha=0.3)
     ax.legend(loc='upper right')
     ax.set_title(title)
-    return _save(fig, path)
+    return fig
 
 
 def plot_online_error(path: Path,
@@ -178,12 +193,19 @@ def plot_online_error(path: Path,
                                                  NDArray[np.float64]]], *,
                       title: str, mse_window: int, nmse_window: int,
                       units: str = '(N·m)² and N²') -> Path:
+    """Write :func:`online_error_figure` to ``path`` (PNG of ``figure_size_px('online')``)."""
+    return _save(online_error_figure(curves, title=title, mse_window=mse_window,
+                                     nmse_window=nmse_window, units=units), path)
+
+
+def online_error_figure(curves: Mapping[str, tuple[NDArray[np.float64], NDArray[np.float64],
+                                                   NDArray[np.float64]]], *,
+                        title: str, mse_window: int, nmse_window: int,
+                        units: str = '(N·m)² and N²') -> Figure:
     """Online error against time for each method, log scale (Fig. 15 of the paper).
 
     Parameters
     ----------
-    path : Path
-        PNG file to write; its size is ``figure_size_px('online')``.
     curves : mapping of str to (time_s (N,), mse (N,), nmse (N,))
         Method label to the time (s) and the windowed MSE (mean over joints) and NMSE of
         its a-priori predictions (see :func:`~scara_ident_ros.offline.online_results.
@@ -197,7 +219,8 @@ def plot_online_error(path: Path,
 
     Returns
     -------
-    Path
+    Figure
+        Two axes, MSE above and NMSE below, one line per method in each.
     """
     plt = _pyplot()
     fig, (top, bottom) = plt.subplots(2, 1, figsize=(WIDTH_IN, _height_in('online', 0)),
@@ -217,11 +240,17 @@ def plot_online_error(path: Path,
         ax.grid(True, which='both', alpha=0.3)
         ax.legend(loc='upper right')
     fig.suptitle(title)
-    return _save(fig, path)
+    return fig
 
 
 def plot_learning_curves(path: Path, curves: Sequence[Any], title: str = '',
                          noise_floor: NDArray[np.float64] | None = None) -> Path:
+    """Write :func:`learning_curves_figure` to ``path`` (PNG)."""
+    return _save(learning_curves_figure(curves, title, noise_floor), path)
+
+
+def learning_curves_figure(curves: Sequence[Any], title: str = '',
+                           noise_floor: NDArray[np.float64] | None = None) -> Figure:
     """Held-out NMSE of the worst joint against seconds of stream, median and range over seeds.
 
     ``curves`` are :class:`~scara_ident_ros.experiments.learning_curves.Curve` (label,
@@ -249,4 +278,4 @@ def plot_learning_curves(path: Path, curves: Sequence[Any], title: str = '',
     ax.set_title(title or 'Frozen models on motions never seen')
     ax.grid(True, which='both', alpha=0.3)
     ax.legend(fontsize=8, ncol=2)
-    return _save(fig, path)
+    return fig
