@@ -36,7 +36,7 @@ def add_parser(subparsers: Any) -> None:
                         help='topics or glob patterns to play (default: all)')
     parser.add_argument('--remap', nargs='+', default=[], metavar='OLD:=NEW',
                         help='rename topics on the way out')
-    parser.add_argument('--wait-for-subscribers', type=float, default=5.0, metavar='S',
+    parser.add_argument('--wait-timeout', type=float, default=5.0, metavar='S',
                         help='longest wait for every played topic to have a subscriber '
                              '(default 5)')
     parser.set_defaults(func=run)
@@ -48,8 +48,8 @@ def run(args: argparse.Namespace) -> int:
 
     rate = parse_rate(args.rate)  # a bad rate, remapping or bag: one line from cli.main
     parse_remaps(args.remap)
-    if args.wait_for_subscribers < 0 or args.clock_rate <= 0:
-        raise CliError('--wait-for-subscribers must be >= 0 and --clock-rate > 0')
+    if args.wait_timeout < 0 or args.clock_rate <= 0:
+        raise CliError('--wait-timeout must be >= 0 and --clock-rate > 0')
     with open_bag(args.bag):
         pass
 
@@ -64,7 +64,7 @@ def run(args: argparse.Namespace) -> int:
         Parameter('loop', value=bool(args.loop)),
         Parameter('clock', value=bool(args.clock)),
         Parameter('clock_rate', value=float(args.clock_rate)),
-        Parameter('wait_for_subscribers', value=float(args.wait_for_subscribers)),
+        Parameter('wait_timeout', value=float(args.wait_timeout)),
     ]
     if args.topics:
         overrides.append(Parameter('topics', value=list(args.topics)))

@@ -23,7 +23,7 @@
   dropped is only sent again after the writer's next heartbeat: the player's writers
   beat every 20 ms (``config/player_fastdds.xml``, unless a Fast DDS profile file is
   set) instead of Fast DDS's 3 s, which stalled a window for up to 3 s.
-- Before the first message the player waits, at most ``wait_for_subscribers`` seconds,
+- Before the first message the player waits, at most ``wait_timeout`` seconds,
   until every topic it plays has a subscriber, so subscribers started just before it
   miss nothing.
 - With ``clock`` it publishes ``/clock`` (rosgraph_msgs/Clock) at ``clock_rate`` with the
@@ -82,7 +82,7 @@ PARAMETERS = (
               items=str),
     ParamSpec('remap', [], "Topic renames, each 'old:=new'", items=str),
     ParamSpec('qos_depth', 1000, 'History depth of the publishers', 'messages', min=1),
-    ParamSpec('wait_for_subscribers', 5.0, 'Longest wait, before the first message, for '
+    ParamSpec('wait_timeout', 5.0, 'Longest wait, before the first message, for '
               'every played topic to have a subscriber (a first discovery can take one 3 s '
               'Fast DDS announcement period); 0 = no wait', 's', min=0.0),
 )
@@ -162,7 +162,7 @@ class PlayerNode(Node):
             raise SystemExit(1)
 
     def _wait_for_subscribers(self, executor: Executor, stop: threading.Event) -> bool:
-        timeout = self.settings['wait_for_subscribers']
+        timeout = self.settings['wait_timeout']
         deadline = time.monotonic() + timeout
         waiting = list(self._outputs.values())
         while timeout > 0 and waiting and time.monotonic() < deadline:

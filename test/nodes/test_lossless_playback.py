@@ -41,7 +41,7 @@ def test_play_at_rate_max_into_an_identifier_loses_no_sample(tmp_path: Path) -> 
         identifier.wait_for_stderr('identifier on', START_TIMEOUT)
         played = subprocess.run(
             [sys.executable, '-m', 'scara_ident_ros.cli', 'play', str(BAG), '--rate', 'max',
-             '--topics', '/joint_states', '--wait-for-subscribers', '30'],
+             '--topics', '/joint_states', '--wait-timeout', '30'],
             capture_output=True, text=True, timeout=PLAY_TIMEOUT, check=False)
         assert played.returncode == 0, played.stderr
         assert f'played {SAMPLES} messages' in played.stderr, played.stderr
@@ -74,7 +74,7 @@ def test_the_player_does_not_claim_what_was_not_acknowledged(listener: Any) -> N
     with NodeProcess(PLAYER, ['-p', f'bag:={BAG}', '-p', 'rate:=0.0',
                               '-p', "topics:=['/joint_states']",
                               '-p', f'qos_depth:={2 * SAMPLES}',
-                              '-p', 'wait_for_subscribers:=30.0']) as player:
+                              '-p', 'wait_timeout:=30.0']) as player:
         out = player.wait(timeout=PLAY_TIMEOUT)  # the listener is never spun meanwhile
     assert out.returncode == 1, out.stderr
     assert f'played {SAMPLES} messages' in out.stderr, out.stderr

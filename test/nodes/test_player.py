@@ -91,7 +91,7 @@ def play(*ros_args: str) -> Any:
     Fast DDS announcement period, 3 s, and the machine is shared."""
     from rostest import NodeProcess
 
-    return NodeProcess(PLAYER, [*ros_args, '-p', 'wait_for_subscribers:=15.0'])
+    return NodeProcess(PLAYER, [*ros_args, '-p', 'wait_timeout:=15.0'])
 
 
 def spin_until_exit(listener: Any, player: Any, timeout: float = RUN_TIMEOUT) -> Any:

@@ -43,7 +43,7 @@ def test_record_play_record_gives_the_same_messages(tmp_path: Path, domain: int)
     with NodeProcess(RECORDER, ['-p', f'output:={second}', *record_args]) as recorder:
         recorder.wait_for_stderr('recording', timeout=30)
         with NodeProcess(PLAYER, ['-p', f'bag:={first}',
-                                  '-p', 'wait_for_subscribers:=30.0']) as player:
+                                  '-p', 'wait_timeout:=30.0']) as player:
             output = player.wait(timeout=120)
         assert output.returncode == 0, output.stderr
         assert recorder.stop(signal.SIGINT).returncode == 0
