@@ -140,9 +140,9 @@ class LossCounter:
             self.gap_ns = max(LOST_GAP * period, period + JITTER_MADS * spread)
             if len(dts) == PERIOD_SAMPLES:
                 dts.clear()
-        period, gap = self.period_ns, self.gap_ns
-        if period is not None and gap is not None and dt >= gap:
-            self.lost += round(dt / period) - 1
+        period_ns, gap_ns = self.period_ns, self.gap_ns
+        if period_ns is not None and gap_ns is not None and dt >= gap_ns:
+            self.lost += round(dt / period_ns) - 1
 
 
 def _level(problems: list[tuple[Level, str]], summary: str) -> tuple[Level, str]:
