@@ -11,8 +11,12 @@ here: it is fitted in one batch on the stream *before* the evaluation windows an
 them (samples it has not seen, like the networks' a-priori errors) and on the other data
 sets.
 
+It is the SCARA's model, so it is added only for the SCARA, not for any 4-joint robot:
+:func:`is_scara` says whether joint names and positions can be the SCARA's.
+
 Public API (plain arrays; X (N, 12) = [q, q', q''] of the 4 joints, Y (N, 4) efforts)::
 
+    is_scara(names, X, params=None) -> bool                      the reference applies
     fit_reference(X, Y, *, coulomb_eps=None) -> ReferenceFit     identifier, seconds
     predict_reference(identifier, X) -> ndarray (N, 4)
     reference_rows(X, Y, evaluations=None, *, coulomb_eps=None) -> list[ResultRow]
@@ -23,6 +27,7 @@ Public API (plain arrays; X (N, 12) = [q, q', q''] of the 4 joints, Y (N, 4) eff
 from __future__ import annotations
 
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -35,12 +40,46 @@ from scara_ident_ros.experiments.online import DEFAULT_WINDOW, stream_data_names
 from scara_ident_ros.experiments.rows import REFERENCE, ResultRow
 from scara_ident_ros.identification import PAPER_WINDOW
 
-__all__ = ['ReferenceFit', 'fit_reference', 'online_reference_rows', 'predict_reference',
-           'reference_rows']
+__all__ = ['ReferenceFit', 'fit_reference', 'is_scara', 'online_reference_rows',
+           'predict_reference', 'reference_rows']
 
 FloatArray = npt.NDArray[np.float64]
 
 _N_JOINTS = 4
+#: Positions may pass the SCARA's joint limits by this fraction of each joint's range.
+LIMIT_MARGIN = 0.05
+
+
+def is_scara(names: Sequence[str], X: npt.ArrayLike, params: ScaraParams | None = None
+             ) -> bool:
+    """Whether joint states can be those of the SCARA whose regressor the reference fits.
+
+    True when the joints carry the SCARA's names in its order (``params.joint_names``) and
+    every position lies within its joint limits, give or take ``LIMIT_MARGIN`` of each
+    range (joint3, the prismatic quill, within [0, 0.2] m by default): four joints alone
+    say nothing about the model.
+
+    Parameters
+    ----------
+    names : sequence of str of length n
+        Joint names, in the column order of ``X``.
+    X : array_like of shape (N, 3n)
+        Samples [q, q', q''] (rad or m, /s, /s²); only q is used.
+    params : ScaraParams, optional
+        The SCARA; default :class:`~scara_ident_ros.dynamics.ScaraParams` (config/scara.yaml).
+
+    Returns
+    -------
+    bool
+    """
+    params = params or ScaraParams()
+    x = np.asarray(X, dtype=np.float64)
+    if tuple(names) != tuple(params.joint_names) or x.ndim != 2 or x.shape[1] != 3 * _N_JOINTS:
+        return False
+    low, high = np.asarray(params.position_min), np.asarray(params.position_max)
+    margin = LIMIT_MARGIN * (high - low)
+    q = x[:, :_N_JOINTS]
+    return bool(np.all((q >= low - margin) & (q <= high + margin)))
 
 
 @dataclass(frozen=True)

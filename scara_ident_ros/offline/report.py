@@ -40,6 +40,7 @@ from scara_ident_ros.experiments.datasets import Dataset
 from scara_ident_ros.experiments.metrics import effort_errors
 from scara_ident_ros.experiments.offline import DEFAULT_GOAL, OfflineFit
 from scara_ident_ros.experiments.online import DEFAULT_WINDOW, stream_data_names
+from scara_ident_ros.experiments.reference import is_scara
 from scara_ident_ros.experiments.rows import ResultRow, summarise
 from scara_ident_ros.experiments.tables import (PAPER_ITERATIONS, PAPER_NOTE, PAPER_SAMPLES,
                                                 PAPER_TABLE2, PAPER_TABLE3, format_value,
@@ -119,7 +120,7 @@ def make_report(bags: Sequence[Path], out_dir: Path, *,
                 validation_fraction: float = 0.2, goal: float = DEFAULT_GOAL,
                 topic: str | None = None,
                 time_budget_s: float | None = DEFAULT_TIME_BUDGET_S,
-                progress: Progress | None = _stderr) -> Path:
+                progress: Progress | None = _stderr, reference: bool | None = None) -> Path:
     """Write the tables, figures and ``report.md`` of recorded runs into ``out_dir``.
 
     Parameters
@@ -147,6 +148,11 @@ def make_report(bags: Sequence[Path], out_dir: Path, *,
         :func:`~scara_ident_ros.offline.retraining.retrain`); None: all seeds.
     progress : callable, optional
         Called with one line per step; default print to stderr; None: silent.
+    reference : bool, optional
+        Add the SCARA's least-squares reference (LS) to Table 2. Default: when the run's
+        joints are the SCARA's by name and joint limits
+        (:func:`~scara_ident_ros.experiments.reference.is_scara`); a caller that knows the
+        robot can say so.
 
     Returns
     -------
@@ -183,10 +189,12 @@ def make_report(bags: Sequence[Path], out_dir: Path, *,
     say(f'{bags[0]}: {len(run.samples.data)} samples of {len(names)} joints over '
         f'{run.samples.data.seconds:.1f} s')
 
+    if reference is None:
+        reference = is_scara(names, run.samples.data.X)
     offline = retrain(run.samples.data, [r.samples.data for r in held_out],
                       methods=settings.methods, seeds=seed_list, iterations=iterations,
                       n_samples=samples, validation_fraction=validation_fraction, goal=goal,
-                      time_budget_s=time_budget_s, progress=say)
+                      time_budget_s=time_budget_s, progress=say, reference=reference)
     timer.lap('offline training')
     online = _online(run, settings.methods, say)
     timer.lap('online results')

@@ -5,8 +5,9 @@ The run's samples (made as the identifier makes them) are split by time: the fir
 same for every method and seed) train each method's network with Levenberg–Marquardt for
 ``iterations`` iterations (:func:`scara_ident_ros.experiments.offline.train_offline`,
 scaling from the training samples); the rest of the run ("validation", never trained on) and any
-held-out runs are evaluated. With 4 joints, the SCARA's model-based least-squares reference
-(LS) is added.
+held-out runs are evaluated. With ``reference=True`` (the caller knows the run is the
+SCARA's, e.g. :func:`scara_ident_ros.experiments.reference.is_scara`) the SCARA's
+model-based least-squares reference (LS) is added.
 
 Seeds are run in rounds, so that a time budget can stop between rounds and every method
 still has the same seeds. Training holds the BLAS
@@ -16,7 +17,8 @@ Public API::
 
     Retraining                                     rows, fits, evaluations, seeds, ...
     retrain(samples, held_out, *, methods, seeds, iterations, n_samples,
-            validation_fraction, goal, time_budget_s=None, progress=None) -> Retraining
+            validation_fraction, goal, time_budget_s=None, progress=None,
+            reference=False) -> Retraining
 """
 from __future__ import annotations
 
@@ -79,7 +81,8 @@ class Retraining:
 def retrain(samples: Dataset, held_out: Sequence[Dataset] = (), *, methods: Sequence[str],
             seeds: Sequence[int], iterations: int, n_samples: int,
             validation_fraction: float, goal: float, time_budget_s: float | None = None,
-            progress: Callable[[str], None] | None = None) -> Retraining:
+            progress: Callable[[str], None] | None = None,
+            reference: bool = False) -> Retraining:
     """Retrain every method from every seed on a run and evaluate (module docstring).
 
     Parameters
@@ -106,6 +109,8 @@ def retrain(samples: Dataset, held_out: Sequence[Dataset] = (), *, methods: Sequ
         round always runs.
     progress : callable, optional
         Called with one line per trained network.
+    reference : bool
+        Add the rows of the SCARA's least-squares reference (only for the SCARA's joints).
 
     Returns
     -------
@@ -128,7 +133,7 @@ def retrain(samples: Dataset, held_out: Sequence[Dataset] = (), *, methods: Sequ
                              methods=methods, seeds=seeds, iterations=iterations, goal=goal,
                              time_budget_s=time_budget_s, progress=progress)
     rows = runs.rows
-    if samples.n_joints == 4:  # the SCARA's model-based reference
+    if reference:
         rows += _reference_rows(train, arrays)
     return Retraining(rows, runs.fits, evaluations, runs.seeds, runs.seeds_skipped,
                       len(train_part), time.perf_counter() - started)

@@ -6,6 +6,7 @@ import numpy as np
 from scara_ident_ros.dynamics import ScaraParams, base_parameters
 from scara_ident_ros.experiments import (fit_reference, online_reference_rows,
                                          reference_rows, simulate_dataset, stream_data_names)
+from scara_ident_ros.experiments.reference import is_scara
 
 PARAMS = ScaraParams()
 
@@ -33,3 +34,15 @@ def test_online_reference_rows_fit_before_the_windows() -> None:
     assert 'first 2000 stream samples' in rows[0].note  # every sample (zero-phase q'')
     # estimated q'' lags the true one: good, not exact
     assert 1e-12 < rows[1].nmse_mean < 0.1
+
+
+def test_is_scara_needs_its_joint_names_and_limits() -> None:
+    simulated = simulate_dataset(PARAMS, seconds=2.0, seed=0)
+    names = PARAMS.joint_names
+    assert is_scara(names, simulated.X)
+    assert not is_scara(('a', 'b', 'c', 'd'), simulated.X)  # another robot's joints
+    assert not is_scara(names[::-1], simulated.X)
+    beyond = simulated.X.copy()
+    beyond[5, 2] = PARAMS.position_max[2] + 0.5  # joint3, the quill, 0.5 m too far
+    assert not is_scara(names, beyond)
+    assert not is_scara(names, simulated.X[:, :9])  # not 4 joints
