@@ -19,7 +19,7 @@ from dataclasses import replace
 from pathlib import Path
 
 from rclpy.duration import Duration
-from rclpy.experimental import EventsExecutor
+from rclpy.executors import Executor
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
@@ -157,7 +157,7 @@ class ScaraSimNode(Node):
         if self.clock_publisher is not None:
             self.clock_publisher.publish(Clock(clock=ns_to_stamp(stamp_ns)))
 
-    def loop(self, executor: EventsExecutor, stop: threading.Event) -> None:
+    def loop(self, executor: Executor, stop: threading.Event) -> None:
         """Publish on absolute deadlines until ``stop`` is set or the duration is reached."""
         if not self.wait_for_subscribers(executor, stop):
             return
@@ -186,7 +186,7 @@ class ScaraSimNode(Node):
                 next_stats += STATS_PERIOD
                 self.log_stats()
 
-    def wait_for_subscribers(self, executor: EventsExecutor, stop: threading.Event) -> bool:
+    def wait_for_subscribers(self, executor: Executor, stop: threading.Event) -> bool:
         """Wait for ``wait_for_subscribers`` matched subscribers; False if stopped meanwhile."""
         wanted = self.settings['wait_for_subscribers']
         deadline = time.monotonic() + self.settings['wait_timeout']
