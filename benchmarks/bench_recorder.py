@@ -17,7 +17,11 @@ soon as D newer ones are queued, whatever the reader does. ``pub depth`` = N (or
 all) removes the second cause: then every loss is the recorder's.
 
 Run: ``.venv/bin/python benchmarks/bench_recorder.py`` (about 2 minutes; ``--quick`` for
-a smaller run; ``--only 5 7`` for chosen rows). DDS stays on this machine
+a smaller run; ``--only 5 7`` for chosen rows). ``--compare A B`` runs each chosen row
+with the recorder of checkout A, then of B, ``--repeat`` times (default 5), and prints
+median [min-max]; ``--compare A B --writer`` measures the writer alone instead (no DDS;
+see :func:`writer_cost`): CPU per message at 4 x 1 kHz and 1 x 50 kHz, and how many
+messages a kill would lose. DDS stays on this machine
 (``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST``) in a domain derived from the process id.
 
 Measured on the shared 2-core machine of this project while it was otherwise quiet
@@ -50,6 +54,7 @@ import argparse
 import json
 import os
 import signal
+import statistics
 import struct
 import subprocess
 import sys
@@ -87,11 +92,11 @@ class Result:
     received: int  # what rclpy handed the recorder (its stats_file)
 
 
-def _env(domain: int) -> dict[str, str]:
+def _env(domain: int, repo: Path = REPO) -> dict[str, str]:
     env = dict(os.environ)
     env['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
     env['ROS_DOMAIN_ID'] = str(domain)
-    env['PYTHONPATH'] = str(REPO) + os.pathsep + env.get('PYTHONPATH', '')
+    env['PYTHONPATH'] = str(repo) + os.pathsep + env.get('PYTHONPATH', '')
     return env
 
 
@@ -156,12 +161,12 @@ def run_publisher(count: int, rate: float, depth: int) -> None:
 # -- one scenario ----------------------------------------------------------------------
 
 
-def run_scenario(scenario: Scenario, workdir: Path, domain: int) -> Result:
-    """Run recorder + publisher for ``scenario`` and read the bag back."""
+def run_scenario(scenario: Scenario, workdir: Path, domain: int, repo: Path = REPO) -> Result:
+    """Run recorder (from the checkout ``repo``) + publisher for ``scenario``; read the bag."""
     from scara_ident_ros.bag import open_bag
 
     bag = workdir / f'bag_{domain}_{time.monotonic_ns()}'
-    env = _env(domain)
+    env = _env(domain, repo)
     recorder = subprocess.Popen(
         [sys.executable, '-m', 'scara_ident_ros.nodes.recorder', '--ros-args',
          '-p', f'output:={bag}', '-p', f'qos_depth:={scenario.rec_depth}',
@@ -211,6 +216,134 @@ def run_scenario(scenario: Scenario, workdir: Path, domain: int) -> Result:
                   cpu / max(len(indices), 1) * 1e6, received)
 
 
+# -- the writer alone (no DDS) -----------------------------------------------------------
+
+
+def _readable(path: Path) -> int:
+    """Messages a reader gets from the file as it is on disk now (up to where it is cut).
+
+    Counted from the message index records that follow each complete chunk (chunks are
+    not decompressed: this runs every simulated second on files of tens of MB).
+    """
+    from mcap.records import MessageIndex
+    from mcap.stream_reader import StreamReader
+
+    count = 0
+    with path.open('rb') as stream:
+        try:
+            for record in StreamReader(stream, emit_chunks=True).records:
+                if isinstance(record, MessageIndex):
+                    count += len(record.records)
+        except Exception:  # noqa: BLE001 - the cut: everything before it was counted
+            pass
+    return count
+
+
+def writer_cost(topics: int, rate: float, seconds: float, compression: str) -> dict[str, float]:
+    """CPU per message of :class:`BagWriter` fed as the recorder feeds it, and what a kill loses.
+
+    ``topics`` topics at ``rate`` messages/s each, 268-byte payloads, in the recorder's
+    batches (``GATHER_PERIOD`` of messages below ``SPARSE_RATE``, else ``BATCH_SIZE``),
+    ``poll()`` every ``CHUNK_POLL_PERIOD``, on a simulated clock. Every simulated second
+    the file is read as it is on disk: ``unflushed`` is the most messages written but not
+    yet readable there, ``lost_on_kill`` what is not readable when the writer is dropped
+    (SIGKILL) at the end.
+    """
+    from scara_ident_ros.bag import BagWriter
+    from scara_ident_ros.nodes import recorder
+
+    now = [0]
+    payload = bytes(268)
+    total_rate = topics * rate
+    batch_s = (recorder.GATHER_PERIOD if total_rate < recorder.SPARSE_RATE
+               else recorder.BATCH_SIZE / total_rate)
+    per_batch = max(1, round(rate * batch_s))
+    cpu = 0.0
+    written = 0
+    unflushed = 0
+    with tempfile.TemporaryDirectory(prefix='bench_writer_') as tmp:
+        writer = BagWriter(Path(tmp) / 'bag', compression=compression,
+                           clock=lambda: now[0]).open()
+        ids = [writer.add_connection(f'/robot{i}/joint_states', 'sensor_msgs/msg/JointState').id
+               for i in range(topics)]
+        file = Path(tmp) / 'bag' / writer.file_names[0]
+        next_poll = next_check = 0
+        for b in range(round(seconds / batch_s)):
+            now[0] = round(b * batch_s * 1e9)
+            batch = [(i, now[0] + k, payload) for k in range(per_batch) for i in ids]
+            started = time.process_time()
+            writer.write_batch(batch)
+            if now[0] >= next_poll:
+                writer.poll()
+                next_poll += round(recorder.CHUNK_POLL_PERIOD * 1e9)
+            cpu += time.process_time() - started
+            written += len(batch)
+            if now[0] >= next_check:
+                unflushed = max(unflushed, written - _readable(file))
+                next_check += 1_000_000_000
+        writer.abort()
+        lost = written - _readable(file)
+    return {'cpu_us_per_msg': cpu / written * 1e6, 'unflushed': unflushed,
+            'lost_on_kill': lost}
+
+
+def compare_writers(repos: list[Path], repeat: int, seconds: float) -> str:
+    """:func:`writer_cost` for each checkout, interleaved ``repeat`` times: median [range]."""
+    cases = [(4, 1000.0, 'none'), (4, 1000.0, 'zstd'), (1, 50_000.0, 'none'),
+             (1, 50_000.0, 'lz4')]
+    runs: dict[tuple[int, int], list[dict[str, float]]] = {}
+    for _ in range(repeat):
+        for c, case in enumerate(cases):
+            for r, repo in enumerate(repos):
+                out = subprocess.run(
+                    [sys.executable, __file__, '--writer-cost', *map(str, case), str(seconds)],
+                    env=_env(0, repo), check=True, capture_output=True, text=True).stdout
+                runs.setdefault((c, r), []).append(json.loads(out))
+    lines = ['| topics x rate | compression | checkout | writer CPU/msg | '
+             'most unflushed msgs | lost on kill |', '|---|---|---|---|---|---|']
+    for c, (topics, rate, compression) in enumerate(cases):
+        for r, repo in enumerate(repos):
+            got = runs[(c, r)]
+            lines.append(f'| {topics} x {rate:.0f}/s | {compression} | {repo.name} | '
+                         + ' | '.join(_spread([g[k] for g in got], fmt)
+                                      for k, fmt in (('cpu_us_per_msg', '{:.2f} µs'),
+                                                     ('unflushed', '{:.0f}'),
+                                                     ('lost_on_kill', '{:.0f}'))) + ' |')
+    return '\n'.join(lines)
+
+
+def _spread(values: list[float], fmt: str) -> str:
+    """Median and range: ``1.2 µs [1.1-1.4]``."""
+    low, high = min(values), max(values)
+    text = fmt.format(statistics.median(values))
+    return text if low == high else f'{text} [{fmt.format(low).split()[0]}-{fmt.format(high)}]'
+
+
+def compare_recorders(repos: list[Path], chosen: list[Scenario], repeat: int,
+                      workdir: Path, domain: int) -> str:
+    """Each scenario with the recorder of each checkout, interleaved: median [range]."""
+    runs: dict[tuple[int, int], list[Result]] = {}
+    for _ in range(repeat):
+        for s, scenario in enumerate(chosen):
+            for r, repo in enumerate(repos):
+                result = run_scenario(scenario, workdir, domain, repo)
+                runs.setdefault((s, r), []).append(result)
+                print(f'{repo.name}: {table([result]).splitlines()[-1]}', file=sys.stderr,
+                      flush=True)
+    lines = ['| N | pub rate (target) | compression | checkout | missing | recorder rate | '
+             'recorder CPU/msg |', '|---|---|---|---|---|---|---|']
+    for s, scenario in enumerate(chosen):
+        for r, repo in enumerate(repos):
+            got = runs[(s, r)]
+            rate = 'burst' if not scenario.rate else f'{scenario.rate:.0f}/s'
+            lines.append(
+                f'| {scenario.count} | {rate} | {scenario.compression} | {repo.name} | '
+                f'{_spread([g.missing for g in got], "{:.0f}")} | '
+                f'{_spread([g.recorded_rate for g in got], "{:.0f}/s")} | '
+                f'{_spread([g.cpu_us_per_msg for g in got], "{:.1f} µs")} |')
+    return '\n'.join(lines)
+
+
 def table(results: list[Result]) -> str:
     """The results as a Markdown table."""
     lines = ['| N | pub rate (target) | pub rate (reached) | pub depth | rec qos_depth | '
@@ -246,12 +379,26 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument('--quick', action='store_true', help='20,000-message bursts')
     parser.add_argument('--only', type=int, nargs='+', metavar='I',
                         help='run only these scenarios (0-based numbers)')
+    parser.add_argument('--compare', type=Path, nargs='+', metavar='CHECKOUT',
+                        help='run the recorder of each of these checkouts in turn '
+                             '(e.g. this one and a `git worktree` of the base)')
+    parser.add_argument('--repeat', type=int, default=5, help='runs per checkout (--compare)')
+    parser.add_argument('--writer', action='store_true',
+                        help='with --compare: the writer alone, no DDS (writer_cost)')
     parser.add_argument('--publisher', nargs=3, metavar=('COUNT', 'RATE', 'DEPTH'),
                         help=argparse.SUPPRESS)
+    parser.add_argument('--writer-cost', nargs=4, help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.publisher:
         run_publisher(int(args.publisher[0]), float(args.publisher[1]),
                       int(args.publisher[2]))
+        return 0
+    if args.writer_cost:
+        topics, rate, compression, seconds = args.writer_cost
+        print(json.dumps(writer_cost(int(topics), float(rate), float(seconds), compression)))
+        return 0
+    if args.compare and args.writer:
+        print(compare_writers([p.resolve() for p in args.compare], args.repeat, 10.0))
         return 0
     domain = 100 + os.getpid() % 100
     results = []
@@ -259,6 +406,10 @@ def main(argv: list[str] | None = None) -> int:
         chosen = scenarios(args.quick)
         if args.only:
             chosen = [chosen[i] for i in args.only]
+        if args.compare:
+            print(compare_recorders([p.resolve() for p in args.compare], chosen, args.repeat,
+                                    Path(tmp), domain))
+            return 0
         for scenario in chosen:
             result = run_scenario(scenario, Path(tmp), domain)
             results.append(result)

@@ -17,8 +17,10 @@ payloads) or whole-file zstd after closing (``FILE``; nothing readable before th
 :class:`BagWriter` keeps its format (metadata version 9, ``ros2msg`` schemas with the
 RIHS01 hashes rosbags computes, offered QoS in the channel metadata) and adds splits,
 chunks bounded in size *and* time, a flush after every chunk, and ``lz4`` as a cheaper
-chunk compression. Bags it writes read back with rosbags (``Reader``, ``AnyReader``),
-with ``mcap`` + ``mcap_ros2``, and with :func:`~scara_ident_ros.bag.open_bag`.
+chunk compression; each storage file is written by the ``mcap`` library's ``Writer``
+(:class:`~scara_ident_ros.bag.mcap_file.McapFileWriter`). Bags it writes read back with
+rosbags (``Reader``, ``AnyReader``), with ``mcap`` + ``mcap_ros2``, and with
+:func:`~scara_ident_ros.bag.open_bag`.
 
 Timestamps are integer nanoseconds; a message's log time is written as its publish
 time too.
