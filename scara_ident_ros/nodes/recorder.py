@@ -46,7 +46,7 @@ from datetime import datetime
 from pathlib import Path
 from typing import Any
 
-from rclpy.experimental import EventsExecutor
+from rclpy.executors import Executor
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from std_srvs.srv import Trigger
@@ -244,7 +244,7 @@ class RecorderNode(Node):
 
     # -- the loop ------------------------------------------------------------------------
 
-    def loop(self, executor: EventsExecutor, stop: threading.Event) -> None:
+    def loop(self, executor: Executor, stop: threading.Event) -> None:
         """Spin, handing what arrived to the writer in batches, until ``stop`` is set.
 
         Sparse traffic (the 1 kHz topics of a run) would wake this thread once per
