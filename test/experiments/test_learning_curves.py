@@ -11,7 +11,7 @@ from scara_ident_ros.dynamics.recursive_least_squares import RecursiveLeastSquar
 from scara_ident_ros.experiments.datasets import simulate_record
 from scara_ident_ros.experiments.learning_curves import (curves_markdown, held_out_set,
                                                          network_curve, regressor_curves)
-from scara_ident_ros.offline.figures import plot_learning_curves
+from scara_ident_ros.offline.figures import learning_curves_figure, plot_learning_curves
 from scara_ident_ros.sim import SimRecord
 
 PARAMS = ScaraParams()
@@ -56,3 +56,11 @@ def test_curves_score_frozen_models_on_motion_never_streamed(stream: SimRecord,
     assert '| FFS bp |' in table and '| LS |' in table and 'Noise floor' in table
     path = plot_learning_curves(tmp_path / 'curves.png', [ls, rls, bp])
     assert path.read_bytes()[:8] == b'\x89PNG\r\n\x1a\n'
+    fig = learning_curves_figure([ls, rls, bp])  # what that PNG shows: each worst joint
+    lines = fig.axes[0].get_lines()
+    assert [line.get_label() for line in lines] == ['LS', 'RLS', 'FFS bp']
+    for line, curve in zip(lines, (ls, rls, bp)):
+        np.testing.assert_array_equal(line.get_xdata(), curve.seconds)
+        np.testing.assert_array_equal(line.get_ydata(), curve.nmse.max(axis=1))
+    import matplotlib.pyplot as plt
+    plt.close(fig)
