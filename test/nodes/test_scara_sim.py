@@ -253,8 +253,16 @@ def test_reports_its_rate_on_diagnostics(listener: Listener) -> None:
         assert statuses[0].level == b'\x00' and statuses[0].hardware_id == 'scara_sim'
         listener.subscribe(JointState, JOINT_STATES_TOPIC)
         assert listener.spin_until(lambda: len(statuses) >= 4, RECEIVE_TIMEOUT)
-        publishing = [s for s in statuses if s.message.startswith('publishing')]
-        assert publishing, [s.message for s in statuses]
-        values = {kv.key: kv.value for kv in publishing[-1].values}
-    assert 800 < float(values['samples/s']) < 1200, values
+        running = [s for s in statuses if s.message != 'waiting for subscribers']
+        assert running, [s.message for s in statuses]
+        last = running[-1]
+        values = {kv.key: kv.value for kv in last.values}
+    assert 800 < float(values['samples/s']) < 1200, values  # absolute deadlines: it catches up
     assert values['nominal [Hz]'] == '1000' and int(values['published']) > 0
+    # OK while it keeps real time; on a machine too busy for that (seen at load 13 on 2
+    # cores), WARN naming the late samples of the period
+    late = int(values['late in period'])
+    if last.level == b'\x00':
+        assert last.message.startswith('publishing') and late <= 0.01 * 1200, last.message
+    else:
+        assert last.level == b'\x01' and f'{late} of' in last.message, last.message
