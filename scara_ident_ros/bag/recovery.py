@@ -5,8 +5,9 @@ writes ``metadata.yaml``. Killed, it leaves a bag directory without ``metadata.y
 whose last ``.mcap`` file ends in the middle of a chunk. Everything up to the last
 complete chunk is on disk: :class:`~scara_ident_ros.bag.mcap_file.McapFileWriter`
 flushes every chunk (at most ~1 MiB or ~1 s of messages by default) as soon as it is
-complete, with a CRC of its content, and writes schema and channel records before the
-chunks that use them.
+complete, with a CRC of its content, and writes each schema and channel record in the
+chunk of the first message that uses it (older files of this package have them before
+that chunk; both are read).
 
 How to recover, from Python (no ROS needed)::
 
