@@ -1,7 +1,9 @@
 """Online identification core: joint-state samples in, a-priori effort predictions out.
 
 Pure numpy, no rclpy: the ``identifier`` node converts messages and calls
-:meth:`OnlineIdentifier.process`.
+:meth:`OnlineIdentifier.process`. What it is built from is here too: the joint limits
+(:mod:`.joint_limits`), the checks of a warm start (:mod:`.warm_start`) and the build for the
+first valid sample's joints (:mod:`.lazy_core`).
 """
 from __future__ import annotations
 
@@ -11,7 +13,10 @@ from scara_ident_ros.identification.error_window import PAPER_WINDOW, ErrorStats
 from scara_ident_ros.identification.holdout import Holdout
 from scara_ident_ros.identification.input_stage import (DIFFERENTIATORS, AccelerationEstimate,
                                                         Input, InputStage, make_differentiator)
+from scara_ident_ros.identification.joint_limits import (LIMIT_NAMES, JointLimits, LimitsError,
+                                                         load_joint_limits)
 from scara_ident_ros.identification.joint_map import JointMap
+from scara_ident_ros.identification.lazy_core import CoreSettings, LazyCore, Skipped
 from scara_ident_ros.identification.online_identifier import (Counts, EffortModel,
                                                               OnlineIdentifier, StepResult)
 from scara_ident_ros.identification.sample_check import (DEFAULT_MAX_GAP_NS, Bounds, Sample,
@@ -20,11 +25,15 @@ from scara_ident_ros.identification.reservoir import Reservoir
 from scara_ident_ros.identification.skip_reason import SkipReason
 from scara_ident_ros.identification.trainer import (TRAINERS, BackPropagation, ReservoirLM,
                                                     Trainer, make_trainer)
+from scara_ident_ros.identification.warm_start import (ModelMismatch, check_warm_start,
+                                                       model_joint_names)
 
 __all__ = [
-    'AccelerationEstimate', 'BackPropagation', 'Bounds', 'CentredDifferentiator', 'Counts',
-    'DEFAULT_MAX_GAP_NS', 'DIFFERENTIATORS', 'Differentiator', 'EffortModel', 'ErrorStats',
-    'ErrorWindow', 'Holdout', 'Input', 'InputStage', 'JointMap', 'METHODS', 'OnlineIdentifier',
+    'AccelerationEstimate', 'BackPropagation', 'Bounds', 'CentredDifferentiator', 'CoreSettings',
+    'Counts', 'DEFAULT_MAX_GAP_NS', 'DIFFERENTIATORS', 'Differentiator', 'EffortModel',
+    'ErrorStats', 'ErrorWindow', 'Holdout', 'Input', 'InputStage', 'JointLimits', 'JointMap',
+    'LIMIT_NAMES', 'LazyCore', 'LimitsError', 'METHODS', 'ModelMismatch', 'OnlineIdentifier',
     'PAPER_WINDOW', 'Reservoir', 'ReservoirLM', 'Sample', 'SampleCheck', 'SkipReason',
-    'StepResult', 'TRAINERS', 'Trainer', 'make_differentiator', 'make_trainer',
+    'Skipped', 'StepResult', 'TRAINERS', 'Trainer', 'check_warm_start', 'load_joint_limits',
+    'make_differentiator', 'make_trainer', 'model_joint_names',
 ]

@@ -45,16 +45,14 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 from std_srvs.srv import Trigger
 
-from scara_ident_ros.dynamics import ParamError, ScaraParams
-from scara_ident_ros.dynamics.urdf_limits import (UrdfError, identifier_limits, parse_urdf,
-                                                  read_urdf)
-from scara_ident_ros.identification import (DIFFERENTIATORS, TRAINERS, Bounds, Counts,
-                                            ErrorWindow, Holdout, JointMap, OnlineIdentifier,
-                                            ReservoirLM, SampleCheck, SkipReason, StepResult,
-                                            make_differentiator, make_trainer)
+from scara_ident_ros.blas_threads import single_blas_thread
+from scara_ident_ros.identification import (DIFFERENTIATORS, LIMIT_NAMES, TRAINERS, CoreSettings,
+                                            ErrorWindow, LazyCore, OnlineIdentifier, ReservoirLM,
+                                            SkipReason, StepResult, check_warm_start,
+                                            load_joint_limits, make_differentiator)
 from scara_ident_ros.identification.health import (Deltas, Health, LossCounter,
                                                    identifier_health)
-from scara_ident_ros.methods import METHODS, limit_scaling, make_network
+from scara_ident_ros.methods import METHODS
 from scara_ident_ros.mse_layout import encode_mse
 from scara_ident_ros.nn import FeedForwardNet, ModelFormatError
 from scara_ident_ros.nodes.diagnostics import Diagnostics
@@ -62,9 +60,7 @@ from scara_ident_ros.nodes.messages import joint_state, stamp_to_ns
 from scara_ident_ros.nodes.parameters import ParamSpec, declare_parameters
 from scara_ident_ros.nodes.publisher_watch import PublisherWatch
 from scara_ident_ros.nodes.runtime import ConfigError, run_node
-from scara_ident_ros.blas_threads import single_blas_thread
 from scara_ident_ros.paths import unwritable_file
-from scara_ident_ros.resources import config_path
 from scara_ident_ros.topics import JOINT_STATES, MSE, TORQUE
 
 __all__ = ['IdentifierNode', 'main']
@@ -179,8 +175,6 @@ PARAMETERS = (
 #: Rejections that mean the message's joints are not the identifier's
 JOINT_SET_REASONS = (SkipReason.UNKNOWN_JOINT, SkipReason.MISSING_JOINT,
                      SkipReason.DUPLICATE_JOINT, SkipReason.JOINT_COUNT)
-LIMIT_NAMES = ('position_min', 'position_max', 'velocity_max', 'acceleration_max',
-               'effort_max')
 
 
 class IdentifierNode(Node):
@@ -189,10 +183,10 @@ class IdentifierNode(Node):
     def __init__(self) -> None:
         super().__init__('identifier')
         self.settings = s = declare_parameters(self, PARAMETERS, on_change=self._apply)
-        self.limits = self._limits()
-        self.network: FeedForwardNet | None = None
-        self.core: OnlineIdentifier | None = None
-        self.early = Counts()  # samples rejected before the first valid one (no joints yet)
+        self.limits = load_joint_limits(
+            joint_names=s['joint_names'], robot_config=s['robot_config'],
+            urdf_file=s['urdf_file'], robot_description=s['robot_description'],
+            explicit={key: s[key] for key in LIMIT_NAMES})
         names = list(s['joint_names'])
         for key in ('save_path', 'stats_file'):
             problem = unwritable_file(s[key]) if s[key] else ''
@@ -203,39 +197,25 @@ class IdentifierNode(Node):
         continuing = bool(not model_path and s['save_path'] and Path(s['save_path']).exists())
         if continuing:
             model_path = s['save_path']
-        if model_path:
-            self.network = self._load(model_path)
-            activation = METHODS[s['method']].activation
-            if self.network.activation != activation:
-                raise ConfigError(f"model {model_path} has {self.network.activation} "
-                                  f"hidden units, not the {activation} of method "
-                                  f"{s['method']}: set method to the model's")
-            saved = [str(n) for n in self.network.metadata.get('joint_names', [])]
-            # The network's inputs and outputs are in the saved order: another order would
-            # feed each joint's values to another joint's weights.
-            if names and saved and names != saved:
-                raise ConfigError(f'model {model_path} was trained for joints {saved} '
-                                  f'(in that order), not joint_names {names}')
-            names = names or saved
-            if names and len(names) != self.network.n_outputs:
-                raise ConfigError(f'model {model_path} has {self.network.n_outputs} '
-                                  f'outputs, not {len(names)} joints')
+        network = self._load(model_path) if model_path else None
+        if network is not None:
+            names = check_warm_start(network, names, source=model_path, method=s['method'])
             if continuing:
                 self.get_logger().info(f'continuing from the model at save_path {model_path}')
         self.max_lag_ns = 0  # ns, since the last statistics line
         self.worst_lag_ns = 0  # ns, since start
         self.last_warning = 0.0
-        try:  # checked at startup, used once the joints are known
-            self.differentiator = make_differentiator(s['differentiator'], window=s['window'],
-                                                      cutoff_hz=s['cutoff_hz'])
-        except ValueError as exc:
-            raise ConfigError(str(exc)) from None
+        # checked at startup (a bad window ends it in one line), used once the joints are known
+        self.differentiator = make_differentiator(s['differentiator'], window=s['window'],
+                                                  cutoff_hz=s['cutoff_hz'])
+        self.lazy = LazyCore(self.limits, network)  # the core, once the joints are known
         if names:
-            if self.network is None and any(n not in self.limits['names'] for n in names):
+            if network is None and self.limits.missing(names):
                 raise ConfigError(
-                    f"no joint limits for joint_names {names}: robot_config has "
-                    f"{self.limits['names']}; set robot_config, or position_min, position_max, "
-                    'velocity_max, acceleration_max and effort_max for these joints')
+                    f'no joint limits for joint_names {names}: robot_config has '
+                    f'{list(self.limits.names)}; set robot_config, or position_min, '
+                    'position_max, velocity_max, acceleration_max and effort_max for these '
+                    'joints')
             self._build(names)
         self.frame_id = ''  # header.frame_id of the latest sample, given to its predictions
         self.torque_publisher = self.create_publisher(JointState, TORQUE, STREAM_QOS)
@@ -262,6 +242,21 @@ class IdentifierNode(Node):
                 f'{self.torque_publisher.topic_name} and {self.mse_publisher.topic_name}')
         else:
             self._subscribe()
+
+    @property
+    def network(self) -> FeedForwardNet | None:
+        """The network: a warm start, or built with the core."""
+        return self.lazy.network
+
+    @property
+    def core(self) -> OnlineIdentifier | None:
+        """The online core, once the joints are known."""
+        return self.lazy.core
+
+    @property
+    def names(self) -> list[str]:
+        """The identified joints, once the core is built."""
+        return self.lazy.names
 
     def _subscribe(self) -> None:
         """Subscribe ``joint_states``: from now on samples are processed."""
@@ -344,7 +339,7 @@ class IdentifierNode(Node):
         before = self.summary()
         before.pop('previous', None)  # each reset's own counters, one entry per reset
         self.previous.append(before)
-        self.network, self.core, self.early = None, None, Counts()
+        self.lazy.reset()
         s = self.settings
         self.differentiator = make_differentiator(s['differentiator'], window=s['window'],
                                                   cutoff_hz=s['cutoff_hz'])
@@ -360,7 +355,7 @@ class IdentifierNode(Node):
 
     def health(self, period_s: float) -> Health:
         """The node's health over the last ``period_s`` s, for ``/diagnostics``."""
-        counts = self.core.counts if self.core is not None else self.early
+        counts = self.lazy.counts
         skipped = sum(counts.skipped.values())
         recent = self.deltas(processed=counts.processed, skipped=skipped, lost=self.loss.lost)
         error_finite, validation = True, None
@@ -380,52 +375,6 @@ class IdentifierNode(Node):
             validation_nmse=validation, learning=self.settings['learn'])
 
     # ------------------------------------------------------------------ configuration
-    def _limits(self) -> dict[str, Any]:
-        """Joint limits by joint name from a URDF, explicit parameters or the robot config."""
-        s = self.settings
-        if s['urdf_file'] or s['robot_description']:
-            return self._urdf_limits()
-        given = [name for name in LIMIT_NAMES if len(s[name])]
-        if given:
-            lengths = {len(s[name]) for name in LIMIT_NAMES}
-            if len(given) != len(LIMIT_NAMES) or len(lengths) != 1:
-                raise ConfigError('parameters ' + ', '.join(LIMIT_NAMES) +
-                                  ' must all be given, with one value per joint')
-            if not s['joint_names'] or len(s['joint_names']) != lengths.pop():
-                raise ConfigError('explicit joint limits need joint_names with one name per '
-                                  'limit value')
-            return {'names': list(s['joint_names']),
-                    **{name: np.asarray(s[name], float) for name in LIMIT_NAMES}}
-        try:
-            robot = ScaraParams.from_yaml(s['robot_config'] or config_path('scara.yaml'))
-        except (ParamError, OSError) as exc:
-            raise ConfigError(str(exc)) from None
-        return {'names': list(robot.joint_names),
-                **{name: robot.array(name) for name in LIMIT_NAMES}}
-
-    def _urdf_limits(self) -> dict[str, Any]:
-        """Limits from the URDF, with acceleration limits from acceleration_max or robot_config."""
-        s = self.settings
-        if s['urdf_file'] and s['robot_description']:
-            raise ConfigError('give urdf_file or robot_description, not both')
-        clash = [name for name in LIMIT_NAMES if name != 'acceleration_max' and len(s[name])]
-        if clash:
-            raise ConfigError(f'{", ".join(clash)}: the URDF gives these limits, leave them '
-                              'empty')
-        try:
-            urdf = (read_urdf(s['urdf_file']) if s['urdf_file']
-                    else parse_urdf(s['robot_description']))
-            if len(s['acceleration_max']):
-                if len(s['acceleration_max']) != len(s['joint_names']):
-                    raise ConfigError('acceleration_max needs joint_names, one name per value')
-                acceleration = dict(zip(s['joint_names'], s['acceleration_max']))
-            else:
-                robot = ScaraParams.from_yaml(s['robot_config'] or config_path('scara.yaml'))
-                acceleration = dict(zip(robot.joint_names, robot.array('acceleration_max')))
-            return identifier_limits(urdf, acceleration, required=s['joint_names'])
-        except (UrdfError, ParamError, OSError) as exc:
-            raise ConfigError(str(exc)) from None
-
     def _load(self, path: str) -> FeedForwardNet:
         try:
             network = FeedForwardNet.load(path)
@@ -438,57 +387,14 @@ class IdentifierNode(Node):
             network.momentum = s['momentum']
         return network
 
-    def _build(self, names: list[str]) -> bool:
-        """Create the network (unless warm-started) and the online core for ``names``."""
-        s = self.settings
-        if self.network is None:
-            order = self._limit_order(names)
-            if order is None:
-                return False
-            ffmw = s['method'] == 'ffmw'
-            self.network = make_network(
-                s['method'], len(names), n_hidden=s['hidden_units'], seed=s['seed'],
-                learning_rate=s['learning_rate'] or None,
-                momentum=s['momentum'] if s['momentum'] >= 0 else None,
-                k=s['k'] if ffmw else None, a=s['a'] if ffmw else None,
-                b=s['b'] if ffmw else None)
-            self.network.set_scaling(*limit_scaling(
-                *(self.limits[name][order] for name in LIMIT_NAMES)))
-        self.network.metadata['joint_names'] = np.array(names)
-        self.network.metadata['method'] = np.array(s['method'])
-        n = len(names)
-        known = self.limits['names']
-        bounds = None
-        if s['limit_margin'] >= 0 and all(name in known for name in names):
-            index = [known.index(name) for name in names]
-            bounds = Bounds.from_limits(*(self.limits[key][index] for key in (
-                'position_min', 'position_max', 'velocity_max', 'effort_max')),
-                margin=s['limit_margin'])
-        holdout = (Holdout(3 * n, n, fraction=s['validation_fraction'],
-                           block=s['validation_block'], seed=s['seed'])
-                   if s['validation_fraction'] > 0 else None)
-        self.core = OnlineIdentifier(
-            self.network, joint_names=names, differentiator=self.differentiator,
-            trainer=make_trainer(s['trainer'], self.network, capacity=s['reservoir_size'],
-                                 interval=s['lm_interval'], steps=s['lm_steps'],
-                                 seed=s['seed']),
-            holdout=holdout, mse_window=s['mse_window'], learn=s['learn'],
-            max_gap_ns=round(s['max_gap'] * 1e9), bounds=bounds)
-        self.names = names
-        self.torque_msg = joint_state(0, names, effort=np.zeros(len(names)))
-        return True
-
-    def _limit_order(self, names: list[str]) -> np.ndarray | None:
-        """Indices of ``names`` among the limits' joints, or None (logged) if some lack limits."""
-        known = self.limits['names']
-        missing = [name for name in names if name not in known]
-        if missing:
-            self._warn(f'no joint limits for {missing} (limits are known for {known}, from '
-                       f"{self.limits.get('source', 'robot_config')}): set urdf_file, "
-                       'robot_config or position_min, position_max, velocity_max, '
-                       'acceleration_max, effort_max and joint_names')
-            return None
-        return np.array([known.index(name) for name in names])
+    def _build(self, names: list[str]) -> None:
+        """Build the core for ``names`` (at start and on ~/reset); a joint without limits
+        is logged, and the first valid sample tries again."""
+        why = self.lazy.build(names, CoreSettings.of(self.settings), self.differentiator)
+        if why:
+            self._warn(why)
+        else:
+            self.torque_msg = joint_state(0, names, effort=np.zeros(len(names)))
 
     # ------------------------------------------------------------------ per sample
     def on_joint_state(self, msg: JointState) -> None:
@@ -540,26 +446,15 @@ class IdentifierNode(Node):
 
     def _build_from(self, msg: JointState) -> bool:
         """Build for the joints of ``msg`` if it is valid; else count it as skipped."""
-        n_joints = self.network.n_outputs if self.network is not None else None  # warm start
-        # Without effort a sample still fixes the joints: it is predicted, not learnt.
-        check = SampleCheck(JointMap(n_joints=n_joints), need_effort=False)
-        reason = check.check(stamp_to_ns(msg.header.stamp), msg.name, msg.position,
-                             msg.velocity, msg.effort)
-        if not isinstance(reason, SkipReason) and len(msg.name) < self.settings['min_joints']:
-            reason = SkipReason.JOINT_COUNT
-            self._warn(f'waiting for a message naming at least {self.settings["min_joints"]} '
-                       f'joints (min_joints); this one names {list(msg.name)}')
-        if not isinstance(reason, SkipReason) and self._build(list(msg.name)):
-            assert self.core is not None
-            counts = self.core.counts
-            counts.processed += self.early.processed
-            for skipped, n in self.early.skipped.items():
-                counts.skipped[skipped] += n
+        skipped = self.lazy.first(CoreSettings.of(self.settings), self.differentiator,
+                                  stamp_to_ns(msg.header.stamp), msg.name, msg.position,
+                                  msg.velocity, msg.effort)
+        if skipped is None:
+            self.torque_msg = joint_state(0, self.names, effort=np.zeros(len(self.names)))
             return True
-        reason = reason if isinstance(reason, SkipReason) else SkipReason.UNKNOWN_JOINT
-        self.early.processed += 1
-        self.early.skipped[reason] += 1
-        self._warn(f'skipped a sample ({reason.value}) before the first valid one')
+        if skipped.note:
+            self._warn(skipped.note)
+        self._warn(f'skipped a sample ({skipped.reason.value}) before the first valid one')
         return False
 
     def _warn(self, text: str) -> None:
@@ -582,13 +477,14 @@ class IdentifierNode(Node):
 
     def handled(self) -> int:
         """Samples taken from ``joint_states`` so far (a stop drains until it stays put)."""
-        return self.core.counts.processed if self.core is not None else self.early.processed
+        return self.lazy.counts.processed
 
     def summary(self) -> dict[str, Any]:
         """Counters and errors so far, as plain data."""
         if self.core is None:
-            return {'method': self.settings['method'], 'processed': self.early.processed,
-                    'skipped': {reason.value: n for reason, n in self.early.skipped.items()
+            early = self.lazy.early
+            return {'method': self.settings['method'], 'processed': early.processed,
+                    'skipped': {reason.value: n for reason, n in early.skipped.items()
                                 if n}}
         counts = self.core.counts
         stats = self.core.error_stats()

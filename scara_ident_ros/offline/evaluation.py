@@ -17,20 +17,17 @@ from pathlib import Path
 import numpy as np
 import numpy.typing as npt
 
-from scara_ident_ros.errors import ScaraIdentError
 from scara_ident_ros.experiments.metrics import effort_errors
 from scara_ident_ros.experiments.tables import format_value
 from scara_ident_ros.identification import ErrorStats
+from scara_ident_ros.identification.warm_start import (ModelMismatch, check_warm_start,
+                                                       model_joint_names)
 from scara_ident_ros.methods import METHODS
 from scara_ident_ros.nn import FeedForwardNet, ModelFormatError
 from scara_ident_ros.offline.figures import effort_unit
 
 __all__ = ['ModelMismatch', 'errors_markdown', 'evaluate', 'load_model', 'model_joint_names',
            'model_method']
-
-
-class ModelMismatch(ScaraIdentError, ValueError):
-    """A network file cannot be used with a recording (one-line message)."""
 
 
 def load_model(path: Path) -> FeedForwardNet:
@@ -40,8 +37,9 @@ def load_model(path: Path) -> FeedForwardNet:
     ------
     ModelMismatch
         If the file is missing, the path is a directory, the file is not a network of
-        ours (not a .npz archive, another format, corrupt), or its sizes are not 3n inputs
-        for n outputs.
+        ours (not a .npz archive, another format, corrupt), its sizes are not 3n inputs
+        for n outputs, or it records another number of joints
+        (:func:`~scara_ident_ros.identification.warm_start.check_warm_start`).
     """
     path = Path(path)
     if path.is_dir():
@@ -57,23 +55,8 @@ def load_model(path: Path) -> FeedForwardNet:
     except (OSError, ValueError, KeyError, EOFError) as exc:
         raise ModelMismatch(f'{path}: not a scara-ident model file '
                             f'({type(exc).__name__}: {" ".join(str(exc).split())})') from None
-    if network.n_inputs != 3 * network.n_outputs:
-        raise ModelMismatch(f'{path}: a network with {network.n_inputs} inputs and '
-                            f'{network.n_outputs} outputs is not an inverse-dynamics model '
-                            '(3n inputs [q, qd, qdd] for n joint efforts)')
-    names = model_joint_names(network)
-    if names is not None and len(names) != network.n_outputs:
-        raise ModelMismatch(f'{path}: metadata names {len(names)} joints {list(names)} but the '
-                            f'network has {network.n_outputs} outputs')
+    check_warm_start(network, source=str(path))
     return network
-
-
-def model_joint_names(network: FeedForwardNet) -> tuple[str, ...] | None:
-    """The joints the network was trained for, in output order, or None if not recorded."""
-    names = network.metadata.get('joint_names')
-    if names is None:
-        return None
-    return tuple(str(name) for name in np.atleast_1d(names))
 
 
 def model_method(network: FeedForwardNet) -> str:

@@ -1,0 +1,164 @@
+"""A robot's joint limits by joint name: what scales the network and bounds the samples.
+
+:func:`load_joint_limits` takes them, as the identifier's parameters say, from a URDF (file
+or ``robot_description``, with acceleration limits from ``acceleration_max`` or the robot
+YAML), from five explicit lists with their joint names, or from the robot YAML
+(``config/scara.yaml`` unless another is given). :meth:`JointLimits.select` orders them for
+the identifier's joints; :meth:`JointLimits.scaling` and :meth:`JointLimits.bounds` give the
+network's input/output ranges and the values a sample may have.
+"""
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import numpy as np
+import numpy.typing as npt
+from numpy.typing import NDArray
+
+from scara_ident_ros.dynamics import ScaraParams
+from scara_ident_ros.dynamics.urdf_limits import identifier_limits, parse_urdf, read_urdf
+from scara_ident_ros.errors import ScaraIdentError
+from scara_ident_ros.identification.sample_check import Bounds
+from scara_ident_ros.methods import limit_scaling
+from scara_ident_ros.resources import config_path
+
+__all__ = ['LIMIT_NAMES', 'JointLimits', 'LimitsError', 'load_joint_limits']
+
+#: The limits of each joint, in the order of :class:`JointLimits`' arrays.
+LIMIT_NAMES = ('position_min', 'position_max', 'velocity_max', 'acceleration_max',
+               'effort_max')
+
+
+class LimitsError(ScaraIdentError, ValueError):
+    """Joint limits missing, inconsistent or given twice (a one-line message)."""
+
+
+@dataclass(frozen=True)
+class JointLimits:
+    """Joint limits by joint name.
+
+    Attributes
+    ----------
+    names : tuple of str of length n
+        The joints, in the order of the arrays.
+    position_min, position_max : ndarray of shape (n,)
+        Position range (rad or m).
+    velocity_max, acceleration_max, effort_max : ndarray of shape (n,)
+        Symmetric limits of velocity (rad/s, m/s), acceleration (rad/s², m/s²) and effort
+        (N·m, N).
+    source : str
+        Where they come from (a URDF's path, ``'robot_description'``, ``'robot_config'``).
+    """
+
+    names: tuple[str, ...]
+    position_min: NDArray[np.float64]
+    position_max: NDArray[np.float64]
+    velocity_max: NDArray[np.float64]
+    acceleration_max: NDArray[np.float64]
+    effort_max: NDArray[np.float64]
+    source: str = 'robot_config'
+
+    @classmethod
+    def of(cls, names: Sequence[str], limits: Mapping[str, npt.ArrayLike],
+           source: str = 'robot_config') -> JointLimits:
+        """From ``limits[key]`` for each key of :data:`LIMIT_NAMES`, a value per joint."""
+        a = {key: np.asarray(limits[key], float) for key in LIMIT_NAMES}
+        return cls(tuple(names), a['position_min'], a['position_max'], a['velocity_max'],
+                   a['acceleration_max'], a['effort_max'], source)
+
+    def missing(self, names: Sequence[str]) -> list[str]:
+        """The joints of ``names`` without limits here."""
+        return [name for name in names if name not in self.names]
+
+    def select(self, names: Sequence[str]) -> JointLimits:
+        """The limits of ``names``, in that order.
+
+        Raises
+        ------
+        LimitsError
+            Naming the joints of ``names`` without limits here.
+        """
+        missing = self.missing(names)
+        if missing:
+            raise LimitsError(f'no joint limits for {missing} (limits are known for '
+                              f'{list(self.names)}, from {self.source})')
+        order = [self.names.index(name) for name in names]
+        return replace(self, names=tuple(names),
+                       **{key: getattr(self, key)[order] for key in LIMIT_NAMES})
+
+    def scaling(self) -> tuple[NDArray[np.float64], ...]:
+        """The network's ``x_min, x_max`` (3n,) and ``y_min, y_max`` (n,): see
+        :func:`~scara_ident_ros.methods.limit_scaling`."""
+        return limit_scaling(*(getattr(self, key) for key in LIMIT_NAMES))
+
+    def bounds(self, margin: float) -> Bounds | None:
+        """The values a sample may have, ``margin`` (a fraction) beyond these limits; None
+        (no check) if ``margin`` is negative."""
+        if margin < 0:
+            return None
+        return Bounds.from_limits(self.position_min, self.position_max, self.velocity_max,
+                                  self.effort_max, margin=margin)
+
+
+def load_joint_limits(*, joint_names: Sequence[str] = (), robot_config: str = '',
+                      urdf_file: str = '', robot_description: str = '',
+                      explicit: Mapping[str, Sequence[float]] | None = None) -> JointLimits:
+    """The joint limits the identifier's parameters name.
+
+    Parameters
+    ----------
+    joint_names : sequence of str
+        The joints to identify (may be empty); explicit limits and ``acceleration_max``
+        with a URDF give one value per name.
+    robot_config : str
+        Robot YAML; empty: the installed ``config/scara.yaml``.
+    urdf_file, robot_description : str
+        A URDF file or text (at most one): its position, velocity and effort limits.
+    explicit : mapping of str to sequence of float
+        ``position_min`` ... ``effort_max`` (:data:`LIMIT_NAMES`), each empty or one value
+        per joint of ``joint_names``.
+
+    Raises
+    ------
+    LimitsError, UrdfError, ParamError
+        With a one-line message saying which parameter is wrong.
+    """
+    explicit = {key: (explicit or {}).get(key, ()) for key in LIMIT_NAMES}
+    robot_yaml = robot_config or config_path('scara.yaml')
+    if urdf_file or robot_description:
+        return _urdf_limits(joint_names, robot_yaml, urdf_file, robot_description, explicit)
+    given = [key for key in LIMIT_NAMES if len(explicit[key])]
+    if given:
+        lengths = {len(explicit[key]) for key in LIMIT_NAMES}
+        if len(given) != len(LIMIT_NAMES) or len(lengths) != 1:
+            raise LimitsError('parameters ' + ', '.join(LIMIT_NAMES) +
+                              ' must all be given, with one value per joint')
+        if not joint_names or len(joint_names) != lengths.pop():
+            raise LimitsError('explicit joint limits need joint_names with one name per '
+                              'limit value')
+        return JointLimits.of(joint_names, explicit)
+    robot = ScaraParams.from_yaml(robot_yaml)
+    return JointLimits.of(robot.joint_names, {key: robot.array(key) for key in LIMIT_NAMES})
+
+
+def _urdf_limits(joint_names: Sequence[str], robot_yaml: str | Path, urdf_file: str,
+                 robot_description: str, explicit: Mapping[str, Sequence[float]]
+                 ) -> JointLimits:
+    """A URDF's limits, with acceleration limits from ``acceleration_max`` or the robot YAML."""
+    if urdf_file and robot_description:
+        raise LimitsError('give urdf_file or robot_description, not both')
+    clash = [key for key in LIMIT_NAMES if key != 'acceleration_max' and len(explicit[key])]
+    if clash:
+        raise LimitsError(f'{", ".join(clash)}: the URDF gives these limits, leave them empty')
+    urdf = read_urdf(urdf_file) if urdf_file else parse_urdf(robot_description)
+    if len(explicit['acceleration_max']):
+        if len(explicit['acceleration_max']) != len(joint_names):
+            raise LimitsError('acceleration_max needs joint_names, one name per value')
+        acceleration = dict(zip(joint_names, explicit['acceleration_max']))
+    else:
+        robot = ScaraParams.from_yaml(robot_yaml)
+        acceleration = dict(zip(robot.joint_names, robot.array('acceleration_max')))
+    limits = identifier_limits(urdf, acceleration, required=joint_names)
+    return JointLimits.of(limits['names'], limits, limits['source'])

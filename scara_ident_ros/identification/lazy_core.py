@@ -1,0 +1,177 @@
+"""The online core, built once the joints are known: from settings or the first valid sample.
+
+Without ``joint_names`` the identifier learns the joints of the first valid message: until
+then there is no network to predict with (its size is the number of joints), and the
+samples skipped meanwhile are counted apart, then added to the core's counters.
+:class:`LazyCore` holds that state; :class:`CoreSettings` what the core is built from.
+"""
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, fields
+from typing import Any, NamedTuple
+
+import numpy as np
+
+from scara_ident_ros.identification.holdout import Holdout
+from scara_ident_ros.identification.input_stage import AccelerationEstimate
+from scara_ident_ros.identification.joint_limits import JointLimits
+from scara_ident_ros.identification.joint_map import JointMap
+from scara_ident_ros.identification.online_identifier import Counts, OnlineIdentifier
+from scara_ident_ros.identification.sample_check import FloatArrayLike, SampleCheck
+from scara_ident_ros.identification.skip_reason import SkipReason
+from scara_ident_ros.identification.trainer import make_trainer
+from scara_ident_ros.methods import make_network
+from scara_ident_ros.nn import FeedForwardNet
+
+__all__ = ['CoreSettings', 'LazyCore', 'Skipped']
+
+
+@dataclass(frozen=True)
+class CoreSettings:
+    """The identifier's parameters the network and the core are built from.
+
+    ``learning_rate`` 0 and a negative ``momentum`` take the method's defaults; ``k``,
+    ``a``, ``b`` are used by ``ffmw`` only; ``max_gap`` is in seconds; a negative
+    ``limit_margin`` checks no sample against the limits.
+    """
+
+    method: str
+    hidden_units: int
+    seed: int
+    learning_rate: float
+    momentum: float
+    k: float
+    a: float
+    b: float
+    trainer: str
+    reservoir_size: int
+    lm_steps: int
+    lm_interval: int
+    validation_fraction: float
+    validation_block: int
+    mse_window: int
+    learn: bool
+    max_gap: float
+    limit_margin: float
+    min_joints: int
+
+    @classmethod
+    def of(cls, values: Mapping[str, Any]) -> CoreSettings:
+        """The settings among ``values`` (e.g. all the node's parameters)."""
+        return cls(**{field.name: values[field.name] for field in fields(cls)})
+
+
+class Skipped(NamedTuple):
+    """A sample before the core was built: why it was skipped, and what to do (or '')."""
+
+    reason: SkipReason
+    note: str = ''
+
+
+class LazyCore:
+    """The network and online core, or what came before them.
+
+    Parameters
+    ----------
+    limits : JointLimits
+        Scale a fresh network and bound the samples of the joints they name.
+    network : FeedForwardNet, optional
+        A warm start (checked with :func:`~scara_ident_ros.identification.warm_start.
+        check_warm_start`); else a fresh network of the settings' method is made.
+
+    Attributes
+    ----------
+    network : FeedForwardNet or None
+        The warm start, or the network once built.
+    core : OnlineIdentifier or None
+        Once the joints are known.
+    names : list of str
+        The joints, once the core is built (else empty).
+    early : Counts
+        Samples skipped before the core was built.
+    """
+
+    def __init__(self, limits: JointLimits, network: FeedForwardNet | None = None) -> None:
+        self.limits = limits
+        self.network = network
+        self.core: OnlineIdentifier | None = None
+        self.names: list[str] = []
+        self.early = Counts()
+
+    @property
+    def counts(self) -> Counts:
+        """The core's counters, or the early ones until it is built."""
+        return self.core.counts if self.core is not None else self.early
+
+    def reset(self) -> None:
+        """Forget the network, the core and the early counters (fresh weights next build)."""
+        self.network, self.core, self.names, self.early = None, None, [], Counts()
+
+    def build(self, names: Sequence[str], settings: CoreSettings,
+              differentiator: AccelerationEstimate) -> str:
+        """Build the core for ``names``; return '' or, if some joint lacks limits (and there
+        is no warm start), why not. The early counters are added to the core's."""
+        names = list(names)
+        network = self.network
+        if network is None:
+            missing = self.limits.missing(names)
+            if missing:
+                return (f'no joint limits for {missing} (limits are known for '
+                        f'{list(self.limits.names)}, from {self.limits.source}): set '
+                        'urdf_file, robot_config or position_min, position_max, '
+                        'velocity_max, acceleration_max, effort_max and joint_names')
+            s = settings
+            ffmw = s.method == 'ffmw'
+            network = make_network(
+                s.method, len(names), n_hidden=s.hidden_units, seed=s.seed,
+                learning_rate=s.learning_rate or None,
+                momentum=s.momentum if s.momentum >= 0 else None,
+                k=s.k if ffmw else None, a=s.a if ffmw else None, b=s.b if ffmw else None)
+            network.set_scaling(*self.limits.select(names).scaling())
+        network.metadata['joint_names'] = np.array(names)
+        network.metadata['method'] = np.array(settings.method)
+        bounds = (None if self.limits.missing(names)
+                  else self.limits.select(names).bounds(settings.limit_margin))
+        n = len(names)
+        holdout = (Holdout(3 * n, n, fraction=settings.validation_fraction,
+                           block=settings.validation_block, seed=settings.seed)
+                   if settings.validation_fraction > 0 else None)
+        self.network, self.names = network, names
+        self.core = OnlineIdentifier(
+            network, joint_names=names, differentiator=differentiator,
+            trainer=make_trainer(settings.trainer, network, capacity=settings.reservoir_size,
+                                 interval=settings.lm_interval, steps=settings.lm_steps,
+                                 seed=settings.seed),
+            holdout=holdout, mse_window=settings.mse_window, learn=settings.learn,
+            max_gap_ns=round(settings.max_gap * 1e9), bounds=bounds)
+        counts = self.core.counts
+        counts.processed += self.early.processed
+        for reason, skipped in self.early.skipped.items():
+            counts.skipped[reason] += skipped
+        return ''
+
+    def first(self, settings: CoreSettings, differentiator: AccelerationEstimate,
+              stamp_ns: int, names: Sequence[str], position: FloatArrayLike,
+              velocity: FloatArrayLike, effort: FloatArrayLike) -> Skipped | None:
+        """Build for the joints of this sample if it is valid (None); else count it skipped.
+
+        A sample without effort fixes the joints too (it is predicted, not learnt); one
+        naming fewer than ``settings.min_joints`` joints does not.
+        """
+        n_joints = self.network.n_outputs if self.network is not None else None
+        check = SampleCheck(JointMap(n_joints=n_joints), need_effort=False)
+        reason = check.check(stamp_ns, names, position, velocity, effort)
+        note = ''
+        if not isinstance(reason, SkipReason) and len(names) < settings.min_joints:
+            reason = SkipReason.JOINT_COUNT
+            note = (f'waiting for a message naming at least {settings.min_joints} joints '
+                    f'(min_joints); this one names {list(names)}')
+        if not isinstance(reason, SkipReason):
+            note = self.build(names, settings, differentiator)
+            if not note:
+                return None
+            reason = SkipReason.UNKNOWN_JOINT
+        self.early.processed += 1
+        self.early.skipped[reason] += 1
+        return Skipped(reason, note)

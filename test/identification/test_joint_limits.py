@@ -1,0 +1,84 @@
+"""Joint limits chosen as the identifier's parameters say, selected and turned into bounds."""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from scara_ident_ros.dynamics import ParamError, ScaraParams
+from scara_ident_ros.dynamics.urdf_limits import UrdfError
+from scara_ident_ros.identification import LIMIT_NAMES, JointLimits, LimitsError, load_joint_limits
+from scara_ident_ros.methods import limit_scaling
+
+ROOT = Path(__file__).resolve().parents[2]
+URDF = ROOT / 'urdf' / 'scara.urdf'
+YAML = ScaraParams.from_yaml(ROOT / 'config' / 'scara.yaml')
+TWO = {'position_min': [-1.0, 0.0], 'position_max': [1.0, 0.5], 'velocity_max': [2.0, 1.0],
+       'acceleration_max': [10.0, 5.0], 'effort_max': [20.0, 100.0]}
+
+
+def test_the_default_is_the_robot_yaml() -> None:
+    limits = load_joint_limits()
+    assert limits.names == YAML.joint_names and limits.source == 'robot_config'
+    for key in LIMIT_NAMES:
+        np.testing.assert_array_equal(getattr(limits, key), YAML.array(key), err_msg=key)
+
+
+def test_a_urdf_gives_the_same_limits_with_the_yaml_accelerations() -> None:
+    from_urdf = load_joint_limits(urdf_file=str(URDF))
+    assert from_urdf.names == YAML.joint_names and from_urdf.source == str(URDF)
+    for key in LIMIT_NAMES:
+        np.testing.assert_array_equal(getattr(from_urdf, key), YAML.array(key), err_msg=key)
+    text = load_joint_limits(robot_description=URDF.read_text(), joint_names=['joint2'],
+                             explicit={'acceleration_max': [7.0]})
+    assert text.names == ('joint2',) and text.source == 'robot_description'
+    np.testing.assert_array_equal(text.acceleration_max, [7.0])
+
+
+def test_explicit_limits_name_their_joints() -> None:
+    limits = load_joint_limits(joint_names=['a', 'b'], explicit=TWO)
+    assert limits.names == ('a', 'b')
+    np.testing.assert_array_equal(limits.effort_max, [20.0, 100.0])
+
+
+@pytest.mark.parametrize(('options', 'error', 'message'), [
+    ({'explicit': {**TWO, 'effort_max': []}, 'joint_names': ['a', 'b']}, LimitsError,
+     'must all be given'),
+    ({'explicit': TWO, 'joint_names': ['a']}, LimitsError, 'need joint_names'),
+    ({'urdf_file': str(URDF), 'robot_description': 'x'}, LimitsError, 'not both'),
+    ({'urdf_file': str(URDF), 'explicit': {'effort_max': [1.0]}}, LimitsError,
+     'effort_max: the URDF gives these limits'),
+    ({'urdf_file': str(URDF), 'explicit': {'acceleration_max': [1.0]}}, LimitsError,
+     'acceleration_max needs joint_names'),
+    ({'urdf_file': str(URDF), 'joint_names': ['shoulder']}, UrdfError,
+     'no joint limits for shoulder'),
+    ({'robot_config': '/nowhere/robot.yaml'}, ParamError, 'nowhere'),
+    ({'robot_config': str(URDF)}, ParamError, 'scara.urdf'),
+])
+def test_bad_options_say_what_is_wrong(options: dict[str, Any], error: type[Exception],
+                                       message: str) -> None:
+    with pytest.raises(error, match=message):
+        load_joint_limits(**options)
+
+
+def test_select_orders_and_says_what_is_missing() -> None:
+    limits = JointLimits.of(['a', 'b'], TWO, source='test')
+    assert limits.missing(['b', 'c']) == ['c']
+    chosen = limits.select(['b', 'a'])
+    assert chosen.names == ('b', 'a') and chosen.source == 'test'
+    np.testing.assert_array_equal(chosen.position_max, [0.5, 1.0])
+    with pytest.raises(LimitsError, match=r"for \['c'\] .*\['a', 'b'\], from test"):
+        limits.select(['a', 'c'])
+
+
+def test_scaling_and_bounds() -> None:
+    limits = JointLimits.of(['a', 'b'], TWO)
+    for ours, theirs in zip(limits.scaling(), limit_scaling(*TWO.values()), strict=True):
+        np.testing.assert_array_equal(ours, theirs)
+    assert limits.bounds(-1.0) is None
+    bounds = limits.bounds(0.5)
+    assert bounds is not None
+    np.testing.assert_allclose(bounds.lo[0], [-2.0, -0.25])  # range 2 and 0.5, half beyond
+    np.testing.assert_allclose(bounds.hi[2], [30.0, 150.0])  # effort limits x 1.5
