@@ -14,9 +14,12 @@ from ``/proc/<pid>/status``. At the end it reports per node:
   networks, queues and bag chunks fill in the first minutes; a leak shows as a slope
   that stays above zero);
 
-and the run's ``/joint_states`` published / recorded / lost / late counts and each
-identifier's processed and skipped samples, from its ``summary.json``. The Markdown
-report (date, machine, load average at the start and the end) goes to ``--report``.
+and the run's ``/joint_states`` published / recorded / lost / late counts from its
+``summary.json``, and each identifier's processed, skipped and lost samples (gaps in the
+stamps: samples that fell out of the simulator's history while it was behind) and its
+largest lag, from its ``stats/<method>.json``. The Markdown report (date, machine, load
+average at the start and the end) goes to ``--report``; the samples themselves to
+``samples.json`` beside the run's output directory.
 
 Usage::
 
@@ -150,6 +153,13 @@ def soak(duration: float, interval: float, out: Path, env: dict[str, str],
     return status, nodes, time.monotonic() - started
 
 
+def _read_json(path: Path) -> dict[str, Any]:
+    try:
+        return json.loads(path.read_text())
+    except (OSError, ValueError):
+        return {}
+
+
 def _fmt(value: Any, spec: str = '') -> str:
     return '–' if value is None else format(value, spec)
 
@@ -191,12 +201,16 @@ def report(args: argparse.Namespace, *, domain: int, status: int,
               '|---|---:|---:|---:|---:|',
               f"| | {_fmt(js.get('published'))} | {_fmt(js.get('recorded'))} | "
               f"{_fmt(js.get('lost'))} | {_fmt(js.get('late'))} |",
-              '', '| identifier | processed | skipped | predictions published | recorded '
-              '| final NMSE (windowed) |', '|---|---:|---:|---:|---:|---:|']
+              '', '| identifier | processed | skipped | lost (gaps) | max lag (s) '
+              '| predictions published | recorded | final NMSE (windowed) |',
+              '|---|---:|---:|---:|---:|---:|---:|---:|']
     for name, row in summary.get('methods', {}).items():
         skipped = sum((row.get('skipped') or {}).values()) if isinstance(
             row.get('skipped'), dict) else row.get('skipped')
+        stats = _read_json(args.out / 'stats' / f'{name}.json')
+        lag = stats.get('max_lag_ms')
         lines.append(f"| {name.upper()} | {_fmt(row.get('processed'))} | {_fmt(skipped)} | "
+                     f"{_fmt(stats.get('lost'))} | {_fmt(lag and lag / 1000, '.1f')} | "
                      f"{_fmt(row.get('published'))} | {_fmt(row.get('recorded'))} | "
                      f"{_fmt(row.get('nmse_total'), '.3g')} |")
     lines += ['', f'Run output (bag, logs, stats, summary.json): `{args.out}` (not kept in '
@@ -238,17 +252,18 @@ def main() -> int:
     with open(args.out.parent / 'run.log', 'w') as log:
         status, nodes, wall = soak(args.duration, args.interval, args.out, env, log)
     load_end = os.getloadavg()
-    try:
-        summary = json.loads((args.out / 'summary.json').read_text())
-    except (OSError, ValueError):
-        summary = {}
+    summary = _read_json(args.out / 'summary.json')
+    (args.out.parent / 'samples.json').write_text(json.dumps(
+        {name: vars(node) for name, node in nodes.items()}))
     text = report(args, domain=domain, status=status, nodes=nodes, wall=wall,
                   summary=summary, date=date, loads=(load_start, load_end))
     args.report.write_text(text)
     print(text)
     js = summary.get('joint_states', {})
     complete = js.get('published') is not None and js.get('recorded') == js.get('published')
-    return 0 if status == 0 and complete and not js.get('lost') else 1
+    processed = all(row.get('processed') == js.get('published')
+                    for row in summary.get('methods', {}).values())
+    return 0 if status == 0 and complete and processed and not js.get('lost') else 1
 
 
 if __name__ == '__main__':
