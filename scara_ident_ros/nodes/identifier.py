@@ -209,14 +209,9 @@ class IdentifierNode(Node):
         self.differentiator = make_differentiator(s['differentiator'], window=s['window'],
                                                   cutoff_hz=s['cutoff_hz'])
         self.lazy = LazyCore(self.limits, network)  # the core, once the joints are known
-        if names:
-            if network is None and self.limits.missing(names):
-                raise ConfigError(
-                    f'no joint limits for joint_names {names}: robot_config has '
-                    f'{list(self.limits.names)}; set robot_config, or position_min, '
-                    'position_max, velocity_max, acceleration_max and effort_max for these '
-                    'joints')
-            self._build(names)
+        missing_limits = self._build(names) if names else ''
+        if missing_limits:
+            raise ConfigError(f'joint_names: {missing_limits}')
         self.frame_id = ''  # header.frame_id of the latest sample, given to its predictions
         self.torque_publisher = self.create_publisher(JointState, TORQUE, STREAM_QOS)
         self.mse_publisher = self.create_publisher(Float64MultiArray, MSE, 10)
@@ -343,8 +338,8 @@ class IdentifierNode(Node):
         s = self.settings
         self.differentiator = make_differentiator(s['differentiator'], window=s['window'],
                                                   cutoff_hz=s['cutoff_hz'])
-        if names is not None:
-            self._build(names)
+        if names is not None and (why := self._build(names)):
+            self._warn(why)  # a warm start's joints without limits: the next sample tries
         response.success = True
         response.message = (f"fresh weights (seed {s['seed']}); before the reset: "
                             f"processed {before['processed']}, learned "
@@ -387,14 +382,13 @@ class IdentifierNode(Node):
             network.momentum = s['momentum']
         return network
 
-    def _build(self, names: list[str]) -> None:
-        """Build the core for ``names`` (at start and on ~/reset); a joint without limits
-        is logged, and the first valid sample tries again."""
+    def _build(self, names: list[str]) -> str:
+        """Build the core for ``names`` (at start and on ~/reset); return '' or why not (a
+        joint without limits)."""
         why = self.lazy.build(names, CoreSettings.of(self.settings), self.differentiator)
-        if why:
-            self._warn(why)
-        else:
+        if not why:
             self.torque_msg = joint_state(0, names, effort=np.zeros(len(names)))
+        return why
 
     # ------------------------------------------------------------------ per sample
     def on_joint_state(self, msg: JointState) -> None:
