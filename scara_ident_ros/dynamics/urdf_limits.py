@@ -4,8 +4,9 @@ A real robot's limits are in its URDF (``<joint><limit lower upper velocity effo
 which ``robot_state_publisher`` holds as its ``robot_description`` parameter. This module
 reads them with the standard library's XML parser, for every revolute and prismatic joint,
 in document order, as the identifier uses them: per joint name, position range (rad or m),
-velocity limit (rad/s or m/s) and effort limit (N·m or N). URDF has no acceleration limit;
-:func:`identifier_limits` takes those from elsewhere (a robot YAML, a parameter).
+velocity limit (rad/s or m/s) and effort limit (N·m or N). URDF has no acceleration limit:
+:meth:`~scara_ident_ros.identification.joint_limits.JointLimits.from_urdf` adds those from
+elsewhere (a robot YAML, a parameter).
 
 Continuous joints (no position range) and joints without a ``<limit>`` cannot scale a
 network's inputs: they are listed in :attr:`UrdfLimits.unlimited`, not in the limits.
@@ -17,25 +18,21 @@ Public API::
                                                 effort_max (n,), unlimited, source
     parse_urdf(text, *, source='robot_description') -> UrdfLimits
     read_urdf(path) -> UrdfLimits
-    identifier_limits(urdf, acceleration_max, *, required=()) -> dict
-                                                the identifier's limit structure
 """
 from __future__ import annotations
 
 import math
 import xml.etree.ElementTree as ET
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from scara_ident_ros.errors import ScaraIdentError
 
-__all__ = ['UrdfError', 'UrdfLimits', 'parse_urdf', 'read_urdf', 'identifier_limits',
-           'LIMITED_TYPES']
+__all__ = ['UrdfError', 'UrdfLimits', 'parse_urdf', 'read_urdf', 'LIMITED_TYPES']
 
 #: Joint types whose ``<limit>`` gives a position range, a velocity and an effort limit.
 LIMITED_TYPES = ('revolute', 'prismatic')
@@ -172,42 +169,3 @@ def _limit_row(limit: ET.Element, where: str) -> tuple[float, float, float, floa
         raise UrdfError(f'{where}: velocity and effort limits must be > 0, got '
                         f'{velocity:g} and {effort:g}')
     return lower, upper, velocity, effort
-
-
-def identifier_limits(urdf: UrdfLimits, acceleration_max: Mapping[str, float], *,
-                      required: Sequence[str] = ()) -> dict[str, Any]:
-    """The identifier's joint limits: the URDF's, with acceleration limits by joint name.
-
-    Parameters
-    ----------
-    urdf : UrdfLimits
-        Position, velocity and effort limits.
-    acceleration_max : mapping of str to float
-        |q''| limit per joint name (rad/s² or m/s²); URDF has none.
-    required : sequence of str
-        Joints that must have every limit (the identifier's ``joint_names``).
-
-    Returns
-    -------
-    dict
-        ``{'names': [...], 'position_min': (n,), 'position_max': (n,), 'velocity_max': (n,),
-        'acceleration_max': (n,), 'effort_max': (n,), 'source': str}`` for the URDF's
-        joints that have an acceleration limit, in the URDF's order.
-
-    Raises
-    ------
-    UrdfError
-        Naming the ``required`` joints that the URDF has no limits for, or that have no
-        acceleration limit.
-    """
-    urdf.select(required)
-    lacking = [name for name in required if name not in acceleration_max]
-    if lacking:
-        raise UrdfError(f'{urdf.source}: no acceleration limit for {lacking} (URDF has none): '
-                        'give acceleration_max for joint_names, or a robot_config naming them')
-    names = [name for name in urdf.names if name in acceleration_max]
-    chosen = urdf.select(names)
-    return {'names': names, 'position_min': chosen.position_min,
-            'position_max': chosen.position_max, 'velocity_max': chosen.velocity_max,
-            'acceleration_max': np.array([float(acceleration_max[n]) for n in names]),
-            'effort_max': chosen.effort_max, 'source': urdf.source}

@@ -18,7 +18,7 @@ import numpy.typing as npt
 from numpy.typing import NDArray
 
 from scara_ident_ros.dynamics import ScaraParams
-from scara_ident_ros.dynamics.urdf_limits import identifier_limits, parse_urdf, read_urdf
+from scara_ident_ros.dynamics.urdf_limits import UrdfError, UrdfLimits, parse_urdf, read_urdf
 from scara_ident_ros.errors import ScaraIdentError
 from scara_ident_ros.identification.sample_check import Bounds
 from scara_ident_ros.methods import limit_scaling
@@ -67,6 +67,43 @@ class JointLimits:
         a = {key: np.asarray(limits[key], float) for key in LIMIT_NAMES}
         return cls(tuple(names), a['position_min'], a['position_max'], a['velocity_max'],
                    a['acceleration_max'], a['effort_max'], source)
+
+    @classmethod
+    def from_urdf(cls, urdf: UrdfLimits, acceleration_max: Mapping[str, float], *,
+                  required: Sequence[str] = ()) -> JointLimits:
+        """A URDF's limits, with acceleration limits by joint name (URDF has none).
+
+        Parameters
+        ----------
+        urdf : UrdfLimits
+            Position, velocity and effort limits.
+        acceleration_max : mapping of str to float
+            |q''| limit per joint name (rad/s² or m/s²).
+        required : sequence of str
+            Joints that must have every limit (the identifier's ``joint_names``).
+
+        Returns
+        -------
+        JointLimits
+            For the URDF's joints that have an acceleration limit, in the URDF's order.
+
+        Raises
+        ------
+        UrdfError
+            Naming the ``required`` joints that the URDF has no limits for, or that have
+            no acceleration limit.
+        """
+        urdf.select(required)
+        lacking = [name for name in required if name not in acceleration_max]
+        if lacking:
+            raise UrdfError(f'{urdf.source}: no acceleration limit for {lacking} (URDF has '
+                            'none): give acceleration_max for joint_names, or a robot_config '
+                            'naming them')
+        chosen = urdf.select([name for name in urdf.names if name in acceleration_max])
+        return cls(chosen.names, chosen.position_min, chosen.position_max,
+                   chosen.velocity_max,
+                   np.array([float(acceleration_max[n]) for n in chosen.names]),
+                   chosen.effort_max, urdf.source)
 
     def missing(self, names: Sequence[str]) -> list[str]:
         """The joints of ``names`` without limits here."""
@@ -160,5 +197,4 @@ def _urdf_limits(joint_names: Sequence[str], robot_yaml: str | Path, urdf_file: 
     else:
         robot = ScaraParams.from_yaml(robot_yaml)
         acceleration = dict(zip(robot.joint_names, robot.array('acceleration_max')))
-    limits = identifier_limits(urdf, acceleration, required=joint_names)
-    return JointLimits.of(limits['names'], limits, limits['source'])
+    return JointLimits.from_urdf(urdf, acceleration, required=joint_names)

@@ -8,9 +8,8 @@ import numpy as np
 import pytest
 
 from scara_ident_ros.dynamics import ScaraParams
-from scara_ident_ros.dynamics.urdf_limits import (UrdfError, identifier_limits, parse_urdf,
-                                                  read_urdf)
-from scara_ident_ros.identification import Bounds
+from scara_ident_ros.dynamics.urdf_limits import UrdfError, parse_urdf, read_urdf
+from scara_ident_ros.identification.joint_limits import JointLimits
 
 ROOT = Path(__file__).resolve().parents[2]
 URDF = ROOT / 'urdf' / 'scara.urdf'
@@ -35,13 +34,13 @@ def test_the_shipped_urdf_has_the_yaml_limits_of_the_scara() -> None:
     for name in ('position_min', 'position_max', 'velocity_max', 'effort_max'):
         np.testing.assert_array_equal(getattr(urdf, name), YAML.array(name), err_msg=name)
     # the identifier's structure, with the YAML's accelerations: what robot_config gives
-    limits = identifier_limits(urdf, dict(zip(YAML.joint_names,
-                                              YAML.array('acceleration_max').tolist())))
-    assert limits['names'] == list(YAML.joint_names)
+    limits = JointLimits.from_urdf(urdf, dict(zip(YAML.joint_names,
+                                                  YAML.array('acceleration_max').tolist())))
+    assert limits.names == YAML.joint_names
     for name in LIMITS:
-        np.testing.assert_array_equal(limits[name], YAML.array(name), err_msg=name)
-    bounds = Bounds.from_limits(*(limits[name] for name in ('position_min', 'position_max',
-                                                            'velocity_max', 'effort_max')))
+        np.testing.assert_array_equal(getattr(limits, name), YAML.array(name), err_msg=name)
+    bounds = limits.bounds(0.5)
+    assert bounds is not None
     assert bounds.lo.shape == bounds.hi.shape == (3, 4)
 
 
@@ -92,11 +91,11 @@ def test_joints_missing_in_the_urdf_are_reported() -> None:
         spinning.select(['a', 'wrist'])
     # a joint without an acceleration limit is left out of the identifier's limits, and
     # reported if required
-    assert identifier_limits(urdf, {'joint2': 50.0})['names'] == ['joint2']
+    assert JointLimits.from_urdf(urdf, {'joint2': 50.0}).names == ('joint2',)
     with pytest.raises(UrdfError, match=r"no acceleration limit for \['joint1'\]"):
-        identifier_limits(urdf, {'joint2': 50.0}, required=['joint2', 'joint1'])
+        JointLimits.from_urdf(urdf, {'joint2': 50.0}, required=['joint2', 'joint1'])
     with pytest.raises(UrdfError, match=r'no joint limits for shoulder'):
-        identifier_limits(urdf, {'shoulder': 50.0}, required=['shoulder'])
+        JointLimits.from_urdf(urdf, {'shoulder': 50.0}, required=['shoulder'])
 
 
 @pytest.mark.parametrize(('text', 'fragment'), [
