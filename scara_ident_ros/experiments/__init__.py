@@ -9,8 +9,8 @@ Modules, one concept each:
 ``rows``             `ResultRow` (one model on one data set), `summarise` over seeds
 ``hyperparameters``  the per-method grid search of online-learning settings
 ``metrics``          MSE and normalised MSE (MSE / effort variance) per joint
-``offline``          Table 2 analog: LM training from several seeds
-``online``           Table 3 analog: per-sample learning over a stream
+``table2``           Table 2 analog: LM training from several seeds
+``table3``           Table 3 analog: per-sample learning over a stream
 ``reference``        the model-based least-squares row
 ``tables``           rows to Markdown and CSV, the paper's numbers beside ours
 """
@@ -25,10 +25,10 @@ from scara_ident_ros.experiments.hyperparameters import (DEFAULT_GRID, QUICK_GRI
                                                          SearchResult, Trial, best_of,
                                                          build_network, search)
 from scara_ident_ros.experiments.metrics import effort_errors, recent_errors
-from scara_ident_ros.experiments.offline import (DEFAULT_GOAL, OfflineFit, OfflineRuns,
+from scara_ident_ros.experiments.table2 import (DEFAULT_GOAL, OfflineFit, OfflineRuns,
                                                  fit_offline, goal_iteration, offline_rows,
                                                  run_offline, train_offline)
-from scara_ident_ros.experiments.online import (DEFAULT_WINDOW, OnlineTrace, hold_rows,
+from scara_ident_ros.experiments.table3 import (DEFAULT_WINDOW, OnlineTrace, hold_rows,
                                                 learn_online, online_rows, run_online,
                                                 stream_data_names)
 from scara_ident_ros.experiments.reference import (ReferenceFit, fit_reference,

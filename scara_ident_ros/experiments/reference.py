@@ -36,7 +36,7 @@ import numpy.typing as npt
 from scara_ident_ros.dynamics import LeastSquaresIdentifier, ScaraParams
 from scara_ident_ros.experiments.datasets import Evaluations
 from scara_ident_ros.experiments.metrics import effort_errors, recent_errors
-from scara_ident_ros.experiments.online import DEFAULT_WINDOW, stream_data_names
+from scara_ident_ros.experiments.table3 import DEFAULT_WINDOW, stream_data_names
 from scara_ident_ros.experiments.rows import REFERENCE, ResultRow
 from scara_ident_ros.identification import PAPER_WINDOW
 
@@ -165,7 +165,7 @@ def online_reference_rows(X: npt.ArrayLike, Y: npt.ArrayLike,
                           window: int = DEFAULT_WINDOW, paper_window: int = PAPER_WINDOW,
                           coulomb_eps: float | None = None) -> list[ResultRow]:
     """Online-table reference rows, named like those of
-    :func:`~scara_ident_ros.experiments.online.online_rows`.
+    :func:`~scara_ident_ros.experiments.table3.online_rows`.
 
     Fitted on the stream's samples before its last ``max(window, paper_window)`` (at least
     half of the stream), evaluated on the last ``paper_window`` and ``window`` samples and on

@@ -149,7 +149,7 @@ def online_markdown(summaries: Iterable[Summary], *, short: str, long: str,
     summaries : iterable of Summary
         Those of table ``'online'`` are used.
     short, long, test : str
-        Data names (see :func:`~scara_ident_ros.experiments.online.stream_data_names`).
+        Data names (see :func:`~scara_ident_ros.experiments.table3.stream_data_names`).
     paper : bool
         Add the paper's column.
     """

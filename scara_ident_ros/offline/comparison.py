@@ -54,8 +54,8 @@ from scara_ident_ros.experiments.datasets import Dataset, dataset_from_record, s
 from scara_ident_ros.experiments.hyperparameters import (DEFAULT_GRID, QUICK_GRID, Grid,
                                                          Hyperparameters, SearchResult, search)
 from scara_ident_ros.experiments.learning_curves import curves_markdown, run_curves
-from scara_ident_ros.experiments.offline import run_offline
-from scara_ident_ros.experiments.online import hold_rows, run_online, stream_data_names
+from scara_ident_ros.experiments.table2 import run_offline
+from scara_ident_ros.experiments.table3 import hold_rows, run_online, stream_data_names
 from scara_ident_ros.experiments.reference import online_reference_rows, reference_rows
 from scara_ident_ros.experiments.rows import ResultRow, summarise
 from scara_ident_ros.experiments.tables import (PAPER_NOTE, format_value, joint_markdown,

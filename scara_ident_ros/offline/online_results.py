@@ -27,7 +27,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from scara_ident_ros.experiments.metrics import effort_errors, recent_errors
-from scara_ident_ros.experiments.online import DEFAULT_WINDOW, stream_data_names
+from scara_ident_ros.experiments.table3 import DEFAULT_WINDOW, stream_data_names
 from scara_ident_ros.experiments.rows import ResultRow
 from scara_ident_ros.identification import PAPER_WINDOW
 from scara_ident_ros.identification.error_window import normalised_mse
@@ -160,7 +160,7 @@ def prediction_rows(predictions: OnlinePredictions, *, window: int = DEFAULT_WIN
                     paper_window: int = PAPER_WINDOW) -> list[ResultRow]:
     """The Table 3 analog's rows of one identifier: errors of its a-priori predictions.
 
-    Named like :func:`scara_ident_ros.experiments.online.online_rows`: over the last
+    Named like :func:`scara_ident_ros.experiments.table3.online_rows`: over the last
     ``paper_window`` samples (the paper's "error over the last 100 samples", computed by
     ``ErrorWindow.recent``), the last ``window`` samples, and :data:`STREAM_ALL`, the whole
     run. ``iterations`` is the number of paired samples, ``seed`` None (one run).

@@ -38,8 +38,8 @@ import numpy as np
 
 from scara_ident_ros.experiments.datasets import Dataset
 from scara_ident_ros.experiments.metrics import effort_errors
-from scara_ident_ros.experiments.offline import DEFAULT_GOAL, OfflineFit
-from scara_ident_ros.experiments.online import DEFAULT_WINDOW, stream_data_names
+from scara_ident_ros.experiments.table2 import DEFAULT_GOAL, OfflineFit
+from scara_ident_ros.experiments.table3 import DEFAULT_WINDOW, stream_data_names
 from scara_ident_ros.experiments.reference import is_scara
 from scara_ident_ros.experiments.rows import ResultRow, summarise
 from scara_ident_ros.experiments.tables import (PAPER_ITERATIONS, PAPER_NOTE, PAPER_SAMPLES,

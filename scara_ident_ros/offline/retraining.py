@@ -3,7 +3,7 @@
 The run's samples (made as the identifier makes them) are split by time: the first
 ``1 − validation_fraction`` is the training part, of which ``samples`` random samples (the
 same for every method and seed) train each method's network with Levenberg–Marquardt for
-``iterations`` iterations (:func:`scara_ident_ros.experiments.offline.train_offline`,
+``iterations`` iterations (:func:`scara_ident_ros.experiments.table2.train_offline`,
 scaling from the training samples); the rest of the run ("validation", never trained on) and any
 held-out runs are evaluated. With ``reference=True`` (the caller knows the run is the
 SCARA's, e.g. :func:`scara_ident_ros.experiments.reference.is_scara`) the SCARA's
@@ -29,7 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from scara_ident_ros.experiments.datasets import Dataset
-from scara_ident_ros.experiments.offline import OfflineFit, train_offline
+from scara_ident_ros.experiments.table2 import OfflineFit, train_offline
 from scara_ident_ros.experiments.rows import ResultRow
 from scara_ident_ros.blas_threads import single_blas_thread
 from scara_ident_ros.offline.dataset import time_split

@@ -187,7 +187,7 @@ def run_online(X: npt.ArrayLike, Y: npt.ArrayLike, evaluations: Evaluations | No
     scaling : (x_min, x_max, y_min, y_max)
         Physical ranges mapped to [-1, 1] (the robot limits).
     methods, seeds, hyperparameters
-        As in :func:`scara_ident_ros.experiments.offline.run_offline`.
+        As in :func:`scara_ident_ros.experiments.table2.run_offline`.
     window, paper_window : int
         Window lengths of the stream rows (samples).
     progress : callable, optional
