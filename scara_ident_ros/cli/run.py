@@ -253,9 +253,9 @@ def _summary(methods: list[str], stats: Path, bag: Path, out: Path,
             'trainer': info.get('trainer'),
             'processed': info.get('processed'), 'learned': info.get('learned'),
             'held_out': info.get('held_out'),
-            'skipped': info.get('skipped'), 'mse_total': info.get('mse_total'),
-            'nmse_total': info.get('nmse_total'), 'mse': info.get('mse'),
-            'nmse': info.get('nmse'),
+            'skipped': info.get('skipped'), 'lost': info.get('lost'),
+            'mse_total': info.get('mse_total'), 'nmse_total': info.get('nmse_total'),
+            'mse': info.get('mse'), 'nmse': info.get('nmse'),
             'validation_nmse_total': info.get('validation_nmse_total'),
             'validation_nmse': info.get('validation_nmse'),
             'published': info.get('predicted'),
@@ -285,14 +285,14 @@ def _print_summary(summary: dict[str, Any]) -> None:
     if (js['publishers'] or 0) > 1:
         print(f"WARNING: {js['publishers']} publishers on /joint_states during the run: "
               "another graph's samples are mixed with this run's in the bag and the models")
-    print('\n| method | trainer | processed | learned | held out | skipped '
+    print('\n| method | trainer | processed | learned | held out | skipped | lost '
           '| identified_torque published | recorded | final MSE (windowed) | final NMSE '
           '| validation NMSE |')
-    print('|---|---|---|---|---|---|---|---|---|---|---|')
+    print('|---|---|---|---|---|---|---|---|---|---|---|---|')
     for name, row in summary['methods'].items():
         print(f"| {name.upper()} | {_fmt(row['trainer'])} | {_fmt(row['processed'])} | "
               f"{_fmt(row['learned'])} | {_fmt(row['held_out'])} | "
-              f"{_fmt(row['skipped'] or 0)} | {_fmt(row['published'])} | "
+              f"{_fmt(row['skipped'] or 0)} | {_fmt(row['lost'])} | {_fmt(row['published'])} | "
               f"{_fmt(row['recorded'])} | {_fmt(row['mse_total'])} | "
               f"{_fmt(row['nmse_total'])} | {_fmt(row['validation_nmse_total'])} |")
     print()

@@ -225,7 +225,7 @@ def test_summary_agrees_with_the_bag(run: Run, joint_states: JointStateSeries) -
     for method, row in info['methods'].items():
         recorded = len(read_joint_states(run.bag, topic=torque_topic(method)))
         assert row['published'] == row['recorded'] == recorded == SAMPLES, (method, row)
-        assert row['processed'] == SAMPLES, (method, row)
+        assert row['processed'] == SAMPLES and row['lost'] == 0, (method, row)
         # the default trainer; the held-out blocks (10 %) are predicted, never learnt
         assert row['trainer'] == 'lm', (method, row)
         assert row['learned'] + row['held_out'] == SAMPLES and row['held_out'] > 0, row
