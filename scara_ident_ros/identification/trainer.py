@@ -142,8 +142,9 @@ class BackPropagation:
         Raises
         ------
         ValueError
-            If the step was not finite, or overshot (module docstring): the weights and the
-            momentum are then as before it.
+            If the step was not finite (the weights are then as before it), or overshot
+            (module docstring: the weights are then as before it, the momentum forgotten
+            and the learning rate halved).
         """
         model = self.model
         if not self.guarded:

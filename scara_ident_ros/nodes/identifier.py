@@ -511,6 +511,10 @@ class IdentifierNode(Node):
                                    f"skipped {info['skipped']}")
         elif info['processed']:
             no_effort = f", {info['no_effort']} without effort" if info['no_effort'] else ''
+            # steps refused by the trainer (not finite, or undone by bp's guard, which also
+            # halves the learning rate) and predictions clipped to the effort limits
+            no_effort += ''.join(f', {key} {info[key]}' for key in ('refused', 'clipped')
+                                 if info.get(key))
             self.get_logger().info(
                 f"processed {info['processed']}, learned {info['learned']}, held out "
                 f"{info['held_out']}{no_effort}, skipped {info['skipped'] or 0}, max lag "
