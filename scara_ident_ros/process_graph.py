@@ -35,6 +35,7 @@ __all__ = ['NodeProcess', 'ProcessGraph', 'StopSignals', 'publishers_on']
 
 PR_SET_PDEATHSIG = 1  # prctl option: signal this process when its parent dies (Linux)
 PROBE_TIME = 2.0  # s of discovery before concluding that no other graph publishes
+PROBE_SETTLE = 1.0  # s of looking on once a publisher is found, for its graph's others
 PROBE_POLL = 0.1  # s between two looks at the publisher counts
 
 
@@ -193,8 +194,9 @@ def publishers_on(topics: Sequence[str], *, wait: float = PROBE_TIME) -> dict[st
     """Publishers already on the ROS domain of each topic that has some.
 
     A node of its own (in its own rclpy Context, shut down before returning) looks at the
-    graph for up to ``wait`` seconds (discovery takes a moment), returning as soon as one
-    of ``topics`` has a publisher.
+    graph for up to ``wait`` seconds (discovery takes a moment); once one of ``topics`` has
+    a publisher, it goes on looking for ``PROBE_SETTLE`` seconds so that the rest of that
+    graph is discovered too, and gives each topic's largest count.
     """
     import rclpy
     from rclpy.context import Context
@@ -206,10 +208,15 @@ def publishers_on(topics: Sequence[str], *, wait: float = PROBE_TIME) -> dict[st
         node = rclpy.create_node('scara_ident_graph_probe', context=context,
                                  enable_rosout=False, start_parameter_services=False)
         deadline = time.monotonic() + wait
+        found = dict.fromkeys(topics, 0)
         while True:
-            found = {topic: node.count_publishers(topic) for topic in topics}
-            if any(found.values()) or time.monotonic() >= deadline:
+            for topic in topics:
+                found[topic] = max(found[topic], node.count_publishers(topic))
+            now = time.monotonic()
+            if now >= deadline:
                 break
+            if any(found.values()):
+                deadline = min(deadline, now + PROBE_SETTLE)
             time.sleep(PROBE_POLL)
         node.destroy_node()
     finally:
