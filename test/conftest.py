@@ -3,7 +3,6 @@ from __future__ import annotations
 
 import os
 import sys
-import tempfile
 from pathlib import Path
 from typing import IO
 
@@ -17,5 +16,5 @@ from ros_domains import claim_domain  # noqa: E402  (test/ is no package)
 
 _held: IO[str] | None = None  # the lock of this run's domain, held until the process ends
 if 'ROS_DOMAIN_ID' not in os.environ:
-    _domain, _held = claim_domain(Path(tempfile.gettempdir()) / 'scara_ident_ros-domains')
+    _domain, _held = claim_domain()
     os.environ['ROS_DOMAIN_ID'] = str(_domain)

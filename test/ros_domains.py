@@ -2,15 +2,19 @@
 from __future__ import annotations
 
 import fcntl
+import tempfile
 from pathlib import Path
 from typing import IO
 
-__all__ = ['DOMAINS', 'claim_domain']
+__all__ = ['DOMAINS', 'LOCK_DIR', 'claim_domain']
 
 DOMAINS = range(100, 233)  # Fast DDS accepts 0-232; below 100 is left to users' graphs
+#: Where every test run on this machine keeps its domain locks.
+LOCK_DIR = Path(tempfile.gettempdir()) / 'scara_ident_ros-domains'
 
 
-def claim_domain(lock_dir: Path, domains: range = DOMAINS) -> tuple[int, IO[str]]:
+def claim_domain(lock_dir: Path = LOCK_DIR, domains: range = DOMAINS
+                 ) -> tuple[int, IO[str]]:
     """Take the first domain no other process on this machine holds, by an flock.
 
     A pid modulo can give two runs the same domain (seen: one run's bag held another's

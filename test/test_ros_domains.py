@@ -42,10 +42,9 @@ def test_this_run_holds_its_domain() -> None:
     assert 0 <= domain <= 232
     if domain < 100:
         return  # the user's choice, not a claim
-    code = ('import sys, tempfile; sys.path.insert(0, sys.argv[1]); '
-            'from pathlib import Path; from ros_domains import claim_domain; '
-            'claim_domain(Path(tempfile.gettempdir()) / "scara_ident_ros-domains", '
-            f'range({domain}, {domain + 1}))')
+    code = ('import sys; sys.path.insert(0, sys.argv[1]); '
+            'from ros_domains import LOCK_DIR, claim_domain; '
+            f'claim_domain(LOCK_DIR, range({domain}, {domain + 1}))')
     out = subprocess.run([sys.executable, '-c', code, str(Path(__file__).resolve().parent)],
                          text=True, capture_output=True, check=False,
                          env={k: v for k, v in os.environ.items() if k != 'ROS_DOMAIN_ID'})

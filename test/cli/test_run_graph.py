@@ -16,7 +16,6 @@ import os
 import signal
 import subprocess
 import sys
-import tempfile
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -46,7 +45,6 @@ FIRST = 100  # samples: the first 100 ms of predictions
 LAST = 1000  # samples: the last second of predictions
 FALL = 0.5  # the final validation NMSE must be below this fraction of the first published
 
-DOMAIN_LOCKS = Path(tempfile.gettempdir()) / 'scara_ident_ros-domains'  # as test/conftest.py
 
 
 @dataclass(frozen=True)
@@ -102,7 +100,7 @@ def run_graph(out: Path, *args: str, timeout: float = RUN_TIMEOUT) -> Run:
     this machine uses it meanwhile. The run's process group is stopped before returning,
     whatever happens (a timeout fails the test after the cleanup); its nodes end with it.
     """
-    domain, lock = claim_domain(DOMAIN_LOCKS)
+    domain, lock = claim_domain()
     with lock:
         return _run_graph(out, args, timeout, domain)
 

@@ -13,7 +13,6 @@ import os
 import signal
 import subprocess
 import sys
-import tempfile
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -39,7 +38,7 @@ STOP_TIMEOUT = 90.0  # s for the run to stop its graph and exit after the Ctrl-C
 @pytest.fixture(scope='module')
 def domain() -> Iterator[str]:
     """A ROS domain of this module's own (an flock, held until the module is done)."""
-    value, lock = claim_domain(Path(tempfile.gettempdir()) / 'scara_ident_ros-domains')
+    value, lock = claim_domain()
     try:
         yield str(value)
     finally:

@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import sys
-import tempfile
 from pathlib import Path
 from typing import IO
 
@@ -10,8 +9,6 @@ import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from ros_domains import claim_domain  # noqa: E402  (test/ is no package)
-
-DOMAIN_LOCKS = Path(tempfile.gettempdir()) / 'scara_ident_ros-domains'  # as test/conftest.py
 
 #: the last test's domain lock, released once the next test holds its own: two tests in a
 #: row never share a domain, so nothing a test left behind is heard by the next one
@@ -26,7 +23,7 @@ def domain(monkeypatch: pytest.MonkeyPatch) -> int:
     test run on this machine uses it meanwhile (a pid modulo could give two runs the same
     domain, and one run's bag then held the other's samples).
     """
-    value, lock = claim_domain(DOMAIN_LOCKS)
+    value, lock = claim_domain()
     while _previous:
         _previous.pop().close()
     _previous.append(lock)
