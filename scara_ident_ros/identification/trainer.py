@@ -13,8 +13,8 @@
     of 30,000 is undone (FFS, FFW, FFMW); at rate 3 (FFS, 5 s) an unguarded network ends
     with NMSE 2.7e5–3.9e6 and predictions of 17,874 N·m, a guarded one with NMSE 4e-5–1.1e-3
     (3 steps undone, rate lowered to 0.375); NMSE of the a-priori predictions over the
-    stream's last 2 s (tracking, not an unseen motion), 1–3 runs. The identifier clips
-    predictions beyond the effort limits.
+    stream's last 2 s (tracking, not an unseen motion), one run, range over the 4 joints.
+    The identifier clips predictions beyond the effort limits.
 
 ``'lm'`` (:class:`ReservoirLM`, the default)
     Every sample goes into a :class:`Reservoir`, a uniform random sample of the whole stream
