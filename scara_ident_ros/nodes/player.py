@@ -261,7 +261,9 @@ class PlayerNode(Node):
         return True
 
     def _wait_for_acks(self) -> bool:
-        """At the end: wait at most ACK_TIMEOUT for every acknowledgement; False if missing."""
+        """At the end: wait at most ACK_TIMEOUT for every acknowledgement; False if one of the
+        played topics misses some. The final /clock, published just before, is waited for too,
+        so that a subscriber gets the bag's end time before the player exits."""
         deadline = time.monotonic() + ACK_TIMEOUT
         complete = True
         for publisher in self._outputs.values():
@@ -270,6 +272,9 @@ class PlayerNode(Node):
                 complete = False
                 self.get_logger().warning(f'{publisher.topic_name}: not every message was '
                                           f'acknowledged within {ACK_TIMEOUT:g} s')
+        if self._clock_publisher is not None:  # /clock is a side channel: waited for, not failed
+            left = max(deadline - time.monotonic(), 0.0)
+            self._clock_publisher.wait_for_all_acked(Duration(nanoseconds=round(left * 1e9)))
         if complete:
             self.acknowledged = self.published
         return complete
