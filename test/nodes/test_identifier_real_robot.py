@@ -18,6 +18,7 @@ import numpy as np
 import pytest
 import yaml
 from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64MultiArray
 
 from scara_ident_ros.nodes.messages import NS_PER_S, stamp_to_ns
 
@@ -55,9 +56,14 @@ def test_learns_from_a_500_hz_jittered_stream_with_limits_from_robot_description
         tmp_path: Path, listener: rostest.Listener) -> None:
     states = listener.subscribe(JointState, '/joint_states', rostest.reliable(DEPTH))
     torques = listener.subscribe(JointState, '/identified_torque', rostest.reliable(DEPTH))
+    listener.subscribe(Float64MultiArray, '/identification_mse')
     stats_file = tmp_path / 'stats.json'
+    # The identifier subscribes joint_states once its outputs have matched this listener,
+    # and the simulator starts once both subscribe it: on a loaded machine the torques'
+    # match otherwise came 2.5 s late and those predictions went unheard (CI: 458 of 2990).
     args = ['--params-file', str(params_file(tmp_path, robot_description=URDF.read_text())),
-            '-p', f'stats_file:={stats_file}']
+            '-p', f'stats_file:={stats_file}', '-p', 'wait_for_subscribers:=1',
+            '-p', f'wait_timeout:={DISCOVERY_TIMEOUT}']
     with rostest.NodeProcess(IDENTIFIER, args) as node:
         sim_args = ['-p', f'rate_hz:={RATE_HZ}', '-p', f'jitter:={JITTER}',
                     '-p', f'duration:={DURATION}', '-p', 'real_time_factor:=2.0',
