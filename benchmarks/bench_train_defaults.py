@@ -40,6 +40,21 @@ Measured on 2 shared cores (load 2.5-5), seeds 0, 1, 2: the worst joint's held-o
     standard8   old defaults  0.32    0.39    0.26     9-13 s
                 new defaults  0.74    0.71    1.4      8-29 s
 
+Why the worst joint misses 1e-4 (measured 2026-12-02, seed 0): 33 % of the held-out samples
+have some input beyond the range of the 80 s recording (joint 2's speed reaches 8.9 rad/s
+in them, 6.2 rad/s in the recording: a sequence spends most of each segment in a blend of
+two excitations, smaller than either), and they carry 66 % of joint 2's squared error;
+on the held-out samples inside the range joint 2 is at 3.2e-4. The validation blocks
+(worst joint 2.7e-5 to 1.8e-4) do not show it: they interpolate the same excitations.
+Tried, not adopted (seeds 0, 1, 2 of the split and sample draw):
+
+- the best of 3 initial weights by validation NMSE: held-out worst joint 3.5e-4, 6.8e-5,
+  6.0e-4 (one run with validation 4.4e-5 had held-out 2.9e-3: validation does not rank
+  what it cannot see);
+- sequences that blend over the last half (last quarter) of each segment only: 29 % (25 %)
+  of the held-out samples outside the range, worst joint 7.1e-4, 1.6e-4, 0.12
+  (9.2e-4, 3.8e-4, 0.078).
+
 Usage::
 
     .venv/bin/python benchmarks/bench_train_defaults.py --data sequence80 --cli
