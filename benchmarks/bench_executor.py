@@ -39,6 +39,8 @@ import threading
 import time
 from typing import Any
 
+from ros_env import ros_env  # benchmarks/: the script's own folder
+
 WAYS = {
     'timer-spin': 'a. SingleThreadedExecutor + 1 ms timer + spin()',
     'events-timer': 'b. EventsExecutor + 1 ms timer + spin_once loop',
@@ -143,10 +145,7 @@ def spin_check(executor_name: str) -> None:
 # -- the driver ------------------------------------------------------------------------------
 
 def child_env() -> dict[str, str]:
-    env = dict(os.environ)
-    env.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
-    env.setdefault('ROS_DOMAIN_ID', str(1 + os.getpid() % 100))
-    return env
+    return ros_env()
 
 
 def run_publisher(way: str, seconds: float) -> dict[str, float]:

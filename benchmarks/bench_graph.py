@@ -21,6 +21,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from ros_env import ros_env  # benchmarks/: the script's own folder
+
 TICKS = os.sysconf('SC_CLK_TCK')
 PAGE = os.sysconf('SC_PAGE_SIZE')
 
@@ -61,9 +63,7 @@ def main() -> int:
     parser.add_argument('--seconds', type=float, default=600.0)
     parser.add_argument('--interval', type=float, default=10.0)
     args = parser.parse_args()
-    env = {**os.environ}
-    env.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
-    env.setdefault('ROS_DOMAIN_ID', str(1 + os.getpid() % 100))
+    env = ros_env()
     out = Path(tempfile.mkdtemp(prefix='bench_graph_'))
     exe = Path(sys.executable).with_name('scara-ident')
     run = subprocess.Popen([str(exe), 'run', '--duration', str(args.seconds), '--no-report',

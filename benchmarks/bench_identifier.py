@@ -41,6 +41,8 @@ from typing import IO, Any
 
 import numpy as np
 
+from ros_env import ros_env  # benchmarks/: the script's own folder
+
 IDENTIFIER = 'scara_ident_ros.nodes.identifier'
 SCARA_SIM = 'scara_ident_ros.nodes.scara_sim'
 JOINT_STATES_TOPIC = '/joint_states'
@@ -382,9 +384,7 @@ def main() -> None:
     parser.add_argument('--profile', type=Path, metavar='FILE',
                         help='run the throughput identifier under cProfile, stats to FILE')
     args = parser.parse_args()
-    os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = os.environ.get(
-        'ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
-    os.environ.setdefault('ROS_DOMAIN_ID', str(1 + os.getpid() % 100))
+    os.environ.update(ros_env())
     print(f'{os.cpu_count()} CPUs; load average {load()} at start\n')
     with tempfile.TemporaryDirectory() as workdir:
         if args.only != 'latency':

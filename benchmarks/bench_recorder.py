@@ -22,7 +22,7 @@ with the recorder of checkout A, then of B, ``--repeat`` times (default 5), and 
 median [min-max]; ``--compare A B --writer`` measures the writer alone instead (no DDS;
 see :func:`writer_cost`): CPU per message at 4 x 1 kHz and 1 x 50 kHz, and how many
 messages a kill would lose. DDS stays on this machine
-(``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST``) in a domain derived from the process id.
+(``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST``) in a domain of its own (``ros_env.py``).
 
 Measured on the shared 2-core machine of this project while it was otherwise quiet
 (6-joint JointState, 268 bytes; recorder defaults unless stated)::
@@ -62,6 +62,8 @@ import tempfile
 import time
 from dataclasses import dataclass
 from pathlib import Path
+
+from ros_env import ros_env  # benchmarks/: the script's own folder
 
 REPO = Path(__file__).resolve().parents[1]
 TOPIC = '/joint_states'
@@ -400,7 +402,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.compare and args.writer:
         print(compare_writers([p.resolve() for p in args.compare], args.repeat, 10.0))
         return 0
-    domain = 100 + os.getpid() % 100
+    domain = int(ros_env()['ROS_DOMAIN_ID'])
     results = []
     with tempfile.TemporaryDirectory(prefix='bench_recorder_') as tmp:
         chosen = scenarios(args.quick)

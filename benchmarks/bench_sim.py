@@ -36,6 +36,8 @@ from typing import Any
 
 import numpy as np
 
+from ros_env import ros_env  # benchmarks/: the script's own folder
+
 SIM_MODULE = 'scara_ident_ros.nodes.scara_sim'
 JOINT_STATES_TOPIC = '/joint_states'
 RATE_HZ = 1000.0
@@ -130,9 +132,8 @@ def stop(proc: subprocess.Popen[str], timeout: float = 20.0) -> int:
 
 def measure(seconds: float, warmup: float, workdir: Path) -> dict[str, Any]:
     """Run the simulator and the subscriber; return the figures of the window."""
-    env = {**os.environ, 'PYTHONUNBUFFERED': '1', 'RCUTILS_LOGGING_BUFFERED_STREAM': '0'}
-    env.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
-    env.setdefault('ROS_DOMAIN_ID', str(1 + os.getpid() % 100))
+    env = ros_env({**os.environ, 'PYTHONUNBUFFERED': '1',
+                   'RCUTILS_LOGGING_BUFFERED_STREAM': '0'})
     capacity = int((seconds + warmup + 30) * RATE_HZ * 1.2)
     record = workdir / 'received.npz'
     sim_log = workdir / 'sim.log'

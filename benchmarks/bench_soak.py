@@ -2,9 +2,9 @@
 
 Runs ``scara-ident run --duration SECONDS --no-report --out DIR`` (recorder, FFMW/FFW/FFS
 identifiers and the simulator, each its own process, started and stopped as the command
-does) on a ROS domain of its own: the first one free by the lock of
-``test/ros_domains.py`` (so no test run and no other benchmark shares it), or
-``--domain``. Every ``--interval`` seconds it reads, for each node process (a child of
+does) on a ROS domain of its own: ``--domain``, else ``ROS_DOMAIN_ID``, else the first one
+free by the lock of ``test/ros_domains.py`` (``ros_env.py``: no test run and no other
+benchmark shares it). Every ``--interval`` seconds it reads, for each node process (a child of
 the run), the CPU time from ``/proc/<pid>/stat`` and the resident memory (``VmRSS``)
 from ``/proc/<pid>/status``. At the end it reports per node:
 
@@ -48,12 +48,11 @@ from typing import IO, Any
 
 from bench_graph import children
 
+from ros_env import ros_env  # benchmarks/: the script's own folder
+
 HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE.parent / 'test'))
-from ros_domains import claim_domain  # noqa: E402  (test/ is no package)
 
 TICKS = os.sysconf('SC_CLK_TCK')  # clock ticks per second of /proc/<pid>/stat times
-LOCK_DIR = Path(tempfile.gettempdir()) / 'scara_ident_ros-domains'  # as test/conftest.py
 RSS_AT = 60.0  # s after the start: the "RSS at 1 min" column
 SLOPE_PER = 600.0  # s: the slope is given in MiB per 10 min
 NODE_ORDER = ('scara_sim', 'ffmw', 'ffw', 'ffs', 'recorder')
@@ -238,12 +237,9 @@ def main() -> int:
     if args.duration <= 0 or args.interval <= 0:
         parser.error('--duration and --interval must be > 0')
     args.out = args.out or Path(tempfile.mkdtemp(prefix='bench_soak_')) / 'run'
-    if args.domain is None:
-        domain, held = claim_domain(LOCK_DIR)  # held until this process ends
-    else:
-        domain = args.domain
-    env = {**os.environ, 'ROS_DOMAIN_ID': str(domain)}
-    env.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
+    env = ros_env({**os.environ, **({} if args.domain is None
+                                   else {'ROS_DOMAIN_ID': str(args.domain)})})
+    domain = int(env['ROS_DOMAIN_ID'])
     date = datetime.datetime.now(datetime.timezone.utc).strftime('%Y-%m-%d %H:%M UTC')
     load_start = os.getloadavg()
     print(f'bench_soak: {args.duration:g} s on ROS domain {domain}, output in {args.out}, '
