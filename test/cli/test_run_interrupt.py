@@ -135,11 +135,23 @@ def test_no_node_outlives_a_killed_run(tmp_path: Path, domain: str) -> None:
         while any(map(_running, nodes)) and time.monotonic() < deadline:
             time.sleep(0.2)
         alive = [pid for pid in nodes if _running(pid)]
-        assert not alive, f'nodes still running after their run was killed: {alive}'
+        assert not alive, ('nodes still running after their run was killed: '
+                           + '; '.join(map(_describe, alive)))
     finally:
         kill_group(run)
         for pid in filter(_running, nodes):
             os.kill(pid, signal.SIGKILL)
+
+
+def _describe(pid: int) -> str:
+    """``pid``, its command line and its state and signal masks, for a failure message."""
+    try:
+        command = Path(f'/proc/{pid}/cmdline').read_bytes().replace(b'\0', b' ').decode()
+        status = [line for line in Path(f'/proc/{pid}/status').read_text().splitlines()
+                  if line.startswith(('State', 'SigBlk', 'SigIgn', 'SigCgt', 'PPid'))]
+    except OSError:
+        return f'{pid} (gone)'
+    return f'{pid} {command.strip()} [{", ".join(status)}]'
 
 
 def _running(pid: int) -> bool:
