@@ -35,7 +35,7 @@ __all__ = ['NodeProcess', 'ProcessGraph', 'StopSignals', 'publishers_on']
 
 PR_SET_PDEATHSIG = 1  # prctl option: signal this process when its parent dies (Linux)
 PROBE_TIME = 2.0  # s of discovery before concluding that no other graph publishes
-PROBE_SETTLE = 1.0  # s of looking on once a publisher is found, for its graph's others
+PROBE_SETTLE = 2.0  # s of looking on after the last new publisher, for its graph's others
 PROBE_POLL = 0.1  # s between two looks at the publisher counts
 
 
@@ -195,8 +195,10 @@ def publishers_on(topics: Sequence[str], *, wait: float = PROBE_TIME) -> dict[st
 
     A node of its own (in its own rclpy Context, shut down before returning) looks at the
     graph for up to ``wait`` seconds (discovery takes a moment); once one of ``topics`` has
-    a publisher, it goes on looking for ``PROBE_SETTLE`` seconds so that the rest of that
-    graph is discovered too, and gives each topic's largest count.
+    a publisher, it goes on looking until no count has grown for ``PROBE_SETTLE`` seconds,
+    so that the rest of that graph is discovered too, and gives each topic's largest count.
+    The counts are what discovery found in that time: on a loaded machine a publisher
+    discovered later is missing from them (seen with 1 s: "1 publisher" where two ran).
     """
     import rclpy
     from rclpy.context import Context
@@ -210,13 +212,16 @@ def publishers_on(topics: Sequence[str], *, wait: float = PROBE_TIME) -> dict[st
         deadline = time.monotonic() + wait
         found = dict.fromkeys(topics, 0)
         while True:
+            grew = False
             for topic in topics:
-                found[topic] = max(found[topic], node.count_publishers(topic))
+                count = node.count_publishers(topic)
+                grew = grew or count > found[topic]
+                found[topic] = max(found[topic], count)
             now = time.monotonic()
+            if grew:  # a publisher appeared: look on for the rest of its graph
+                deadline = now + PROBE_SETTLE
             if now >= deadline:
                 break
-            if any(found.values()):
-                deadline = min(deadline, now + PROBE_SETTLE)
             time.sleep(PROBE_POLL)
         node.destroy_node()
     finally:
