@@ -11,13 +11,17 @@ drains: the messages already queued in its subscriptions are still taken, until 
 comes for :data:`DRAIN_QUIET` (at most :data:`DRAIN_TIMEOUT`), so a sample that a
 publisher saw acknowledged is not dropped. The node is then closed (``close()`` if it
 has one: flush files, save models), destroyed, and the process exits 0 with no
-traceback.
+traceback. A stop that takes longer than :data:`STOP_TIMEOUT` (a hang in a drain, a close
+or DDS) ends the process anyway, with exit status 1 and every thread's traceback on
+stderr: a node must not outlive the run that started it (``scara-ident run`` SIGTERMs its
+nodes when it dies), where it would go on publishing into the next graph on the domain.
 A :class:`ConfigError` (or any :class:`~scara_ident_ros.errors.ScaraIdentError`, such as a
 ``BagError``) raised while the node is built ends the process with one line naming the
 problem and exit status 2.
 """
 from __future__ import annotations
 
+import faulthandler
 import signal
 import sys
 import threading
@@ -44,14 +48,21 @@ __all__ = ['ConfigError', 'drain', 'help_text', 'run_node', 'POLL_PERIOD']
 POLL_PERIOD = 0.1  # seconds: the longest a stop request waits to be seen
 DRAIN_TIMEOUT = 10.0  # seconds a stopping node may spend on the messages already queued
 DRAIN_QUIET = 0.05  # seconds without a new message that end the drain
+#: Seconds from the first stop signal to the process's end at the latest: the drain
+#: (DRAIN_TIMEOUT), the outputs' acknowledgements (2-5 s) and close(), with room to spare.
+STOP_TIMEOUT = 45.0
 
 
 class ConfigError(ScaraIdentError):
     """A bad parameter or configuration file: reported as one line, exit status 2."""
 
 
-def _install_stop_handlers(stop: threading.Event) -> None:
+def _install_stop_handlers(stop: threading.Event, timeout: float = STOP_TIMEOUT) -> None:
+    """SIGINT and SIGTERM set ``stop``; the first also starts a watchdog that ends the
+    process (exit 1, tracebacks on stderr) if it is still there ``timeout`` s later."""
     def handler(signum: int, frame: FrameType | None) -> None:
+        if not stop.is_set():
+            faulthandler.dump_traceback_later(timeout, exit=True)
         stop.set()
 
     signal.signal(signal.SIGINT, handler)

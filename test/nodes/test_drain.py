@@ -1,6 +1,8 @@
 """``runtime.drain``: a stopping node takes what is queued, and no more than it may wait."""
 from __future__ import annotations
 
+import subprocess
+import sys
 import time
 
 from scara_ident_ros.nodes.runtime import drain
@@ -46,3 +48,25 @@ def test_drain_is_bounded_in_time() -> None:
     started = time.monotonic()
     drain(executor, lambda: executor.taken, timeout=0.2)
     assert time.monotonic() - started < 1.0
+
+
+def test_a_stop_that_hangs_ends_the_process_with_tracebacks() -> None:
+    """After a stop signal, a node stuck in its close (here: a sleep) still ends, exit 1,
+    naming where it hung: it must not outlive the run that stopped it."""
+    program = """
+import os, signal, threading, time
+from scara_ident_ros.nodes import runtime
+stop = threading.Event()
+runtime._install_stop_handlers(stop, timeout=1.0)
+os.kill(os.getpid(), signal.SIGTERM)
+assert stop.is_set()
+def stuck_in_close():
+    time.sleep(30)
+stuck_in_close()
+"""
+    started = time.monotonic()
+    done = subprocess.run([sys.executable, '-c', program], capture_output=True, text=True,
+                          timeout=25)
+    assert done.returncode == 1, done.stderr  # the watchdog's exit, not SIGTERM's (-15)
+    assert time.monotonic() - started < 20
+    assert 'Timeout' in done.stderr and 'stuck_in_close' in done.stderr, done.stderr
