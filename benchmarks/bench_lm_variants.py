@@ -1,0 +1,236 @@
+"""Variants of the ``lm`` trainer against joint 4's miss, and the diagnosis behind them.
+
+Joint 4's effort is mostly Coulomb friction, ``0.5·tanh(q'4 / 0.05)``; frozen after 120 s of
+``sequence`` it is the one joint above the 1e-3 target (``learning_curves.md``). This script
+streams 120 s through FFS with the ``lm`` trainer, as ``bench_learning_curves.py`` does
+(``network_curve``: the node's input stage, trainer and validation blocks, held-out
+excitations never streamed), with one change patched in per variant; the package itself is
+not changed. One Markdown row per seed, then the median and range of the worst joint.
+
+Variants (``--variant``, repeatable; default: all):
+
+``default``
+    the trainer as shipped: JᵀJ's hidden blocks in float32, 2 steps every 200 samples.
+``float64`` / ``float64-300``
+    JᵀJ in float64, every 200 samples / every 300 (about the default's CPU).
+``asinh``
+    velocities fed as ``v_max·asinh(v/c)/asinh(v_max/c)``, ``c = v_max/50``: the step at
+    q' = 0 eleven times wider in the network's input (held-out inputs mapped the same way).
+``slow-stratum``
+    a quarter of the reservoir's slots (1,000 of 4,000) kept for samples with some
+    ``|q'_j| < 0.01·v_max_j``.
+``reservoir-3000``
+    a reservoir of 3,000 samples instead of 4,000 (three quarters of the LM cost).
+``A+B``
+    both (e.g. ``float64+slow-stratum``).
+
+``--diagnose`` instead prints, for the default trainer: the reservoir's own NMSE against the
+held-out NMSE (underfitting or overfitting), the share of joint 4's held-out squared error
+at ``|q'4| < 0.2 rad/s``, and the held-out NMSE after 400 more float64 LM iterations on the
+frozen reservoir (``FeedForwardNet.fit``) and after 400 more of the trainer's own steps.
+
+Measured 2026-12-02 (2 shared cores, seeds 0-4 unless said; ``learning_curves.md``)::
+
+    default                      1.6e-3 [1.4e-3-0.014]   27-30 % of a core
+    float64                      1.4e-3 [2.0e-4-6.9e-3]  40-52 %
+    float64-300                  2.2e-3 [6.6e-4-0.10]    34 %
+    asinh                        0.015 [4.9e-3-0.034]    27 %
+    slow-stratum                 4.2e-3 [2.0e-3-0.044]   27 %
+    float64+slow-stratum         4.8e-4 [8.1e-5-0.020]   42-45 %
+    float64-300+slow-stratum     7.4e-3 [1.7e-3-0.20]    28-33 %
+    float64+slow-stratum+reservoir-3000
+                                 2.2e-3 [7.6e-5-2.7]     31-36 %
+
+Usage::
+
+    .venv/bin/python benchmarks/bench_lm_variants.py --seeds 0 1 2 3 4
+    .venv/bin/python benchmarks/bench_lm_variants.py --diagnose --seeds 0 1
+"""
+from __future__ import annotations
+
+import argparse
+import statistics
+import sys
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from scara_ident_ros.blas_threads import single_blas_thread  # noqa: E402
+from scara_ident_ros.dynamics import ScaraParams  # noqa: E402
+from scara_ident_ros.experiments import learning_curves as lc  # noqa: E402
+from scara_ident_ros.experiments.datasets import Dataset, simulate_record  # noqa: E402
+from scara_ident_ros.identification import trainer as tr  # noqa: E402
+from scara_ident_ros.identification.reservoir import Reservoir  # noqa: E402
+from scara_ident_ros.sim import SimConfig  # noqa: E402
+
+VARIANTS = ('default', 'float64', 'float64-300', 'asinh', 'slow-stratum', 'reservoir-3000')
+SECONDS = 120.0
+CHECKPOINTS = (30.0, 60.0, 90.0, 120.0)
+ASINH_RATIO = 50.0   # c = v_max / ASINH_RATIO
+SLOW_SHARE = 4      # a quarter of the reservoir's slots for the slow stratum
+SLOW_FRACTION = 0.01  # 'slow': some |q'_j| below this fraction of v_max_j
+
+
+def _nmse(y: np.ndarray, predicted: np.ndarray) -> np.ndarray:
+    return np.asarray(np.mean((y - predicted) ** 2, axis=0) / y.var(axis=0))
+
+
+def _patch_all(variant: str, params: ScaraParams) -> tuple[int, Any]:
+    """Patch every part of ``a+b+...``; the last interval and input map given win."""
+    interval, input_map = 200, None
+    for part in variant.split('+'):
+        part_interval, part_map = _patch(part, params)
+        interval = part_interval if part_interval != 200 else interval
+        input_map = part_map or input_map
+    return interval, input_map
+
+
+def _patch(variant: str, params: ScaraParams) -> tuple[int, Any]:
+    """Patch the trainer for ``variant`` (in this worker process only: each job has a
+    process of its own); return the ``lm_interval`` and the map applied to every input
+    row (or None)."""
+    v_max = params.array('velocity_max')
+    if variant.startswith('float64'):
+        base = tr.LevenbergMarquardt
+
+        class Float64(base):  # type: ignore[misc, valid-type]
+            def __init__(self, *args: Any, **kwargs: Any) -> None:
+                kwargs['single'] = False
+                super().__init__(*args, **kwargs)
+
+        tr.LevenbergMarquardt = Float64  # type: ignore[misc]
+        return (300 if variant == 'float64-300' else 200), None
+    if variant == 'asinh':
+        c = v_max / ASINH_RATIO
+
+        def stretch(x: np.ndarray) -> np.ndarray:
+            out = np.array(x, float, copy=True)
+            out[..., 4:8] = v_max * np.arcsinh(out[..., 4:8] / c) / np.arcsinh(v_max / c)
+            return out
+
+        learn = tr.ReservoirLM.learn
+        tr.ReservoirLM.learn = lambda self, x, y: learn(self, stretch(x), y)  # type: ignore
+        return 200, stretch
+    if variant == 'slow-stratum':
+        init, add = tr.ReservoirLM.__init__, Reservoir.add
+
+        def __init__(self: Any, model: Any, *, capacity: int = 4000, **kwargs: Any) -> None:
+            init(self, model, capacity=capacity - capacity // SLOW_SHARE, **kwargs)
+            slow = Reservoir(capacity // SLOW_SHARE, model.n_inputs, model.n_outputs,
+                             seed=kwargs.get('seed', 0) + 1)
+            main = self.reservoir
+
+            class Both:  # the two strata seen as one reservoir by step()
+                count = 0
+
+                def add(self, x: np.ndarray, y: np.ndarray) -> bool:
+                    slow_sample = bool(np.any(np.abs(x[4:8]) < SLOW_FRACTION * v_max))
+                    return add(slow if slow_sample else main, x, y)
+
+                def __len__(self) -> int:
+                    return len(main) + len(slow)
+
+                @property
+                def X(self) -> np.ndarray:
+                    return np.vstack([main.X, slow.X])
+
+                @property
+                def Y(self) -> np.ndarray:
+                    return np.vstack([main.Y, slow.Y])
+
+            self.reservoir = Both()
+
+        tr.ReservoirLM.__init__ = __init__  # type: ignore[method-assign]
+        return 200, None
+    if variant == 'reservoir-3000':
+        make = tr.make_trainer
+        tr.make_trainer = lambda *a, **k: make(*a, **{**k, 'capacity': 3000})  # type: ignore
+        return 200, None
+    return 200, None
+
+
+def _run(variant: str, seed: int, diagnose: bool) -> str:
+    with single_blas_thread():
+        params = ScaraParams()
+        interval, input_map = _patch_all(variant, params)
+        record = simulate_record(params, seconds=SECONDS, seed=seed, preset='sequence',
+                                 config=SimConfig(seed=seed))
+        held_out = lc.held_out_set(params)
+        if input_map is not None:
+            held_out = Dataset(held_out.stamp_ns, input_map(held_out.X), held_out.Y,
+                               held_out.acceleration, held_out.name)
+        made: list[Any] = []
+        make = tr.make_trainer
+        lc.make_trainer = lambda *a, **k: made.append(make(*a, **k)) or made[-1]
+        curve = lc.network_curve(record, held_out, params, method='ffs', trainer='lm',
+                                 seed=seed, lm_interval=interval, checkpoints=CHECKPOINTS)
+        worst = curve.nmse.max(axis=1)
+        cells = ' | '.join(f'{w:.2g}' for w in worst)
+        joints = ', '.join(f'{v:.2g}' for v in curve.nmse[-1])
+        row = (f'| {variant} | {seed} | {cells} | {joints} | '
+               f'{100 * curve.cpu_s / SECONDS:.0f} % |')
+        if not diagnose:
+            return row
+        trainer = made[-1]
+        net = trainer.model
+        res_x, res_y = trainer.reservoir.X.copy(), trainer.reservoir.Y.copy()
+        reservoir_nmse = _nmse(res_y, net.predict(res_x))
+        errors = (held_out.Y[:, 3] - net.predict(held_out.X)[:, 3]) ** 2
+        slow = np.abs(held_out.X[:, 7]) < 0.2
+        theta = net.theta.copy()
+        for _ in range(200):
+            trainer.step()  # 2 steps each: 400 of the trainer's own
+        own = _nmse(held_out.Y, net.predict(held_out.X))
+        net.theta[:] = theta
+        net.fit(res_x, res_y, iterations=400)
+        fitted = _nmse(held_out.Y, net.predict(held_out.X))
+        fmt = lambda a: ', '.join(f'{v:.2g}' for v in a)  # noqa: E731
+        return (f'{row}\n  at 120 s: reservoir NMSE {fmt(reservoir_nmse)}, '
+                f'held-out {fmt(curve.nmse[-1])}\n'
+                f'  joint 4: {100 * errors[slow].sum() / errors.sum():.0f} % of the held-out '
+                f'squared error at |q\'4| < 0.2 rad/s ({100 * slow.mean():.1f} % of samples)\n'
+                f'  +400 trainer steps (float32): {fmt(own)}\n'
+                f'  +400 float64 fit iterations: {fmt(fitted)}')
+
+
+def _job(job: tuple[str, int, bool]) -> str:
+    return _run(*job)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument('--variant', action='append', metavar='VARIANT',
+                        help=f'one of {", ".join(VARIANTS)}, or several joined by "+" '
+                             '(e.g. float64+slow-stratum)')
+    parser.add_argument('--seeds', type=int, nargs='+', default=[0, 1, 2, 3, 4])
+    parser.add_argument('--diagnose', action='store_true')
+    parser.add_argument('--workers', type=int, default=2)
+    args = parser.parse_args()
+    variants = ['default'] if args.diagnose else (args.variant or list(VARIANTS))
+    for variant in variants:
+        unknown = [part for part in variant.split('+') if part not in VARIANTS]
+        if unknown:
+            parser.error(f'unknown variant {unknown}; choose from {VARIANTS}')
+    jobs = [(v, s, args.diagnose) for v in variants for s in args.seeds]
+    print('| variant | seed | worst joint at ' + ' | '.join(f'{c:g} s' for c in CHECKPOINTS)
+          + ' | per joint at the end | CPU per s of stream |')
+    print('|---|---:|' + '---:|' * len(CHECKPOINTS) + '---|---:|')
+    worst: dict[str, list[float]] = {}
+    # One process per job: the patches of one variant must not leak into the next job.
+    with ProcessPoolExecutor(args.workers, max_tasks_per_child=1) as pool:
+        for (variant, _, _), text in zip(jobs, pool.map(_job, jobs)):
+            print(text, flush=True)
+            end = float(text.split('|')[3 + len(CHECKPOINTS) - 1])
+            worst.setdefault(variant, []).append(end)
+    for variant, values in worst.items():
+        print(f'{variant}: worst joint at {SECONDS:g} s, median {statistics.median(values):.2g} '
+              f'[{min(values):.2g}-{max(values):.2g}] over {len(values)} seeds')
+
+
+if __name__ == '__main__':
+    main()
