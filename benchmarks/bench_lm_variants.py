@@ -4,8 +4,9 @@ Joint 4's effort is mostly Coulomb friction, ``0.5·tanh(q'4 / 0.05)``; frozen a
 ``sequence`` it is the one joint above the 1e-3 target (``learning_curves.md``). This script
 streams 120 s through FFS with the ``lm`` trainer, as ``bench_learning_curves.py`` does
 (``network_curve``: the node's input stage, trainer and validation blocks, held-out
-excitations never streamed), with one change patched in per variant; the package itself is
-not changed. One Markdown row per seed, then the median and range of the worst joint.
+excitations never streamed), with one change per variant: ``float64`` and ``slow-stratum`` are the
+trainer's own options (the identifier's ``lm_float64`` and ``lm_slow_share``), the others
+are patched in here. One Markdown row per seed, then the median and range of the worst joint.
 
 Variants (``--variant``, repeatable; default: all):
 
@@ -64,15 +65,13 @@ from scara_ident_ros.dynamics import ScaraParams  # noqa: E402
 from scara_ident_ros.experiments import learning_curves as lc  # noqa: E402
 from scara_ident_ros.experiments.datasets import Dataset, simulate_record  # noqa: E402
 from scara_ident_ros.identification import trainer as tr  # noqa: E402
-from scara_ident_ros.identification.reservoir import Reservoir  # noqa: E402
 from scara_ident_ros.sim import SimConfig  # noqa: E402
 
 VARIANTS = ('default', 'float64', 'float64-300', 'asinh', 'slow-stratum', 'reservoir-3000')
 SECONDS = 120.0
 CHECKPOINTS = (30.0, 60.0, 90.0, 120.0)
 ASINH_RATIO = 50.0   # c = v_max / ASINH_RATIO
-SLOW_SHARE = 4      # a quarter of the reservoir's slots for the slow stratum
-SLOW_FRACTION = 0.01  # 'slow': some |q'_j| below this fraction of v_max_j
+SLOW_SHARE = 0.25   # share of the reservoir's slots for the slow stratum
 
 
 def _nmse(y: np.ndarray, predicted: np.ndarray) -> np.ndarray:
@@ -94,15 +93,7 @@ def _patch(variant: str, params: ScaraParams) -> tuple[int, Any]:
     process of its own); return the ``lm_interval`` and the map applied to every input
     row (or None)."""
     v_max = params.array('velocity_max')
-    if variant.startswith('float64'):
-        base = tr.LevenbergMarquardt
-
-        class Float64(base):  # type: ignore[misc, valid-type]
-            def __init__(self, *args: Any, **kwargs: Any) -> None:
-                kwargs['single'] = False
-                super().__init__(*args, **kwargs)
-
-        tr.LevenbergMarquardt = Float64  # type: ignore[misc]
+    if variant.startswith('float64'):  # the trainer's own option (lm_float64)
         return (300 if variant == 'float64-300' else 200), None
     if variant == 'asinh':
         c = v_max / ASINH_RATIO
@@ -115,36 +106,7 @@ def _patch(variant: str, params: ScaraParams) -> tuple[int, Any]:
         learn = tr.ReservoirLM.learn
         tr.ReservoirLM.learn = lambda self, x, y: learn(self, stretch(x), y)  # type: ignore
         return 200, stretch
-    if variant == 'slow-stratum':
-        init, add = tr.ReservoirLM.__init__, Reservoir.add
-
-        def __init__(self: Any, model: Any, *, capacity: int = 4000, **kwargs: Any) -> None:
-            init(self, model, capacity=capacity - capacity // SLOW_SHARE, **kwargs)
-            slow = Reservoir(capacity // SLOW_SHARE, model.n_inputs, model.n_outputs,
-                             seed=kwargs.get('seed', 0) + 1)
-            main = self.reservoir
-
-            class Both:  # the two strata seen as one reservoir by step()
-                count = 0
-
-                def add(self, x: np.ndarray, y: np.ndarray) -> bool:
-                    slow_sample = bool(np.any(np.abs(x[4:8]) < SLOW_FRACTION * v_max))
-                    return add(slow if slow_sample else main, x, y)
-
-                def __len__(self) -> int:
-                    return len(main) + len(slow)
-
-                @property
-                def X(self) -> np.ndarray:
-                    return np.vstack([main.X, slow.X])
-
-                @property
-                def Y(self) -> np.ndarray:
-                    return np.vstack([main.Y, slow.Y])
-
-            self.reservoir = Both()
-
-        tr.ReservoirLM.__init__ = __init__  # type: ignore[method-assign]
+    if variant == 'slow-stratum':  # the trainer's own option (lm_slow_share)
         return 200, None
     if variant == 'reservoir-3000':
         make = tr.make_trainer
@@ -166,8 +128,11 @@ def _run(variant: str, seed: int, diagnose: bool) -> str:
         made: list[Any] = []
         make = tr.make_trainer
         lc.make_trainer = lambda *a, **k: made.append(make(*a, **k)) or made[-1]
+        parts = variant.split('+')
         curve = lc.network_curve(record, held_out, params, method='ffs', trainer='lm',
-                                 seed=seed, lm_interval=interval, checkpoints=CHECKPOINTS)
+                                 seed=seed, lm_interval=interval, checkpoints=CHECKPOINTS,
+                                 lm_float64=any(p.startswith('float64') for p in parts),
+                                 lm_slow_share=SLOW_SHARE if 'slow-stratum' in parts else 0.0)
         worst = curve.nmse.max(axis=1)
         cells = ' | '.join(f'{w:.2g}' for w in worst)
         joints = ', '.join(f'{v:.2g}' for v in curve.nmse[-1])

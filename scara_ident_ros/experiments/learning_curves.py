@@ -118,21 +118,25 @@ def _nmse(Y: FloatArray, predicted: FloatArray) -> FloatArray:
 def network_curve(record: SimRecord, held_out: Dataset, params: ScaraParams, *, method: str,
                   trainer: str, seed: int = 0, lm_steps: int = 2,
                   checkpoints: Sequence[float] = CHECKPOINTS_S, window: int = 21,
-                  lm_interval: int = 200, validation_block: int = 500) -> Curve:
+                  lm_interval: int = 200, validation_block: int = 500,
+                  lm_float64: bool = False, lm_slow_share: float = 0.0) -> Curve:
     """Stream ``record`` through an identifier of ``method`` and ``trainer`` (node defaults).
 
     The network's scaling comes from the robot's limits, as in the node; 10 % of the
     samples (blocks of ``validation_block``) are held back for the identifier's own
-    validation, as in the node. ``lm_steps``, ``lm_interval``, ``window`` and
-    ``validation_block`` are the node's parameters of those names (the ``lm`` trainer's
-    steps per update and samples between updates, the centred q'' fit's samples).
+    validation, as in the node. ``lm_steps``, ``lm_interval``, ``lm_float64``,
+    ``lm_slow_share``, ``window`` and ``validation_block`` are the node's parameters of
+    those names (the ``lm`` trainer's steps per update, samples between updates, float64
+    normal equations and share of slow samples; the centred q'' fit's samples).
     """
     net = make_network(method, 4, seed=seed)
     net.set_scaling(*limit_scaling(*(params.array(name) for name in _LIMITS)))
     ident = OnlineIdentifier(net, joint_names=params.joint_names,
                              differentiator=make_differentiator('centred', window=window),
                              trainer=make_trainer(trainer, net, steps=lm_steps,
-                                                  interval=lm_interval, seed=seed),
+                                                  interval=lm_interval, seed=seed,
+                                                  float64=lm_float64,
+                                                  slow_share=lm_slow_share),
                              holdout=Holdout(12, 4, block=validation_block, seed=seed))
     names = params.joint_names
     stamps = record.stamp_ns

@@ -48,6 +48,8 @@ class CoreSettings:
     reservoir_size: int
     lm_steps: int
     lm_interval: int
+    lm_float64: bool
+    lm_slow_share: float
     validation_fraction: float
     validation_block: int
     mse_window: int
@@ -142,7 +144,8 @@ class LazyCore:
             network, joint_names=names, differentiator=differentiator,
             trainer=make_trainer(settings.trainer, network, capacity=settings.reservoir_size,
                                  interval=settings.lm_interval, steps=settings.lm_steps,
-                                 seed=settings.seed),
+                                 seed=settings.seed, float64=settings.lm_float64,
+                                 slow_share=settings.lm_slow_share),
             holdout=holdout, mse_window=settings.mse_window, learn=settings.learn,
             max_gap_ns=round(settings.max_gap * 1e9), bounds=bounds)
         counts = self.core.counts

@@ -29,6 +29,13 @@
     Measured (FFS, ``sequence`` stream, 5 seeds, benchmarks/learning_curves.md): frozen after
     120 s, held-out NMSE per joint (median) 2.1e-4, 8.1e-4, 8.6e-6 and 1.6e-3; joint 4,
     whose effort is mostly Coulomb friction (a step in q'4), converges last.
+    Two options, off by default, meet 1e-3 on every joint in the median of those seeds
+    together (4.8e-4 [8.1e-5–0.020], 3 seeds of 5; either alone does not) at 1.5× the CPU
+    (42–45 % of a core instead of 27–30 %, ``benchmarks/bench_lm_variants.py``): ``float64``
+    assembles JᵀJ in float64, and ``slow_share`` keeps that share of the reservoir for
+    samples where some joint moves slower than 1 % of its velocity input's half-range
+    (:data:`SLOW_FRACTION`): the samples around q' = 0, where the Coulomb step is, 2 % of
+    a stream and the bulk of joint 4's error.
 
 Both give the a-priori prediction of each sample, made before the sample is learnt.
 """
@@ -51,6 +58,9 @@ __all__ = ['Trainer', 'BackPropagation', 'ReservoirLM', 'TRAINERS', 'make_traine
 TRAINERS = ('lm', 'bp')
 
 LM_MU = 1e-3  # initial (and restart) damping of the reservoir LM
+#: A sample is slow (``ReservoirLM``'s ``slow_share``) when some joint's |q'| is below this
+#: fraction of the half-range of the network's velocity input (of v_max with limit scaling).
+SLOW_FRACTION = 0.01
 #: BP's step guard: a step is undone if, on its own sample, the squared scaled error after
 #: it exceeds GROWTH times the one before it plus GUARD_FLOOR per output (scaled units: the
 #: outputs' range is [-1, 1], so the floor is an error of 5 % of an effort range).
@@ -185,18 +195,38 @@ class ReservoirLM:
         LM steps per update, each on the whole reservoir.
     seed : int
         Seed of the reservoir's draws.
+    float64 : bool
+        Assemble JᵀJ in float64 (1.5× the cost) instead of float32.
+    slow_share : float
+        Share of ``capacity`` in [0, 0.5] kept for slow samples (some joint below
+        :data:`SLOW_FRACTION` of its velocity input's half-range), in a reservoir of their
+        own; 0: one uniform reservoir. The inputs are (q, q', q'') of n joints each.
     """
 
     name = 'lm'
 
     def __init__(self, model: FeedForwardNet, *, capacity: int = 4000, interval: int = 200,
-                 steps: int = 2, seed: int = 0) -> None:
+                 steps: int = 2, seed: int = 0, float64: bool = False,
+                 slow_share: float = 0.0) -> None:
         if interval < 1 or steps < 1:
             raise ValueError(f'need interval >= 1 and steps >= 1, got {interval}, {steps}')
+        if not 0.0 <= slow_share <= 0.5:
+            raise ValueError(f'slow_share must be in [0, 0.5], got {slow_share}')
         self.model = model
         self.interval = int(interval)
         self.steps_per_update = int(steps)
-        self.reservoir = Reservoir(capacity, model.n_inputs, model.n_outputs, seed=seed)
+        self.float64 = bool(float64)
+        n_slow = round(capacity * slow_share)
+        self.reservoir = Reservoir(capacity - n_slow, model.n_inputs, model.n_outputs,
+                                   seed=seed)
+        self.slow: Reservoir | None = None
+        if n_slow:
+            self.slow = Reservoir(n_slow, model.n_inputs, model.n_outputs, seed=seed + 1)
+            n = model.n_inputs // 3
+            self._velocities = slice(n, 2 * n)
+            scaling = model.x_scaling
+            half = (scaling.hi[self._velocities] - scaling.lo[self._velocities]) / 2.0
+            self._slow_below = SLOW_FRACTION * np.abs(half)  # (n,) physical speeds
         self.steps = 0  # LM steps taken
         self._since = 0  # samples since the last step
         self._lm: LevenbergMarquardt | None = None
@@ -204,23 +234,34 @@ class ReservoirLM:
     def learn(self, x: NDArray[np.float64], y: NDArray[np.float64]) -> NDArray[np.float64]:
         """Predict, keep the sample in the reservoir, and step every ``interval`` samples."""
         predicted = self.model.predict(x)
-        self.reservoir.add(x, y)
+        if self.slow is not None and bool(
+                np.any(np.abs(x[self._velocities]) < self._slow_below)):
+            self.slow.add(x, y)
+        else:
+            self.reservoir.add(x, y)
         self._since += 1
         if self._since >= self.interval:
             self._since = 0
             self.step()
         return predicted
 
+    def samples(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """The samples the LM steps fit: the reservoir's, then the slow ones, (m, ·)."""
+        if self.slow is None or len(self.slow) == 0:
+            return self.reservoir.X, self.reservoir.Y
+        return (np.vstack([self.reservoir.X, self.slow.X]),
+                np.vstack([self.reservoir.Y, self.slow.Y]))
+
     def step(self) -> bool:
         """Take ``steps`` LM steps on the reservoir now; return whether the weights changed."""
-        reservoir = self.reservoir
-        if len(reservoir) < 2:
+        X, Y = self.samples()
+        if len(X) < 2:
             return False
         model = self.model
-        xs = model.x_scaling.transform(reservoir.X)
-        ys = model.y_scaling.transform(reservoir.Y)
+        xs = model.x_scaling.transform(X)
+        ys = model.y_scaling.transform(Y)
         if self._lm is None:
-            self._lm = LevenbergMarquardt(model, xs, ys, mu=LM_MU, single=True)
+            self._lm = LevenbergMarquardt(model, xs, ys, mu=LM_MU, single=not self.float64)
         self._lm.set_data(xs, ys)
         try:
             for _ in range(self.steps_per_update):
@@ -233,16 +274,16 @@ class ReservoirLM:
 
 
 def make_trainer(name: str, model: FeedForwardNet, *, capacity: int = 4000,
-                 interval: int = 200, steps: int = 2,
-                 seed: int = 0) -> BackPropagation | ReservoirLM:
+                 interval: int = 200, steps: int = 2, seed: int = 0, float64: bool = False,
+                 slow_share: float = 0.0) -> BackPropagation | ReservoirLM:
     """Build the trainer called ``name`` (one of :data:`TRAINERS`) for ``model``.
 
-    ``capacity``, ``interval``, ``steps`` and ``seed`` are :class:`ReservoirLM`'s; BP uses
-    the network's own learning rate and momentum.
+    ``capacity``, ``interval``, ``steps``, ``seed``, ``float64`` and ``slow_share`` are
+    :class:`ReservoirLM`'s; BP uses the network's own learning rate and momentum.
     """
     if name == 'bp':
         return BackPropagation(model)
     if name == 'lm':
         return ReservoirLM(model, capacity=capacity, interval=interval, steps=steps,
-                           seed=seed)
+                           seed=seed, float64=float64, slow_share=slow_share)
     raise ValueError(f'unknown trainer {name!r}; choose from {TRAINERS}')

@@ -103,6 +103,47 @@ def test_lm_steps_only_lower_the_reservoir_error() -> None:
     assert errors[-1] < errors[0] / 100
 
 
+def test_slow_share_keeps_the_samples_near_zero_speed_apart() -> None:
+    """With ``slow_share``, samples where some joint is below 1 % of its velocity limit go
+    to a reservoir of their own, and the LM steps fit both; without it, one reservoir."""
+    data = simulate_dataset(PARAMS, seconds=2.0, seed=2)
+    slow = np.any(np.abs(data.X[:, 4:8]) < 0.01 * PARAMS.array('velocity_max'), axis=1)
+    assert 0 < slow.sum() < len(slow) - 400  # both kinds in the stream
+    trainer = ReservoirLM(network(), capacity=400, interval=10**9, slow_share=0.25)
+    for x, y in zip(data.X, data.Y):
+        trainer.learn(x, y)
+    assert trainer.slow is not None
+    assert trainer.reservoir.count == int((~slow).sum()) and trainer.reservoir.capacity == 300
+    assert trainer.slow.count == int(slow.sum()) and trainer.slow.capacity == 100
+    kept = np.abs(trainer.slow.X[:, 4:8]) < 0.01 * PARAMS.array('velocity_max')
+    assert kept.any(axis=1).all()
+    X, _ = trainer.samples()
+    assert len(X) == len(trainer.reservoir) + len(trainer.slow)
+    plain = ReservoirLM(network(), capacity=400)
+    assert plain.slow is None and plain.reservoir.capacity == 400
+    with pytest.raises(ValueError, match='slow_share'):
+        ReservoirLM(network(), slow_share=0.6)
+
+
+@pytest.mark.parametrize('float64', [False, True])
+def test_float64_assembles_the_normal_equations_in_float64(float64: bool,
+                                                           monkeypatch: pytest.MonkeyPatch
+                                                           ) -> None:
+    made: list[bool] = []
+    real = trainer_module.LevenbergMarquardt
+
+    def spy(*args: object, single: bool, **kwargs: object) -> object:
+        made.append(single)
+        return real(*args, single=single, **kwargs)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(trainer_module, 'LevenbergMarquardt', spy)
+    data = simulate_dataset(PARAMS, seconds=0.2, seed=2)
+    trainer = ReservoirLM(network(), capacity=100, interval=50, float64=float64)
+    for x, y in zip(data.X, data.Y):
+        trainer.learn(x, y)
+    assert made == [not float64] and trainer.steps > 0
+
+
 @pytest.mark.slow
 def test_reservoir_lm_identifies_where_bp_only_tracks() -> None:
     """60 s of varied motion: frozen LM predicts unseen excitations, BP does not (loose:
