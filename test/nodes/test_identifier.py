@@ -354,17 +354,23 @@ TRAINER_SAMPLES = 10_000  # 10 s at 1 kHz: lm's a-priori error settles after ~5 
 CHUNK = 1000  # samples published at once: the node's queue (5000) never overflows
 
 
+TRAINER_OPTIONS = {'bp': [], 'lm': [], 'lm-float64-slow': ['lm_float64:=true',
+                                                           'lm_slow_share:=0.25']}
+
+
 @pytest.mark.slow
-@pytest.mark.parametrize('trainer', ['bp', 'lm'])
+@pytest.mark.parametrize('case', list(TRAINER_OPTIONS))
 def test_trainers_bring_the_error_down(tmp_path: Path, listener: rostest.Listener,
-                                       trainer: str) -> None:
-    """Both online trainers, end to end on a simulated stream: the a-priori error of the
-    last 1000 predictions is a tenth of the first 1000's at most, and lm (fitted to the
-    whole stream) predicts the held-out samples well."""
+                                       case: str) -> None:
+    """Both online trainers (lm also with its float64 and slow-share options), end to end
+    on a simulated stream: the a-priori error of the last 1000 predictions is a tenth of
+    the first 1000's at most, and lm (fitted to the whole stream) predicts the held-out
+    samples well."""
+    trainer = case.split('-')[0]
     n = TRAINER_SAMPLES
     record = simulated(n)
     feed = Feed(listener)
-    with identifier(tmp_path, f'trainer:={trainer}') as node:
+    with identifier(tmp_path, f'trainer:={trainer}', *TRAINER_OPTIONS[case]) as node:
         feed.wait_for(node)
         for start in range(0, n, CHUNK):
             stop_at = min(start + CHUNK, n)
@@ -706,6 +712,7 @@ BAD_CONFIGS = {
                                'acceleration_max:=[1.0]', 'effort_max:=[1.0]'],
                     'finite numbers'),
     'an unknown trainer': (lambda d: ['trainer:=sgd'], "'trainer'"),
+    'a slow share above half': (lambda d: ['lm_slow_share:=0.6'], 'lm_slow_share'),
     'an even centred window': (lambda d: ['window:=20'], 'odd window'),
     'save_path a directory': (lambda d: [f'save_path:={d}'], 'is a directory'),
     'save_path unwritable': (lambda d: ['save_path:=/proc/model.npz'], 'save_path'),
