@@ -38,6 +38,11 @@ Measured 2026-12-02 (2 shared cores, seeds 0-4 unless said; ``learning_curves.md
     asinh                        0.015 [4.9e-3-0.034]    27 %
     slow-stratum                 4.2e-3 [2.0e-3-0.044]   27 %
     float64+slow-stratum         4.8e-4 [8.1e-5-0.020]   42-45 %
+    seeds 5-9, side by side:
+    default                      3.1e-3 [2.6e-3-8.9e-3]  28-30 %
+    float64+slow-stratum         3.0e-3 [4.4e-5-6.0e-3]  42-46 %
+    seeds 0-9: default 0 of 10 seeds under 1e-3 on every joint, median 2.6e-3;
+               float64+slow-stratum 5 of 10, median 1.5e-3
     float64-300+slow-stratum     7.4e-3 [1.7e-3-0.20]    28-33 %
     float64+slow-stratum+reservoir-3000
                                  2.2e-3 [7.6e-5-2.7]     31-36 %
