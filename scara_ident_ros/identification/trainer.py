@@ -31,9 +31,9 @@
     whose effort is mostly Coulomb friction (a step in q'4), converges last.
     Two options, off by default, together bring 5 seeds of 10 under 1e-3 on every joint
     (the default: none of 10; worst joint median 1.5e-3 against 2.6e-3, range 4.4e-5–0.020;
-    either alone does not) at 1.5× the CPU (42–46 % of a core instead of 27–30 %,
-    ``benchmarks/bench_lm_variants.py``): ``float64``
-    assembles JᵀJ in float64, and ``slow_share`` keeps that share of the reservoir for
+    alone, 2 and 0 seeds of 5) at 1.5× the CPU (42–46 % of a core instead of 27–30 %,
+    ``benchmarks/bench_lm_variants.py``): ``float64`` assembles JᵀJ in float64, and
+    ``slow_share`` keeps that share of the reservoir for
     samples where some joint moves slower than 1 % of its velocity input's half-range
     (:data:`SLOW_FRACTION`): the samples around q' = 0, where the Coulomb step is, 2 % of
     a stream and the bulk of joint 4's error.
