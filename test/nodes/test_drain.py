@@ -1,4 +1,5 @@
-"""``runtime.drain``: a stopping node takes what is queued, and no more than it may wait."""
+"""A stopping node (`runtime`): it takes what is queued, no more than it may wait, and the
+whole stop is bounded."""
 from __future__ import annotations
 
 import subprocess
