@@ -17,8 +17,10 @@ Public methods take and return physical units; training minimises errors of scal
 """
 from __future__ import annotations
 
+import itertools
 import math
 import operator
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Callable, NamedTuple
 
@@ -275,6 +277,50 @@ class FeedForwardNet:
         self._Vt[n_in] = bb + aa * rng.uniform(-s, s, n_hid)
         self._Wt[:, :n_hid] = rng.uniform(-1.0, 1.0, (self._n_out, n_hid)) / math.sqrt(n_hid)
         self._Wt[:, n_hid] = 0.0
+
+    def set_step_units(self, inputs: Sequence[int], widths: Sequence[float]) -> None:
+        """Start hidden units as steps of single inputs at 0, one per input and width.
+
+        Unit ``u`` (0, 1, … in the order ``widths`` × ``inputs``) gets the net input
+        z = 2·x_i / w of scaled input ``x_i`` alone (its other input weights 0, its bias
+        ``b``), so that a sigmoid unit is k·σ(2·x_i / w) = k·(1 + tanh(x_i / w)) / 2: a
+        step of half-width ``w`` (scaled units) at x_i = 0. The other units keep their
+        random weights, the output weights are not changed; training moves these units
+        like any other.
+
+        It gives a sigmoid network the shape of a robot's Coulomb friction (each joint's
+        effort jumps at zero speed) from the start. From random weights of ±weight_scale,
+        LM needs input weights of several hundred to fit such a step, and grows them too
+        slowly (``benchmarks/learning_curves.md``).
+
+        Parameters
+        ----------
+        inputs : sequence of int
+            Input columns (e.g. the joint velocities, n..2n−1 of [q, q', q'']).
+        widths : sequence of float
+            Half-widths, in scaled units (a fraction of the input's half-range), each > 0.
+
+        Raises
+        ------
+        ValueError
+            If an input is out of range, a width is not positive and finite, or there are
+            more steps than hidden units.
+        """
+        inputs = [operator.index(i) for i in inputs]
+        widths = [float(w) for w in widths]
+        if any(not 0 <= i < self._n_in for i in inputs):
+            raise ValueError(f'step inputs must be in [0, {self._n_in}), got {inputs}')
+        if any(not (math.isfinite(w) and w > 0.0) for w in widths):
+            raise ValueError(f'step widths must be positive, got {widths}')
+        if len(inputs) * len(widths) > self._n_hid:
+            raise ValueError(f'{len(widths)} step widths × {len(inputs)} inputs need more '
+                             f'than the {self._n_hid} hidden units')
+        a, b = self._constants.a, self._constants.b
+        units = range(len(inputs) * len(widths))
+        for unit, (width, column) in zip(units, itertools.product(widths, inputs)):
+            self._Vt[:, unit] = 0.0
+            self._Vt[column, unit] = 2.0 * a / width
+            self._Vt[self._n_in, unit] = b
 
     # ------------------------------------------------------------------------------ scaling
     def set_scaling(self, x_min: npt.ArrayLike, x_max: npt.ArrayLike,
