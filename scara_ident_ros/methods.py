@@ -12,7 +12,8 @@ from numpy.typing import ArrayLike
 
 from scara_ident_ros.nn import FeedForwardNet
 
-__all__ = ['Method', 'METHODS', 'method', 'make_network', 'limit_scaling']
+__all__ = ['Method', 'METHODS', 'FRICTION_STEP_WIDTHS', 'method', 'make_network',
+           'limit_scaling']
 
 
 @dataclass(frozen=True)
@@ -71,21 +72,40 @@ def method(name: str) -> Method:
         raise ValueError(f'unknown method {name!r}; known: {", ".join(METHODS)}') from None
 
 
+#: Half-widths of the friction steps (``make_network(friction_steps=True)``), as fractions
+#: of each joint's velocity limit: a geometric grid over two decades, so that some step is
+#: within a factor 2 of a joint's Coulomb step whatever its width in that range (the
+#: simulated SCARA's are 0.2–4.5 %). Measured (FFS, ``lm``, 120 s of ``sequence``):
+#: benchmarks/learning_curves.md.
+FRICTION_STEP_WIDTHS = (0.016, 0.004, 0.001, 0.00025)
+
+
 def make_network(name: str, n_joints: int, *, n_hidden: int = 40, seed: int = 0,
                  learning_rate: float | None = None, momentum: float | None = None,
                  k: float | None = None, a: float | None = None,
-                 b: float | None = None) -> FeedForwardNet:
+                 b: float | None = None, friction_steps: bool = False) -> FeedForwardNet:
     """Build the (3·n_joints)-n_hidden-n_joints network of method ``name``.
 
     Hyperparameters left as None take the method's defaults (:data:`METHODS`) and, for
     k, a, b, the activation's (MSLOG: 2.5, 5, 5).
+
+    With ``friction_steps``, the first hidden units start as steps of each joint's speed
+    q' at 0, one per joint and width of :data:`FRICTION_STEP_WIDTHS`
+    (:meth:`FeedForwardNet.set_step_units`; with limit scaling a width is a fraction of
+    the velocity limit): the shape of Coulomb friction, which Levenberg–Marquardt from
+    random weights fits too slowly online. As many widths as the hidden units hold, widest
+    first; the other units random.
     """
     spec = method(name)
-    return FeedForwardNet(
+    network = FeedForwardNet(
         3 * n_joints, n_hidden, n_joints, spec.activation, seed=seed, k=k, a=a, b=b,
         weight_scale=spec.weight_scale,
         learning_rate=spec.learning_rate if learning_rate is None else learning_rate,
         momentum=spec.momentum if momentum is None else momentum)
+    if friction_steps:
+        widths = FRICTION_STEP_WIDTHS[:n_hidden // n_joints]
+        network.set_step_units(range(n_joints, 2 * n_joints), widths)
+    return network
 
 
 def limit_scaling(position_min: ArrayLike, position_max: ArrayLike, velocity_max: ArrayLike,

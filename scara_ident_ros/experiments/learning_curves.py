@@ -119,17 +119,20 @@ def network_curve(record: SimRecord, held_out: Dataset, params: ScaraParams, *, 
                   trainer: str, seed: int = 0, lm_steps: int = 2,
                   checkpoints: Sequence[float] = CHECKPOINTS_S, window: int = 21,
                   lm_interval: int = 200, validation_block: int = 500,
-                  lm_float64: bool = False, lm_slow_share: float = 0.0) -> Curve:
+                  lm_float64: bool = False, lm_slow_share: float = 0.0,
+                  lm_friction_steps: bool = True) -> Curve:
     """Stream ``record`` through an identifier of ``method`` and ``trainer`` (node defaults).
 
     The network's scaling comes from the robot's limits, as in the node; 10 % of the
     samples (blocks of ``validation_block``) are held back for the identifier's own
     validation, as in the node. ``lm_steps``, ``lm_interval``, ``lm_float64``,
-    ``lm_slow_share``, ``window`` and ``validation_block`` are the node's parameters of
-    those names (the ``lm`` trainer's steps per update, samples between updates, float64
-    normal equations and share of slow samples; the centred q'' fit's samples).
+    ``lm_slow_share``, ``lm_friction_steps``, ``window`` and ``validation_block`` are the
+    node's parameters of those names (the ``lm`` trainer's steps per update, samples between
+    updates, float64 normal equations, share of slow samples and friction-step units; the
+    centred q'' fit's samples).
     """
-    net = make_network(method, 4, seed=seed)
+    net = make_network(method, 4, seed=seed,
+                       friction_steps=lm_friction_steps and trainer == 'lm')
     net.set_scaling(*limit_scaling(*(params.array(name) for name in _LIMITS)))
     ident = OnlineIdentifier(net, joint_names=params.joint_names,
                              differentiator=make_differentiator('centred', window=window),

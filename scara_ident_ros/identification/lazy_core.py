@@ -50,6 +50,7 @@ class CoreSettings:
     lm_interval: int
     lm_float64: bool
     lm_slow_share: float
+    lm_friction_steps: bool
     validation_fraction: float
     validation_block: int
     mse_window: int
@@ -129,7 +130,8 @@ class LazyCore:
                 s.method, len(names), n_hidden=s.hidden_units, seed=s.seed,
                 learning_rate=s.learning_rate or None,
                 momentum=s.momentum if s.momentum >= 0 else None,
-                k=s.k if ffmw else None, a=s.a if ffmw else None, b=s.b if ffmw else None)
+                k=s.k if ffmw else None, a=s.a if ffmw else None, b=s.b if ffmw else None,
+                friction_steps=s.lm_friction_steps and s.trainer == 'lm')
             network.set_scaling(*self.limits.select(names).scaling())
         network.metadata['joint_names'] = np.array(names)
         network.metadata['method'] = np.array(settings.method)

@@ -1,6 +1,7 @@
 """The core built for the first valid sample's joints, with the samples before it counted."""
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 from scara_ident_ros.identification import (CoreSettings, JointLimits, LazyCore, SkipReason,
@@ -14,7 +15,7 @@ LIMITS = JointLimits.of(NAMES, {
 SETTINGS = CoreSettings.of({
     'method': 'ffs', 'hidden_units': 5, 'seed': 0, 'learning_rate': 0.0, 'momentum': -1.0,
     'k': 2.5, 'a': 5.0, 'b': 5.0, 'trainer': 'bp', 'reservoir_size': 100, 'lm_steps': 1,
-    'lm_interval': 10, 'lm_float64': False, 'lm_slow_share': 0.0,
+    'lm_interval': 10, 'lm_float64': False, 'lm_slow_share': 0.0, 'lm_friction_steps': True,
     'validation_fraction': 0.0, 'validation_block': 10,
     'mse_window': 100, 'learn': True, 'max_gap': 0.02, 'limit_margin': 0.5, 'min_joints': 1,
     'unrelated': 'ignored'})
@@ -76,3 +77,18 @@ def test_a_negative_margin_bounds_nothing(margin: float) -> None:
     assert lazy.build(NAMES, settings, make_differentiator('centred', window=5)) == ''
     assert lazy.core is not None
     assert (lazy.core.stage.check.bounds is None) == (margin < 0)
+
+
+@pytest.mark.parametrize('trainer, steps', [('lm', True), ('bp', False)])
+def test_the_lm_trainers_network_starts_with_friction_steps(trainer: str, steps: bool) -> None:
+    """``lm_friction_steps`` shapes the lm trainer's fresh network; the paper's bp keeps
+    all-random weights."""
+    lazy = LazyCore(LIMITS)
+    settings = CoreSettings.of({**SETTINGS.__dict__, 'trainer': trainer})
+    assert first(lazy, NAMES, settings=settings) is None
+    assert lazy.network is not None
+    Vt = lazy.network.unpack(lazy.network.theta)[0]
+    # 5 hidden units, 2 joints: the two widest steps of each joint's speed (inputs 2, 3)
+    single = [np.count_nonzero(Vt[:6, unit]) == 1 and Vt[2 + unit % 2, unit] != 0.0
+              for unit in range(4)]
+    assert all(single) if steps else not any(single)

@@ -10,7 +10,9 @@ import pytest
 from scara_ident_ros.identification import trainer as trainer_module
 from scara_ident_ros.identification import (BackPropagation, Bounds, Holdout, OnlineIdentifier,
                                             Reservoir, ReservoirLM, SkipReason, make_trainer)
-from scara_ident_ros.methods import limit_scaling, make_network
+import itertools
+
+from scara_ident_ros.methods import FRICTION_STEP_WIDTHS, limit_scaling, make_network
 from scara_ident_ros.nn import FeedForwardNet
 from scara_ident_ros.blas_threads import single_blas_thread
 
@@ -18,8 +20,9 @@ PARAMS = ScaraParams()
 LIMITS = ('position_min', 'position_max', 'velocity_max', 'acceleration_max', 'effort_max')
 
 
-def network(method: str = 'ffs', seed: int = 0) -> FeedForwardNet:
-    net = make_network(method, 4, seed=seed)
+def network(method: str = 'ffs', seed: int = 0, friction_steps: bool = False
+            ) -> FeedForwardNet:
+    net = make_network(method, 4, seed=seed, friction_steps=friction_steps)
     net.set_scaling(*limit_scaling(*(PARAMS.array(name) for name in LIMITS)))
     return net
 
@@ -154,7 +157,7 @@ def test_reservoir_lm_identifies_where_bp_only_tracks() -> None:
     scores = {}
     with single_blas_thread():  # as in the node: competing BLAS pools make LM 5-10x slower
         for name in ('lm', 'bp'):
-            net = network()
+            net = network(friction_steps=name == 'lm')
             trainer = make_trainer(name, net)  # the node's defaults
             for x, y in zip(stream.X, stream.Y):
                 try:
@@ -162,11 +165,28 @@ def test_reservoir_lm_identifies_where_bp_only_tracks() -> None:
                 except ValueError:  # a BP step undone by its guard
                     pass
             scores[name] = nmse(net, unseen_X, unseen_Y)
-    # Joints 1-3 after 60 s; joint 4, whose effort is mostly Coulomb friction (a step in
-    # q'4), converges last (about 100 s: benchmarks/bench_learning_curves.py).
-    assert np.all(scores['lm'][:3] < 0.5), scores
+    # Every joint after 60 s, joint 4 (mostly Coulomb friction, a step in q'4) included:
+    # the friction steps the lm network starts with (without them, about 100 s).
+    assert np.all(scores['lm'] < 0.05), scores
     assert np.median(scores['lm']) < np.median(scores['bp']) / 10, scores
     assert np.all(scores['bp'] > 0.5), scores  # frozen BP: no better than the mean
+
+
+def test_friction_steps_start_as_steps_of_each_joints_speed() -> None:
+    """``make_network(friction_steps=True)``: unit (width w, joint j) is a step of q'_j of
+    half-width w, as many widths as the hidden units hold; the other units random."""
+    net = network(friction_steps=True)
+    Vt = net.unpack(net.theta)[0]
+    a = net.constants.a
+    for unit, (width, joint) in enumerate(itertools.product(FRICTION_STEP_WIDTHS, range(4))):
+        expected = np.zeros(12)
+        expected[4 + joint] = 2 * a / width
+        np.testing.assert_allclose(Vt[:12, unit], expected, rtol=1e-15)
+    assert np.count_nonzero(Vt[:12, len(FRICTION_STEP_WIDTHS) * 4:]) == 12 * (
+        40 - len(FRICTION_STEP_WIDTHS) * 4)
+    few = make_network('ffs', 4, n_hidden=9, friction_steps=True)  # room for 2 widths
+    Vt = few.unpack(few.theta)[0]
+    assert [np.count_nonzero(Vt[:12, unit]) for unit in range(9)] == [1] * 8 + [12]
 
 
 def test_impossible_samples_never_reach_the_reservoir() -> None:

@@ -355,14 +355,16 @@ CHUNK = 1000  # samples published at once: the node's queue (5000) never overflo
 
 
 TRAINER_OPTIONS = {'bp': [], 'lm': [], 'lm-float64-slow': ['lm_float64:=true',
-                                                           'lm_slow_share:=0.25']}
+                                                           'lm_slow_share:=0.25'],
+                   'lm-random-init': ['lm_friction_steps:=false']}
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize('case', list(TRAINER_OPTIONS))
 def test_trainers_bring_the_error_down(tmp_path: Path, listener: rostest.Listener,
                                        case: str) -> None:
-    """Both online trainers (lm also with its float64 and slow-share options), end to end
+    """Both online trainers (lm also with its float64 and slow-share options, and without
+    its friction steps), end to end
     on a simulated stream: the a-priori error of the last 1000 predictions is a tenth of
     the first 1000's at most, and lm (fitted to the whole stream) predicts the held-out
     samples well."""
