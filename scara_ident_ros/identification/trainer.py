@@ -26,17 +26,20 @@
     samples), the rest in float64.
     Cost (``benchmarks/bench_learning_curves.py`` reports it): with the defaults (4000
     samples, 2 steps every 200 samples: 10 steps/s at 1 kHz) about 0.3–0.4 of a core.
-    Measured (FFS, ``sequence`` stream, 5 seeds, benchmarks/learning_curves.md): frozen after
-    120 s, held-out NMSE per joint (median) 2.1e-4, 8.1e-4, 8.6e-6 and 1.6e-3; joint 4,
-    whose effort is mostly Coulomb friction (a step in q'4), converges last.
-    Two options, off by default, together bring 5 seeds of 10 under 1e-3 on every joint
-    (the default: none of 10; worst joint median 1.5e-3 against 2.6e-3, range 4.4e-5–0.020;
-    alone, 2 and 0 seeds of 5) at 1.5× the CPU (42–46 % of a core instead of 27–30 %,
-    ``benchmarks/bench_lm_variants.py``): ``float64`` assembles JᵀJ in float64, and
-    ``slow_share`` keeps that share of the reservoir for
-    samples where some joint moves slower than 1 % of its velocity input's half-range
-    (:data:`SLOW_FRACTION`): the samples around q' = 0, where the Coulomb step is, 2 % of
-    a stream and the bulk of joint 4's error.
+    The identifier's network for this trainer starts with friction steps
+    (``make_network(friction_steps=True)``, the node's ``lm_friction_steps``): without
+    them, joint 4, whose effort is mostly Coulomb friction (a step in q'4), is still
+    underfitted after 120 s. Measured (FFS, ``sequence`` stream, benchmarks/
+    learning_curves.md and bench_lm_variants.py): frozen after 120 s, held-out NMSE per
+    joint (median of 5 seeds) 4.1e-5, 5.7e-5, 6.1e-6 and 2.6e-5, worst joint 6.6e-5
+    [3.6e-5–3.0e-4]; on all-random weights 1.6e-3 [1.4e-3–0.014], joint 4 the worst.
+    Two options, off by default, were the earlier attempt at joint 4 on all-random
+    weights: together they brought 5 seeds of 10 under 1e-3 on every joint (worst joint
+    median 1.5e-3 against 2.6e-3) at 1.5× the CPU (42–46 % of a core instead of 27–30 %):
+    ``float64`` assembles JᵀJ in float64, and ``slow_share`` keeps that share of the
+    reservoir for samples where some joint moves slower than 1 % of its velocity input's
+    half-range (:data:`SLOW_FRACTION`): the samples around q' = 0, where the Coulomb step
+    is, 2 % of a stream.
 
 Both give the a-priori prediction of each sample, made before the sample is learnt.
 """

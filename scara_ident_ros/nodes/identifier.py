@@ -117,8 +117,9 @@ PARAMETERS = (
     ParamSpec('lm_interval', 200, 'Samples between two updates of the lm trainer', min=1,
               max=1_000_000, read_only=False),
     ParamSpec('lm_float64', False, 'lm trainer: assemble its normal equations in float64 '
-              '(1.5x the CPU; with lm_slow_share 0.25 it brought 5 seeds of 10 under 1e-3 on '
-              'every joint, the default none)', fixed='the trainer is built once'),
+              '(1.5x the CPU; on all-random weights, with lm_slow_share 0.25, it brought 5 '
+              'seeds of 10 under 1e-3 on every joint; the friction steps bring all)',
+              fixed='the trainer is built once'),
     ParamSpec('lm_slow_share', 0.0, 'lm trainer: share of reservoir_size kept for samples '
               'where some joint moves slower than 1 % of its velocity limit (the friction '
               'step at zero speed); 0: one uniform reservoir', min=0.0, max=0.5,
