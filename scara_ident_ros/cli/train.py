@@ -20,14 +20,18 @@ validation error. Levenberg-Marquardt often raises the validation error for tens
 iterations (once, measured, 170) before lowering it by orders of magnitude; a short
 patience (MATLAB's 6) stops it there.
 
+The network starts with friction steps (--friction-steps, as the identifier's lm trainer:
+4 hidden units per joint begin as steps of its speed at 0, the shape of Coulomb friction).
+
 Measured (benchmarks/bench_train_defaults.py: FFS, 80 s of the simulated SCARA's
-'sequence' excitation, what scara-ident run records; NMSE on 4 other excitations; 3
-seeds): these defaults give 7e-5 to 8e-4 on the worst joint (joint 2), the mean over the
-joints 4e-5 to 3e-4, in 30-50 s (2 shared cores); the former defaults (the last 20 % of the time
-validating, a stop after 6 failures, all samples, 315 iterations) 1e-3 to 0.6 on the worst
-joint, in 35-210 s. None of the settings tried makes a usable model of 8 periodic
-excitations of 10 s (each one closed curve traced twice): 0.3-1.4 on the worst joint of
-other excitations, old defaults or new. Record varied motion.
+'sequence' excitation, what scara-ident run records; NMSE on 4 other excitations; seeds
+0-5): these defaults give 3.0e-4 on the worst joint (joint 2) in the median seed, 1.3e-4
+to 4.5e-3, in 18-38 s (2 shared cores); without friction steps 7.0e-4, 6.8e-5 to 0.079;
+the former defaults (the last 20 % of the time validating, a stop after 6 failures, all
+samples, 315 iterations, no steps) 1e-3 to 0.6 (seeds 0-2), in 35-210 s. On 8 periodic
+excitations of 10 s (each one closed curve traced twice) the friction steps make the
+difference: 7.3e-4 in the median seed (3.0e-4 to 0.15) against 0.87 (0.39 to 1.4)
+without. Record varied motion.
 
 Time: one LM iteration costs about 15 ms plus 12 ms per 1000 training samples on one core
 (BLAS is held to one thread): 500 iterations on 8000 samples take at most about 1 minute,
@@ -50,8 +54,8 @@ from scara_ident_ros.methods import METHODS, make_network
 from scara_ident_ros.nn import ALGORITHMS
 from scara_ident_ros.paths import unwritable_file
 
-__all__ = ['ITERATIONS', 'MAX_FAIL', 'MIN_ITERATIONS', 'SAMPLES', 'VALIDATION_BLOCK_S',
-           'add_parser', 'run']
+__all__ = ['FRICTION_STEPS', 'ITERATIONS', 'MAX_FAIL', 'MIN_ITERATIONS', 'SAMPLES',
+           'VALIDATION_BLOCK_S', 'add_parser', 'run']
 
 #: Defaults of the options, chosen with benchmarks/bench_train_defaults.py (module docstring).
 ITERATIONS = 500           # Levenberg–Marquardt iterations at most
@@ -59,6 +63,7 @@ SAMPLES = 8000             # training samples drawn from the training blocks
 VALIDATION_BLOCK_S = 1.0   # s, length of the validation time blocks
 MAX_FAIL = 50              # validation failures in a row that stop training
 MIN_ITERATIONS = 50        # iterations before validation failures count
+FRICTION_STEPS = True      # the network starts with friction steps, as the identifier's
 
 
 def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -99,6 +104,11 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     parser.add_argument('--samples', type=int, default=SAMPLES,
                         help='train on at most this many samples drawn at random from the '
                              f'training blocks (default: {SAMPLES}; 0: all)')
+    parser.add_argument('--friction-steps', action=argparse.BooleanOptionalAction,
+                        default=FRICTION_STEPS,
+                        help="start 4 hidden units per joint as steps of its speed at 0, the "
+                             "shape of Coulomb friction, as the identifier's lm trainer does "
+                             '(default: on)')
     parser.add_argument('--seed', type=int, default=0,
                         help='seed of the initial weights and of --samples (default: 0)')
     parser.add_argument('--out', type=Path, required=True, metavar='MODEL',
@@ -156,7 +166,8 @@ def run(args: argparse.Namespace) -> int:
           f'(skipped: {skipped_text(samples)}); training on {len(train)}, validating on '
           f'{len(validation)}{where}', flush=True)
 
-    network = make_network(args.method, len(names), seed=args.seed)
+    network = make_network(args.method, len(names), seed=args.seed,
+                           friction_steps=args.friction_steps)
     progress = TrainingProgress(args.iterations, label=f'{args.method.upper()} {args.algorithm}')
     started = time.perf_counter()
     with single_blas_thread():
@@ -178,6 +189,7 @@ def run(args: argparse.Namespace) -> int:
         'validation_block_s': np.array(args.validation_block),
         'max_fail': np.array(args.max_fail), 'min_iterations': np.array(args.min_iterations),
         'differentiator': np.array('centred'), 'window': np.array(21),
+        'friction_steps': np.array(args.friction_steps),
         'train_mse_scaled': np.array(history.final_mse)})
     args.out.parent.mkdir(parents=True, exist_ok=True)
     network.save(args.out)

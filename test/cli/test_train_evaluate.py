@@ -101,6 +101,7 @@ def test_train_then_evaluate(fmt: str, n_joints: int, tmp_path: Path,
     assert (network.n_inputs, network.n_outputs) == (3 * n_joints, n_joints)
     assert list(network.metadata['joint_names']) == trained
     assert str(network.metadata['method']) == 'ffmw'
+    assert bool(network.metadata['friction_steps'])  # the default
     assert network.activation == METHODS['ffmw'].activation
     assert network.scaling_set
 
@@ -146,9 +147,11 @@ def test_identifier_warm_starts_from_a_trained_model(bags: dict[str, Path], tmp_
                                                      ) -> None:
     model = tmp_path / 'ffs.npz'
     code, _, err = run_cli(capsys, 'train', bags['sqlite2'], '--method', 'ffs',
-                           '--algorithm', 'gd', '--iterations', '5', '--out', model)
+                           '--algorithm', 'gd', '--iterations', '5', '--no-friction-steps',
+                           '--out', model)
     assert code == 0, err
     network = FeedForwardNet.load(model)
+    assert not bool(network.metadata['friction_steps'])
     names = [str(n) for n in network.metadata['joint_names']]
     # what the identifier node does with model_path: names from the metadata, learn on
     online = OnlineIdentifier(network, joint_names=names)
