@@ -73,10 +73,11 @@ def method(name: str) -> Method:
 
 
 #: Half-widths of the friction steps (``make_network(friction_steps=True)``), as fractions
-#: of each joint's velocity limit: a geometric grid over two decades, so that some step is
-#: within a factor 2 of a joint's Coulomb step whatever its width in that range (the
-#: simulated SCARA's are 0.2–4.5 %). Measured (FFS, ``lm``, 120 s of ``sequence``):
-#: benchmarks/learning_curves.md.
+#: of each joint's velocity limit: a geometric grid over two decades, so that one of them is
+#: within a factor 2 of any Coulomb step 0.0125–3.2 % of the limit wide (the simulated
+#: SCARA's: 0.19 % for joint 4 to 4.5 % for joint 3, a step wide enough for LM to fit from
+#: random weights). Measured (FFS, ``lm``, 120 s of ``sequence``, steps 5× sharper and 4×
+#: wider than the simulator's too): benchmarks/learning_curves.md.
 FRICTION_STEP_WIDTHS = (0.016, 0.004, 0.001, 0.00025)
 
 

@@ -284,7 +284,8 @@ class FeedForwardNet:
         Unit ``u`` (0, 1, … in the order ``widths`` × ``inputs``) gets the net input
         z = 2·x_i / w of scaled input ``x_i`` alone (its other input weights 0, its bias
         ``b``), so that a sigmoid unit is k·σ(2·x_i / w) = k·(1 + tanh(x_i / w)) / 2: a
-        step of half-width ``w`` (scaled units) at x_i = 0. The other units keep their
+        step of half-width ``w`` (scaled units) at x_i = 0 (a SLOG or MSLOG unit, a
+        wavelet, becomes a narrow wavelet there instead). The other units keep their
         random weights, the output weights are not changed; training moves these units
         like any other.
 
