@@ -73,12 +73,12 @@ def method(name: str) -> Method:
 
 
 #: Half-widths of the friction steps (``make_network(friction_steps=True)``), as fractions
-#: of each joint's velocity limit: a geometric grid over two decades, so that one of them is
-#: within a factor 2 of any Coulomb step 0.0125–3.2 % of the limit wide (the simulated
-#: SCARA's: 0.19 % for joint 4 to 4.5 % for joint 3, a step wide enough for LM to fit from
-#: random weights). Measured (FFS, ``lm``, 120 s of ``sequence``, steps 5× sharper and 4×
-#: wider than the simulator's too): benchmarks/learning_curves.md.
-FRICTION_STEP_WIDTHS = (0.016, 0.004, 0.001, 0.00025)
+#: of each joint's velocity limit: a geometric grid, factor 4, so that one of them is within
+#: a factor 2 of any Coulomb step 0.0125–12.8 % of the limit wide (the simulated SCARAs':
+#: 0.19 % for joint 4 to 4.5 % for joint 3). Without the widest, joint 3 of another SCARA
+#: missed 1e-3 on one seed of 5. Measured (FFS, ``lm``, 120 s of ``sequence``, Coulomb steps
+#: 5× sharper and 4× wider than the simulator's too): benchmarks/learning_curves.md.
+FRICTION_STEP_WIDTHS = (0.064, 0.016, 0.004, 0.001, 0.00025)
 
 
 def make_network(name: str, n_joints: int, *, n_hidden: int = 40, seed: int = 0,

@@ -125,8 +125,8 @@ PARAMETERS = (
               'step at zero speed); 0: one uniform reservoir', min=0.0, max=0.5,
               fixed='the reservoir is allocated once'),
     ParamSpec('lm_friction_steps', True, 'lm trainer: the first hidden units start as steps '
-              "of each joint's speed at 0, the shape of Coulomb friction (half-widths 1.6, "
-              '0.4, 0.1 and 0.025 % of the velocity limit), the others random; false: all '
+              "of each joint's speed at 0, the shape of Coulomb friction (half-widths 6.4, "
+              '1.6, 0.4, 0.1 and 0.025 % of the velocity limit), the others random; false: all '
               'random (joint 4 then misses 1e-3 after 120 s)', fixed=NETWORK),
     ParamSpec('validation_fraction', 0.1, 'Fraction of the samples (in blocks) never learnt, '
               'whose error is the validation NMSE; 0: none', min=0.0, max=0.9,
