@@ -75,10 +75,14 @@ re-solved by least squares before each update (a separable, VarPro-like step) 2.
 [1.7e-3-0.015]; JᵀJ from a random half of the reservoir, steps twice as often
 (1.1e-3-0.76 on seeds 0-3, and 37-41 % of a core); the float32 JᵀJ as a preconditioner
 of 4 conjugate-gradient iterations on the exact float64 system, 2.1e-3 [5.5e-4-0.66]
-(38-57 %). One friction step
-per joint of a single width: 0.002 (the simulator's own joint 4 step) 3.7e-4
-[1.5e-4-7.7e-4], 0.0005 7.1e-4 [6.5e-4-3.5e-3], 0.01 3.0e-3 [1.4e-3-0.039]: one width
-must be close to the step's, which a grid over two decades makes sure of.
+(38-57 %).
+
+Friction steps of one width per joint (seeds 0-4): 0.002 (the simulator's own joint 4
+step) 3.7e-4 [1.5e-4-7.7e-4], 0.0005 7.1e-4 [6.5e-4-3.5e-3], 0.01 3.0e-3
+[1.4e-3-0.039]: one width must be close to the step's, which a grid of widths a factor 4
+apart makes sure of. The first grid had four (0.016 to 0.00025): 6.6e-5 [3.6e-5-3.0e-4]
+here, but on ``other_scara.yaml`` seed 3 ended with joint 3 at 1.9e-3, a Coulomb step
+4.5 % of its velocity limit wide; the fifth width, 0.064, brought it to 1.2e-6.
 
 Usage::
 
