@@ -40,17 +40,17 @@ held-out NMSE (underfitting or overfitting), the share of joint 4's held-out squ
 at ``|q'4| < 0.2 rad/s``, and the held-out NMSE after 400 more float64 LM iterations on the
 frozen reservoir (``FeedForwardNet.fit``) and after 400 more of the trainer's own steps.
 
-Measured 2026-12-02 (2 shared cores; ``learning_curves.md``). Friction steps, side by side
-with all-random weights (worst joint at 120 s, median [range])::
+Measured 2026-12-02 (2 shared cores; ``learning_curves.md``). Friction steps (five widths,
+the default) and all-random weights, worst joint at 120 s, median [range]::
 
-    seeds 5-9               default       7.7e-5 [4.1e-5-1.6e-4]   26-27 %
+    seeds 0-4               default       5.7e-5 [3.8e-5-1.7e-4]   25 %
+                            interval-600  1.4e-4 [8.3e-5-3.0e-4]   10-11 %
+    seeds 5-9               default       6.5e-5 [4.8e-5-7.2e-5]   26-29 %
                             random-init   3.1e-3 [2.6e-3-8.9e-3]   25-26 %
-    seeds 0-2, eps 0.01     default       1.8e-4 [1.3e-4-2.0e-4]   26-27 %
+    seeds 0-2, eps 0.01     default       1.3e-4 [1.3e-4-1.4e-4]   26-27 %
                             random-init   0.028 [5.1e-3-0.030]     26-30 %
-    seeds 0-2, eps 0.2      default       9.3e-5 [4.8e-5-2.2e-4]   26-27 %
+    seeds 0-2, eps 0.2      default       5.3e-5 [5.2e-5-9.4e-5]   27-28 %
                             random-init   6.4e-4 [4.7e-4-1.5e-3]   26-27 %
-    seeds 0-4               default       6.6e-5 [3.6e-5-3.0e-4]   25 %
-                            interval-600  2.4e-3 [2.3e-4-5.8e-3]   10 %
 
 Before the friction steps, on all-random weights (seeds 0-4 unless said; ``default`` here
 is today's ``random-init``)::

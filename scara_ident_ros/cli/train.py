@@ -25,13 +25,13 @@ The network starts with friction steps (--friction-steps, as the identifier's lm
 
 Measured (benchmarks/bench_train_defaults.py: FFS, 80 s of the simulated SCARA's
 'sequence' excitation, what scara-ident run records; NMSE on 4 other excitations; seeds
-0-5): these defaults give 3.0e-4 on the worst joint (joint 2) in the median seed, 1.3e-4
-to 4.5e-3, in 18-38 s (2 shared cores); without friction steps 7.0e-4, 6.8e-5 to 0.079;
-the former defaults (the last 20 % of the time validating, a stop after 6 failures, all
-samples, 315 iterations, no steps) 1e-3 to 0.6 (seeds 0-2), in 35-210 s. On 8 periodic
-excitations of 10 s (each one closed curve traced twice) the friction steps make the
-difference: 7.3e-4 in the median seed (3.0e-4 to 0.15) against 0.87 (0.39 to 1.4)
-without. Record varied motion.
+0-5): these defaults give 3.0e-4 on the worst joint (joint 2 in most seeds) in the median
+seed, 1.3e-4 to 8.9e-4, in 15-45 s (2 shared cores); without friction steps 7.0e-4, 6.8e-5
+to 0.079; the former defaults (the last 20 % of the time validating, a stop after 6
+failures, all samples, 315 iterations, no steps) 1e-3 to 0.6 (seeds 0-2), in 35-210 s. On
+8 periodic excitations of 10 s (each one closed curve traced twice) the friction steps
+make the difference: 2.2e-4 in the median seed (1.1e-4 to 0.013) against 0.87 (0.39 to
+1.4) without. Record varied motion.
 
 Time: one LM iteration costs about 15 ms plus 12 ms per 1000 training samples on one core
 (BLAS is held to one thread): 500 iterations on 8000 samples take at most about 1 minute,

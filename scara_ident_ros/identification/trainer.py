@@ -31,8 +31,8 @@
     them, joint 4, whose effort is mostly Coulomb friction (a step in q'4), is still
     underfitted after 120 s. Measured (FFS, ``sequence`` stream, benchmarks/
     learning_curves.md and bench_lm_variants.py): frozen after 120 s, held-out NMSE per
-    joint (median of 5 seeds) 4.1e-5, 5.7e-5, 6.1e-6 and 2.6e-5, worst joint 6.6e-5
-    [3.6e-5–3.0e-4]; on all-random weights 1.6e-3 [1.4e-3–0.014], joint 4 the worst.
+    joint (median of 5 seeds) 3.9e-5, 5.7e-5, 3.6e-7 and 2.4e-5, worst joint 5.7e-5
+    [3.8e-5–1.7e-4]; on all-random weights 1.6e-3 [1.4e-3–0.014], joint 4 the worst.
     Two options, off by default, were the earlier attempt at joint 4 on all-random
     weights: together they brought 5 seeds of 10 under 1e-3 on every joint (worst joint
     median 1.5e-3 against 2.6e-3) at 1.5× the CPU (42–46 % of a core instead of 27–30 %):
