@@ -94,8 +94,9 @@ def make_network(name: str, n_joints: int, *, n_hidden: int = 40, seed: int = 0,
     q' at 0, one per joint and width of :data:`FRICTION_STEP_WIDTHS`
     (:meth:`FeedForwardNet.set_step_units`; with limit scaling a width is a fraction of
     the velocity limit): the shape of Coulomb friction, which Levenberg–Marquardt from
-    random weights fits too slowly online. As many widths as the hidden units hold, widest
-    first; the other units random.
+    random weights fits too slowly online. Steps take at most half the hidden units (all
+    five widths for 4 joints and 40 units; for more joints fewer widths, widest first),
+    so that at least as many units start random for the rest of the dynamics.
     """
     spec = method(name)
     network = FeedForwardNet(
@@ -104,7 +105,7 @@ def make_network(name: str, n_joints: int, *, n_hidden: int = 40, seed: int = 0,
         learning_rate=spec.learning_rate if learning_rate is None else learning_rate,
         momentum=spec.momentum if momentum is None else momentum)
     if friction_steps:
-        widths = FRICTION_STEP_WIDTHS[:n_hidden // n_joints]
+        widths = FRICTION_STEP_WIDTHS[:n_hidden // 2 // n_joints]
         network.set_step_units(range(n_joints, 2 * n_joints), widths)
     return network
 

@@ -88,7 +88,7 @@ def test_the_lm_trainers_network_starts_with_friction_steps(trainer: str, steps:
     assert first(lazy, NAMES, settings=settings) is None
     assert lazy.network is not None
     Vt = lazy.network.unpack(lazy.network.theta)[0]
-    # 5 hidden units, 2 joints: the two widest steps of each joint's speed (inputs 2, 3)
+    # 5 hidden units, 2 joints: the widest step of each joint's speed (inputs 2, 3)
     single = [np.count_nonzero(Vt[:6, unit]) == 1 and Vt[2 + unit % 2, unit] != 0.0
-              for unit in range(4)]
+              for unit in range(2)]
     assert all(single) if steps else not any(single)

@@ -174,7 +174,7 @@ def test_reservoir_lm_identifies_where_bp_only_tracks() -> None:
 
 def test_friction_steps_start_as_steps_of_each_joints_speed() -> None:
     """``make_network(friction_steps=True)``: unit (width w, joint j) is a step of q'_j of
-    half-width w, as many widths as the hidden units hold; the other units random."""
+    half-width w, as many widths as half the hidden units hold; the other units random."""
     net = network(friction_steps=True)
     Vt = net.unpack(net.theta)[0]
     a = net.constants.a
@@ -184,9 +184,10 @@ def test_friction_steps_start_as_steps_of_each_joints_speed() -> None:
         np.testing.assert_allclose(Vt[:12, unit], expected, rtol=1e-15)
     assert np.count_nonzero(Vt[:12, len(FRICTION_STEP_WIDTHS) * 4:]) == 12 * (
         40 - len(FRICTION_STEP_WIDTHS) * 4)
-    few = make_network('ffs', 4, n_hidden=9, friction_steps=True)  # room for 2 widths
+    few = make_network('ffs', 4, n_hidden=17, friction_steps=True)  # room for 2 widths
     Vt = few.unpack(few.theta)[0]
-    assert [np.count_nonzero(Vt[:12, unit]) for unit in range(9)] == [1] * 8 + [12]
+    assert [np.count_nonzero(Vt[:12, unit]) for unit in range(17)] == [1] * 8 + [12] * 9
+    assert few.unpack(few.theta)[0][4, 0] == 2 * a / FRICTION_STEP_WIDTHS[0]  # widest first
 
 
 def test_impossible_samples_never_reach_the_reservoir() -> None:
