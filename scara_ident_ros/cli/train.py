@@ -21,8 +21,8 @@ iterations (once, measured, 170) before lowering it by orders of magnitude; a sh
 patience (MATLAB's 6) stops it there.
 
 The network starts with friction steps (--friction-steps, as the identifier's lm trainer:
-up to 5 hidden units per joint, at most half of them, begin as steps of its speed at 0,
-the shape of Coulomb friction).
+up to 5 hidden units per joint, at most half the hidden units, begin as steps of its
+speed at 0, the shape of Coulomb friction).
 
 Measured (benchmarks/bench_train_defaults.py: FFS, 80 s of the simulated SCARA's
 'sequence' excitation, what scara-ident run records; NMSE on 4 other excitations; seeds
@@ -107,8 +107,8 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
                              f'training blocks (default: {SAMPLES}; 0: all)')
     parser.add_argument('--friction-steps', action=argparse.BooleanOptionalAction,
                         default=FRICTION_STEPS,
-                        help="start up to 5 hidden units per joint (at most half of them) as "
-                             "steps of its speed at 0, the "
+                        help='start up to 5 hidden units per joint (at most half the hidden '
+                             "units) as steps of its speed at 0, the "
                              "shape of Coulomb friction, as the identifier's lm trainer does "
                              '(default: on)')
     parser.add_argument('--seed', type=int, default=0,
