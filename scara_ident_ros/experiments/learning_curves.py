@@ -46,6 +46,7 @@ from scara_ident_ros.experiments.reference import fit_reference, predict_referen
 from scara_ident_ros.experiments.tables import format_value
 from scara_ident_ros.identification import (Holdout, InputStage, JointMap, OnlineIdentifier,
                                             make_differentiator, make_trainer)
+from scara_ident_ros.identification.trainer import starts_with_friction_steps
 from scara_ident_ros.methods import limit_scaling, make_network, method as method_spec
 from scara_ident_ros.sim import SimConfig, SimRecord
 
@@ -132,7 +133,7 @@ def network_curve(record: SimRecord, held_out: Dataset, params: ScaraParams, *, 
     centred q'' fit's samples).
     """
     net = make_network(method, 4, seed=seed,
-                       friction_steps=lm_friction_steps and trainer == 'lm')
+                       friction_steps=starts_with_friction_steps(trainer, lm_friction_steps))
     net.set_scaling(*limit_scaling(*(params.array(name) for name in _LIMITS)))
     ident = OnlineIdentifier(net, joint_names=params.joint_names,
                              differentiator=make_differentiator('centred', window=window),

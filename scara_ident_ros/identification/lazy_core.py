@@ -20,7 +20,7 @@ from scara_ident_ros.identification.joint_map import JointMap
 from scara_ident_ros.identification.online_identifier import Counts, OnlineIdentifier
 from scara_ident_ros.identification.sample_check import FloatArrayLike, SampleCheck
 from scara_ident_ros.identification.skip_reason import SkipReason
-from scara_ident_ros.identification.trainer import make_trainer
+from scara_ident_ros.identification.trainer import make_trainer, starts_with_friction_steps
 from scara_ident_ros.methods import make_network
 from scara_ident_ros.nn import FeedForwardNet
 
@@ -131,7 +131,7 @@ class LazyCore:
                 learning_rate=s.learning_rate or None,
                 momentum=s.momentum if s.momentum >= 0 else None,
                 k=s.k if ffmw else None, a=s.a if ffmw else None, b=s.b if ffmw else None,
-                friction_steps=s.lm_friction_steps and s.trainer == 'lm')
+                friction_steps=starts_with_friction_steps(s.trainer, s.lm_friction_steps))
             network.set_scaling(*self.limits.select(names).scaling())
         network.metadata['joint_names'] = np.array(names)
         network.metadata['method'] = np.array(settings.method)

@@ -25,7 +25,7 @@
     assembled in float32 (``normal_equations(single=True)``: 22 ms instead of 36 ms for 4000
     samples), the rest in float64.
     Cost (``benchmarks/bench_learning_curves.py`` reports it): with the defaults (4000
-    samples, 2 steps every 200 samples: 10 steps/s at 1 kHz) about 0.3–0.4 of a core.
+    samples, 2 steps every 200 samples: 10 steps/s at 1 kHz) 25–29 % of a core.
     The identifier's network for this trainer starts with friction steps
     (``make_network(friction_steps=True)``, the node's ``lm_friction_steps``): without
     them, joint 4, whose effort is mostly Coulomb friction (a step in q'4), is still
@@ -56,7 +56,8 @@ from scara_ident_ros.nn.scaling import MinMaxScaling
 from scara_ident_ros.nn.levenberg_marquardt import LevenbergMarquardt
 from scara_ident_ros.nn.training import StopTraining
 
-__all__ = ['Trainer', 'BackPropagation', 'ReservoirLM', 'TRAINERS', 'make_trainer']
+__all__ = ['Trainer', 'BackPropagation', 'ReservoirLM', 'TRAINERS', 'make_trainer',
+           'starts_with_friction_steps']
 
 #: Names of the online trainers; ``'lm'`` is the default.
 TRAINERS = ('lm', 'bp')
@@ -291,3 +292,10 @@ def make_trainer(name: str, model: FeedForwardNet, *, capacity: int = 4000,
         return ReservoirLM(model, capacity=capacity, interval=interval, steps=steps,
                            seed=seed, float64=float64, slow_share=slow_share)
     raise ValueError(f'unknown trainer {name!r}; choose from {TRAINERS}')
+
+
+def starts_with_friction_steps(name: str, enabled: bool) -> bool:
+    """Whether trainer ``name``'s fresh network starts with friction steps when the option
+    (the node's ``lm_friction_steps``) is ``enabled``: ``lm`` only; the paper's ``bp``
+    keeps all-random weights."""
+    return enabled and name == 'lm'
