@@ -12,7 +12,11 @@ down for a while and comes back:
   once the link is back; nothing is lost.
 - 4 s longer than the history: the samples that fell out of it are lost (about 4 s of
   them, no more: the history keeps what it should), and the recorder counts them (``lost``
-  in its counters, from the gap in the stamps) and says so.
+  in its counters, from the gap in the stamps) and says so. "About": the link is down for
+  as long as the two ``ip`` commands say (a loaded machine stretches it), and a reliable
+  writer may wait up to its heartbeat period (``HEARTBEAT``) after the link is back before
+  it resends; samples published meanwhile push more of the history out. Measured on an
+  idle machine: 4014-4015 lost in 5 runs; in one CI run, 5022.
 
 The simulator publishes ``PARTITION_AFTER`` s of samples before the partition and
 ``AFTER_PARTITION`` s after it, with its default QoS.
@@ -47,6 +51,7 @@ PARTITION_AFTER = 3.0  # s of samples before the link goes down
 AFTER_PARTITION = 4.0  # s of samples after the link is back
 SHORT_PARTITION = 5.0  # s: loses nothing with the default history
 LONG_PARTITION = HISTORY + 4.0  # s: outlasts the default history by 4 s
+HEARTBEAT = 3.0  # s: Fast DDS's default heartbeat period of a reliable writer (the simulator's)
 START_TIMEOUT = 60.0  # s for the two to discover each other (shared machine)
 END_TIMEOUT = 90.0  # s for the simulator to publish everything and exit
 STOP_TIMEOUT = 30.0  # s for the recorder to close its bag after SIGINT
@@ -118,10 +123,13 @@ def samples(partition: float) -> int:
     return round((PARTITION_AFTER + partition + AFTER_PARTITION) * RATE_HZ)
 
 
-def record_across_a_partition(tmp_path: Path, seconds: float) -> tuple[dict, dict, str]:
+def record_across_a_partition(tmp_path: Path,
+                              seconds: float) -> tuple[dict, dict, str, float]:
     """Simulator on A, recorder on B, A's link down for ``seconds`` while publishing.
 
-    Returns the simulator's and the recorder's final counters and the recorder's log.
+    Returns the simulator's and the recorder's final counters, the recorder's log and the
+    longest the link can have been down (s): from before the ``down`` command to after the
+    ``up`` command returned.
     """
     duration = samples(seconds) / RATE_HZ
     sim_stats, recorder_stats = tmp_path / 'sim.json', tmp_path / 'recorder.json'
@@ -140,9 +148,11 @@ def record_across_a_partition(tmp_path: Path, seconds: float) -> tuple[dict, dic
             # publisher is found): the simulator, waiting for it, starts publishing now
             wait_for('recording /joint_states (', recorder_log, recorder)
             time.sleep(PARTITION_AFTER)
+            down = time.monotonic()
             _ip('-n', a.namespace, 'link', 'set', a.link, 'down')
             time.sleep(seconds)
             _ip('-n', a.namespace, 'link', 'set', a.link, 'up')
+            partition = time.monotonic() - down
             assert sim.wait(timeout=END_TIMEOUT) == 0, sim_log.read_text()
             recorder.send_signal(signal.SIGINT)
             assert recorder.wait(timeout=STOP_TIMEOUT) == 0, recorder_log.read_text()
@@ -152,11 +162,11 @@ def record_across_a_partition(tmp_path: Path, seconds: float) -> tuple[dict, dic
                     process.kill()
                     process.wait()
     return (json.loads(sim_stats.read_text()), json.loads(recorder_stats.read_text()),
-            recorder_log.read_text(errors='replace'))
+            recorder_log.read_text(errors='replace'), partition)
 
 
 def test_a_five_second_partition_loses_nothing(tmp_path: Path) -> None:
-    sim, recorder, log = record_across_a_partition(tmp_path, SHORT_PARTITION)
+    sim, recorder, log, _ = record_across_a_partition(tmp_path, SHORT_PARTITION)
     total = samples(SHORT_PARTITION)
     assert sim['published'] == total, sim
     assert recorder['topics'] == {'/joint_states': total}, (recorder, log)
@@ -164,13 +174,14 @@ def test_a_five_second_partition_loses_nothing(tmp_path: Path) -> None:
 
 
 def test_a_partition_longer_than_the_history_is_counted_as_lost(tmp_path: Path) -> None:
-    sim, recorder, log = record_across_a_partition(tmp_path, LONG_PARTITION)
+    sim, recorder, log, partition = record_across_a_partition(tmp_path, LONG_PARTITION)
     total = samples(LONG_PARTITION)
     assert sim['published'] == total, sim
     written = recorder['topics']['/joint_states']
     lost = recorder['lost']['/joint_states']
     assert written < total and lost > 0, (recorder, log)
     assert written + lost == total, recorder  # every missing sample counted, once
-    # what the partition outlasts the history by, with 1 s for the link's ups and downs
-    assert lost <= (LONG_PARTITION - HISTORY + 1.0) * RATE_HZ, recorder
+    # what the partition outlasts the history by, and what is published until the writer's
+    # next heartbeat; far below the 14 s of samples lost if the history kept nothing
+    assert lost <= (partition - HISTORY + HEARTBEAT) * RATE_HZ, (recorder, partition)
     assert f'/joint_states: {lost} samples lost' in log, log
