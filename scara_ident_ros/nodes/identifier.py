@@ -87,7 +87,8 @@ LIMITS = "the network's input and output scaling"
 START = 'used at start only'
 
 PARAMETERS = (
-    ParamSpec('method', 'ffmw', 'Network: FFMW (MSLOG), FFW (SLOG) or FFS (sigmoid)',
+    ParamSpec('method', 'ffs', 'Network: FFS (sigmoid, default: it identifies best, README '
+              "'Results'), FFMW (MSLOG, the paper's) or FFW (SLOG)",
               choices=tuple(METHODS), fixed=NETWORK),
     ParamSpec('joint_names', [], 'Joints to identify, in this order; empty: the joints of '
               'the first valid message (or of the warm-start model)', items=str, fixed=NETWORK),

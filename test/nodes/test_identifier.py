@@ -31,8 +31,9 @@ from std_msgs.msg import Float64MultiArray
 
 from scara_ident_ros.dynamics import ScaraParams
 from scara_ident_ros.identification import Holdout, InputStage, JointMap
-from scara_ident_ros.methods import limit_scaling, make_network
+from scara_ident_ros.methods import METHODS, limit_scaling, make_network
 from scara_ident_ros.nn import FeedForwardNet
+from scara_ident_ros.nodes.identifier import PARAMETERS
 from scara_ident_ros.nodes.messages import NS_PER_S, ns_to_stamp, stamp_to_ns
 from scara_ident_ros.resources import config_path
 from scara_ident_ros.sim import SimConfig, Simulator, make_trajectory
@@ -57,6 +58,8 @@ WINDOW = 21  # samples: the default centred q'' fit; a shorter history is never 
 LAG = WINDOW // 2  # samples a prediction follows its sample; the last LAG come on shutdown
 SHUTDOWN_TIMEOUT = 5.0  # s for the predictions published on shutdown to arrive
 MSE_LABELS = ['metric:mse,nmse,validation_nmse', 'joint:joint1,joint2,joint3,joint4,total']
+DEFAULT_METHOD = next(str(spec.default) for spec in PARAMETERS if spec.name == 'method')
+OTHER_METHOD = next(name for name in METHODS if name != DEFAULT_METHOD)  # another activation
 
 
 # ---------------------------------------------------------------------------------- helpers
@@ -675,7 +678,7 @@ def test_warm_start_predicts_without_learning(tmp_path: Path,
 
 # ----------------------------------------------------------------------- bad configuration
 def saved_model(path: Path, names: Sequence[str], *, record_names: bool = True,
-                method: str = 'ffmw') -> Path:
+                method: str = DEFAULT_METHOD) -> Path:
     """Save a fresh network for ``names`` (with them in its metadata, as a node records)."""
     network = make_network(method, len(names))
     limits = ScaraParams.from_yaml(config_path('scara.yaml'))
@@ -702,8 +705,8 @@ BAD_CONFIGS = {
         lambda d: [f'model_path:={saved_model(d / "m.npz", NAMES)}',
                    f'joint_names:={list(NAMES[::-1])}'], 'in that order'),
     'model of another method': (
-        lambda d: [f'model_path:={saved_model(d / "m.npz", NAMES, method="ffs")}'],
-        'sigmoid'),
+        lambda d: [f'model_path:={saved_model(d / "m.npz", NAMES, method=OTHER_METHOD)}'],
+        f'{METHODS[OTHER_METHOD].activation} hidden units'),
     'mse_window too small': (lambda d: ['mse_window:=10'], 'mse_window'),
     'joint names not strings': (lambda d: ['joint_names:=[1, 2, 3, 4]'], 'joint_names'),
     'joints without limits': (lambda d: ['joint_names:=[a, b]'], 'no joint limits for'),
@@ -720,8 +723,8 @@ BAD_CONFIGS = {
     'save_path unwritable': (lambda d: ['save_path:=/proc/model.npz'], 'save_path'),
     'stats_file unwritable': (lambda d: ['stats_file:=/proc/x/stats.json'], 'stats_file'),
     'save_path holds another method': (
-        lambda d: [f'save_path:={saved_model(d / "m.npz", NAMES, method="ffs")}'],
-        'sigmoid'),
+        lambda d: [f'save_path:={saved_model(d / "m.npz", NAMES, method=OTHER_METHOD)}'],
+        f'{METHODS[OTHER_METHOD].activation} hidden units'),
 }
 
 
@@ -741,7 +744,9 @@ def test_existing_save_path_is_continued_not_replaced(tmp_path: Path,
                                                       listener: rostest.Listener) -> None:
     path = saved_model(tmp_path / 'model.npz', NAMES)
     saved = FeedForwardNet.load(path)
-    saved.set_params(saved.get_params() + 0.1)  # not what a fresh network would have
+    # not what a fresh network would have, and still inside the effort limits (the node
+    # publishes predictions clipped to them; +0.1 on every weight of FFS went beyond)
+    saved.set_params(saved.get_params() * 0.9)
     saved.save(path)
     record = simulated(40)
     feed = Feed(listener)
@@ -757,7 +762,10 @@ def test_existing_save_path_is_continued_not_replaced(tmp_path: Path,
     stage = InputStage(JointMap(NAMES, n_joints=4))
     _, X, _ = stage.batch(record.stamp_ns[:40] + T0_NS, NAMES, record.q[:40],
                           record.qd[:40], record.effort[:40])
-    np.testing.assert_allclose(first, saved.predict(X[0]), rtol=1e-9)
+    expected = saved.predict(X[0])
+    assert np.all(np.abs(expected) < ScaraParams.from_yaml(config_path('scara.yaml'))
+                  .array('effort_max')), expected  # else the node clips what it publishes
+    np.testing.assert_allclose(first, expected, rtol=1e-9)
 
 
 # ------------------------------------------------------------------------------ namespacing
