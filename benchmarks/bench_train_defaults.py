@@ -82,7 +82,10 @@ Tried, not adopted (seeds 0, 1, 2 of the split and sample draw):
   training samples, float32 normal equations (2026-12-02, seeds 0-5): sequence80 after
   2,400 steps (70 s) 3.6e-4, 2.5e-4, 8.1e-4, 1.2e-4, 1.1e-4, 7.3e-4, median 3.1e-4, as
   the default; standard8 after 1,200 steps 0.011, 2.5e-4, 0.22, 1.4e-4, 2.1e-3, 1.7e-3,
-  worse than the default.
+  worse than the default;
+- a wider sequence, its excitations at the standard preset's fractions (0.8 instead of
+  0.76, blends checked against 0.95 of the limits; seeds 0-5): 7.9e-4, 8.6e-5, 7.2e-4,
+  3.7e-4, 2.0e-4, 1.9e-4, median 2.9e-4, as the default.
 
 On the learning curves' held-out set (``learning_curves.held_out_set``: 5 standard
 excitations of 6 s and 30 s of sequence), where the identifier reaches 5.7e-5 online after
