@@ -60,13 +60,13 @@ SHUTDOWN_TIMEOUT = 5.0  # s for the predictions published on shutdown to arrive
 MSE_LABELS = ['metric:mse,nmse,validation_nmse', 'joint:joint1,joint2,joint3,joint4,total']
 DEFAULT_METHOD = next(str(spec.default) for spec in PARAMETERS if spec.name == 'method')
 OTHER_METHOD = next(name for name in METHODS if name != DEFAULT_METHOD)  # another activation
+SCARA_PARAMS = ScaraParams.from_yaml(config_path('scara.yaml'))  # the simulated robot, its limits
 
 
 # ---------------------------------------------------------------------------------- helpers
 def simulated(n: int, seed: int = 0) -> SimRecord:
-    """``n`` samples of the simulated SCARA (noise-free, standard excitation) at 1 kHz."""
-    params = ScaraParams.from_yaml(config_path('scara.yaml'))
-    simulator = Simulator(params, make_trajectory('standard', params, seed=seed),
+    """``n`` samples of the simulated SCARA_PARAMS (noise-free, standard excitation) at 1 kHz."""
+    simulator = Simulator(SCARA_PARAMS, make_trajectory('standard', SCARA_PARAMS, seed=seed),
                           SimConfig(seed=seed))
     return simulator.simulate(n)
 
@@ -681,9 +681,8 @@ def saved_model(path: Path, names: Sequence[str], *, record_names: bool = True,
                 method: str = DEFAULT_METHOD) -> Path:
     """Save a fresh network for ``names`` (with them in its metadata, as a node records)."""
     network = make_network(method, len(names))
-    limits = ScaraParams.from_yaml(config_path('scara.yaml'))
     index = [NAMES.index(name) for name in names]
-    network.set_scaling(*limit_scaling(*(limits.array(name)[index] for name in (
+    network.set_scaling(*limit_scaling(*(SCARA_PARAMS.array(name)[index] for name in (
         'position_min', 'position_max', 'velocity_max', 'acceleration_max', 'effort_max'))))
     if record_names:
         network.metadata['joint_names'] = np.array(names)
@@ -763,8 +762,8 @@ def test_existing_save_path_is_continued_not_replaced(tmp_path: Path,
     _, X, _ = stage.batch(record.stamp_ns[:40] + T0_NS, NAMES, record.q[:40],
                           record.qd[:40], record.effort[:40])
     expected = saved.predict(X[0])
-    assert np.all(np.abs(expected) < ScaraParams.from_yaml(config_path('scara.yaml'))
-                  .array('effort_max')), expected  # else the node clips what it publishes
+    # else the node clips what it publishes
+    assert np.all(np.abs(expected) < SCARA_PARAMS.array('effort_max')), expected
     np.testing.assert_allclose(first, expected, rtol=1e-9)
 
 
