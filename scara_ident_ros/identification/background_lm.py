@@ -10,6 +10,11 @@ state), takes ``steps`` LM steps whenever at least ``interval`` new samples have
 sends the new weights back. The caller takes them between two samples
 (:meth:`BackgroundLM.poll`), so a prediction never sees half an update.
 
+An update takes the reservoir as it is when it starts; the samples that come during it
+count towards the next. Without new samples (the robot at rest, the stream ended) there
+is no update, so an idle stream costs no CPU; on stop, one last update takes the samples
+that came since the previous one.
+
 The learner runs at a lower CPU priority (``nice``) with one BLAS thread: when the CPU is
 short, the stream's processes (simulator, message paths, recorder) go first and learning
 slows down; :attr:`BackgroundLM.updates` and :meth:`BackgroundLM.rate` say by how much.
@@ -50,6 +55,9 @@ BACKLOG = 2000  # batches kept while the pipe is full (at 1 kHz, 4 joints: ~30 s
 STOP_TIMEOUT = 10.0  # s the learner gets to finish its step and send its last weights
 NICE = 10  # the learner's niceness: below the stream's processes (0), above `nice 19` jobs
 RATE_SPAN = 10.0  # s over which updates per second are reported
+#: The learner process's program: run with ``-c`` rather than ``-m``, which would import
+#: this module twice (once as the package's, once as ``__main__``).
+LEARNER_COMMAND = f'from {__name__} import main; main()'
 
 
 @dataclass(frozen=True)
@@ -63,6 +71,7 @@ class LearnerSettings:
     float64: bool = False
     slow_share: float = 0.0
     nice: int = NICE
+    label: str = 'lm'  # names the learner on its command line (e.g. the method), for ps/top
 
 
 class BackgroundLM:
@@ -104,6 +113,7 @@ class BackgroundLM:
         self.dropped = 0
         self.updates = 0
         self.steps = 0
+        self.ready = False  # the learner has started and waits for samples
         self._update_times: deque[float] = deque()
         # A fresh interpreter (not fork: the caller has DDS threads; not multiprocessing's
         # spawn: it re-runs the caller's __main__), with one BLAS thread of its own.
@@ -112,7 +122,8 @@ class BackgroundLM:
         env = dict(os.environ, OPENBLAS_NUM_THREADS='1', OMP_NUM_THREADS='1',
                    MKL_NUM_THREADS='1')
         self._process = subprocess.Popen(
-            [sys.executable, '-m', __name__, str(learner_reads), str(learner_writes)],
+            [sys.executable, '-c', LEARNER_COMMAND, str(learner_reads), str(learner_writes),
+             settings.label],
             pass_fds=(learner_reads, learner_writes), env=env, stdin=subprocess.DEVNULL)
         os.close(learner_reads)
         os.close(learner_writes)
@@ -144,6 +155,7 @@ class BackgroundLM:
         try:
             while self._from_learner.poll():
                 kind, theta, steps = self._from_learner.recv()
+                self.ready = True
                 if kind == 'weights':
                     self.model.set_params(theta)
                     self.updates += 1
@@ -153,6 +165,15 @@ class BackgroundLM:
         except (EOFError, OSError):  # the learner has ended: keep the weights we have
             pass
         return got
+
+    def wait_ready(self, timeout: float) -> bool:
+        """Wait (at most ``timeout`` s) until the learner has started; return whether it
+        has (samples given before are not lost either way: they wait in the pipe)."""
+        deadline = time.monotonic() + timeout
+        while not self.ready and self.alive and time.monotonic() < deadline:
+            if self._from_learner.poll(0.05):
+                self.poll()
+        return self.ready
 
     def rate(self) -> float:
         """Updates per second over the last :data:`RATE_SPAN` s."""
@@ -264,20 +285,24 @@ def _learner(inbox: Connection, outbox: Connection, model: FeedForwardNet,
 
     reader = threading.Thread(target=read, name='lm-inbox', daemon=True)
     reader.start()
+    outbox.send(('ready', None, 0))
     with single_blas_thread():
         while True:
             with lock:
                 while not state['stop'] and state['new'] < trainer.interval:
                     lock.wait(0.5)
-                if state['stop']:
+                # the stop takes one last update if samples came since the previous one
+                if state['stop'] and not state['new']:
                     break
-                state['new'] = 0
+                last, state['new'] = state['stop'], 0
                 X, Y = (array.copy() for array in trainer.samples())
             if trainer.step_on(X, Y):
                 try:
                     outbox.send(('weights', model.get_params(), trainer.steps))
                 except (BrokenPipeError, OSError):
                     break
+            if last:
+                break
     try:
         outbox.send(('stopped', None, trainer.steps))
     except (BrokenPipeError, OSError):
@@ -285,8 +310,8 @@ def _learner(inbox: Connection, outbox: Connection, model: FeedForwardNet,
 
 
 def main(argv: list[str] | None = None) -> None:
-    """``python -m scara_ident_ros.identification.background_lm READ_FD WRITE_FD``: the
-    learner process, started by :class:`BackgroundLM`."""
+    """The learner process, started by :class:`BackgroundLM` as ``python -c
+    LEARNER_COMMAND READ_FD WRITE_FD LABEL``."""
     args = sys.argv[1:] if argv is None else argv
     inbox = Connection(int(args[0]), writable=False)
     outbox = Connection(int(args[1]), readable=False)
@@ -296,6 +321,3 @@ def main(argv: list[str] | None = None) -> None:
         return
     _learner(inbox, outbox, model, settings)
 
-
-if __name__ == '__main__':
-    main()

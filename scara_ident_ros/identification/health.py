@@ -159,7 +159,7 @@ def identifier_health(*, period_s: float, since_sample_s: float | None, processe
                       skipped: int, lost: int, learnt: int, recent_processed: int,
                       recent_skipped: int, recent_lost: int, lag_s: float | None,
                       error_finite: bool, validation_nmse: float | None,
-                      learning: bool) -> Health:
+                      learning: bool, update_rate: float | None = None) -> Health:
     """The identifier's health over the last ``period_s`` seconds.
 
     Parameters
@@ -181,6 +181,9 @@ def identifier_health(*, period_s: float, since_sample_s: float | None, processe
         The model's NMSE over the held-out samples; None or NaN until there are enough.
     learning : bool
         Whether the node learns (parameter ``learn``).
+    update_rate : float or None
+        Weight updates per second of a trainer that learns beside the stream; None for one
+        that learns in the message path. It falls when the CPU is short.
     """
     rate = recent_processed / period_s
     problems: list[tuple[Level, str]] = []
@@ -206,9 +209,11 @@ def identifier_health(*, period_s: float, since_sample_s: float | None, processe
         text = (f'validation NMSE {validation_nmse:.3g} > {NMSE_WARN:g}: the model predicts '
                 'worse than the mean (as it does in its first seconds of learning)')
         problems.append((Level.WARN, text))
+    updates = f' ({update_rate:.1f} updates/s)' if learning and update_rate is not None else ''
     level, message = _level(problems, f"identifying at {rate:.0f} samples/s, learning "
-                                      f"{'on' if learning else 'off'}")
+                                      f"{'on' if learning else 'off'}{updates}")
     return Health(level, message, {
+        **({'updates/s': f'{update_rate:.2f}'} if update_rate is not None else {}),
         'samples/s': f'{rate:.1f}', 'lag [ms]': _number(None if lag_s is None
                                                         else lag_s * 1e3, 3),
         'processed': str(processed), 'skipped': str(skipped), 'lost': str(lost),

@@ -155,7 +155,8 @@ class LazyCore:
             trainer=make_trainer(settings.trainer, network, capacity=settings.reservoir_size,
                                  interval=settings.lm_interval, steps=settings.lm_steps,
                                  seed=settings.seed, float64=settings.lm_float64,
-                                 slow_share=settings.lm_slow_share, background=background),
+                                 slow_share=settings.lm_slow_share, background=background,
+                                 label=f'lm-{settings.method}'),
             holdout=holdout, mse_window=settings.mse_window, learn=settings.learn,
             max_gap_ns=round(settings.max_gap * 1e9), bounds=bounds, stage=stage)
         counts = self.core.counts
@@ -173,7 +174,8 @@ class LazyCore:
 
     def first(self, settings: CoreSettings, differentiator: AccelerationEstimate,
               stamp_ns: int, names: Sequence[str], position: FloatArrayLike,
-              velocity: FloatArrayLike, effort: FloatArrayLike) -> Skipped | None:
+              velocity: FloatArrayLike, effort: FloatArrayLike, *,
+              background: bool = False) -> Skipped | None:
         """Build for the joints of this sample if it is valid (None); else count it skipped.
 
         A sample without effort fixes the joints too (it is predicted, not learnt); one
@@ -188,7 +190,7 @@ class LazyCore:
             note = (f'waiting for a message naming at least {settings.min_joints} joints '
                     f'(min_joints); this one names {list(names)}')
         if not isinstance(reason, SkipReason):
-            note = self.build(names, settings, differentiator)
+            note = self.build(names, settings, differentiator, background=background)
             if not note:
                 return None
             reason = SkipReason.UNKNOWN_JOINT

@@ -291,14 +291,15 @@ class ReservoirLM:
 
 def make_trainer(name: str, model: FeedForwardNet, *, capacity: int = 4000,
                  interval: int = 200, steps: int = 2, seed: int = 0, float64: bool = False,
-                 slow_share: float = 0.0, background: bool = False
+                 slow_share: float = 0.0, background: bool = False, label: str = 'lm'
                  ) -> BackPropagation | ReservoirLM | BackgroundLM:
     """Build the trainer called ``name`` (one of :data:`TRAINERS`) for ``model``.
 
     ``capacity``, ``interval``, ``steps``, ``seed``, ``float64`` and ``slow_share`` are
     :class:`ReservoirLM`'s; BP uses the network's own learning rate and momentum.
     ``background``: ``lm`` learns in a process beside the caller (:class:`BackgroundLM`,
-    ``interval`` then the least samples between two updates); BP stays per sample.
+    ``interval`` then the least samples between two updates, ``label`` naming its process);
+    BP stays per sample.
     """
     if name == 'bp':
         return BackPropagation(model)
@@ -306,7 +307,7 @@ def make_trainer(name: str, model: FeedForwardNet, *, capacity: int = 4000,
         from scara_ident_ros.identification.background_lm import BackgroundLM, LearnerSettings
         return BackgroundLM(model, LearnerSettings(
             capacity=capacity, interval=interval, steps=steps, seed=seed, float64=float64,
-            slow_share=slow_share))
+            slow_share=slow_share, label=label))
     if name == 'lm':
         return ReservoirLM(model, capacity=capacity, interval=interval, steps=steps,
                            seed=seed, float64=float64, slow_share=slow_share)

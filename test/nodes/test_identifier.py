@@ -31,6 +31,7 @@ from std_msgs.msg import Float64MultiArray
 
 from scara_ident_ros.dynamics import ScaraParams
 from scara_ident_ros.identification import Holdout, InputStage, JointMap
+from scara_ident_ros.identification.sample_check import RESTART_SAMPLES
 from scara_ident_ros.methods import METHODS, limit_scaling, make_network
 from scara_ident_ros.nn import FeedForwardNet
 from scara_ident_ros.nodes.identifier import PARAMETERS
@@ -495,7 +496,10 @@ def hostile_stream(record: SimRecord
         good(gap=True)
         for _ in range(GOOD_BETWEEN):
             good()
-        offset -= 2 * NS_PER_S  # ... and backwards (a replay restarted)
+        offset -= 2 * NS_PER_S  # ... and backwards (a replay restarted): a restart once
+        for _ in range(RESTART_SAMPLES - 1):  # RESTART_SAMPLES in a row confirm it
+            q, qd, e = record.q[slot], record.qd[slot], record.effort[slot]
+            bad('stamp_backwards', NAMES, q, qd, e)
         good(gap=True)
         for _ in range(GOOD_BETWEEN):
             good()
