@@ -61,6 +61,8 @@ from scara_ident_ros.identification import (DIFFERENTIATORS, LIMIT_NAMES, TRAINE
 from scara_ident_ros.identification.background_lm import BackgroundLM
 from scara_ident_ros.identification.error_window import ErrorStats
 from scara_ident_ros.identification.joint_limits import JointLimits
+from scara_ident_ros.identification.sample_check import GAP_PERIODS
+from scara_ident_ros.identification.stream_clock import StreamClock
 from scara_ident_ros.identification.health import (Deltas, Health, LossCounter,
                                                    identifier_health)
 from scara_ident_ros.methods import METHODS
@@ -285,12 +287,12 @@ class Identification:
             self._validation, self._validated_at = self.core.validation_stats(), now
         return self._validation
 
-    def publish(self, results: list[StepResult], frame_id: str, *,
-                measure_lag: bool = True) -> None:
+    def publish(self, results: list[StepResult], frame_id: str,
+                clock: StreamClock | None = None) -> None:
         """Publish each prediction, stamped with its sample.
 
-        ``measure_lag``: record how late each prediction is (wall clock minus its stamp);
-        not for those let out on shutdown, whose lag is the time since the last sample.
+        ``clock``: record how late each prediction is (against the stream's clock); not
+        for those let out on shutdown, whose lag is the time since the last sample.
         """
         out = self.torque_msg  # reused: publish() serialises it before returning
         for result in results:
@@ -301,9 +303,9 @@ class Identification:
             out.header.frame_id = frame_id
             out.effort = result.effort.tolist()
             self.torque_publisher.publish(out)
-            if not measure_lag:
+            if clock is None:
                 continue
-            lag_ns = time.time_ns() - result.stamp_ns
+            lag_ns = clock.lag_ns(result.stamp_ns, time.time_ns())
             if lag_ns > self.period_lag_ns:
                 self.period_lag_ns = lag_ns
             if lag_ns > self.max_lag_ns:
@@ -379,7 +381,10 @@ class IdentifierNode(Node):
         self.create_timer(STATS_PERIOD, self.log_stats)
         self.checkpoint_timer: Timer | None = None
         self._start_checkpoints()
-        self.loss = LossCounter()  # samples missing from the stream, from the stamps
+        # samples missing from the stream, from the stamps; longer jumps than the q''
+        # estimate bridges are pauses (between recordings), counted apart
+        self.loss = LossCounter(span_s=s['max_gap'], pause_periods=GAP_PERIODS)
+        self.clock = StreamClock()  # lags against the stream's own clock
         self.last_sample: float | None = None  # monotonic s of the latest sample
         self.diagnostics = [
             Diagnostics(self, f'{ident.method} identification' if several
@@ -601,7 +606,7 @@ class IdentifierNode(Node):
         """Check and differentiate once; predict, publish, learn for each method."""
         self.last_sample = time.monotonic()
         stamp_ns = stamp_to_ns(msg.header.stamp)
-        self.loss.observe(stamp_ns)
+        self.clock.arrived(stamp_ns, time.time_ns(), restart=self.loss.observe(stamp_ns))
         self.publisher_watch.stamps.observe(stamp_ns)
         core = self.core
         if core is None:
@@ -614,7 +619,7 @@ class IdentifierNode(Node):
                                          msg.velocity, msg.effort)
         for ident in self.identifications:
             assert ident.core is not None
-            ident.publish(ident.core.take(stamp_ns, reason, inputs), frame_id)
+            ident.publish(ident.core.take(stamp_ns, reason, inputs), frame_id, self.clock)
         if reason is None or reason is SkipReason.WARMING_UP:
             return
         if reason in JOINT_SET_REASONS:
@@ -704,6 +709,8 @@ class IdentifierNode(Node):
             'validation_nmse_total': (float(validation.nmse_total) if validation is not None
                                       else None),
             'max_lag_ms': ident.worst_lag_ns / 1e6, 'lost': self.loss.lost,
+            'pauses': self.loss.pauses, 'paused_s': self.loss.paused_s,
+            'wall_clock_stamps': self.clock.wall,
             'joint_states_publishers': self.publisher_watch.most_publishers,
             'stamps_backward': self.publisher_watch.stamps.backward,
             **ident.learning(),
@@ -782,7 +789,7 @@ class IdentifierNode(Node):
             for ident in self.identifications:
                 assert ident.core is not None
                 results = ident.core.take(0, None, inputs, pushed=False)
-                ident.publish(results, self.frame_id, measure_lag=False)
+                ident.publish(results, self.frame_id)
             if inputs:
                 for ident in self.identifications:
                     ident.torque_publisher.wait_for_all_acked(Duration(seconds=FLUSH_TIMEOUT))
