@@ -67,6 +67,7 @@ def run(args: argparse.Namespace) -> int:
         raise CliError(f'{args.model}: ONNX Runtime differs from predict by {worst:.1e} of '
                        f'the largest effort (more than {TOLERANCE:g}); {out} not written')
     try:
+        out.parent.mkdir(parents=True, exist_ok=True)
         save_onnx(model, out)
     except OSError as exc:
         raise CliError(f'--out {out} cannot be written: {exc.strerror or exc}') from None
