@@ -19,8 +19,8 @@ equivalent tanh form, which agrees with it to ~1e-16.
 Why float64: a ros2_control controller reads and writes ``double`` state and command
 interfaces, the package computes in float64, and the CPU provider of ONNX Runtime has
 float64 kernels for every operator used here (MatMul, Add, Sub, Mul, Div, Sigmoid,
-Unsqueeze, ReduceSum). Opset 13 and IR version 7 keep the file loadable by ONNX Runtime
-1.8 and later, older than what a ROS distribution may ship.
+Unsqueeze, ReduceSum). Opset 13 and IR version 7 keep the file loadable by older ONNX
+Runtime releases too (1.8 and later), such as a robot's controller computer may have.
 
 Public API::
 
