@@ -28,6 +28,8 @@ Public API::
     network_to_onnx(network, ...) -> ModelProto
     save_onnx(model, path)                  written atomically
     onnx_agreement(model, network, X)       per joint: how far ONNX Runtime is from predict
+    relative_difference(actual, expected)   per joint: max |difference| / max |expected|
+    package_version()                       what the metadata records
 """
 from __future__ import annotations
 
