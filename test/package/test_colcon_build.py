@@ -65,7 +65,8 @@ def test_scara_ident_cli_starts_from_the_install(install: Path) -> None:
     result = subprocess.run([str(exe), '--help'], env=sourced_env(install),
                             capture_output=True, text=True, timeout=60, check=False)
     assert result.returncode == 0, result.stderr
-    for command in ('run', 'play', 'train', 'evaluate', 'tables', 'compare', 'recover'):
+    for command in ('run', 'play', 'train', 'evaluate', 'tables', 'compare', 'recover',
+                    'export'):
         assert command in result.stdout
 
 
