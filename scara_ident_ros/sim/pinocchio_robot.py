@@ -245,6 +245,14 @@ class PinocchioRobot:
         m = pin.crba(self.model, self.data, np.asarray(q, dtype=float))
         return np.triu(m) + np.triu(m, 1).T
 
+    def replaced(self, *, friction: JointFriction | None = None,
+                 acceleration_max: Sequence[float] | None = None) -> PinocchioRobot:
+        """A copy with another friction and/or other acceleration limits (None: the same)."""
+        return PinocchioRobot(
+            self.model, self._limits, self.friction if friction is None else friction,
+            acceleration_max=(self.acceleration_max if acceleration_max is None
+                              else acceleration_max), source=self.source)
+
     def max_stable_step(self) -> float:
         """Longest RK4 step (s) the friction's sticking band allows (see JointFriction)."""
         return self.friction.max_stable_step(self.armature)
