@@ -89,14 +89,14 @@ class JointFriction:
         set_(self, '_inv_eps', 1.0 / np.array(self.stick_velocity))              # s/rad
 
     @classmethod
-    def scaled(cls, effort_max: Sequence[float], *, viscous: float, coulomb: float,
+    def scaled(cls, effort_max: Sequence[float] | np.ndarray, *, viscous: float, coulomb: float,
                static: float, stribeck_velocity: float, stick_velocity: float
                ) -> JointFriction:
         """Friction in proportion to each joint's effort limit: a plausible default.
 
         Parameters
         ----------
-        effort_max : sequence of n float
+        effort_max : sequence of n float or ndarray of shape (n,)
             Effort limits (N·m or N).
         viscous : float
             Fv as a fraction of effort_max per unit speed (s/rad or s/m).

@@ -86,7 +86,7 @@ class ScaraPlant:
         return [tuple(row) for row in np.asarray(rows, dtype=float).tolist()]
 
     def floats(self, x: Any) -> Sequence[float]:
-        return x  # type: ignore[no-any-return]
+        return x
 
     def add(self, x: Any, y: Any) -> Any:
         return tuple(map(operator.add, x, y))
@@ -150,7 +150,7 @@ class ArrayPlant:
         return list(np.array(rows, dtype=float))
 
     def floats(self, x: Any) -> Sequence[float]:
-        return x.tolist()  # type: ignore[no-any-return]
+        return x.tolist()
 
     def add(self, x: Any, y: Any) -> Any:
         return np.add(x, y)

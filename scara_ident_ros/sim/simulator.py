@@ -274,9 +274,9 @@ class Simulator:
         self._h = cfg.dt / cfg.substeps
         self._jitter = StampJitter(cfg.dt_ns, cfg.jitter,
                                    seed=int(jitter_seed.generate_state(1)[0]))
-        self._noisy = any(cfg.position_noise + cfg.velocity_noise + cfg.effort_noise)
-        self._noise_std = np.array(cfg.position_noise + cfg.velocity_noise
-                                   + cfg.effort_noise)
+        self._noise_std = np.array([cfg.position_noise, cfg.velocity_noise,
+                                    cfg.effort_noise], dtype=float).ravel()   # (3 n,)
+        self._noisy = bool(self._noise_std.any())
         self._kind = cfg.disturbance_kind if cfg.disturbance > 0.0 else 'none'
         self._amplitude = tuple(cfg.disturbance * e for e in params.effort_max)  # N·m, N
         self.reset()
