@@ -51,7 +51,7 @@ ARMATURE_PER_EFFORT = 1e-3
 #: and velocities (rad/s or m/s); keywords of :meth:`JointFriction.scaled`.
 FRICTION_DEFAULTS: dict[str, float] = {
     'viscous': 0.02, 'coulomb': 0.03, 'static': 0.04,
-    'stribeck_velocity': 0.05, 'stick_velocity': 0.02,
+    'stribeck_velocity': 0.1, 'stick_velocity': 0.05,
 }
 #: Default acceleration limit: this fraction of the effort limit over the largest inertia ...
 ACCELERATION_EFFORT_FRACTION = 0.5

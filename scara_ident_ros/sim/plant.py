@@ -145,6 +145,7 @@ class ArrayPlant:
         self.kd = np.array(_vector('kd', kd, n, minimum=0.0, allow_scalar=True))   # 1/s
         self.effort_max = _vector('effort_max', effort_max, n, minimum=0.0)
         self._limit = np.array(self.effort_max)
+        self._minus_limit = -self._limit
 
     def native(self, rows: np.ndarray) -> list[Any]:
         return list(np.array(rows, dtype=float))
@@ -161,7 +162,9 @@ class ArrayPlant:
     def control(self, q: Any, qd: Any, q_des: Any, qd_des: Any, qdd_des: Any) -> Any:
         command = qdd_des + self.kd * (qd_des - qd) + self.kp * (q_des - q)   # rad/s², m/s²
         tau = self.controller_dynamics.inverse_dynamics_single(q, qd, command)
-        return np.clip(tau, -self._limit, self._limit)
+        # np.clip costs several microseconds on a few elements: two in-place bounds instead
+        np.maximum(tau, self._minus_limit, out=tau)
+        return np.minimum(tau, self._limit, out=tau)
 
     def step(self, q: Any, qd: Any, tau: Any, h: float, substeps: int
              ) -> tuple[Any, Any, Any]:

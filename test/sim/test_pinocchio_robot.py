@@ -157,7 +157,7 @@ def test_simulated_arm_stays_within_limits_and_its_effort_is_rnea_plus_friction(
     r = robot(name)
     n = r.n_joints
     trajectory = make_trajectory('sequence', r, seed=2)
-    record = Simulator(r, trajectory, SimConfig(n_joints=n, substeps=2, seed=2)).simulate(6000)
+    record = Simulator(r, trajectory, SimConfig(n_joints=n, substeps=1, seed=2)).simulate(6000)
     assert record.q.shape == (6000, n)
     assert (record.q >= r.array('position_min')).all()
     assert (record.q <= r.array('position_max')).all()
@@ -177,7 +177,7 @@ def test_simulated_arm_stays_within_limits_and_its_effort_is_rnea_plus_friction(
 
 def test_noise_disturbance_and_mismatch_run_on_arrays() -> None:
     r = robot('ur5')
-    config = SimConfig(n_joints=6, substeps=2, position_noise=1e-4, effort_noise=0.1,
+    config = SimConfig(n_joints=6, substeps=1, position_noise=1e-4, effort_noise=0.1,
                        disturbance=0.05, disturbance_kind='random', model_mismatch=0.1, seed=5)
     record = Simulator(r, make_trajectory('standard', r, seed=5), config).simulate(500)
     assert np.isfinite(record.effort).all() and record.effort.shape == (500, 6)
