@@ -99,6 +99,10 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
                         help='start even if another graph already publishes /joint_states '
                              "or the identifiers' topics on this ROS domain (its samples "
                              'then mix with this run\'s)')
+    parser.add_argument('--robot', default=None, metavar='NAME',
+                        help='simulate this example-robot-data arm with robot_sim instead of '
+                             'the SCARA (ur5, panda, ...); the identifiers get its URDF and '
+                             'acceleration limits (default: the SCARA, scara_sim)')
     parser.set_defaults(func=run)
 
 
@@ -145,6 +149,7 @@ def run(args: argparse.Namespace) -> int:
     for directory in (stats, models):
         directory.mkdir(parents=True, exist_ok=True)
 
+    sim_name, sim_args, robot_args = _simulator(getattr(args, 'robot', None))
     graph = ProcessGraph(out / 'logs')
     graph.start(NodeProcess('recorder', 'scara_ident_ros.nodes.recorder', [
         '-p', f'output:={bag}', '-p', f'compression:={args.compression}',
@@ -157,12 +162,12 @@ def run(args: argparse.Namespace) -> int:
         # subscribe /joint_states only once the recorder records every method's outputs:
         # the simulator's wait below then covers the predictions too
         '-p', 'wait_for_subscribers:=1', '-p', f'wait_timeout:={STARTUP_TIMEOUT}',
-        '-p', f'stats_file:={stats}/{{method}}.json']))
-    sim = graph.start(NodeProcess('scara_sim', 'scara_ident_ros.nodes.scara_sim', [
+        '-p', f'stats_file:={stats}/{{method}}.json', *robot_args]))
+    sim = graph.start(NodeProcess(sim_name, f'scara_ident_ros.nodes.{sim_name}', [
         '-p', f'duration:={args.duration}', '-p', f'trajectory:={args.trajectory}',
         '-p', f'seed:={args.seed}', '-p', 'wait_for_subscribers:=2',
         '-p', f'wait_timeout:={STARTUP_TIMEOUT}',
-        '-p', f'stats_file:={stats / "scara_sim.json"}']))
+        '-p', f'stats_file:={stats / "scara_sim.json"}', *sim_args]))
     print(f'scara-ident run: {args.duration:g} s at 1 kHz, identifying with '
           f'{", ".join(m.upper() for m in args.methods)}, recording {bag}', flush=True)
     with StopSignals() as signals:
@@ -330,3 +335,31 @@ def _print_summary(summary: dict[str, Any]) -> None:
         elif row['recorded'] is not None and row['recorded'] != row['predicted']:
             print(f"WARNING: {name.upper()}: {row['predicted']} predictions published, "
                   f"{row['recorded']} recorded")
+
+
+# -- --robot: an example-robot-data arm simulated by robot_sim instead of the SCARA --------
+
+def _simulator(robot: str | None) -> tuple[str, list[str], list[str]]:
+    """The simulator node, its extra arguments and the identifiers' extra arguments.
+
+    None: ``scara_sim`` and no extra argument. A robot name: ``robot_sim`` with
+    ``robot:=NAME``; each identifier gets the robot's URDF, its simulated joints and the
+    acceleration limits robot_sim derives (URDF has none). Its final counters still go to
+    ``stats/scara_sim.json``, which the summary reads.
+    """
+    if robot is None:
+        return 'scara_sim', [], []
+    # imported here: pinocchio is loaded for --robot runs only
+    from scara_ident_ros.sim.example_robots import ExampleRobotError, example_robot
+    from scara_ident_ros.sim.pinocchio_robot import PinocchioRobot
+
+    try:
+        entry = example_robot(robot)
+    except ExampleRobotError as exc:
+        raise CliError(f'--robot: {exc}') from None
+    model = PinocchioRobot.from_urdf(entry.urdf, joints=entry.joints)
+    names = ','.join(model.joint_names)
+    limits = ','.join(repr(float(a)) for a in model.acceleration_max)
+    return 'robot_sim', ['-p', f'robot:={robot}'], [
+        '-p', f'urdf_file:={entry.urdf}', '-p', f'joint_names:=[{names}]',
+        '-p', f'acceleration_max:=[{limits}]']

@@ -18,7 +18,7 @@ import pytest
 
 REPO = Path(__file__).resolve().parents[2]
 PACKAGE = 'scara_ident_ros'
-NODES = ('scara_sim', 'identifier', 'recorder', 'player')
+NODES = ('scara_sim', 'robot_sim', 'identifier', 'recorder', 'player')
 EXECUTABLES = (*NODES, 'scara-ident')
 COPY_IGNORE = shutil.ignore_patterns('.venv', '.git', 'build', 'install', 'log', 'out',
                                      '__pycache__', '*.egg-info', '.pytest_cache')
