@@ -67,7 +67,10 @@ def graph_processes(root: int) -> dict[int, str]:
                 continue
             frontier.append(pid)
             if any(LEARNER_MODULE in part for part in cmdline):
-                found[pid] = f'learner {cmdline[-2].decode() if len(cmdline) > 1 else ""}'
+                try:  # the learner names itself after its method (its comm)
+                    found[pid] = Path(f'/proc/{pid}/comm').read_text().strip()
+                except OSError:
+                    found[pid] = 'learner'
             elif b'-m' in cmdline:
                 found[pid] = cmdline[cmdline.index(b'-m') + 1].decode().rsplit('.', 1)[-1]
     return found

@@ -39,6 +39,7 @@ import time
 from collections import deque
 from dataclasses import dataclass
 from multiprocessing.connection import Connection
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -46,7 +47,7 @@ from numpy.typing import NDArray
 
 from scara_ident_ros.nn import FeedForwardNet
 
-__all__ = ['BackgroundLM', 'LearnerSettings']
+__all__ = ['BackgroundLM', 'LearnerSettings', 'prestart']
 
 #: Bytes of one batch message at most: below PIPE_BUF (4096 on Linux), so a write into a
 #: pipe that select() calls writable neither blocks nor interleaves.
@@ -71,7 +72,7 @@ class LearnerSettings:
     float64: bool = False
     slow_share: float = 0.0
     nice: int = NICE
-    label: str = 'lm'  # names the learner on its command line (e.g. the method), for ps/top
+    label: str = 'lm'  # names the learner (e.g. the method): its process title, for ps/top
 
 
 class BackgroundLM:
@@ -115,21 +116,9 @@ class BackgroundLM:
         self.steps = 0
         self.ready = False  # the learner has started and waits for samples
         self._update_times: deque[float] = deque()
-        # A fresh interpreter (not fork: the caller has DDS threads; not multiprocessing's
-        # spawn: it re-runs the caller's __main__), with one BLAS thread of its own.
-        learner_reads, we_write = os.pipe()
-        we_read, learner_writes = os.pipe()
-        env = dict(os.environ, OPENBLAS_NUM_THREADS='1', OMP_NUM_THREADS='1',
-                   MKL_NUM_THREADS='1')
-        self._process = subprocess.Popen(
-            [sys.executable, '-c', LEARNER_COMMAND, str(learner_reads), str(learner_writes),
-             settings.label],
-            pass_fds=(learner_reads, learner_writes), env=env, stdin=subprocess.DEVNULL)
-        os.close(learner_reads)
-        os.close(learner_writes)
-        self._to_learner = Connection(we_write, readable=False)
-        self._from_learner = Connection(we_read, writable=False)
-        self._to_learner.send((model, settings))  # blocks until read: the learner is up
+        self._process, self._to_learner, self._from_learner = (
+            _PRESTARTED.pop() if _PRESTARTED else _start_learner())
+        self._to_learner.send((model, settings))  # the learner waits for it
         self._closed = False
 
     # ------------------------------------------------------------------ message path
@@ -244,6 +233,37 @@ class BackgroundLM:
         self._from_learner.close()
 
 
+_Learner = tuple[subprocess.Popen[bytes], Connection, Connection]
+_PRESTARTED: list[_Learner] = []  # learner processes started ahead, waiting for a model
+
+
+def _start_learner() -> _Learner:
+    """Start a learner process; return it with the pipes to and from it.
+
+    A fresh interpreter (not fork: the caller has DDS threads; not multiprocessing's spawn:
+    it re-runs the caller's ``__main__``), with one BLAS thread of its own.
+    """
+    learner_reads, we_write = os.pipe()
+    we_read, learner_writes = os.pipe()
+    env = dict(os.environ, OPENBLAS_NUM_THREADS='1', OMP_NUM_THREADS='1',
+               MKL_NUM_THREADS='1')
+    process = subprocess.Popen(
+        [sys.executable, '-c', LEARNER_COMMAND, str(learner_reads), str(learner_writes)],
+        pass_fds=(learner_reads, learner_writes), env=env, stdin=subprocess.DEVNULL)
+    os.close(learner_reads)
+    os.close(learner_writes)
+    return process, Connection(we_write, readable=False), Connection(we_read, writable=False)
+
+
+def prestart(count: int) -> None:
+    """Start ``count`` learner processes now, before the stream: the next
+    :class:`BackgroundLM` objects take them instead of starting their own, so that the
+    interpreters' start (about 0.6 s of CPU each) does not compete with the first samples.
+    """
+    while len(_PRESTARTED) < count:
+        _PRESTARTED.append(_start_learner())
+
+
 def _learner(inbox: Connection, outbox: Connection, model: FeedForwardNet,
              settings: LearnerSettings) -> None:
     """The learner process: keep the reservoir, step, send weights, until told to stop."""
@@ -254,6 +274,7 @@ def _learner(inbox: Connection, outbox: Connection, model: FeedForwardNet,
         os.nice(settings.nice)
     except OSError:
         pass
+    _set_title(f'scara_ident_ros learner {settings.label}')
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the node stops it (close), not Ctrl-C
     trainer = ReservoirLM(model, capacity=settings.capacity, interval=settings.interval,
                           steps=settings.steps, seed=settings.seed, float64=settings.float64,
@@ -285,7 +306,10 @@ def _learner(inbox: Connection, outbox: Connection, model: FeedForwardNet,
 
     reader = threading.Thread(target=read, name='lm-inbox', daemon=True)
     reader.start()
-    outbox.send(('ready', None, 0))
+    try:
+        outbox.send(('ready', None, 0))
+    except (BrokenPipeError, OSError):  # the caller has gone already
+        return
     with single_blas_thread():
         while True:
             with lock:
@@ -309,9 +333,17 @@ def _learner(inbox: Connection, outbox: Connection, model: FeedForwardNet,
         pass
 
 
+def _set_title(title: str) -> None:
+    """Name this process ``title`` in ``ps``/``top`` (Linux: its comm), if possible."""
+    try:
+        Path('/proc/self/comm').write_text(title[-15:])
+    except OSError:
+        pass
+
+
 def main(argv: list[str] | None = None) -> None:
     """The learner process, started by :class:`BackgroundLM` as ``python -c
-    LEARNER_COMMAND READ_FD WRITE_FD LABEL``."""
+    LEARNER_COMMAND READ_FD WRITE_FD``: it waits for its model and settings."""
     args = sys.argv[1:] if argv is None else argv
     inbox = Connection(int(args[0]), writable=False)
     outbox = Connection(int(args[1]), readable=False)

@@ -58,7 +58,7 @@ from scara_ident_ros.identification import (DIFFERENTIATORS, LIMIT_NAMES, TRAINE
                                             ErrorWindow, LazyCore, OnlineIdentifier, ReservoirLM,
                                             SkipReason, StepResult, check_warm_start,
                                             load_joint_limits, make_differentiator)
-from scara_ident_ros.identification.background_lm import BackgroundLM
+from scara_ident_ros.identification.background_lm import BackgroundLM, prestart
 from scara_ident_ros.identification.error_window import ErrorStats
 from scara_ident_ros.identification.joint_limits import JointLimits
 from scara_ident_ros.identification.sample_check import GAP_PERIODS
@@ -69,7 +69,8 @@ from scara_ident_ros.methods import METHODS
 from scara_ident_ros.mse_layout import encode_mse
 from scara_ident_ros.nn import FeedForwardNet, ModelFormatError
 from scara_ident_ros.nodes.diagnostics import Diagnostics
-from scara_ident_ros.nodes.messages import joint_state, stamp_to_ns
+from scara_ident_ros.nodes.joint_state_cdr import (JointStateReader, JointStateTemplate,
+                                                   RawJointState)
 from scara_ident_ros.nodes.parameters import ParamSpec, declare_parameters
 from scara_ident_ros.nodes.publisher_watch import PublisherWatch
 from scara_ident_ros.nodes.runtime import ConfigError, run_node
@@ -247,7 +248,7 @@ class Identification:
         self.lazy = LazyCore(limits, network)
         self.torque_publisher = node.create_publisher(JointState, prefix + TORQUE, STREAM_QOS)
         self.mse_publisher = node.create_publisher(Float64MultiArray, prefix + MSE, 10)
-        self.torque_msg = JointState()
+        self.template: JointStateTemplate | None = None  # the predictions' message
         self.max_lag_ns = 0  # ns, since the last statistics line
         self.worst_lag_ns = 0  # ns, since start
         self.period_lag_ns = 0  # ns, largest since the last diagnostics report
@@ -274,7 +275,7 @@ class Identification:
 
     def built(self, names: list[str]) -> None:
         """The core is built for ``names``: make the message predictions are sent in."""
-        self.torque_msg = joint_state(0, names, effort=np.zeros(len(names)))
+        self.template = JointStateTemplate(names)
         self._validation, self._validated_at = None, -math.inf
 
     def validation(self, *, fresh: bool = False) -> ErrorStats | None:
@@ -294,15 +295,15 @@ class Identification:
         ``clock``: record how late each prediction is (against the stream's clock); not
         for those let out on shutdown, whose lag is the time since the last sample.
         """
-        out = self.torque_msg  # reused: publish() serialises it before returning
+        template = self.template
+        assert template is not None  # built with the core
+        if template.frame_id != frame_id:
+            template = self.template = JointStateTemplate(template.names, frame_id)
+        publish = self.torque_publisher.publish
         for result in results:
             if result.effort is None:
                 continue
-            out.header.stamp.sec, out.header.stamp.nanosec = divmod(result.stamp_ns,
-                                                                    1_000_000_000)
-            out.header.frame_id = frame_id
-            out.effort = result.effort.tolist()
-            self.torque_publisher.publish(out)
+            publish(template.fill(result.stamp_ns, result.effort))
             if clock is None:
                 continue
             lag_ns = clock.lag_ns(result.stamp_ns, time.time_ns())
@@ -369,6 +370,8 @@ class IdentifierNode(Node):
                                            f'{source}')
             self.identifications.append(Identification(
                 self, method, f'{method}/' if several else '', self.limits, network))
+        if s['trainer'] == 'lm' and s['lm_background']:
+            prestart(len(methods))  # their interpreters start now, not with the stream
         # checked at startup (a bad window ends it in one line), used once the joints are known
         self.differentiator = make_differentiator(s['differentiator'], window=s['window'],
                                                   cutoff_hz=s['cutoff_hz'])
@@ -376,6 +379,7 @@ class IdentifierNode(Node):
         if missing_limits:
             raise ConfigError(f'joint_names: {missing_limits}')
         self.frame_id = ''  # header.frame_id of the latest sample, given to its predictions
+        self.reader = JointStateReader()
         self.subscription: Subscription | None = None
         self.mse_timer = self.create_timer(1.0 / s['mse_rate_hz'], self.publish_mse)
         self.create_timer(STATS_PERIOD, self.log_stats)
@@ -441,8 +445,9 @@ class IdentifierNode(Node):
     def _subscribe(self) -> None:
         """Subscribe ``joint_states``: from now on samples are processed."""
         s = self.settings
+        # raw: the message is split in place (joint_state_cdr), not built as objects
         self.subscription = self.create_subscription(
-            JointState, JOINT_STATES, self.on_joint_state, INPUT_QOS)
+            JointState, JOINT_STATES, self.on_raw_joint_state, INPUT_QOS, raw=True)
         self.publisher_watch = PublisherWatch(self, self.subscription.topic_name)
         outputs = ', '.join(i.torque_publisher.topic_name for i in self.identifications)
         self.get_logger().info(
@@ -602,10 +607,18 @@ class IdentifierNode(Node):
         return ''
 
     # ------------------------------------------------------------------ per sample
+    def on_raw_joint_state(self, raw: bytes) -> None:
+        """A serialized sample from ``joint_states``: see :meth:`on_sample`."""
+        self.on_sample(self.reader.read(raw))
+
     def on_joint_state(self, msg: JointState) -> None:
+        """A sample as a message object: see :meth:`on_sample`."""
+        self.on_sample(JointStateReader.of_message(msg))
+
+    def on_sample(self, msg: RawJointState) -> None:
         """Check and differentiate once; predict, publish, learn for each method."""
         self.last_sample = time.monotonic()
-        stamp_ns = stamp_to_ns(msg.header.stamp)
+        stamp_ns = msg.stamp_ns
         self.clock.arrived(stamp_ns, time.time_ns(), restart=self.loss.observe(stamp_ns))
         self.publisher_watch.stamps.observe(stamp_ns)
         core = self.core
@@ -614,9 +627,9 @@ class IdentifierNode(Node):
                 return
             core = self.core
             assert core is not None  # built by _build_from
-        self.frame_id = frame_id = msg.header.frame_id
-        reason, inputs = core.stage.push(stamp_ns, tuple(msg.name), msg.position,
-                                         msg.velocity, msg.effort)
+        self.frame_id = frame_id = msg.frame_id
+        reason, inputs = core.stage.push(stamp_ns, msg.names, msg.position, msg.velocity,
+                                         msg.effort)
         for ident in self.identifications:
             assert ident.core is not None
             ident.publish(ident.core.take(stamp_ns, reason, inputs), frame_id, self.clock)
@@ -624,17 +637,17 @@ class IdentifierNode(Node):
             return
         if reason in JOINT_SET_REASONS:
             self._warn(f'skipped a sample ({reason.value}): it names joints '
-                       f'{list(msg.name)}, the identifier identifies {self.names} (set '
+                       f'{list(msg.names)}, the identifier identifies {self.names} (set '
                        'joint_names, or min_joints to wait for a message naming them all)')
         else:
             self._warn(f'skipped a sample ({reason.value}); '
                        f'{sum(core.counts.skipped.values())} so far')
 
-    def _build_from(self, msg: JointState, stamp_ns: int) -> bool:
+    def _build_from(self, msg: RawJointState, stamp_ns: int) -> bool:
         """Build for the joints of ``msg`` if it is valid; else count it as skipped."""
         first = self.first.lazy
         skipped = first.first(self._core_settings(self.first.method), self.differentiator,
-                              stamp_ns, msg.name, msg.position, msg.velocity, msg.effort,
+                              stamp_ns, msg.names, msg.position, msg.velocity, msg.effort,
                               background=self.settings['lm_background'])
         if skipped is None:
             for ident in self.identifications[1:]:

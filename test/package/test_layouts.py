@@ -34,6 +34,7 @@ from typing import Any
 
 import pytest
 import rclpy
+from rclpy.serialization import deserialize_message
 from rclpy.node import Node
 
 from scara_ident_ros.methods import METHODS
@@ -90,8 +91,11 @@ def recorded(make_node: Callable[[], Node], ros_args: list[str],
                     topic = publisher.topic_name
                     types[topic] = publisher.msg_type
                     sent = graph.setdefault(topic, [])
+                    # a node may publish a message object or its serialized bytes
                     patch.setattr(publisher, 'publish',
-                                  lambda msg, sent=sent: sent.append(copy.deepcopy(msg)))
+                                  lambda msg, sent=sent, cls=publisher.msg_type: sent.append(
+                                      deserialize_message(msg, cls) if isinstance(msg, bytes)
+                                      else copy.deepcopy(msg)))
                 yield node
         finally:
             node.destroy_node()
