@@ -175,9 +175,10 @@ def fit_hybrid(physical: PhysicalModel, network: FeedForwardNet,
                     (np.asarray(x_range[0], float), np.asarray(x_range[1], float)))
     network.set_scaling(x_min, x_max, residual.min(axis=0), residual.max(axis=0))
     val = None
-    if validation is not None and len(validation[0]):
+    if validation is not None:
         xv = np.asarray(validation[0], dtype=np.float64)
-        val = (xv, np.asarray(validation[1], dtype=np.float64) - physical.predict(xv))
+        if xv.shape[0]:
+            val = (xv, np.asarray(validation[1], dtype=np.float64) - physical.predict(xv))
     history = network.fit(x, residual, algorithm='lm', iterations=iterations,
                           validation=val, max_fail=max_fail, min_iterations=min_iterations,
                           callback=callback)

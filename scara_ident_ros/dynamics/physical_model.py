@@ -38,7 +38,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -128,7 +128,7 @@ class PhysicalModel:
         model = (pin.buildReducedModel(full, lock, pin.neutral(full)) if lock else full)
         self._pin, self._model, self._data = pin, model, model.createData()
         self.joint_names = tuple(names)
-        n = self._n = len(names)
+        self._n = len(names)
         self._q_index, self._circle, self._v_index = [], [], []
         for name in names:
             joint = model.joints[model.getJointId(name)]
@@ -343,9 +343,9 @@ class PhysicalModel:
             block = slice(start, start + _CHUNK)
             rows = np.hstack([self.stacked_regressor(q[block], qd[block], qdd[block]),
                               tau[block].reshape(-1, 1)])
-            upper = np.linalg.qr(np.vstack([upper, rows]), mode='r')
+            upper = cast(FloatArray, np.linalg.qr(np.vstack([upper, rows]), mode='r'))
         theta, *_ = np.linalg.lstsq(upper[:p, :p], upper[:p, p], rcond=None)
-        self.theta = theta
+        self.theta = np.asarray(theta, dtype=np.float64)
         residual = np.concatenate([self.regressor(q[s:s + _CHUNK], qd[s:s + _CHUNK],
                                                   qdd[s:s + _CHUNK]) @ theta
                                    - tau[s:s + _CHUNK]

@@ -137,7 +137,7 @@ class RecursiveLeastSquares:
             raise ValueError('regressor rows and efforts must be finite')
         self._a += rows.T @ rows
         self._b += rows.T @ values
-        self.theta = np.linalg.solve(self._a, self._b)
+        self.theta = np.asarray(np.linalg.solve(self._a, self._b), dtype=np.float64)
         self.count += samples
 
     def predict(self, q: ArrayLike, qd: ArrayLike, qdd: ArrayLike) -> NDArray[np.float64]:
