@@ -41,8 +41,10 @@ A progress bar goes to stderr, the errors on the training and validation data to
 
 --method physical: the robot's physical model from its URDF (--urdf, required): base
 parameters of the rigid bodies and rotor inertias, viscous and Coulomb friction per joint
-(--coulomb tanh with --coulomb-eps, or sign), fitted by linear least squares on every
-training sample (--samples does not apply); the identified parameters are printed.
+fitted by linear least squares on every training sample (--samples does not apply); the
+identified parameters are printed. The Coulomb shape (--coulomb auto, the default) is the
+one of sign(qd) and tanh(qd/eps), eps 0.005-0.2, whose fit has the lowest validation
+NMSE (without validation: tanh with --coulomb-eps); --coulomb tanh or sign imposes one.
 --method hybrid: the physical model, then an FFS network on its residual (output scaling:
 the residual's range) with Levenberg-Marquardt on --samples of the training samples,
 early-stopped on the validation blocks' residual as above. With --urdf, networks (the
@@ -102,9 +104,10 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     parser.add_argument('--urdf', type=Path, default=None, metavar='ROBOT.urdf',
                         help='the robot\'s URDF: required by physical and hybrid; gives a '
                              'network its limit scaling')
-    parser.add_argument('--coulomb', default='tanh', choices=list(COULOMB_MODES),
-                        help='Coulomb friction shape of physical/hybrid: tanh(qd/eps) or '
-                             'sign(qd) (default: tanh)')
+    parser.add_argument('--coulomb', default='auto', choices=['auto', *COULOMB_MODES],
+                        help='Coulomb friction shape of physical/hybrid: auto (the best on '
+                             'validation of sign and tanh with several eps), tanh(qd/eps) '
+                             'or sign(qd) (default: auto)')
     parser.add_argument('--coulomb-eps', type=float, default=COULOMB_EPS, metavar='SPEED',
                         help=f'eps of tanh(qd/eps), rad/s or m/s (default: {COULOMB_EPS:g})')
     parser.add_argument('--algorithm', default='lm', choices=list(ALGORITHMS),
@@ -284,19 +287,33 @@ def _train_physical(args: argparse.Namespace, names: Sequence[str], every_train:
                     metadata: dict[str, np.ndarray]) -> int:
     """``--method physical`` or ``hybrid``: fit, save, print errors and parameters."""
     from scara_ident_ros.blas_threads import single_blas_thread
+    from scara_ident_ros.dynamics.coulomb_selection import select_coulomb
     from scara_ident_ros.dynamics.hybrid_model import HybridModel, fit_hybrid
     from scara_ident_ros.dynamics.physical_model import PhysicalModel
     from scara_ident_ros.offline.evaluation import errors_markdown, evaluate
     from scara_ident_ros.offline.parameters import parameters_markdown
     from scara_ident_ros.offline.progress import TrainingProgress
 
-    physical = PhysicalModel.from_urdf_file(args.urdf, joint_names=names,
-                                            coulomb=args.coulomb,
-                                            coulomb_eps=args.coulomb_eps)
+    def build(coulomb: str, eps: float) -> PhysicalModel:
+        return PhysicalModel.from_urdf_file(args.urdf, joint_names=names, coulomb=coulomb,
+                                            coulomb_eps=eps)
+
     started = time.perf_counter()
+    coulomb, eps = ('tanh' if args.coulomb == 'auto' else args.coulomb), args.coulomb_eps
+    physical = build(coulomb, eps)
+    fitted = False  # on every training sample
+    if args.coulomb == 'auto' and len(validation) >= 2:
+        physical, choice = select_coulomb(build, (every_train.X, every_train.Y),
+                                          (validation.X, validation.Y))
+        coulomb, eps, fitted = choice.coulomb, choice.eps, True
+        scores = ', '.join(f'{label} {score:.3g}' for label, score in choice.scores.items())
+        print(f'Coulomb friction shape: {choice.label} (mean validation NMSE of each: '
+              f'{scores})')
+    elif args.coulomb == 'auto':
+        print(f'Coulomb friction shape: tanh {eps:g} (no validation samples to choose by)')
     model: PhysicalModel | HybridModel
     if args.method == 'physical':
-        model = physical.fit_inputs(every_train.X, every_train.Y)
+        model = physical if fitted else physical.fit_inputs(every_train.X, every_train.Y)
         summary = (f'PHYSICAL fitted by least squares on {len(every_train)} samples: '
                    f'{physical.n_base} base parameters and {2 * len(names)} friction '
                    f'coefficients in {time.perf_counter() - started:.1f} s')
@@ -320,8 +337,7 @@ def _train_physical(args: argparse.Namespace, names: Sequence[str], every_train:
                    f'{history.iterations} iterations in {time.perf_counter() - started:.1f} s '
                    f'(stopped: {history.stop_reason}; weights of iteration '
                    f'{history.best_iteration})')
-    metadata.update({'coulomb': np.array(args.coulomb),
-                     'coulomb_eps': np.array(args.coulomb_eps)})
+    metadata.update({'coulomb': np.array(coulomb), 'coulomb_eps': np.array(eps)})
     model.metadata.update(metadata)
     args.out.parent.mkdir(parents=True, exist_ok=True)
     model.save(args.out)

@@ -13,8 +13,11 @@ residual is a small fraction of them: scaled by the limits, its targets would cr
 A network fitted to a small residual overfits easily (measured: a hybrid trained without a
 stop rule fitted the SCARA's wrist better on training data and worse on held-out motion
 than the physical model alone). :func:`fit_hybrid` therefore early-stops on the validation
-samples' residual and keeps the network of the best validation error; when the best is the
-network's start, the caller sees ``history.best_iteration == 0``.
+samples' residual and keeps the network of the best validation error. The network starts
+with zero output weights and the output bias of a zero residual (:func:`start_at_zero`):
+the hybrid starts as the physical model alone, so when no iteration improves the
+validation error (``history.best_iteration == 0``) the hybrid is the physical model, not
+the physical model plus a random network.
 
 Files: kind ``'hybrid'`` (:mod:`scara_ident_ros.nn.model_file`): the physical model's entries
 prefixed ``physical.``, the network's ``network.``.
@@ -31,7 +34,7 @@ from scara_ident_ros.nn import FeedForwardNet, FitHistory, ModelFormatError
 from scara_ident_ros.nn.model_file import NETWORK_PREFIX, read_model_file, write_model
 from scara_ident_ros.nn.training import Callback
 
-__all__ = ['HybridModel', 'KIND', 'fit_hybrid']
+__all__ = ['HybridModel', 'KIND', 'fit_hybrid', 'start_at_zero']
 
 FloatArray = NDArray[np.float64]
 KIND = 'hybrid'  #: the model file's kind
@@ -124,6 +127,17 @@ class HybridModel:
         return model
 
 
+def start_at_zero(network: FeedForwardNet) -> None:
+    """Make ``network`` (scaling set) predict 0 everywhere: output weights 0, the output
+    bias the scaled value of 0. Its hidden units keep their initial weights; Levenberg–
+    Marquardt's first step fits the output layer on them, later steps move them too."""
+    theta = network.get_params()
+    _, output = network.unpack(theta)
+    output[:, :-1] = 0.0
+    output[:, -1] = network.y_scaling.transform(np.zeros(network.n_outputs))
+    network.set_params(theta)
+
+
 def fit_hybrid(physical: PhysicalModel, network: FeedForwardNet,
                train: tuple[ArrayLike, ArrayLike], *,
                validation: tuple[ArrayLike, ArrayLike] | None = None,
@@ -174,6 +188,7 @@ def fit_hybrid(physical: PhysicalModel, network: FeedForwardNet,
     x_min, x_max = ((x.min(axis=0), x.max(axis=0)) if x_range is None else
                     (np.asarray(x_range[0], float), np.asarray(x_range[1], float)))
     network.set_scaling(x_min, x_max, residual.min(axis=0), residual.max(axis=0))
+    start_at_zero(network)
     val = None
     if validation is not None:
         xv = np.asarray(validation[0], dtype=np.float64)

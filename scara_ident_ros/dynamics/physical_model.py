@@ -211,17 +211,19 @@ class PhysicalModel:
         count, n = q.shape[0], self._n
         n_inertial = 10 * (model.njoints - 1)
         out = np.zeros((count, n, len(self.standard_names)))
-        qp, vp, ap = self._q_neutral.copy(), np.zeros(model.nv), np.zeros(model.nv)
         qi, vi = self._q_index_array, self._v_index_array
-        circle = [j for j in range(n) if self._circle[j]]
-        plain = [j for j in range(n) if not self._circle[j]]
+        circle = np.array(self._circle)
+        qp = np.tile(self._q_neutral, (count, 1))  # Pinocchio's configurations
+        qp[:, qi[~circle]] = q[:, ~circle]
+        qp[:, qi[circle]] = np.cos(q[:, circle])
+        qp[:, qi[circle] + 1] = np.sin(q[:, circle])
+        vp, ap = np.zeros((count, model.nv)), np.zeros((count, model.nv))
+        vp[:, vi], ap[:, vi] = qd, qdd
+        rows = None if np.array_equal(vi, np.arange(n)) else vi
+        regressor = pin.computeJointTorqueRegressor
         for k in range(count):
-            qp[qi[plain]] = q[k, plain]
-            for j in circle:
-                qp[qi[j]], qp[qi[j] + 1] = np.cos(q[k, j]), np.sin(q[k, j])
-            vp[vi], ap[vi] = qd[k], qdd[k]
-            out[k, :, :n_inertial] = pin.computeJointTorqueRegressor(model, data, qp, vp,
-                                                                     ap)[vi]
+            w = regressor(model, data, qp[k], vp[k], ap[k])
+            out[k, :, :n_inertial] = w if rows is None else w[rows]
         if self.armature:
             joints = np.arange(n)
             out[:, joints, n_inertial + joints] = qdd

@@ -183,6 +183,11 @@ def test_physical_and_hybrid_files_round_trip(tmp_path: Path) -> None:
     # the network's outputs are scaled to the residual's range, not the efforts'
     np.testing.assert_allclose(hybrid.network.y_scaling.hi, residual.max(axis=0))
     assert history.iterations >= 1
+    # the network starts at 0: with no iteration the hybrid is the physical model
+    still, _ = fit_hybrid(PhysicalModel.from_urdf_file(SCARA_URDF),
+                          make_network('ffs', 4, n_hidden=8), (x[:150], tau[:150]),
+                          iterations=0)
+    np.testing.assert_allclose(still.predict(x), still.physical.predict(x), atol=1e-12)
     hybrid.save(tmp_path / 'hybrid.npz')
     again = HybridModel.load(tmp_path / 'hybrid.npz')
     np.testing.assert_array_equal(again.predict(x), hybrid.predict(x))
