@@ -80,12 +80,15 @@ def test_physical_train_then_evaluate(bags: dict[str, Path], tmp_path: Path,
                              '--urdf', URDF, '--out', model_path)
     assert code == 0, err
     assert 'PHYSICAL fitted by least squares on ' in out
+    # the Coulomb shape of the data (tanh(qd/0.05)) chosen on the validation blocks
+    assert 'Coulomb friction shape: tanh 0.05 (mean validation NMSE of each: sign ' in out
     # every training sample (--samples is for networks): 5 of the 6 blocks of 1 s
     assert 'training on 2500, validating on 500' in out
     assert 'least squares on 2500 samples' in out
     assert list(table(out, 'joint | viscous')) == list(NAMES)
     model = PhysicalModel.load(model_path)
     assert model.joint_names == NAMES and str(model.metadata['method']) == 'physical'
+    assert (model.coulomb, model.coulomb_eps) == ('tanh', EPS)
     # the q'' estimate is the only error: friction within 2 %, validation NMSE tiny
     np.testing.assert_allclose(model.viscous, VISCOUS, rtol=0.02, atol=0.01)
     np.testing.assert_allclose(model.coulomb_friction, COULOMB, rtol=0.02, atol=0.01)

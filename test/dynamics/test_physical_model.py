@@ -10,6 +10,7 @@ import pytest
 
 from scara_ident_ros.dynamics import ScaraParams
 from scara_ident_ros.dynamics.base_reduction import reduce_columns
+from scara_ident_ros.dynamics.coulomb_selection import CANDIDATES, select_coulomb
 from scara_ident_ros.dynamics.hybrid_model import HybridModel, fit_hybrid
 from scara_ident_ros.dynamics.model import ScaraModel
 from scara_ident_ros.dynamics.physical_model import PhysicalModel
@@ -204,3 +205,41 @@ def test_bad_urdfs_and_joints_are_refused() -> None:
         PhysicalModel.from_urdf_file(SCARA_URDF.with_name('nothing.urdf'))
     with pytest.raises(ValueError, match='coulomb'):
         PhysicalModel.from_urdf_file(SCARA_URDF, coulomb='smooth')
+
+
+@pytest.mark.parametrize('coulomb, eps', [('sign', 1.0), ('tanh', 0.05), ('tanh', 0.2)])
+def test_the_coulomb_shape_of_the_data_is_chosen(coulomb: str, eps: float) -> None:
+    def build(shape: str, width: float) -> PhysicalModel:
+        return PhysicalModel.from_urdf_file(SCARA_URDF, coulomb=shape, coulomb_eps=width)
+
+    truth = build(coulomb, eps)
+    theta = truth.urdf_parameters()
+    theta[truth.n_base:] = [3.0, 1.5, 20.0, 0.05, 6.0, 3.0, 15.0, 0.5]
+    truth.set_theta(theta)
+    rng = np.random.default_rng(8)
+    q, qd, qdd = states(rng, 600, 4)
+    qd *= 0.2  # most speeds within a few ε of 0, where the shapes differ
+    x = np.hstack([q, qd, qdd])
+    y = truth.predict(x)
+    model, choice = select_coulomb(build, (x[:400], y[:400]), (x[400:], y[400:]))
+    assert (choice.coulomb, choice.eps) == (coulomb, eps)
+    assert choice.label == ('sign' if coulomb == 'sign' else f'tanh {eps:g}')
+    assert len(choice.scores) == len(CANDIDATES) and min(choice.scores.values()) < 1e-12
+    np.testing.assert_allclose(model.coulomb_friction, [6.0, 3.0, 15.0, 0.5], rtol=1e-6)
+
+
+def test_a_continuous_joint_takes_its_angle() -> None:
+    """Pinocchio holds a continuous joint as (cos, sin); the model takes the angle."""
+    text = SCARA_URDF.read_text().replace('<joint name="joint4" type="revolute">',
+                                          '<joint name="joint4" type="continuous">')
+    model = PhysicalModel(text, source='continuous wrist')
+    q, qd, qdd = states(np.random.default_rng(9), 20, 4)
+    q[:, 3] *= 3.0  # any angle
+    pinocchio_model = pin.buildModelFromXML(text)
+    assert pinocchio_model.nq == 5
+    data = pinocchio_model.createData()
+    q_pin = np.hstack([q[:, :3], np.cos(q[:, 3:]), np.sin(q[:, 3:])])
+    expected = np.array([pin.rnea(pinocchio_model, data, q_pin[k], qd[k], qdd[k])
+                         for k in range(20)])
+    np.testing.assert_allclose(model.regressor(q, qd, qdd) @ model.urdf_parameters(), expected,
+                               rtol=1e-10, atol=1e-10)
