@@ -10,9 +10,9 @@ training sample, then the network on the residual with Levenberg–Marquardt. Th
 output scaling is the residual's range on the training samples, not the effort limits (the
 residual is a small fraction of them: scaled by the limits, its targets would crowd near 0).
 
-A network fitted to a small residual overfits easily (measured: a hybrid trained without a
-stop rule fitted the SCARA's wrist better on training data and worse on held-out motion
-than the physical model alone). :func:`fit_hybrid` therefore early-stops on the validation
+A network fitted to a small residual overfits easily: trained without a stop rule, a
+hybrid predicts a wrist's held-out motion far worse than the physical model alone
+(benchmarks/physical.md). :func:`fit_hybrid` therefore early-stops on the validation
 samples' residual and keeps the network of the best validation error. The network starts
 with zero output weights and the output bias of a zero residual (:func:`start_at_zero`):
 the hybrid starts as the physical model alone, so when no iteration improves the

@@ -56,7 +56,9 @@ FloatArray = NDArray[np.float64]
 INERTIAL_NAMES = ('m', 'mx', 'my', 'mz', 'Ixx', 'Ixy', 'Iyy', 'Ixz', 'Iyz', 'Izz')
 #: Coulomb friction shapes: ``'sign'`` (discontinuous at q' = 0), ``'tanh'`` (tanh(q'/ε)).
 COULOMB_MODES = ('tanh', 'sign')
-#: Default ε of tanh(q'/ε) (rad/s, m/s): chosen by benchmarks/bench_physical.py (physical.md).
+#: Default ε of tanh(q'/ε) (rad/s, m/s), the simulated SCARA's. Which ε fits depends on the
+#: robot (benchmarks/physical.md): ``scara-ident train`` chooses it on validation data
+#: (:mod:`~scara_ident_ros.dynamics.coulomb_selection`) and falls back to this without any.
 COULOMB_EPS = 0.05
 KIND = 'physical'  #: the model file's kind
 _REDUCTION_STATES = 200   # random states stacked for the base reduction
