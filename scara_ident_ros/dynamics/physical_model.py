@@ -45,6 +45,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from scara_ident_ros.dynamics.base_reduction import BaseReduction, reduce_columns
 from scara_ident_ros.dynamics.urdf_limits import UrdfError
+from scara_ident_ros.errors import ScaraIdentError
 from scara_ident_ros.nn.errors import ModelFormatError
 from scara_ident_ros.nn.model_file import read_model_file, write_model
 
@@ -67,8 +68,11 @@ _CHUNK = 2048             # samples per block of the least-squares fit
 
 
 def _pinocchio() -> Any:
-    import pinocchio  # a few hundred ms: only when a physical model is built
-
+    try:
+        import pinocchio  # a few hundred ms: only when a physical model is built
+    except ImportError as exc:
+        raise ScaraIdentError(f'the physical model needs Pinocchio (pip install pin): '
+                              f'{exc}') from None
     return pinocchio
 
 
