@@ -38,12 +38,13 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any, cast
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from scara_ident_ros.dynamics.base_reduction import BaseReduction, reduce_columns
+from scara_ident_ros.dynamics.least_squares import fit_least_squares
 from scara_ident_ros.dynamics.urdf_limits import UrdfError
 from scara_ident_ros.errors import ScaraIdentError
 from scara_ident_ros.nn.errors import ModelFormatError
@@ -323,8 +324,8 @@ class PhysicalModel:
             tau: ArrayLike) -> PhysicalModel:
         """θ by linear least squares, min Σ ||Y θ − τ||², over all samples.
 
-        The stacked system is reduced block by block (QR of [R | Qᵀτ] with the next
-        block's rows), so memory does not grow with the number of samples.
+        :func:`~scara_ident_ros.dynamics.least_squares.fit_least_squares`: the stacked
+        system is reduced block by block, so memory does not grow with the samples.
 
         Parameters
         ----------
@@ -339,26 +340,7 @@ class PhysicalModel:
             ``self``, with :attr:`theta` and :attr:`residual_rms` set.
         """
         (q, qd, qdd), _ = self._states(q, qd, qdd)
-        tau = np.asarray(tau, dtype=np.float64)
-        if tau.shape != q.shape:
-            raise ValueError(f'tau must have shape {q.shape} (N, n), got {tau.shape}')
-        p = self.n_parameters
-        if q.shape[0] * self._n < p:
-            raise ValueError(f'{q.shape[0]} samples of {self._n} joints cannot determine '
-                             f'{p} parameters')
-        upper = np.zeros((0, p + 1))
-        for start in range(0, q.shape[0], _CHUNK):
-            block = slice(start, start + _CHUNK)
-            rows = np.hstack([self.stacked_regressor(q[block], qd[block], qdd[block]),
-                              tau[block].reshape(-1, 1)])
-            upper = cast(FloatArray, np.linalg.qr(np.vstack([upper, rows]), mode='r'))
-        theta, *_ = np.linalg.lstsq(upper[:p, :p], upper[:p, p], rcond=None)
-        self.theta = np.asarray(theta, dtype=np.float64)
-        residual = np.concatenate([self.regressor(q[s:s + _CHUNK], qd[s:s + _CHUNK],
-                                                  qdd[s:s + _CHUNK]) @ theta
-                                   - tau[s:s + _CHUNK]
-                                   for s in range(0, q.shape[0], _CHUNK)])
-        self.residual_rms = np.sqrt(np.mean(residual ** 2, axis=0))
+        self.theta, self.residual_rms = fit_least_squares(self, q, qd, qdd, tau, block=_CHUNK)
         return self
 
     def fit_inputs(self, X: ArrayLike, Y: ArrayLike) -> PhysicalModel:

@@ -1,9 +1,11 @@
 """Recursive least squares on a linear-in-parameters model: the online model-based identifier.
 
 A model τ = Y(q, q', q'') θ (the SCARA's analytic 14-parameter regressor by default, or a
-:class:`~scara_ident_ros.dynamics.physical_model.PhysicalModel` of any URDF robot), updated
+:class:`~scara_ident_ros.dynamics.physical_model.PhysicalModel` of any URDF robot: any
+:class:`~scara_ident_ros.dynamics.least_squares.LinearInParameters`), updated
 as samples arrive, so that after any number of samples θ is the least-squares fit of all of
-them (up to the prior θ ~ (θ0, p0 · I)). It is the online counterpart of the batch fit: what
+them (up to the prior θ ~ (θ0, p0 · I)). It is the online counterpart of the batch fit
+(:func:`~scara_ident_ros.dynamics.least_squares.fit_least_squares`): what
 an identifier that knows the robot's structure reaches on the same stream.
 
 RLS without forgetting is kept in information form: ``A = P0⁻¹ + Σ YᵀY`` (p × p) and
@@ -14,46 +16,13 @@ result is the same.
 """
 from __future__ import annotations
 
-from typing import Protocol
-
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from scara_ident_ros.dynamics.regressor import _DEFAULT_EPS, N_PARAMETERS, regressor
+from scara_ident_ros.dynamics.least_squares import LinearInParameters
+from scara_ident_ros.dynamics.regressor import _DEFAULT_EPS, ScaraRegressor
 
-__all__ = ['LinearInParameters', 'RecursiveLeastSquares', 'ScaraRegressor']
-
-
-class LinearInParameters(Protocol):
-    """A model τ = Y(q, q', q'') θ: what :class:`RecursiveLeastSquares` needs of it."""
-
-    @property
-    def n_parameters(self) -> int:
-        """Length p of θ."""
-        ...
-
-    def regressor(self, q: ArrayLike, qd: ArrayLike, qdd: ArrayLike) -> NDArray[np.float64]:
-        """Y of shape (N, n, p) for states of shape (N, n)."""
-        ...
-
-
-class ScaraRegressor:
-    """The SCARA's analytic regressor (:func:`~scara_ident_ros.dynamics.regressor.regressor`).
-
-    Parameters
-    ----------
-    coulomb_eps : float, optional
-        Velocity scale of the Coulomb smooth sign (rad/s, m/s), as in the model.
-    """
-
-    n_parameters = N_PARAMETERS
-
-    def __init__(self, *, coulomb_eps: float = _DEFAULT_EPS) -> None:
-        self.coulomb_eps = coulomb_eps
-
-    def regressor(self, q: ArrayLike, qd: ArrayLike, qdd: ArrayLike) -> NDArray[np.float64]:
-        """Y of shape (N, 4, 14) (see ``regressor``)."""
-        return regressor(q, qd, qdd, coulomb_eps=self.coulomb_eps)
+__all__ = ['RecursiveLeastSquares']
 
 
 class RecursiveLeastSquares:
