@@ -167,7 +167,7 @@ def run_robot(robot: str, urdf: Path, train_all: Dataset, held_out: Dataset,
     rows.append(row(robot, 'physical[auto]', nmse(chosen.predict, held_out),
                     time.perf_counter() - started, f'chose {choice.label}'))
     names = chosen.joint_names
-    x_min, x_max, _, _ = train_cli._limit_ranges(urdf, names, train_all.X)
+    x_min, x_max, _, _ = train_cli._limit_ranges(urdf, names, train_all.X, train_all.Y)
     for label, stop in (('hybrid', True), ('hybrid, no stop', False)):
         started = time.perf_counter()
         with single_blas_thread():

@@ -226,7 +226,7 @@ def run(args: argparse.Namespace) -> int:
     network = make_network(args.method, len(names), seed=args.seed,
                            friction_steps=args.friction_steps)
     if args.urdf is not None:
-        x_min, x_max, y_min, y_max = _limit_ranges(args.urdf, names, every_train.X)
+        x_min, x_max, y_min, y_max = _limit_ranges(args.urdf, names, every_train.X, every_train.Y)
         network.set_scaling(x_min, x_max, y_min, y_max)
     progress = TrainingProgress(args.iterations, label=f'{args.method.upper()} {args.algorithm}')
     started = time.perf_counter()
@@ -265,21 +265,32 @@ def _network_metadata(args: argparse.Namespace, history: FitHistory) -> dict[str
             'train_mse_scaled': np.array(history.final_mse)}
 
 
-def _limit_ranges(urdf: Path, names: Sequence[str], X: np.ndarray
+def _limit_ranges(urdf: Path, names: Sequence[str], X: np.ndarray, Y: np.ndarray
                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """A network's input and output ranges from the URDF's limits of ``names``.
 
     The URDF has no acceleration limits: each joint's largest |q''| in ``X`` (N, 3n) stands
-    for one.
+    for one. A joint without limits in the URDF (continuous, or no ``<limit>``) takes its
+    position and speed ranges from ``X`` and its effort range from ``Y`` (N, n); a joint
+    the URDF does not have is refused (``UrdfError``).
     """
     from scara_ident_ros.dynamics.urdf_limits import read_urdf
     from scara_ident_ros.methods import limit_scaling
 
-    limits = read_urdf(urdf).select(names)
+    limits = read_urdf(urdf)
+    limits.select([name for name in names if name not in limits.unlimited])  # or UrdfError
     n = len(names)
-    acceleration = np.abs(X[:, 2 * n:]).max(axis=0)
-    return limit_scaling(limits.position_min, limits.position_max, limits.velocity_max,
-                         np.where(acceleration > 0.0, acceleration, 1.0), limits.effort_max)
+    data = np.abs(X).max(axis=0)
+    position_min, position_max = X[:, :n].min(axis=0), X[:, :n].max(axis=0)
+    velocity, effort = data[n:2 * n], np.abs(Y).max(axis=0)
+    for j, name in enumerate(names):
+        if name in limits.names:
+            k = limits.names.index(name)
+            position_min[j], position_max[j] = limits.position_min[k], limits.position_max[k]
+            velocity[j], effort[j] = limits.velocity_max[k], limits.effort_max[k]
+    acceleration = data[2 * n:]
+    return limit_scaling(position_min, position_max, velocity,
+                         np.where(acceleration > 0.0, acceleration, 1.0), effort)
 
 
 def _train_physical(args: argparse.Namespace, names: Sequence[str], every_train: Dataset,
@@ -320,7 +331,7 @@ def _train_physical(args: argparse.Namespace, names: Sequence[str], every_train:
     else:
         network = make_network(HYBRID_NETWORK, len(names), seed=args.seed,
                                friction_steps=args.friction_steps)
-        x_min, x_max, _, _ = _limit_ranges(args.urdf, names, every_train.X)
+        x_min, x_max, _, _ = _limit_ranges(args.urdf, names, every_train.X, every_train.Y)
         progress = TrainingProgress(args.iterations, label=f'HYBRID {HYBRID_NETWORK} lm')
         with single_blas_thread():
             model, history = fit_hybrid(

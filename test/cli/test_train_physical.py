@@ -157,3 +157,18 @@ def test_physical_needs_a_urdf_of_the_joints(bags: dict[str, Path], tmp_path: Pa
                            other, '--out', tmp_path / 'm.npz')
     assert code == 2 and err.count('\n') == 1 and 'not distinct joints of the URDF' in err
     assert not (tmp_path / 'm.npz').exists()
+
+
+def test_a_continuous_joint_scales_by_the_data(bags: dict[str, Path], tmp_path: Path,
+                                               capsys: pytest.CaptureFixture[str]) -> None:
+    """No limits in the URDF for a continuous wrist: its ranges come from the recording."""
+    urdf = tmp_path / 'continuous.urdf'
+    urdf.write_text(URDF.read_text().replace('<joint name="joint4" type="revolute">',
+                                             '<joint name="joint4" type="continuous">'))
+    code, out, err = run_cli(capsys, 'train', bags['train'], '--method', 'hybrid', '--urdf',
+                             urdf, '--iterations', '2', '--samples', '300', '--out',
+                             tmp_path / 'h.npz')
+    assert code == 0, err
+    network = HybridModel.load(tmp_path / 'h.npz').network
+    np.testing.assert_allclose(network.x_scaling.hi[:3], [2.3, 2.5, 0.2])  # the URDF's
+    assert network.x_scaling.hi[3] < 6.0  # the wrist's largest angle in the recording
