@@ -312,6 +312,10 @@ def _train_physical(args: argparse.Namespace, names: Sequence[str], every_train:
     started = time.perf_counter()
     coulomb, eps = ('tanh' if args.coulomb == 'auto' else args.coulomb), args.coulomb_eps
     physical = build(coulomb, eps)
+    if len(every_train) * len(names) < physical.n_parameters:
+        raise CliError(f'{args.bag}: {len(every_train)} training samples of {len(names)} '
+                       f'joints cannot determine the physical model\'s '
+                       f'{physical.n_parameters} parameters; record more motion')
     fitted = False  # on every training sample
     if args.coulomb == 'auto' and len(validation) >= 2:
         physical, choice = select_coulomb(build, (every_train.X, every_train.Y),

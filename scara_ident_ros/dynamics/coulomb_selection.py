@@ -24,6 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
+from scara_ident_ros.dynamics.least_squares import BlockLeastSquares
 from scara_ident_ros.dynamics.physical_model import PhysicalModel
 
 __all__ = ['CANDIDATES', 'CoulombChoice', 'select_coulomb']
@@ -60,40 +61,63 @@ class CoulombChoice:
 
 def select_coulomb(build: Callable[[str, float], PhysicalModel],
                    train: tuple[ArrayLike, ArrayLike], validation: tuple[ArrayLike, ArrayLike],
-                   candidates: tuple[tuple[str, float], ...] = CANDIDATES,
-                   ) -> tuple[PhysicalModel, CoulombChoice]:
+                   candidates: tuple[tuple[str, float], ...] = CANDIDATES, *,
+                   block: int = 2048) -> tuple[PhysicalModel, CoulombChoice]:
     """Fit a model per Coulomb shape; keep the best on validation.
+
+    The candidates differ in their Coulomb column only: the rigid-body regressor (the
+    costly part, one Pinocchio call per sample) is computed once per block and shared.
 
     Parameters
     ----------
     build : callable
-        ``build(coulomb, eps)`` returns a fresh model of that shape.
+        ``build(coulomb, eps)`` returns a fresh model of that shape, of one URDF and joints.
     train, validation : (X, Y)
         Inputs (N, 3n) = [q, q', q''] and efforts (N, n); validation not empty.
     candidates : tuple of (str, float)
         Shapes to try.
+    block : int
+        Samples per block.
 
     Returns
     -------
     model : PhysicalModel
-        The best model, fitted on ``train``.
+        The best model, fitted on ``train`` (``theta`` and ``residual_rms`` set).
     choice : CoulombChoice
     """
-    xv = np.asarray(validation[0], dtype=np.float64)
-    yv = np.asarray(validation[1], dtype=np.float64)
+    x, y = (np.asarray(a, dtype=np.float64) for a in train)
+    xv, yv = (np.asarray(a, dtype=np.float64) for a in validation)
     if xv.shape[0] < 2:
         raise ValueError('choosing the Coulomb shape needs validation samples')
+    models = [build(coulomb, eps) for coulomb, eps in candidates]
+    first, n = models[0], models[0].n_joints
+    if any(m.standard_names != first.standard_names
+           or not np.array_equal(m.reduction.independent, first.reduction.independent)
+           for m in models):
+        raise ValueError('the candidates must be models of one URDF and joints')
+    systems = [BlockLeastSquares(m.n_parameters) for m in models]
+    for start in range(0, x.shape[0], block):
+        part = x[start:start + block]
+        base = first.base_regressor(part[:, :n], part[:, n:2 * n], part[:, 2 * n:])
+        for model, system in zip(models, systems):
+            system.add(model.regressor_from_base(base, part[:, n:2 * n]),
+                       y[start:start + block])
+    for model, system in zip(models, systems):
+        model.set_theta(system.solve())
+    squares = np.zeros((len(models), n))
+    for start in range(0, xv.shape[0], block):
+        part = xv[start:start + block]
+        base = first.base_regressor(part[:, :n], part[:, n:2 * n], part[:, 2 * n:])
+        for k, model in enumerate(models):
+            error = model.regressor_from_base(base, part[:, n:2 * n]) @ model.theta
+            squares[k] += np.sum((error - yv[start:start + block]) ** 2, axis=0)
     variance = np.where(yv.var(axis=0) > 0.0, yv.var(axis=0), 1.0)
-    best: tuple[float, PhysicalModel, str, float] | None = None
-    scores: dict[str, float] = {}
-    for coulomb, eps in candidates:
-        model = build(coulomb, eps).fit_inputs(*train)
-        score = float(np.mean(np.mean((model.predict(xv) - yv) ** 2, axis=0) / variance))
-        scores[_label(coulomb, eps)] = score
-        if best is None or score < best[0]:
-            best = (score, model, coulomb, eps)
-    assert best is not None
-    return best[1], CoulombChoice(best[2], best[3], scores)
+    score = np.mean(squares / xv.shape[0] / variance, axis=1)
+    scores = {_label(c, e): float(v) for (c, e), v in zip(candidates, score)}
+    best = int(np.argmin(score))
+    coulomb, eps = candidates[best]
+    return (models[best].fit_inputs(x, y),  # the same θ, and its residual_rms
+            CoulombChoice(coulomb, eps, scores))
 
 
 def _label(coulomb: str, eps: float) -> str:

@@ -15,6 +15,7 @@ Public API::
 
     LinearInParameters                    n_parameters, regressor(q, qd, qdd)
     LeastSquaresFit                       theta, residual_rms
+    BlockLeastSquares(p)                  add(rows, values), solve() -> theta
     fit_least_squares(model, q, qd, qdd, tau, *, block=2048) -> LeastSquaresFit
 """
 from __future__ import annotations
@@ -24,7 +25,7 @@ from typing import NamedTuple, Protocol, cast
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ['LeastSquaresFit', 'LinearInParameters', 'fit_least_squares']
+__all__ = ['BlockLeastSquares', 'LeastSquaresFit', 'LinearInParameters', 'fit_least_squares']
 
 FloatArray = NDArray[np.float64]
 
@@ -55,6 +56,45 @@ class LeastSquaresFit(NamedTuple):
 
     theta: FloatArray
     residual_rms: FloatArray
+
+
+class BlockLeastSquares:
+    """min ||H θ − y||² over rows given block by block, by QR of [R | Qᵀy] (module docstring).
+
+    Parameters
+    ----------
+    n_parameters : int
+        Columns p of H.
+    """
+
+    def __init__(self, n_parameters: int) -> None:
+        self._p = n_parameters
+        self._upper = np.zeros((0, n_parameters + 1))
+        self.rows = 0
+
+    def add(self, rows: ArrayLike, values: ArrayLike) -> None:
+        """Take rows H (m, p) and their values y (m,) (any shape of m values)."""
+        h = np.asarray(rows, dtype=np.float64).reshape(-1, self._p)
+        y = np.asarray(values, dtype=np.float64).reshape(-1, 1)
+        if y.shape[0] != h.shape[0]:
+            raise ValueError(f'{h.shape[0]} rows but {y.shape[0]} values')
+        stacked = np.vstack([self._upper, np.hstack([h, y])])
+        self._upper = cast(FloatArray, np.linalg.qr(stacked, mode='r'))
+        self.rows += h.shape[0]
+
+    def solve(self) -> FloatArray:
+        """θ of shape (p,) (minimum norm if the rows do not determine it).
+
+        Raises
+        ------
+        ValueError
+            With fewer rows than parameters.
+        """
+        p = self._p
+        if self.rows < p:
+            raise ValueError(f'{self.rows} equations cannot determine {p} parameters')
+        solution, *_ = np.linalg.lstsq(self._upper[:p, :p], self._upper[:p, p], rcond=None)
+        return np.asarray(solution, dtype=np.float64)
 
 
 def fit_least_squares(model: LinearInParameters, q: ArrayLike, qd: ArrayLike, qdd: ArrayLike,
@@ -91,14 +131,11 @@ def fit_least_squares(model: LinearInParameters, q: ArrayLike, qd: ArrayLike, qd
     if tau.size < p:
         raise ValueError(f'{q.shape[0]} samples of {q.shape[1]} joints cannot determine '
                          f'{p} parameters')
-    upper = np.zeros((0, p + 1))
+    system = BlockLeastSquares(p)
     for start in range(0, q.shape[0], block):
         part = slice(start, start + block)
-        rows = np.hstack([model.regressor(q[part], qd[part], qdd[part]).reshape(-1, p),
-                          tau[part].reshape(-1, 1)])
-        upper = cast(FloatArray, np.linalg.qr(np.vstack([upper, rows]), mode='r'))
-    solution, *_ = np.linalg.lstsq(upper[:p, :p], upper[:p, p], rcond=None)
-    theta: FloatArray = np.asarray(solution, dtype=np.float64)
+        system.add(model.regressor(q[part], qd[part], qdd[part]), tau[part])
+    theta = system.solve()
     squares = np.zeros(q.shape[1])
     for start in range(0, q.shape[0], block):
         part = slice(start, start + block)

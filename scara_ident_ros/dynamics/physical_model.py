@@ -250,14 +250,31 @@ class PhysicalModel:
             τ = Y θ.
         """
         (q, qd, qdd), single = self._states(q, qd, qdd)
-        base = self.reduction.reduce(self.standard_regressor(q, qd, qdd))
+        out = self.regressor_from_base(self.base_regressor(q, qd, qdd), qd)
+        return out[0] if single else out
+
+    def base_regressor(self, q: ArrayLike, qd: ArrayLike, qdd: ArrayLike) -> FloatArray:
+        """The rigid-body and rotor-inertia part of :meth:`regressor`: (N, n, n_base).
+
+        It depends on the URDF and the joints only, not on the friction law: models that
+        differ in their Coulomb shape share it (:meth:`regressor_from_base`).
+        """
+        return self.reduction.reduce(self.standard_regressor(q, qd, qdd))
+
+    def regressor_from_base(self, base: ArrayLike, qd: ArrayLike) -> FloatArray:
+        """:meth:`regressor` from its base part (N, n, n_base) and the speeds qd (N, n)."""
+        base = np.asarray(base, dtype=np.float64)
+        qd = np.asarray(qd, dtype=np.float64)
         n, nb = self._n, self.n_base
-        out = np.zeros((q.shape[0], n, nb + 2 * n))
+        if base.ndim != 3 or base.shape[1:] != (n, nb) or qd.shape != base.shape[:2]:
+            raise ValueError(f'need a base regressor (N, {n}, {nb}) and qd (N, {n}), got '
+                             f'{base.shape} and {qd.shape}')
+        out = np.zeros((base.shape[0], n, nb + 2 * n))
         out[:, :, :nb] = base
         joints = np.arange(n)
         out[:, joints, nb + joints] = qd
         out[:, joints, nb + n + joints] = self.coulomb_shape(qd)
-        return out[0] if single else out
+        return out
 
     def stacked_regressor(self, q: ArrayLike, qd: ArrayLike, qdd: ArrayLike) -> FloatArray:
         """:meth:`regressor` with the joints' rows stacked: shape (N·n, n_parameters)."""
