@@ -52,8 +52,9 @@ hybrid's too) scale their inputs by the URDF's joint limits (positions, velociti
 accelerations by the training data's largest |q''|) and a network alone its outputs by the
 effort limits.
 
-The saved model (.npz, FeedForwardNet.save) records metadata joint_names and method, so
-the identifier node can warm-start from it (parameter model_path).
+The saved model (.npz; kind network, physical or hybrid: scara_ident_ros.nn.model_file)
+records metadata joint_names and method; the identifier node can warm-start from a
+network (parameter model_path); scara-ident evaluate reads every kind.
 """
 from __future__ import annotations
 
