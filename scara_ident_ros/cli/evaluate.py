@@ -1,13 +1,15 @@
-"""``scara-ident evaluate``: errors of a saved network on the joint states of a bag.
+"""``scara-ident evaluate``: errors of a saved model on the joint states of a bag.
 
-Loads a model written by ``scara-ident train`` or by an identifier (FeedForwardNet.save),
+Loads a model written by ``scara-ident train`` (a network, a physical or a hybrid model)
+or by an identifier (FeedForwardNet.save),
 reads the bag's JointState messages, maps them to the model's joints BY NAME (metadata
 joint_names; a model without names needs a bag with as many joints, taken in message
 order), builds the network inputs as the identifier does (its input stage: q'' from q' by
 the zero-phase centred estimate, bad samples dropped) and prints, as a Markdown table,
 each joint's MSE ((N·m)² or N²) and normalised MSE (MSE / variance of the joint's effort
 over the evaluated samples; 1 = no better than the mean effort). Typical use: a model
-trained on one run evaluated on another (held-out) run.
+trained on one run evaluated on another (held-out) run. For a physical or hybrid model it
+then prints the identified base parameters (beside the URDF's values) and the friction.
 """
 from __future__ import annotations
 
@@ -22,7 +24,7 @@ __all__ = ['add_parser', 'run']
 def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Register ``scara-ident evaluate``."""
     parser = subparsers.add_parser(
-        'evaluate', help='per-joint MSE and NMSE of a saved network on a bag',
+        'evaluate', help='per-joint MSE and NMSE of a saved model on a bag',
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument('model', type=Path, metavar='MODEL', help='model file (.npz)')
     parser.add_argument('bag', type=Path, metavar='BAG',
@@ -34,23 +36,29 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
 
 def run(args: argparse.Namespace) -> int:
     """Evaluate and print the table."""
+    from scara_ident_ros.dynamics.hybrid_model import HybridModel
+    from scara_ident_ros.dynamics.physical_model import PhysicalModel
     from scara_ident_ros.offline.evaluation import (errors_markdown, evaluate, load_model,
                                                     model_joint_names, model_method)
+    from scara_ident_ros.offline.parameters import parameters_markdown
     from scara_ident_ros.offline.recording import load_recording, skipped_text
 
-    network = load_model(args.model)
-    names = model_joint_names(network)
-    n = network.n_outputs
+    model = load_model(args.model)
+    names = model_joint_names(model)
+    n = model.n_outputs
     recording = load_recording(args.bag, topic=args.topic, joints=names)
     samples = recording.samples
     if len(samples.names) != n:
         raise CliError(f'{args.model} is a model of {n} joints, but {args.bag} '
                        f'{recording.topic} has {len(samples.names)}: {list(samples.names)}')
-    method = model_method(network).upper()
+    method = model_method(model).upper()
     mapping = 'mapped by name' if names is not None else 'in message order (model has no names)'
     print(f'{method} model {args.model} on {args.bag} {recording.topic}: '
           f'{len(samples.data)} samples over {samples.data.seconds:.1f} s, joints {mapping} '
           f'(skipped: {skipped_text(samples)})\n')
-    stats = evaluate(network, samples.data.X, samples.data.Y)
+    stats = evaluate(model, samples.data.X, samples.data.Y)
     print(errors_markdown(samples.names, {args.bag.name or str(args.bag): stats}))
+    physical = model.physical if isinstance(model, HybridModel) else model
+    if isinstance(physical, PhysicalModel):
+        print(parameters_markdown(physical))
     return 0

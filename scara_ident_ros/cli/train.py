@@ -1,4 +1,4 @@
-"""``scara-ident train``: train a network offline from the joint states of a bag.
+"""``scara-ident train``: train a network or a physical model offline from a bag's joint states.
 
 Reads sensor_msgs/JointState messages from any rosbag2 bag (MCAP or sqlite3, recorded by
 this project or not) or a bare .mcap file, turns them into network samples exactly as the
@@ -39,24 +39,45 @@ Time: one LM iteration costs about 15 ms plus 12 ms per 1000 training samples on
 all 64000 samples of an 80 s bag (--samples 0) about 0.5 s per iteration.
 A progress bar goes to stderr, the errors on the training and validation data to stdout.
 
-The saved model (.npz, FeedForwardNet.save) records metadata joint_names and method, so
-the identifier node can warm-start from it (parameter model_path).
+--method physical: the robot's physical model from its URDF (--urdf, required): base
+parameters of the rigid bodies and rotor inertias, viscous and Coulomb friction per joint
+fitted by linear least squares on every training sample (--samples does not apply); the
+identified parameters are printed. The Coulomb shape (--coulomb auto, the default) is the
+one of sign(qd) and tanh(qd/eps), eps 0.005-0.2, whose fit has the lowest validation
+NMSE (without validation: tanh with --coulomb-eps); --coulomb tanh or sign imposes one.
+--method hybrid: the physical model, then an FFS network on its residual (output scaling:
+the residual's range) with Levenberg-Marquardt on --samples of the training samples,
+early-stopped on the validation blocks' residual as above. With --urdf, networks (the
+hybrid's too) scale their inputs by the URDF's joint limits (positions, velocities; the
+accelerations by the training data's largest |q''|) and a network alone its outputs by the
+effort limits.
+
+The saved model (.npz; kind network, physical or hybrid: scara_ident_ros.nn.model_file)
+records metadata joint_names and method; the identifier node can warm-start from a
+network (parameter model_path); scara-ident evaluate reads every kind.
 """
 from __future__ import annotations
 
 import argparse
 import time
+from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from scara_ident_ros.cli import CliError
+from scara_ident_ros.dynamics.physical_model import COULOMB_EPS, COULOMB_MODES
 from scara_ident_ros.methods import METHODS, make_network
 from scara_ident_ros.nn import ALGORITHMS
 from scara_ident_ros.paths import unwritable_file
 
-__all__ = ['FRICTION_STEPS', 'ITERATIONS', 'MAX_FAIL', 'MIN_ITERATIONS', 'SAMPLES',
-           'VALIDATION_BLOCK_S', 'add_parser', 'run']
+if TYPE_CHECKING:
+    from scara_ident_ros.experiments.datasets import Dataset
+    from scara_ident_ros.nn import FitHistory
+
+__all__ = ['FRICTION_STEPS', 'HYBRID_NETWORK', 'ITERATIONS', 'MAX_FAIL', 'MIN_ITERATIONS',
+           'PHYSICAL_METHODS', 'SAMPLES', 'VALIDATION_BLOCK_S', 'add_parser', 'run']
 
 #: Defaults of the options, chosen with benchmarks/bench_train_defaults.py (module docstring).
 ITERATIONS = 500           # Levenberg–Marquardt iterations at most
@@ -65,6 +86,9 @@ VALIDATION_BLOCK_S = 1.0   # s, length of the validation time blocks
 MAX_FAIL = 50              # validation failures in a row that stop training
 MIN_ITERATIONS = 50        # iterations before validation failures count
 FRICTION_STEPS = True      # the network starts with friction steps, as the identifier's
+#: Models built from a URDF rather than a network alone.
+PHYSICAL_METHODS = ('physical', 'hybrid')
+HYBRID_NETWORK = 'ffs'     # the hybrid's residual network
 
 
 def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -74,8 +98,19 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument('bag', type=Path, metavar='BAG',
                         help='rosbag2 bag directory (MCAP or sqlite3) or .mcap file')
-    parser.add_argument('--method', required=True, choices=list(METHODS),
-                        help='network: ffmw (MSLOG), ffw (SLOG) or ffs (sigmoid)')
+    parser.add_argument('--method', required=True, choices=[*METHODS, *PHYSICAL_METHODS],
+                        help='network: ffmw (MSLOG), ffw (SLOG) or ffs (sigmoid); physical: '
+                             'least squares on the URDF\'s base parameters and friction; '
+                             'hybrid: physical plus an FFS network on its residual')
+    parser.add_argument('--urdf', type=Path, default=None, metavar='ROBOT.urdf',
+                        help='the robot\'s URDF: required by physical and hybrid; gives a '
+                             'network its limit scaling')
+    parser.add_argument('--coulomb', default='auto', choices=['auto', *COULOMB_MODES],
+                        help='Coulomb friction shape of physical/hybrid: auto (the best on '
+                             'validation of sign and tanh with several eps), tanh(qd/eps) '
+                             'or sign(qd) (default: auto)')
+    parser.add_argument('--coulomb-eps', type=float, default=COULOMB_EPS, metavar='SPEED',
+                        help=f'eps of tanh(qd/eps), rad/s or m/s (default: {COULOMB_EPS:g})')
     parser.add_argument('--algorithm', default='lm', choices=list(ALGORITHMS),
                         help='lm: Levenberg-Marquardt (default); gd: batch gradient descent '
                              'with the method\'s learning rate and momentum')
@@ -137,6 +172,12 @@ def run(args: argparse.Namespace) -> int:
         raise CliError(f'--max-fail must be at least 1, got {args.max_fail}')
     if args.samples < 0 or args.seed < 0 or args.goal < 0.0 or args.min_iterations < 0:
         raise CliError('--samples, --seed, --goal and --min-iterations must not be negative')
+    if args.method in PHYSICAL_METHODS and args.urdf is None:
+        raise CliError(f'--method {args.method} needs the robot\'s --urdf')
+    if args.method == 'hybrid' and args.algorithm != 'lm':
+        raise CliError('--method hybrid trains its network with lm only')
+    if not args.coulomb_eps > 0.0:
+        raise CliError(f'--coulomb-eps must be positive, got {args.coulomb_eps}')
     problem = unwritable_file(args.out)
     if problem:  # before minutes of training, not after
         raise CliError(f'--out {args.out} {problem}')
@@ -152,8 +193,11 @@ def run(args: argparse.Namespace) -> int:
     if len(train) < 2:
         raise CliError(f'{args.bag}: only {len(train)} training samples outside the '
                        f'validation blocks; lower --validation-fraction')
+    every_train = train  # least squares takes them all
     if args.samples:
         train = train.subsample(args.samples, seed=args.seed, name='train')
+    if args.method == 'physical':
+        train = every_train
     where = ''
     if len(validation):
         start = int(samples.data.stamp_ns[0])
@@ -168,8 +212,23 @@ def run(args: argparse.Namespace) -> int:
           f'(skipped: {skipped_text(samples)}); training on {len(train)}, validating on '
           f'{len(validation)}{where}', flush=True)
 
+    metadata = {
+        'joint_names': np.array(names), 'method': np.array(args.method),
+        'seed': np.array(args.seed), 'source_bag': np.array(str(args.bag)),
+        'topic': np.array(recording.topic), 'train_samples': np.array(len(train)),
+        'validation_fraction': np.array(args.validation_fraction),
+        'validation_block_s': np.array(args.validation_block),
+        'differentiator': np.array('centred'), 'window': np.array(21)}
+    if args.urdf is not None:
+        metadata['urdf_file'] = np.array(str(args.urdf))
+    if args.method in PHYSICAL_METHODS:
+        return _train_physical(args, names, every_train, train, validation, metadata)
+
     network = make_network(args.method, len(names), seed=args.seed,
                            friction_steps=args.friction_steps)
+    if args.urdf is not None:
+        x_min, x_max, y_min, y_max = _limit_ranges(args.urdf, names, every_train.X, every_train.Y)
+        network.set_scaling(x_min, x_max, y_min, y_max)
     progress = TrainingProgress(args.iterations, label=f'{args.method.upper()} {args.algorithm}')
     started = time.perf_counter()
     with single_blas_thread():
@@ -181,18 +240,8 @@ def run(args: argparse.Namespace) -> int:
     progress.close()
     seconds = time.perf_counter() - started
 
-    network.metadata.update({
-        'joint_names': np.array(names), 'method': np.array(args.method),
-        'algorithm': np.array(args.algorithm), 'iterations': np.array(history.iterations),
-        'stop_reason': np.array(history.stop_reason), 'seed': np.array(args.seed),
-        'source_bag': np.array(str(args.bag)), 'topic': np.array(recording.topic),
-        'train_samples': np.array(len(train)),
-        'validation_fraction': np.array(args.validation_fraction),
-        'validation_block_s': np.array(args.validation_block),
-        'max_fail': np.array(args.max_fail), 'min_iterations': np.array(args.min_iterations),
-        'differentiator': np.array('centred'), 'window': np.array(21),
-        'friction_steps': np.array(args.friction_steps),
-        'train_mse_scaled': np.array(history.final_mse)})
+    network.metadata.update(metadata)
+    network.metadata.update(_network_metadata(args, history))
     args.out.parent.mkdir(parents=True, exist_ok=True)
     network.save(args.out)
 
@@ -203,5 +252,116 @@ def run(args: argparse.Namespace) -> int:
           f'{history.iterations} iterations in {seconds:.1f} s (stopped: '
           f'{history.stop_reason}; weights of iteration {history.best_iteration})\n')
     print(errors_markdown(names, results))
+    print(f'model written to {args.out}')
+    return 0
+
+
+def _network_metadata(args: argparse.Namespace, history: FitHistory) -> dict[str, np.ndarray]:
+    """What a network's file records of its training."""
+    return {'algorithm': np.array(args.algorithm), 'iterations': np.array(history.iterations),
+            'stop_reason': np.array(history.stop_reason),
+            'max_fail': np.array(args.max_fail),
+            'min_iterations': np.array(args.min_iterations),
+            'friction_steps': np.array(args.friction_steps),
+            'train_mse_scaled': np.array(history.final_mse)}
+
+
+def _limit_ranges(urdf: Path, names: Sequence[str], X: np.ndarray, Y: np.ndarray
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """A network's input and output ranges from the URDF's limits of ``names``.
+
+    The URDF has no acceleration limits: each joint's largest |q''| in ``X`` (N, 3n) stands
+    for one. A joint without limits in the URDF (continuous, or no ``<limit>``) takes its
+    position and speed ranges from ``X`` and its effort range from ``Y`` (N, n); a joint
+    the URDF does not have is refused (``UrdfError``).
+    """
+    from scara_ident_ros.dynamics.urdf_limits import read_urdf
+    from scara_ident_ros.methods import limit_scaling
+
+    limits = read_urdf(urdf)
+    limits.select([name for name in names if name not in limits.unlimited])  # or UrdfError
+    n = len(names)
+    data = np.abs(X).max(axis=0)
+    position_min, position_max = X[:, :n].min(axis=0), X[:, :n].max(axis=0)
+    velocity, effort = data[n:2 * n], np.abs(Y).max(axis=0)
+    for j, name in enumerate(names):
+        if name in limits.names:
+            k = limits.names.index(name)
+            position_min[j], position_max[j] = limits.position_min[k], limits.position_max[k]
+            velocity[j], effort[j] = limits.velocity_max[k], limits.effort_max[k]
+    acceleration = data[2 * n:]
+    return limit_scaling(position_min, position_max, velocity,
+                         np.where(acceleration > 0.0, acceleration, 1.0), effort)
+
+
+def _train_physical(args: argparse.Namespace, names: Sequence[str], every_train: Dataset,
+                    train: Dataset, validation: Dataset,
+                    metadata: dict[str, np.ndarray]) -> int:
+    """``--method physical`` or ``hybrid``: fit, save, print errors and parameters."""
+    from scara_ident_ros.blas_threads import single_blas_thread
+    from scara_ident_ros.dynamics.coulomb_selection import select_coulomb
+    from scara_ident_ros.dynamics.hybrid_model import HybridModel, fit_hybrid
+    from scara_ident_ros.dynamics.physical_model import PhysicalModel
+    from scara_ident_ros.offline.evaluation import errors_markdown, evaluate
+    from scara_ident_ros.offline.parameters import parameters_markdown
+    from scara_ident_ros.offline.progress import TrainingProgress
+
+    def build(coulomb: str, eps: float) -> PhysicalModel:
+        return PhysicalModel.from_urdf_file(args.urdf, joint_names=names, coulomb=coulomb,
+                                            coulomb_eps=eps)
+
+    started = time.perf_counter()
+    coulomb, eps = ('tanh' if args.coulomb == 'auto' else args.coulomb), args.coulomb_eps
+    physical = build(coulomb, eps)
+    if len(every_train) * len(names) < physical.n_parameters:
+        raise CliError(f'{args.bag}: {len(every_train)} training samples of {len(names)} '
+                       f'joints cannot determine the physical model\'s '
+                       f'{physical.n_parameters} parameters; record more motion')
+    fitted = False  # on every training sample
+    if args.coulomb == 'auto' and len(validation) >= 2:
+        physical, choice = select_coulomb(build, (every_train.X, every_train.Y),
+                                          (validation.X, validation.Y))
+        coulomb, eps, fitted = choice.coulomb, choice.eps, True
+        scores = ', '.join(f'{label} {score:.3g}' for label, score in choice.scores.items())
+        print(f'Coulomb friction shape: {choice.label} (mean validation NMSE of each: '
+              f'{scores})')
+    elif args.coulomb == 'auto':
+        print(f'Coulomb friction shape: tanh {eps:g} (no validation samples to choose by)')
+    model: PhysicalModel | HybridModel
+    if args.method == 'physical':
+        model = physical if fitted else physical.fit_inputs(every_train.X, every_train.Y)
+        summary = (f'PHYSICAL fitted by least squares on {len(every_train)} samples: '
+                   f'{physical.n_base} base parameters and {2 * len(names)} friction '
+                   f'coefficients in {time.perf_counter() - started:.1f} s')
+    else:
+        network = make_network(HYBRID_NETWORK, len(names), seed=args.seed,
+                               friction_steps=args.friction_steps)
+        x_min, x_max, _, _ = _limit_ranges(args.urdf, names, every_train.X, every_train.Y)
+        progress = TrainingProgress(args.iterations, label=f'HYBRID {HYBRID_NETWORK} lm')
+        with single_blas_thread():
+            model, history = fit_hybrid(
+                physical, network, (every_train.X, every_train.Y),
+                validation=(validation.X, validation.Y) if len(validation) else None,
+                x_range=(x_min, x_max), network_samples=args.samples, seed=args.seed,
+                iterations=args.iterations, max_fail=args.max_fail,
+                min_iterations=args.min_iterations, callback=progress)
+        progress.close()
+        metadata.update(_network_metadata(args, history))
+        metadata['network'] = np.array(HYBRID_NETWORK)
+        summary = (f'HYBRID: least squares on {len(every_train)} samples, then '
+                   f'{HYBRID_NETWORK.upper()} on the residual of {len(train)}: '
+                   f'{history.iterations} iterations in {time.perf_counter() - started:.1f} s '
+                   f'(stopped: {history.stop_reason}; weights of iteration '
+                   f'{history.best_iteration})')
+    metadata.update({'coulomb': np.array(coulomb), 'coulomb_eps': np.array(eps)})
+    model.metadata.update(metadata)
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    model.save(args.out)
+    results = {'train': evaluate(model, train.X, train.Y)}
+    if len(validation):
+        results['validation'] = evaluate(model, validation.X, validation.Y)
+    print(f'\n{summary}\n')
+    print(errors_markdown(names, results))
+    print(parameters_markdown(physical))
     print(f'model written to {args.out}')
     return 0

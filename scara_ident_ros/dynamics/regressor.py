@@ -25,11 +25,12 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
+from scara_ident_ros.dynamics.least_squares import fit_least_squares
 from scara_ident_ros.dynamics.model import _as_states
 from scara_ident_ros.dynamics.params import N_JOINTS, ScaraParams
 
 __all__ = ['PARAMETER_NAMES', 'N_PARAMETERS', 'regressor', 'base_parameters',
-           'LeastSquaresIdentifier']
+           'LeastSquaresIdentifier', 'ScaraRegressor']
 
 #: Names of the base parameters θ, in order.
 PARAMETER_NAMES: tuple[str, ...] = (
@@ -106,6 +107,26 @@ def base_parameters(params: ScaraParams) -> np.ndarray:
     return np.concatenate([inertial, p.viscous, p.coulomb])
 
 
+class ScaraRegressor:
+    """:func:`regressor` as a model of the ``LinearInParameters`` protocol
+    (:mod:`~scara_ident_ros.dynamics.least_squares`).
+
+    Parameters
+    ----------
+    coulomb_eps : float, optional
+        Velocity scale of the Coulomb smooth sign (rad/s, m/s), as in the model.
+    """
+
+    n_parameters = N_PARAMETERS
+
+    def __init__(self, *, coulomb_eps: float = _DEFAULT_EPS) -> None:
+        self.coulomb_eps = coulomb_eps
+
+    def regressor(self, q: ArrayLike, qd: ArrayLike, qdd: ArrayLike) -> np.ndarray:
+        """Y of shape (N, 4, 14) or (4, 14) (see :func:`regressor`)."""
+        return regressor(q, qd, qdd, coulomb_eps=self.coulomb_eps)
+
+
 class LeastSquaresIdentifier:
     """Model-based identification: θ by linear least squares on the stacked regressor.
 
@@ -143,14 +164,8 @@ class LeastSquaresIdentifier:
         LeastSquaresIdentifier
             ``self``.
         """
-        ymat = regressor(q, qd, qdd, coulomb_eps=self.coulomb_eps)
-        tau = np.asarray(tau, dtype=float)
-        if ymat.ndim != 3 or tau.shape != ymat.shape[:2]:
-            raise ValueError(f'tau must have shape {ymat.shape[:2]} (N, 4), got {tau.shape}')
-        theta, *_ = np.linalg.lstsq(ymat.reshape(-1, N_PARAMETERS), tau.reshape(-1),
-                                    rcond=None)
-        self.theta_ = theta
-        self.residual_rms_ = np.sqrt(np.mean((ymat @ theta - tau) ** 2, axis=0))
+        fit = fit_least_squares(ScaraRegressor(coulomb_eps=self.coulomb_eps), q, qd, qdd, tau)
+        self.theta_, self.residual_rms_ = fit
         return self
 
     def predict(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:

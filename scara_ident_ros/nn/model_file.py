@@ -1,6 +1,23 @@
-"""The network file: a plain ``.npz`` archive, written and read without pickle.
+"""The model file: a plain ``.npz`` archive, written and read without pickle.
 
-Format version 1 holds these arrays (n = n_params, sizes = n_inputs, n_hidden, n_outputs):
+Every effort model of the package is saved in this container, and ``kind`` says which:
+
+=========== ==================================================================== ============
+kind        what                                                                 arrays
+=========== ==================================================================== ============
+network     a ``FeedForwardNet`` (no ``kind`` entry: the files of before kinds)  table below
+physical    a ``PhysicalModel`` (``dynamics.physical_model``)                    its own
+hybrid      a physical model plus a network on its residual                      prefixed
+=========== ==================================================================== ============
+
+A network file is exactly what it was before kinds existed (no ``kind`` entry), so network
+files old and new read the same everywhere. The others carry ``kind``; this module checks
+their container (format, version, metadata) and, for a hybrid, its network's entries
+(prefixed ``network.``); the physical entries (prefixed ``physical.`` in a hybrid) are
+checked by ``PhysicalModel.from_arrays``.
+
+Format version 1 of a network holds these arrays (n = n_params, sizes = n_inputs, n_hidden,
+n_outputs):
 
 ================ ========= ============= ==============================================
 key              dtype     shape         meaning
@@ -30,17 +47,22 @@ import tempfile
 import zipfile
 import zlib
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
 from scara_ident_ros.nn.activations import ACTIVATIONS
 from scara_ident_ros.nn.errors import ModelFormatError
 
-__all__ = ['FORMAT', 'FORMAT_VERSION', 'METADATA_PREFIX', 'read_model', 'write_model']
+__all__ = ['FORMAT', 'FORMAT_VERSION', 'KINDS', 'METADATA_PREFIX', 'ModelFile',
+           'NETWORK_PREFIX', 'read_model', 'read_model_file', 'write_model']
 
 FORMAT = 'scara_ident_ros.nn.FeedForwardNet'
 FORMAT_VERSION = 1
 METADATA_PREFIX = 'meta.'
+#: Kinds of model file; ``'network'`` when the file has no ``kind`` entry.
+KINDS = ('network', 'physical', 'hybrid')
+NETWORK_PREFIX = 'network.'  # a hybrid's network entries
 
 _FIELDS = ('sizes', 'activation', 'constants', 'params', 'velocity', 'x_min', 'x_max',
            'y_min', 'y_max', 'scaling_set', 'training', 'seed')
@@ -49,27 +71,52 @@ _NPY_MAGIC = b'\x93NUMPY'
 _ZIP_MAGICS = (b'PK\x03\x04', b'PK\x05\x06')  # a local file header; an empty archive
 
 
+class ModelFile(NamedTuple):
+    """A model file's contents (:func:`read_model_file`).
+
+    Attributes
+    ----------
+    kind : str
+        One of :data:`KINDS`.
+    arrays : dict of str to ndarray
+        The model's entries (format, version, kind and metadata removed).
+    metadata : dict of str to ndarray
+        The ``meta.`` entries, prefix removed.
+    """
+
+    kind: str
+    arrays: dict[str, np.ndarray]
+    metadata: dict[str, np.ndarray]
+
+
 def write_model(path: str | Path, arrays: dict[str, np.ndarray],
-                metadata: dict[str, np.ndarray]) -> None:
-    """Write a network file atomically (a reader never sees half a file).
+                metadata: dict[str, np.ndarray], *, kind: str = 'network') -> None:
+    """Write a model file atomically (a reader never sees half a file).
 
     Parameters
     ----------
     path : str or Path
         Destination, used as given (no ``.npz`` suffix is added).
     arrays : dict of str to ndarray
-        The entries of the table in the module docstring but format and format_version.
+        The model's entries (for a network, the table in the module docstring but format
+        and format_version).
     metadata : dict of str to array_like
         Stored as ``meta.<name>``; values must convert to non-object arrays.
+    kind : str
+        One of :data:`KINDS`; a network's file has no ``kind`` entry.
 
     Raises
     ------
     ValueError
         If a metadata name or value cannot be stored without pickle.
     """
+    if kind not in KINDS:
+        raise ValueError(f'kind must be one of {KINDS}, got {kind!r}')
     path = Path(path)
     entries: dict[str, np.ndarray] = {
         'format': np.array(FORMAT), 'format_version': np.array(FORMAT_VERSION, np.int64)}
+    if kind != 'network':
+        entries['kind'] = np.array(kind)
     entries.update(arrays)
     for name, value in metadata.items():
         if not isinstance(name, str) or not name:
@@ -91,7 +138,28 @@ def write_model(path: str | Path, arrays: dict[str, np.ndarray],
 
 
 def read_model(path: str | Path) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
-    """Read and validate a network file.
+    """Read and validate a network file (kind ``'network'``).
+
+    Returns
+    -------
+    arrays, metadata
+        As :func:`read_model_file`.
+
+    Raises
+    ------
+    ModelFormatError
+        As :func:`read_model_file`, and for a model of another kind.
+    FileNotFoundError
+        If there is no such file.
+    """
+    file = read_model_file(path)
+    if file.kind != 'network':
+        raise ModelFormatError(f'{path}: a {file.kind} model, not a network')
+    return file.arrays, file.metadata
+
+
+def read_model_file(path: str | Path) -> ModelFile:
+    """Read a model file of any kind; validate a network's (or a hybrid's network) entries.
 
     Parameters
     ----------
@@ -99,17 +167,15 @@ def read_model(path: str | Path) -> tuple[dict[str, np.ndarray], dict[str, np.nd
 
     Returns
     -------
-    arrays : dict of str to ndarray
-        The validated entries of the module docstring's table (format entries removed).
-    metadata : dict of str to ndarray
-        The ``meta.`` entries, prefix removed.
+    ModelFile
+        Kind, entries and metadata.
 
     Raises
     ------
     ModelFormatError
-        If the path is a directory, or the file is not a network file (not a zip/.npz
-        archive, a single .npy array, object arrays), has another format version, or is
-        corrupt.
+        If the path is a directory, or the file is not a model file (not a zip/.npz
+        archive, a single .npy array, object arrays), has another format version or an
+        unknown kind, or is corrupt.
     FileNotFoundError
         If there is no such file.
     """
@@ -125,14 +191,29 @@ def read_model(path: str | Path) -> tuple[dict[str, np.ndarray], dict[str, np.nd
     if int(version) != FORMAT_VERSION:
         raise ModelFormatError(f'{path}: network file format version {int(version)}, '
                                f'this code reads version {FORMAT_VERSION} only')
+    kind_entry = entries.pop('kind', None)
+    kind = 'network' if kind_entry is None else str(kind_entry)
+    if kind_entry is not None and (kind_entry.shape != () or kind_entry.dtype.kind != 'U'
+                                   or kind not in KINDS[1:]):
+        raise ModelFormatError(f'{path}: unknown model kind {kind!r}; this code reads '
+                               f'{", ".join(KINDS)}')
     metadata = {name[len(METADATA_PREFIX):]: value for name, value in entries.items()
                 if name.startswith(METADATA_PREFIX)}
     arrays = {name: value for name, value in entries.items()
               if not name.startswith(METADATA_PREFIX)}
-    problem = _check_arrays(arrays)
+    if kind == 'network':
+        problem = _check_arrays(arrays)
+    elif kind == 'hybrid':
+        problem = _check_arrays({name[len(NETWORK_PREFIX):]: value
+                                 for name, value in arrays.items()
+                                 if name.startswith(NETWORK_PREFIX)})
+    else:
+        problem = ''
     if problem:
-        raise ModelFormatError(f'{path}: corrupt network file: {problem}')
-    return arrays, metadata
+        raise ModelFormatError(f'{path}: corrupt {kind} model file: {problem}'
+                               if kind != 'network' else
+                               f'{path}: corrupt network file: {problem}')
+    return ModelFile(kind, arrays, metadata)
 
 
 def _read_npz(path: Path) -> dict[str, np.ndarray]:

@@ -711,18 +711,9 @@ class FeedForwardNet:
         return y
 
     # --------------------------------------------------------------------------- save, load
-    def save(self, path: str | Path) -> None:
-        """Write the network to a portable ``.npz`` file (no pickle), atomically.
-
-        The file holds the format version, sizes, activation and its constants, scaling,
-        weights, the momentum state of `partial_fit`, training options, and `metadata`.
-
-        Parameters
-        ----------
-        path : str or Path
-            Written exactly as given (no suffix is added).
-        """
-        arrays: dict[str, np.ndarray] = {
+    def to_arrays(self) -> dict[str, np.ndarray]:
+        """The network's entries of the model file (`model_file`'s table), no metadata."""
+        return {
             'sizes': np.array([self._n_in, self._n_hid, self._n_out], dtype=np.int64),
             'activation': np.array(self._activation),
             'constants': np.array(self._constants, dtype=np.float64),
@@ -734,20 +725,10 @@ class FeedForwardNet:
             'training': np.array([self._learning_rate, self._momentum, self._weight_scale]),
             'seed': np.array(self._seed, dtype=np.int64),
         }
-        write_model(path, arrays, self.metadata)
 
     @classmethod
-    def load(cls, path: str | Path) -> FeedForwardNet:
-        """Read a network written by `save`.
-
-        Raises
-        ------
-        ModelFormatError
-            If the file is not one of ours, of another format version, or corrupt.
-        FileNotFoundError
-            If there is no such file.
-        """
-        arrays, metadata = read_model(path)
+    def from_arrays(cls, arrays: dict[str, np.ndarray]) -> FeedForwardNet:
+        """Rebuild a network from `to_arrays`' entries, as `model_file` validated them."""
         n_in, n_hid, n_out = (int(v) for v in arrays['sizes'])
         k, a, b = (float(v) for v in arrays['constants'])
         lr, momentum, weight_scale = (float(v) for v in arrays['training'])
@@ -758,6 +739,35 @@ class FeedForwardNet:
         np.copyto(net._velocity, arrays['velocity'])
         if bool(arrays['scaling_set']):
             net.set_scaling(arrays['x_min'], arrays['x_max'], arrays['y_min'], arrays['y_max'])
+        return net
+
+    def save(self, path: str | Path) -> None:
+        """Write the network to a portable ``.npz`` file (no pickle), atomically.
+
+        The file holds the format version, sizes, activation and its constants, scaling,
+        weights, the momentum state of `partial_fit`, training options, and `metadata`.
+
+        Parameters
+        ----------
+        path : str or Path
+            Written exactly as given (no suffix is added).
+        """
+        write_model(path, self.to_arrays(), self.metadata)
+
+    @classmethod
+    def load(cls, path: str | Path) -> FeedForwardNet:
+        """Read a network written by `save`.
+
+        Raises
+        ------
+        ModelFormatError
+            If the file is not one of ours, of another format version, corrupt, or a model
+            of another kind (physical, hybrid).
+        FileNotFoundError
+            If there is no such file.
+        """
+        arrays, metadata = read_model(path)
+        net = cls.from_arrays(arrays)
         net.metadata = metadata
         return net
 

@@ -1,18 +1,23 @@
-"""A saved network checked against a recording, evaluated, and its errors as a table.
+"""A saved model checked against a recording, evaluated, and its errors as a table.
+
+A model file holds a network, a physical model or a hybrid (its ``kind``,
+:mod:`scara_ident_ros.nn.model_file`); all three predict efforts from X = [q, q', q''].
 
 Public API::
 
     ModelMismatch                                   one-line error (ValueError)
-    load_model(path) -> FeedForwardNet              a network file of ours, for inverse dynamics
-    model_joint_names(network) -> tuple | None      ``metadata['joint_names']``, checked
-    model_method(network) -> str                    method key from metadata or activation
-    evaluate(network, X, Y) -> ErrorStats           per-joint MSE and NMSE
+    SavedModel                                      FeedForwardNet | PhysicalModel | HybridModel
+    load_model(path) -> SavedModel                  a model file of ours, for inverse dynamics
+    model_joint_names(model) -> tuple | None        ``metadata['joint_names']``, checked
+    model_method(model) -> str                      method key from metadata or activation
+    evaluate(model, X, Y) -> ErrorStats             per-joint MSE and NMSE
     errors_markdown(names, results) -> str          joints as rows, data sets as columns
 """
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from pathlib import Path
+from typing import Union
 
 import numpy as np
 import numpy.typing as npt
@@ -20,25 +25,35 @@ import numpy.typing as npt
 from scara_ident_ros.experiments.metrics import effort_errors
 from scara_ident_ros.experiments.tables import format_value
 from scara_ident_ros.identification import ErrorStats
-from scara_ident_ros.identification.warm_start import (ModelMismatch, check_warm_start,
-                                                       model_joint_names)
+from scara_ident_ros.dynamics.hybrid_model import KIND as HYBRID
+from scara_ident_ros.dynamics.hybrid_model import HybridModel
+from scara_ident_ros.dynamics.physical_model import KIND as PHYSICAL
+from scara_ident_ros.dynamics.physical_model import PhysicalModel
+from scara_ident_ros.dynamics.urdf_limits import UrdfError
+from scara_ident_ros.identification.warm_start import ModelMismatch, check_warm_start
+from scara_ident_ros.identification.warm_start import model_joint_names as network_joint_names
 from scara_ident_ros.methods import METHODS
 from scara_ident_ros.nn import FeedForwardNet, ModelFormatError
+from scara_ident_ros.nn.model_file import read_model_file
 from scara_ident_ros.offline.figures import effort_unit
 
-__all__ = ['ModelMismatch', 'errors_markdown', 'evaluate', 'load_model', 'model_joint_names',
-           'model_method']
+__all__ = ['ModelMismatch', 'SavedModel', 'errors_markdown', 'evaluate', 'load_model',
+           'model_joint_names', 'model_method']
+
+#: What a model file holds.
+SavedModel = Union[FeedForwardNet, PhysicalModel, HybridModel]
 
 
-def load_model(path: Path) -> FeedForwardNet:
-    """Read a network saved by ``FeedForwardNet.save`` that maps [q, q', q''] to efforts.
+def load_model(path: Path) -> SavedModel:
+    """Read a model file of any kind (network, physical, hybrid) that maps [q, q', q''] to
+    efforts.
 
     Raises
     ------
     ModelMismatch
-        If the file is missing, the path is a directory, the file is not a network of
-        ours (not a .npz archive, another format, corrupt), its sizes are not 3n inputs
-        for n outputs, or it records another number of joints
+        If the file is missing, the path is a directory, the file is not a model of
+        ours (not a .npz archive, another format, corrupt), a network's sizes are not 3n
+        inputs for n outputs, or it records another number of joints
         (:func:`~scara_ident_ros.identification.warm_start.check_warm_start`).
     """
     path = Path(path)
@@ -49,30 +64,49 @@ def load_model(path: Path) -> FeedForwardNet:
     if not path.is_file():
         raise ModelMismatch(f'{path}: not a regular file, not a model file')
     try:
-        network = FeedForwardNet.load(path)
-    except ModelFormatError as exc:
+        kind = read_model_file(path).kind
+        model: SavedModel
+        if kind == PHYSICAL:
+            model = PhysicalModel.load(path)
+        elif kind == HYBRID:
+            model = HybridModel.load(path)
+        else:
+            model = FeedForwardNet.load(path)
+    except (ModelFormatError, UrdfError) as exc:
         raise ModelMismatch(' '.join(str(exc).split())) from None
     except (OSError, ValueError, KeyError, EOFError) as exc:
         raise ModelMismatch(f'{path}: not a scara-ident model file '
                             f'({type(exc).__name__}: {" ".join(str(exc).split())})') from None
-    check_warm_start(network, source=str(path))
-    return network
+    if isinstance(model, FeedForwardNet):
+        check_warm_start(model, source=str(path))
+    return model
 
 
-def model_method(network: FeedForwardNet) -> str:
-    """The method key: ``metadata['method']`` if recorded, else from the activation."""
-    method = network.metadata.get('method')
+def model_joint_names(model: SavedModel) -> tuple[str, ...] | None:
+    """The joints the model was trained for, in output order, or None if not recorded."""
+    if isinstance(model, FeedForwardNet):
+        return network_joint_names(model)
+    return model.joint_names
+
+
+def model_method(model: SavedModel) -> str:
+    """The method key: ``metadata['method']`` if recorded, else from the activation (or
+    the kind)."""
+    method = model.metadata.get('method')
+    if not isinstance(model, FeedForwardNet):
+        return str(method) if method is not None else (
+            PHYSICAL if isinstance(model, PhysicalModel) else HYBRID)
     if method is not None and str(method) in METHODS:
         return str(method)
     for key, spec in METHODS.items():
-        if spec.activation == network.activation:
+        if spec.activation == model.activation:
             return key
-    return network.activation
+    return model.activation
 
 
-def evaluate(network: FeedForwardNet, X: npt.ArrayLike, Y: npt.ArrayLike) -> ErrorStats:
-    """Per-joint MSE and NMSE of the network's predictions of Y (N, n) from X (N, 3n)."""
-    return effort_errors(Y, network.predict(np.asarray(X, dtype=np.float64)))
+def evaluate(model: SavedModel, X: npt.ArrayLike, Y: npt.ArrayLike) -> ErrorStats:
+    """Per-joint MSE and NMSE of the model's predictions of Y (N, n) from X (N, 3n)."""
+    return effort_errors(Y, model.predict(np.asarray(X, dtype=np.float64)))
 
 
 def errors_markdown(names: Sequence[str], results: Mapping[str, ErrorStats]) -> str:

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from scara_ident_ros.nn import FORMAT_VERSION, FeedForwardNet, ModelFormatError
-from scara_ident_ros.nn.model_file import read_model
+from scara_ident_ros.nn.model_file import NETWORK_PREFIX, read_model, read_model_file, write_model
 
 
 def trained_net(name: str = 'mslog') -> FeedForwardNet:
@@ -160,3 +160,26 @@ def test_corrupt_member_is_refused(tmp_path: Path, good_file: Path) -> None:
 def test_missing_file_is_file_not_found(tmp_path: Path) -> None:
     with pytest.raises(FileNotFoundError, match='nothing.npz'):
         read_model(tmp_path / 'nothing.npz')
+
+
+def test_kinds(tmp_path: Path, good_file: Path) -> None:
+    """A network file has no kind entry (as before kinds); other kinds carry theirs."""
+    with np.load(good_file) as archive:
+        assert 'kind' not in archive.files
+    assert read_model_file(good_file).kind == 'network'
+    unknown = tmp_path / 'unknown.npz'
+    rewrite(good_file, unknown, kind='lookup_table')
+    with pytest.raises(ModelFormatError, match="unknown model kind 'lookup_table'"):
+        read_model_file(unknown)
+    # a hybrid's network entries are checked as a network's
+    arrays = {NETWORK_PREFIX + k: v for k, v in trained_net().to_arrays().items()}
+    write_model(tmp_path / 'hybrid.npz', arrays, {'joint_names': np.array(['a'])},
+                kind='hybrid')
+    file = read_model_file(tmp_path / 'hybrid.npz')
+    assert file.kind == 'hybrid' and file.metadata['joint_names'].tolist() == ['a']
+    with pytest.raises(ModelFormatError, match='a hybrid model, not a network'):
+        FeedForwardNet.load(tmp_path / 'hybrid.npz')
+    arrays[NETWORK_PREFIX + 'params'] = np.zeros(3)
+    write_model(tmp_path / 'bad_hybrid.npz', arrays, {}, kind='hybrid')
+    with pytest.raises(ModelFormatError, match='corrupt hybrid model file: params'):
+        read_model_file(tmp_path / 'bad_hybrid.npz')

@@ -1,0 +1,200 @@
+"""The hybrid model: a physical model plus a network fitted to what it leaves unexplained.
+
+    τ̂(x) = Y(q, q', q'') θ + N(x),    x = [q, q', q'']
+
+The physical part (:class:`~scara_ident_ros.dynamics.physical_model.PhysicalModel`) carries
+what the rigid-body structure and the friction law explain; the network N (an FFS network
+by default) learns the residual τ − Y θ: unmodelled effects, a Coulomb shape other than the
+law's, the q'' estimate's lag. Offline (:func:`fit_hybrid`): least squares first, on every
+training sample, then the network on the residual with Levenberg–Marquardt. The network's
+output scaling is the residual's range on the training samples, not the effort limits (the
+residual is a small fraction of them: scaled by the limits, its targets would crowd near 0).
+
+A network fitted to a small residual overfits easily: trained without a stop rule, a
+hybrid predicts a wrist's held-out motion far worse than the physical model alone
+(benchmarks/physical.md). :func:`fit_hybrid` therefore early-stops on the validation
+samples' residual and keeps the network of the best validation error. The network starts
+with zero output weights and the output bias of a zero residual (:func:`start_at_zero`):
+the hybrid starts as the physical model alone, so when no iteration improves the
+validation error (``history.best_iteration == 0``) the hybrid is the physical model, not
+the physical model plus a random network.
+
+Files: kind ``'hybrid'`` (:mod:`scara_ident_ros.nn.model_file`): the physical model's entries
+prefixed ``physical.``, the network's ``network.``.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from scara_ident_ros.dynamics.physical_model import PhysicalModel
+from scara_ident_ros.nn import FeedForwardNet, FitHistory, ModelFormatError
+from scara_ident_ros.nn.model_file import NETWORK_PREFIX, read_model_file, write_model
+from scara_ident_ros.nn.training import Callback
+
+__all__ = ['HybridModel', 'KIND', 'fit_hybrid', 'start_at_zero']
+
+FloatArray = NDArray[np.float64]
+KIND = 'hybrid'  #: the model file's kind
+_PHYSICAL_PREFIX = 'physical.'
+
+
+class HybridModel:
+    """Physical model plus a residual network; predicts like a network.
+
+    Parameters
+    ----------
+    physical : PhysicalModel
+        The fitted physical part.
+    network : FeedForwardNet
+        A 3n-H-n network of the residual, in the same joint order.
+
+    Attributes
+    ----------
+    metadata : dict of str to ndarray
+        Saved with the model (``joint_names``, ``method``, ...).
+    """
+
+    def __init__(self, physical: PhysicalModel, network: FeedForwardNet) -> None:
+        if (network.n_inputs, network.n_outputs) != (physical.n_inputs, physical.n_outputs):
+            raise ValueError(f'a {network.n_inputs}-{network.n_outputs} network cannot correct '
+                             f'a physical model of {physical.n_joints} joints')
+        self.physical, self.network = physical, network
+        self.metadata: dict[str, np.ndarray] = {
+            'joint_names': np.array(physical.joint_names)}
+
+    @property
+    def n_inputs(self) -> int:
+        """3n."""
+        return self.physical.n_inputs
+
+    @property
+    def n_outputs(self) -> int:
+        """n."""
+        return self.physical.n_outputs
+
+    @property
+    def joint_names(self) -> tuple[str, ...]:
+        """The joints, in input and output order."""
+        return self.physical.joint_names
+
+    def predict(self, X: ArrayLike) -> FloatArray:
+        """Efforts of X (N, 3n) = [q, q', q''] (or (3n,)): physical plus network, (N, n)."""
+        x = np.asarray(X, dtype=np.float64)
+        return self.physical.predict(x) + self.network.predict(x)
+
+    def partial_fit(self, X: FloatArray, Y: FloatArray) -> FloatArray:
+        """Not learnt online yet.
+
+        Raises
+        ------
+        NotImplementedError
+            Always: offline only (:func:`fit_hybrid`).
+        """
+        raise NotImplementedError('a HybridModel is fitted offline (fit_hybrid)')
+
+    def save(self, path: str | Path) -> None:
+        """Write both parts (kind ``'hybrid'``) with :attr:`metadata`, atomically."""
+        arrays = {_PHYSICAL_PREFIX + k: v for k, v in self.physical.to_arrays().items()}
+        arrays.update({NETWORK_PREFIX + k: v for k, v in self.network.to_arrays().items()})
+        write_model(path, arrays, self.metadata, kind=KIND)
+
+    @classmethod
+    def load(cls, path: str | Path) -> HybridModel:
+        """Read a model written by :meth:`save`.
+
+        Raises
+        ------
+        ModelFormatError
+            If the file is not a hybrid model of ours or is corrupt.
+        """
+        file = read_model_file(path)
+        if file.kind != KIND:
+            raise ModelFormatError(f'{path}: a {file.kind} model, not a hybrid one')
+        physical = PhysicalModel.from_arrays(
+            {k[len(_PHYSICAL_PREFIX):]: v for k, v in file.arrays.items()
+             if k.startswith(_PHYSICAL_PREFIX)}, source=str(path))
+        network = FeedForwardNet.from_arrays(
+            {k[len(NETWORK_PREFIX):]: v for k, v in file.arrays.items()
+             if k.startswith(NETWORK_PREFIX)})
+        try:
+            model = cls(physical, network)
+        except ValueError as exc:
+            raise ModelFormatError(f'{path}: corrupt hybrid model: {exc}') from None
+        model.metadata = file.metadata
+        return model
+
+
+def start_at_zero(network: FeedForwardNet) -> None:
+    """Make ``network`` (scaling set) predict 0 everywhere: output weights 0, the output
+    bias the scaled value of 0. Its hidden units keep their initial weights; Levenberg–
+    Marquardt's first step fits the output layer on them, later steps move them too."""
+    theta = network.get_params()
+    _, output = network.unpack(theta)
+    output[:, :-1] = 0.0
+    output[:, -1] = network.y_scaling.transform(np.zeros(network.n_outputs))
+    network.set_params(theta)
+
+
+def fit_hybrid(physical: PhysicalModel, network: FeedForwardNet,
+               train: tuple[ArrayLike, ArrayLike], *,
+               validation: tuple[ArrayLike, ArrayLike] | None = None,
+               x_range: tuple[ArrayLike, ArrayLike] | None = None,
+               network_samples: int = 0, seed: int = 0, iterations: int = 500,
+               max_fail: int = 50, min_iterations: int = 50,
+               callback: Callback | None = None) -> tuple[HybridModel, FitHistory]:
+    """Least squares, then the network on the residual, early-stopped on validation.
+
+    Parameters
+    ----------
+    physical : PhysicalModel
+        Fitted here, on every training sample.
+    network : FeedForwardNet
+        Fresh 3n-H-n network (e.g. ``make_network('ffs', n)``); its scaling is set here.
+    train : (X, Y)
+        Training inputs (N, 3n) = [q, q', q''] and efforts (N, n).
+    validation : (X, Y), optional
+        Validation samples: the network stops after ``max_fail`` iterations without a new
+        best residual error on them (counted after ``min_iterations``) and keeps its best.
+    x_range : (x_min, x_max) of shape (3n,), optional
+        The network's input ranges (e.g. from the robot's limits); default the training
+        inputs' range.
+    network_samples : int
+        Train the network on at most this many training samples drawn with ``seed``
+        (0: all).
+    seed : int
+        Seed of that draw.
+    iterations, max_fail, min_iterations : int
+        Levenberg–Marquardt's limits (``FeedForwardNet.fit``).
+    callback : callable, optional
+        ``FeedForwardNet.fit``'s progress callback.
+
+    Returns
+    -------
+    model : HybridModel
+    history : FitHistory
+        The network's training.
+    """
+    x = np.asarray(train[0], dtype=np.float64)
+    y = np.asarray(train[1], dtype=np.float64)
+    physical.fit_inputs(x, y)
+    if network_samples and network_samples < x.shape[0]:
+        rows = np.sort(np.random.default_rng(seed).choice(x.shape[0], network_samples,
+                                                          replace=False))
+        x, y = x[rows], y[rows]
+    residual = y - physical.predict(x)
+    x_min, x_max = ((x.min(axis=0), x.max(axis=0)) if x_range is None else
+                    (np.asarray(x_range[0], float), np.asarray(x_range[1], float)))
+    network.set_scaling(x_min, x_max, residual.min(axis=0), residual.max(axis=0))
+    start_at_zero(network)
+    val = None
+    if validation is not None:
+        xv = np.asarray(validation[0], dtype=np.float64)
+        if xv.shape[0]:
+            val = (xv, np.asarray(validation[1], dtype=np.float64) - physical.predict(xv))
+    history = network.fit(x, residual, algorithm='lm', iterations=iterations,
+                          validation=val, max_fail=max_fail, min_iterations=min_iterations,
+                          callback=callback)
+    return HybridModel(physical, network), history

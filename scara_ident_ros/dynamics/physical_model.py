@@ -1,0 +1,496 @@
+"""A physical inverse-dynamics model of any URDF robot: base parameters and joint friction.
+
+The rigid-body efforts of a robot are linear in 10 inertial parameters per body
+(m, m·c_x, m·c_y, m·c_z, I_xx, I_xy, I_yy, I_xz, I_yz, I_zz, about the body's joint frame:
+Pinocchio's ``computeJointTorqueRegressor``) and in a rotor inertia per joint (armature:
+a column q''_j in row j). Added per joint j, viscous friction f_v,j q'_j and Coulomb friction
+f_c,j s(q'_j), with s the sign or the smooth tanh(q'_j / ε) (``coulomb``). So
+
+    τ = Y(q, q', q'') θ,    Y = [W_ind | diag(q') | diag(s(q'))],    θ = [θ_b, f_v, f_c],
+
+where W_ind is the rigid-body regressor reduced to its base parameters θ_b
+(:mod:`~scara_ident_ros.dynamics.base_reduction`, from the regressor stacked over seeded
+random states). Friction columns are kept whole: rigid-body efforts hold no term linear in a
+single joint's speed, so they are always identifiable.
+
+The model is built from a URDF (file or string, as ``robot_description`` holds it) for the
+joints named, in that order: the order of the recorded joint states, of the inputs
+X = [q, q', q''] (N, 3n) and of the efforts (N, n), like the networks'. Other actuated joints
+of the URDF (a gripper's fingers) are locked at their neutral position. Revolute, prismatic
+and continuous joints are supported (a continuous joint's q is its angle). Gravity is
+Pinocchio's, 9.81 m/s² along −z of the URDF's root.
+
+:meth:`PhysicalModel.fit` is linear least squares on the stacked regressor (QR of blocks of
+samples, memory bounded); :meth:`PhysicalModel.predict` takes the networks' X, so the model
+stands wherever the identifier's ``EffortModel`` does (it learns online through
+:class:`~scara_ident_ros.identification.rls_trainer.RecursiveLeastSquaresTrainer`, not
+``partial_fit``). Files: ``.npz`` of kind ``'physical'`` (:mod:`scara_ident_ros.nn.model_file`),
+holding the URDF text, the joints, the base reduction and θ.
+
+Public API::
+
+    COULOMB_MODES, COULOMB_EPS, INERTIAL_NAMES
+    PhysicalModel(urdf, *, joint_names=None, coulomb='tanh', coulomb_eps=COULOMB_EPS,
+                  armature=True, source='robot_description')
+    PhysicalModel.from_urdf_file(path, **options)
+"""
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from scara_ident_ros.dynamics.base_reduction import BaseReduction, reduce_columns
+from scara_ident_ros.dynamics.least_squares import fit_least_squares
+from scara_ident_ros.dynamics.urdf_limits import UrdfError
+from scara_ident_ros.errors import ScaraIdentError
+from scara_ident_ros.nn.errors import ModelFormatError
+from scara_ident_ros.nn.model_file import read_model_file, write_model
+
+__all__ = ['COULOMB_EPS', 'COULOMB_MODES', 'INERTIAL_NAMES', 'KIND', 'PhysicalModel']
+
+FloatArray = NDArray[np.float64]
+
+#: The 10 inertial parameters of a body, in Pinocchio's order (about the joint frame).
+INERTIAL_NAMES = ('m', 'mx', 'my', 'mz', 'Ixx', 'Ixy', 'Iyy', 'Ixz', 'Iyz', 'Izz')
+#: Coulomb friction shapes: ``'sign'`` (discontinuous at q' = 0), ``'tanh'`` (tanh(q'/ε)).
+COULOMB_MODES = ('tanh', 'sign')
+#: Default ε of tanh(q'/ε) (rad/s, m/s), the simulated SCARA's. Which ε fits depends on the
+#: robot (benchmarks/physical.md): ``scara-ident train`` chooses it on validation data
+#: (:mod:`~scara_ident_ros.dynamics.coulomb_selection`) and falls back to this without any.
+COULOMB_EPS = 0.05
+KIND = 'physical'  #: the model file's kind
+_REDUCTION_STATES = 200   # random states stacked for the base reduction
+_REDUCTION_SEED = 0
+_CHUNK = 2048             # samples per block of the least-squares fit
+
+
+def _pinocchio() -> Any:
+    try:
+        import pinocchio  # a few hundred ms: only when a physical model is built
+    except ImportError as exc:
+        raise ScaraIdentError(f'the physical model needs Pinocchio (pip install pin): '
+                              f'{exc}') from None
+    return pinocchio
+
+
+class PhysicalModel:
+    """Inverse dynamics τ = Y(q, q', q'') θ of a URDF robot (module docstring).
+
+    Parameters
+    ----------
+    urdf : str
+        The URDF document (XML text).
+    joint_names : sequence of str, optional
+        The modelled joints, in the order of the inputs and efforts; default every
+        non-fixed joint in Pinocchio's (depth-first) order.
+    coulomb : {'tanh', 'sign'}
+        Shape of the Coulomb term.
+    coulomb_eps : float
+        ε of tanh(q'/ε) (rad/s, m/s); unused with ``'sign'``.
+    armature : bool
+        Add a rotor-inertia column per joint.
+    source : str
+        Where the URDF came from, for messages.
+    reduction : BaseReduction, optional
+        A base reduction to use instead of computing one (a loaded model's).
+
+    Attributes
+    ----------
+    theta : ndarray of shape (n_parameters,)
+        [θ_b, f_v, f_c]; zeros until :meth:`fit` (or :meth:`set_theta`).
+    metadata : dict of str to ndarray
+        Saved with the model, as a network's (``joint_names``, ``method``, ...).
+    residual_rms : ndarray of shape (n,) or None
+        RMS effort residual per joint on the data of the last :meth:`fit` (N·m, N).
+    """
+
+    def __init__(self, urdf: str, *, joint_names: Sequence[str] | None = None,
+                 coulomb: str = 'tanh', coulomb_eps: float = COULOMB_EPS,
+                 armature: bool = True, source: str = 'robot_description',
+                 reduction: BaseReduction | None = None) -> None:
+        if coulomb not in COULOMB_MODES:
+            raise ValueError(f'coulomb must be one of {COULOMB_MODES}, got {coulomb!r}')
+        if not coulomb_eps > 0.0:
+            raise ValueError(f'coulomb_eps must be > 0, got {coulomb_eps!r}')
+        pin = _pinocchio()
+        self.urdf, self.source = urdf, source
+        self.coulomb, self.coulomb_eps, self.armature = coulomb, float(coulomb_eps), armature
+        try:
+            full = pin.buildModelFromXML(urdf)
+        except (RuntimeError, ValueError) as exc:
+            raise UrdfError(f'{source}: Pinocchio cannot build a model: '
+                            f'{" ".join(str(exc).split())}') from None
+        actuated = [name for jid, name in enumerate(full.names)
+                    if jid > 0 and full.joints[jid].nv > 0]
+        names = list(actuated if joint_names is None else joint_names)
+        missing = [name for name in names if name not in actuated]
+        if missing or len(set(names)) != len(names) or not names:
+            raise UrdfError(f'{source}: joints {names} are not distinct joints of the URDF '
+                            f'(its moving joints: {actuated}); missing: {missing}')
+        lock = [full.getJointId(name) for name in actuated if name not in names]
+        model = (pin.buildReducedModel(full, lock, pin.neutral(full)) if lock else full)
+        self._pin, self._model, self._data = pin, model, model.createData()
+        self.joint_names = tuple(names)
+        self._n = len(names)
+        self._q_index, self._circle, self._v_index = [], [], []
+        for name in names:
+            joint = model.joints[model.getJointId(name)]
+            if joint.nv != 1 or joint.nq not in (1, 2):
+                raise UrdfError(f'{source}: joint {name!r} has {joint.nv} degrees of freedom; '
+                                'only revolute, prismatic and continuous joints are modelled')
+            self._q_index.append(joint.idx_q)
+            self._circle.append(joint.nq == 2)
+            self._v_index.append(joint.idx_v)
+        self._q_index_array = np.array(self._q_index)
+        self._v_index_array = np.array(self._v_index)
+        self._q_neutral = pin.neutral(model)
+        self._bodies = [self._body_name(jid) for jid in range(1, model.njoints)]
+        self.standard_names = tuple(
+            [f'{body}.{p}' for body in self._bodies for p in INERTIAL_NAMES]
+            + ([f'{name}.Ia' for name in names] if armature else []))
+        self.reduction = reduction if reduction is not None else self._reduce()
+        if self.reduction.names != self.standard_names:
+            raise ModelFormatError(f'{source}: the base reduction is for parameters '
+                                   f'{self.reduction.names[:3]}..., this URDF has '
+                                   f'{self.standard_names[:3]}...')
+        self.parameter_names = (self.reduction.base_names
+                                + tuple(f'{name}.fv' for name in names)
+                                + tuple(f'{name}.fc' for name in names))
+        self.theta: FloatArray = np.zeros(len(self.parameter_names))
+        self.residual_rms: FloatArray | None = None
+        self.metadata: dict[str, np.ndarray] = {'joint_names': np.array(names)}
+
+    @classmethod
+    def from_urdf_file(cls, path: str | Path, **options: Any) -> PhysicalModel:
+        """Build from the URDF file at ``path``; ``options`` as the constructor's."""
+        try:
+            text = Path(path).read_text(encoding='utf-8')
+        except (OSError, UnicodeDecodeError) as exc:
+            raise UrdfError(f'{path}: cannot read the URDF: {exc}') from None
+        return cls(text, source=str(path), **options)
+
+    # ---------------------------------------------------------------------------- sizes
+    @property
+    def n_joints(self) -> int:
+        """Number of modelled joints n."""
+        return self._n
+
+    @property
+    def n_inputs(self) -> int:
+        """3n: [q, q', q''] like a network's inputs."""
+        return 3 * self._n
+
+    @property
+    def n_outputs(self) -> int:
+        """n joint efforts."""
+        return self._n
+
+    @property
+    def n_parameters(self) -> int:
+        """Length of θ: base parameters plus 2n friction coefficients."""
+        return len(self.parameter_names)
+
+    @property
+    def n_base(self) -> int:
+        """Number of rigid-body (and armature) base parameters."""
+        return self.reduction.n_base
+
+    # ------------------------------------------------------------------------- regressors
+    def standard_regressor(self, q: ArrayLike, qd: ArrayLike, qdd: ArrayLike) -> FloatArray:
+        """Regressor of the standard parameters :attr:`standard_names` (no friction).
+
+        Parameters
+        ----------
+        q, qd, qdd : array_like of shape (N, n) or (n,)
+            Joint positions, velocities and accelerations (SI), in :attr:`joint_names` order.
+
+        Returns
+        -------
+        ndarray of shape (N, n, P) or (n, P)
+            Row j maps the standard parameters to the effort of joint j (N·m or N).
+        """
+        (q, qd, qdd), single = self._states(q, qd, qdd)
+        pin, model, data = self._pin, self._model, self._data
+        count, n = q.shape[0], self._n
+        n_inertial = 10 * (model.njoints - 1)
+        out = np.zeros((count, n, len(self.standard_names)))
+        qi, vi = self._q_index_array, self._v_index_array
+        circle = np.array(self._circle)
+        qp = np.tile(self._q_neutral, (count, 1))  # Pinocchio's configurations
+        qp[:, qi[~circle]] = q[:, ~circle]
+        qp[:, qi[circle]] = np.cos(q[:, circle])
+        qp[:, qi[circle] + 1] = np.sin(q[:, circle])
+        vp, ap = np.zeros((count, model.nv)), np.zeros((count, model.nv))
+        vp[:, vi], ap[:, vi] = qd, qdd
+        rows = None if np.array_equal(vi, np.arange(n)) else vi
+        regressor = pin.computeJointTorqueRegressor
+        for k in range(count):
+            w = regressor(model, data, qp[k], vp[k], ap[k])
+            out[k, :, :n_inertial] = w if rows is None else w[rows]
+        if self.armature:
+            joints = np.arange(n)
+            out[:, joints, n_inertial + joints] = qdd
+        return out[0] if single else out
+
+    def regressor(self, q: ArrayLike, qd: ArrayLike, qdd: ArrayLike) -> FloatArray:
+        """Regressor Y of θ (:attr:`parameter_names`): base columns, then friction.
+
+        Parameters
+        ----------
+        q, qd, qdd : array_like of shape (N, n) or (n,)
+            Joint positions, velocities and accelerations (SI).
+
+        Returns
+        -------
+        ndarray of shape (N, n, n_parameters) or (n, n_parameters)
+            τ = Y θ.
+        """
+        (q, qd, qdd), single = self._states(q, qd, qdd)
+        out = self.regressor_from_base(self.base_regressor(q, qd, qdd), qd)
+        return out[0] if single else out
+
+    def base_regressor(self, q: ArrayLike, qd: ArrayLike, qdd: ArrayLike) -> FloatArray:
+        """The rigid-body and rotor-inertia part of :meth:`regressor`: (N, n, n_base).
+
+        It depends on the URDF and the joints only, not on the friction law: models that
+        differ in their Coulomb shape share it (:meth:`regressor_from_base`).
+        """
+        return self.reduction.reduce(self.standard_regressor(q, qd, qdd))
+
+    def regressor_from_base(self, base: ArrayLike, qd: ArrayLike) -> FloatArray:
+        """:meth:`regressor` from its base part (N, n, n_base) and the speeds qd (N, n)."""
+        base = np.asarray(base, dtype=np.float64)
+        qd = np.asarray(qd, dtype=np.float64)
+        n, nb = self._n, self.n_base
+        if base.ndim != 3 or base.shape[1:] != (n, nb) or qd.shape != base.shape[:2]:
+            raise ValueError(f'need a base regressor (N, {n}, {nb}) and qd (N, {n}), got '
+                             f'{base.shape} and {qd.shape}')
+        out = np.zeros((base.shape[0], n, nb + 2 * n))
+        out[:, :, :nb] = base
+        joints = np.arange(n)
+        out[:, joints, nb + joints] = qd
+        out[:, joints, nb + n + joints] = self.coulomb_shape(qd)
+        return out
+
+    def stacked_regressor(self, q: ArrayLike, qd: ArrayLike, qdd: ArrayLike) -> FloatArray:
+        """:meth:`regressor` with the joints' rows stacked: shape (N·n, n_parameters)."""
+        return self.regressor(np.atleast_2d(q), np.atleast_2d(qd),
+                              np.atleast_2d(qdd)).reshape(-1, self.n_parameters)
+
+    def coulomb_shape(self, qd: ArrayLike) -> FloatArray:
+        """s(q'): sign(q') or tanh(q'/ε), same shape as ``qd``."""
+        qd = np.asarray(qd, dtype=np.float64)
+        if self.coulomb == 'sign':
+            return np.sign(qd)
+        return np.tanh(qd / self.coulomb_eps)
+
+    # ------------------------------------------------------------------------- parameters
+    def urdf_parameters(self) -> FloatArray:
+        """θ of the URDF's own inertias (armature from Pinocchio, friction 0): a prior.
+
+        Returns
+        -------
+        ndarray of shape (n_parameters,)
+        """
+        model = self._model
+        inertial = [model.inertias[jid].toDynamicParameters() for jid in range(1, model.njoints)]
+        standard = np.concatenate(inertial + ([np.asarray(model.armature)[self._v_index_array]]
+                                              if self.armature else []))
+        return np.concatenate([self.reduction.base_values(standard), np.zeros(2 * self._n)])
+
+    def set_theta(self, theta: ArrayLike) -> None:
+        """Set θ (n_parameters,), e.g. an online estimate."""
+        value = np.asarray(theta, dtype=np.float64).reshape(-1)
+        if value.shape != self.theta.shape or not np.all(np.isfinite(value)):
+            raise ValueError(f'theta must be {self.theta.shape[0]} finite values, got '
+                             f'shape {value.shape}')
+        self.theta = value.copy()
+
+    @property
+    def base_parameters(self) -> dict[str, float]:
+        """Identified base parameters by name (SI: kg, kg·m, kg·m²)."""
+        nb = self.n_base
+        return dict(zip(self.parameter_names[:nb], self.theta[:nb].tolist()))
+
+    @property
+    def viscous(self) -> FloatArray:
+        """Viscous friction per joint (N·m·s/rad, N·s/m), shape (n,)."""
+        return self.theta[self.n_base:self.n_base + self._n].copy()
+
+    @property
+    def coulomb_friction(self) -> FloatArray:
+        """Coulomb friction per joint (N·m, N), shape (n,)."""
+        return self.theta[self.n_base + self._n:].copy()
+
+    @property
+    def friction(self) -> dict[str, tuple[float, float]]:
+        """Joint name → (viscous, Coulomb) coefficients."""
+        return {name: (float(v), float(c)) for name, v, c in
+                zip(self.joint_names, self.viscous, self.coulomb_friction)}
+
+    def definitions(self) -> tuple[str, ...]:
+        """What each base parameter is in standard parameters (``BaseReduction``)."""
+        return self.reduction.definitions()
+
+    # ------------------------------------------------------------------------ fit, predict
+    def fit(self, q: ArrayLike, qd: ArrayLike, qdd: ArrayLike,
+            tau: ArrayLike) -> PhysicalModel:
+        """θ by linear least squares, min Σ ||Y θ − τ||², over all samples.
+
+        :func:`~scara_ident_ros.dynamics.least_squares.fit_least_squares`: the stacked
+        system is reduced block by block, so memory does not grow with the samples.
+
+        Parameters
+        ----------
+        q, qd, qdd : array_like of shape (N, n)
+            Joint positions, velocities and accelerations (SI).
+        tau : array_like of shape (N, n)
+            Measured efforts (N·m, N).
+
+        Returns
+        -------
+        PhysicalModel
+            ``self``, with :attr:`theta` and :attr:`residual_rms` set.
+        """
+        (q, qd, qdd), _ = self._states(q, qd, qdd)
+        self.theta, self.residual_rms = fit_least_squares(self, q, qd, qdd, tau, block=_CHUNK)
+        return self
+
+    def fit_inputs(self, X: ArrayLike, Y: ArrayLike) -> PhysicalModel:
+        """:meth:`fit` on the networks' layout: X (N, 3n) = [q, q', q''], Y (N, n)."""
+        q, qd, qdd = self._split(X)
+        return self.fit(q, qd, qdd, Y)
+
+    def predict(self, X: ArrayLike) -> FloatArray:
+        """Efforts Y θ for X = [q, q', q''] of shape (N, 3n), or (3n,) for one sample.
+
+        Returns
+        -------
+        ndarray of shape (N, n) or (n,)
+            Efforts (N·m, N), a new array.
+        """
+        x = np.asarray(X, dtype=np.float64)
+        q, qd, qdd = self._split(np.atleast_2d(x))
+        tau = np.concatenate([self.regressor(q[s:s + _CHUNK], qd[s:s + _CHUNK],
+                                             qdd[s:s + _CHUNK]) @ self.theta
+                              for s in range(0, q.shape[0], _CHUNK)]) if q.shape[0] else \
+            np.zeros((0, self._n))
+        return tau[0] if x.ndim == 1 else tau
+
+    def partial_fit(self, X: FloatArray, Y: FloatArray) -> FloatArray:
+        """Not a per-sample gradient model: learn online with the RLS trainer instead.
+
+        Raises
+        ------
+        NotImplementedError
+            Always (see ``identification.rls_trainer``).
+        """
+        raise NotImplementedError('a PhysicalModel learns online through '
+                                  'RecursiveLeastSquaresTrainer, not partial_fit')
+
+    # --------------------------------------------------------------------------- files
+    def to_arrays(self) -> dict[str, np.ndarray]:
+        """The entries that :meth:`from_arrays` rebuilds the model from."""
+        r = self.reduction
+        return {'urdf': np.array(self.urdf), 'joints': np.array(self.joint_names),
+                'coulomb': np.array(self.coulomb),
+                'coulomb_eps': np.array(self.coulomb_eps),
+                'armature': np.array(self.armature), 'standard_names': np.array(r.names),
+                'independent': r.independent.astype(np.int64),
+                'dependent': r.dependent.astype(np.int64), 'beta': r.beta.copy(),
+                'theta': self.theta.copy()}
+
+    @classmethod
+    def from_arrays(cls, arrays: dict[str, np.ndarray], *, source: str) -> PhysicalModel:
+        """Rebuild a model from :meth:`to_arrays`' entries.
+
+        Raises
+        ------
+        ModelFormatError
+            If an entry is missing, has the wrong type or shape, or does not fit the URDF.
+        """
+        try:
+            names = tuple(str(s) for s in np.atleast_1d(arrays['standard_names']))
+            reduction = BaseReduction(names, np.asarray(arrays['independent'], np.int64),
+                                      np.asarray(arrays['dependent'], np.int64),
+                                      np.asarray(arrays['beta'], np.float64))
+            model = cls(str(arrays['urdf']),
+                        joint_names=[str(s) for s in np.atleast_1d(arrays['joints'])],
+                        coulomb=str(arrays['coulomb']),
+                        coulomb_eps=float(arrays['coulomb_eps']),
+                        armature=bool(arrays['armature']), source=source,
+                        reduction=reduction)
+            model.set_theta(arrays['theta'])
+        except (KeyError, ValueError, TypeError) as exc:
+            raise ModelFormatError(f'{source}: corrupt physical model: '
+                                   f'{" ".join(str(exc).split())}') from None
+        return model
+
+    def save(self, path: str | Path) -> None:
+        """Write the model (kind ``'physical'``) with its :attr:`metadata`, atomically."""
+        write_model(path, self.to_arrays(), self.metadata, kind=KIND)
+
+    @classmethod
+    def load(cls, path: str | Path) -> PhysicalModel:
+        """Read a model written by :meth:`save`.
+
+        Raises
+        ------
+        ModelFormatError
+            If the file is not a physical model of ours or is corrupt.
+        """
+        file = read_model_file(path)
+        if file.kind != KIND:
+            raise ModelFormatError(f'{path}: a {file.kind} model, not a physical one')
+        model = cls.from_arrays(file.arrays, source=str(path))
+        model.metadata = file.metadata
+        return model
+
+    def __repr__(self) -> str:
+        return (f'PhysicalModel({self.source!r}, joints={list(self.joint_names)}, '
+                f'{self.n_base} base + {2 * self._n} friction parameters, '
+                f'coulomb={self.coulomb!r})')
+
+    # ---------------------------------------------------------------------------- helpers
+    def _reduce(self) -> BaseReduction:
+        """Base reduction from the standard regressor at seeded random states."""
+        rng = np.random.default_rng(_REDUCTION_SEED)
+        low = np.asarray(self._model.lowerPositionLimit)[self._q_index_array]
+        high = np.asarray(self._model.upperPositionLimit)[self._q_index_array]
+        bounded = np.isfinite(low) & np.isfinite(high) & (high > low) & ~np.array(self._circle)
+        low = np.where(bounded, low, -np.pi)
+        high = np.where(bounded, high, np.pi)
+        count, n = _REDUCTION_STATES, self._n
+        q = rng.uniform(low, high, (count, n))
+        w = self.standard_regressor(q, rng.normal(0.0, 1.0, (count, n)),
+                                    rng.normal(0.0, 1.0, (count, n)))
+        return reduce_columns(w.reshape(-1, len(self.standard_names)), self.standard_names)
+
+    def _body_name(self, jid: int) -> str:
+        """The link a joint moves: its first body frame (or the joint's name)."""
+        for frame in self._model.frames:
+            if frame.parentJoint == jid and frame.type == self._pin.FrameType.BODY:
+                return str(frame.name)
+        return str(self._model.names[jid])
+
+    def _states(self, *arrays: ArrayLike) -> tuple[list[FloatArray], bool]:
+        """Arrays as float (N, n); whether they were single samples (n,)."""
+        values = [np.asarray(a, dtype=np.float64) for a in arrays]
+        single = values[0].ndim == 1
+        values = [np.atleast_2d(v) for v in values]
+        shape = values[0].shape
+        if shape[1:] != (self._n,) or any(v.shape != shape for v in values):
+            raise ValueError(f'q, qd, qdd must all have shape (N, {self._n}) or '
+                             f'({self._n},), got {[v.shape for v in values]}')
+        return values, single
+
+    def _split(self, X: ArrayLike) -> tuple[FloatArray, FloatArray, FloatArray]:
+        x = np.asarray(X, dtype=np.float64)
+        n = self._n
+        if x.ndim != 2 or x.shape[1] != 3 * n:
+            raise ValueError(f'X must have shape (N, {3 * n}) = [q, qd, qdd], got {x.shape}')
+        return x[:, :n], x[:, n:2 * n], x[:, 2 * n:]

@@ -1,0 +1,245 @@
+"""PhysicalModel against Pinocchio's inverse dynamics, friction recovery, RLS, files."""
+from __future__ import annotations
+
+import importlib.metadata
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from scara_ident_ros.dynamics import ScaraParams
+from scara_ident_ros.dynamics.base_reduction import reduce_columns
+from scara_ident_ros.dynamics.coulomb_selection import CANDIDATES, select_coulomb
+from scara_ident_ros.dynamics.hybrid_model import HybridModel, fit_hybrid
+from scara_ident_ros.dynamics.model import ScaraModel
+from scara_ident_ros.dynamics.physical_model import PhysicalModel
+from scara_ident_ros.dynamics.recursive_least_squares import RecursiveLeastSquares
+from scara_ident_ros.dynamics.urdf_limits import UrdfError
+from scara_ident_ros.identification.rls_trainer import RecursiveLeastSquaresTrainer
+from scara_ident_ros.methods import make_network
+from scara_ident_ros.nn import FeedForwardNet, ModelFormatError
+
+SCARA_URDF = Path(__file__).resolve().parents[2] / 'urdf' / 'scara.urdf'
+PANDA_ARM = tuple(f'panda_joint{i}' for i in range(1, 8))
+
+
+def example_urdf(suffix: str) -> Path:
+    """A URDF of the installed example-robot-data, found through its file record."""
+    for file in importlib.metadata.files('example-robot-data') or ():
+        if str(file).endswith(suffix):
+            return Path(str(file.locate()))
+    raise FileNotFoundError(suffix)
+
+
+def states(rng: np.random.Generator, count: int, n: int,
+           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    return (rng.uniform(-1.0, 1.0, (count, n)), rng.normal(0.0, 1.5, (count, n)),
+            rng.normal(0.0, 5.0, (count, n)))
+
+
+def rnea(urdf: Path, joints: tuple[str, ...] | None, q: np.ndarray, qd: np.ndarray,
+         qdd: np.ndarray) -> np.ndarray:
+    """Pinocchio's inverse dynamics of the URDF, other joints locked at neutral."""
+    full = pin.buildModelFromUrdf(str(urdf))
+    lock = [full.getJointId(name) for name in list(full.names)[1:]
+            if joints is not None and name not in joints]
+    model = pin.buildReducedModel(full, lock, pin.neutral(full)) if lock else full
+    data = model.createData()
+    return np.array([pin.rnea(model, data, q[k], qd[k], qdd[k]) for k in range(q.shape[0])])
+
+
+@pytest.mark.parametrize('urdf, joints', [(SCARA_URDF, None),
+                                          (example_urdf('ur_description/urdf/ur5_robot.urdf'),
+                                           None),
+                                          (example_urdf('panda_description/urdf/panda.urdf'),
+                                           PANDA_ARM)],
+                         ids=['scara', 'ur5', 'panda-arm'])
+def test_regressor_reproduces_pinocchio_rnea(urdf: Path, joints: tuple[str, ...] | None
+                                             ) -> None:
+    model = PhysicalModel.from_urdf_file(urdf, joint_names=joints)
+    n = model.n_joints
+    q, qd, qdd = states(np.random.default_rng(3), 40, n)
+    expected = rnea(urdf, joints, q, qd, qdd)
+    theta = model.urdf_parameters()  # friction 0
+    tau = model.regressor(q, qd, qdd) @ theta
+    np.testing.assert_allclose(tau, expected, rtol=1e-10, atol=1e-10)
+    model.set_theta(theta)
+    np.testing.assert_allclose(model.predict(np.hstack([q, qd, qdd])), expected, rtol=1e-10,
+                               atol=1e-10)
+    # the standard regressor holds every body's 10 parameters; the base ones are fewer
+    assert model.standard_regressor(q, qd, qdd).shape == (40, n, 10 * n + n)
+    assert model.n_base < 11 * n and model.n_parameters == model.n_base + 2 * n
+    assert model.stacked_regressor(q, qd, qdd).shape == (40 * n, model.n_parameters)
+
+
+def test_scara_base_parameters_match_the_analytic_model() -> None:
+    """The reduced SCARA model equals the project's Lagrangian ScaraModel (no friction)."""
+    params = ScaraParams(viscous=(0.0,) * 4, coulomb=(0.0,) * 4)
+    model = PhysicalModel.from_urdf_file(SCARA_URDF, armature=False)
+    # the analytic model's 6 combinations less w34 (the quill's weight m34·g: g is known
+    # here), plus three first moments that the analytic model has at 0
+    assert model.n_base == 8
+    assert model.base_parameters.keys() == set(model.parameter_names[:8])
+    model.set_theta(model.urdf_parameters())
+    q, qd, qdd = states(np.random.default_rng(5), 30, 4)
+    np.testing.assert_allclose(model.predict(np.hstack([q, qd, qdd])),
+                               ScaraModel(params).inverse_dynamics(q, qd, qdd), rtol=1e-9,
+                               atol=1e-9)
+    # one definition reads as the analytic zz1r's start: link1.Izz plus moments of link 2
+    assert any(text.startswith('link1.Izz + ') for text in model.definitions())
+
+
+def test_reduction_finds_known_dependences() -> None:
+    rng = np.random.default_rng(0)
+    a, b = rng.normal(size=(50, 1)), rng.normal(size=(50, 1))
+    stacked = np.hstack([a, b, 2.0 * a - b, np.zeros((50, 1))])
+    reduction = reduce_columns(stacked, ['a', 'b', 'c', 'z'])
+    assert reduction.n_base == 2 and set(reduction.dependent.tolist()) >= {3}
+    theta = np.array([1.0, 2.0, 3.0, 4.0])
+    np.testing.assert_allclose(stacked[:, reduction.independent] @ reduction.base_values(theta),
+                               stacked @ theta)
+
+
+@pytest.mark.parametrize('coulomb', ['tanh', 'sign'])
+def test_least_squares_recovers_friction_and_base_parameters(coulomb: str) -> None:
+    urdf = example_urdf('ur_description/urdf/ur5_robot.urdf')
+    model = PhysicalModel.from_urdf_file(urdf, coulomb=coulomb, coulomb_eps=0.02)
+    n = model.n_joints
+    rng = np.random.default_rng(11)
+    truth = model.urdf_parameters()
+    viscous, coulomb_level = rng.uniform(0.5, 5.0, n), rng.uniform(1.0, 8.0, n)
+    truth[model.n_base:] = np.concatenate([viscous, coulomb_level])
+    q, qd, qdd = states(rng, 600, n)
+    tau = rnea(urdf, None, q, qd, qdd) + viscous * qd + coulomb_level * model.coulomb_shape(qd)
+    model.fit(q, qd, qdd, tau)
+    np.testing.assert_allclose(model.viscous, viscous, rtol=1e-8)
+    np.testing.assert_allclose(model.coulomb_friction, coulomb_level, rtol=1e-8)
+    np.testing.assert_allclose(model.theta, truth, rtol=1e-6, atol=1e-8)
+    assert model.friction['shoulder_pan_joint'] == pytest.approx((viscous[0], coulomb_level[0]))
+    assert np.all(model.residual_rms < 1e-8)
+
+
+def test_rls_equals_batch_least_squares() -> None:
+    model = PhysicalModel.from_urdf_file(SCARA_URDF)
+    rng = np.random.default_rng(2)
+    q, qd, qdd = states(rng, 400, 4)
+    tau = rng.normal(0.0, 10.0, (400, 4))  # any data: both solve the same problem
+    batch = model.fit(q, qd, qdd, tau).theta.copy()
+    rls = RecursiveLeastSquares(model, p0=1e12)
+    rls.update(q[:1], qd[:1], qdd[:1], tau[:1])
+    for start in range(1, 400, 37):  # blocks of any size
+        rls.update(q[start:start + 37], qd[start:start + 37], qdd[start:start + 37],
+                   tau[start:start + 37])
+    assert rls.count == 400
+    np.testing.assert_allclose(rls.theta, batch, rtol=1e-7, atol=1e-9)
+    with pytest.raises(ValueError, match='finite'):
+        rls.update_rows(np.full((4, model.n_parameters), np.nan), np.zeros(4))
+
+
+def test_rls_trainer_predicts_a_priori_and_converges() -> None:
+    model = PhysicalModel.from_urdf_file(SCARA_URDF)
+    truth = model.urdf_parameters()
+    truth[model.n_base:] = [3.0, 1.5, 20.0, 0.05, 6.0, 3.0, 15.0, 0.5]
+    rng = np.random.default_rng(4)
+    q, qd, qdd = states(rng, 300, 4)
+    tau = model.regressor(q, qd, qdd) @ truth
+    trainer = RecursiveLeastSquaresTrainer(model, p0=1e12)
+    first = trainer.learn(np.concatenate([q[0], qd[0], qdd[0]]), tau[0])
+    np.testing.assert_array_equal(first, np.zeros(4))  # θ = 0 before the first sample
+    for k in range(1, 300):
+        x = np.concatenate([q[k], qd[k], qdd[k]])
+        before = model.predict(x)
+        np.testing.assert_array_equal(trainer.learn(x, tau[k]), before)
+    np.testing.assert_allclose(model.theta, truth, rtol=1e-6, atol=1e-8)
+    assert trainer.rls.count == 300
+    with pytest.raises(ValueError):
+        trainer.learn(np.full(12, np.nan), tau[0])
+    assert trainer.rls.count == 300
+    with pytest.raises(NotImplementedError):
+        model.partial_fit(np.zeros((1, 12)), np.zeros((1, 4)))
+
+
+def test_physical_and_hybrid_files_round_trip(tmp_path: Path) -> None:
+    model = PhysicalModel.from_urdf_file(SCARA_URDF, coulomb='sign')
+    rng = np.random.default_rng(6)
+    q, qd, qdd = states(rng, 200, 4)
+    tau = (model.regressor(q, qd, qdd) @ rng.uniform(0.1, 2.0, model.n_parameters)
+           + 0.1 * np.sin(3.0 * q))  # something the physical model does not explain
+    x = np.hstack([q, qd, qdd])
+    model.metadata['method'] = np.array('physical')
+    model.fit(q, qd, qdd, tau).save(tmp_path / 'physical.npz')
+    loaded = PhysicalModel.load(tmp_path / 'physical.npz')
+    np.testing.assert_array_equal(loaded.predict(x), model.predict(x))
+    assert loaded.parameter_names == model.parameter_names and loaded.coulomb == 'sign'
+    assert str(loaded.metadata['method']) == 'physical'
+    with pytest.raises(ModelFormatError, match='a physical model, not a network'):
+        FeedForwardNet.load(tmp_path / 'physical.npz')
+
+    hybrid, history = fit_hybrid(PhysicalModel.from_urdf_file(SCARA_URDF),
+                                 make_network('ffs', 4, n_hidden=8), (x[:150], tau[:150]),
+                                 validation=(x[150:], tau[150:]), iterations=20,
+                                 min_iterations=0, max_fail=5)
+    residual = tau[:150] - hybrid.physical.predict(x[:150])
+    # the network's outputs are scaled to the residual's range, not the efforts'
+    np.testing.assert_allclose(hybrid.network.y_scaling.hi, residual.max(axis=0))
+    assert history.iterations >= 1
+    # the network starts at 0: with no iteration the hybrid is the physical model
+    still, _ = fit_hybrid(PhysicalModel.from_urdf_file(SCARA_URDF),
+                          make_network('ffs', 4, n_hidden=8), (x[:150], tau[:150]),
+                          iterations=0)
+    np.testing.assert_allclose(still.predict(x), still.physical.predict(x), atol=1e-12)
+    hybrid.save(tmp_path / 'hybrid.npz')
+    again = HybridModel.load(tmp_path / 'hybrid.npz')
+    np.testing.assert_array_equal(again.predict(x), hybrid.predict(x))
+    np.testing.assert_allclose(hybrid.predict(x), hybrid.physical.predict(x)
+                               + hybrid.network.predict(x))
+    with pytest.raises(ModelFormatError, match='a hybrid model, not a physical one'):
+        PhysicalModel.load(tmp_path / 'hybrid.npz')
+
+
+def test_bad_urdfs_and_joints_are_refused() -> None:
+    with pytest.raises(UrdfError, match='not distinct joints of the URDF'):
+        PhysicalModel.from_urdf_file(SCARA_URDF, joint_names=['joint1', 'elbow'])
+    with pytest.raises(UrdfError, match='cannot read'):
+        PhysicalModel.from_urdf_file(SCARA_URDF.with_name('nothing.urdf'))
+    with pytest.raises(ValueError, match='coulomb'):
+        PhysicalModel.from_urdf_file(SCARA_URDF, coulomb='smooth')
+
+
+@pytest.mark.parametrize('coulomb, eps', [('sign', 1.0), ('tanh', 0.05), ('tanh', 0.2)])
+def test_the_coulomb_shape_of_the_data_is_chosen(coulomb: str, eps: float) -> None:
+    def build(shape: str, width: float) -> PhysicalModel:
+        return PhysicalModel.from_urdf_file(SCARA_URDF, coulomb=shape, coulomb_eps=width)
+
+    truth = build(coulomb, eps)
+    theta = truth.urdf_parameters()
+    theta[truth.n_base:] = [3.0, 1.5, 20.0, 0.05, 6.0, 3.0, 15.0, 0.5]
+    truth.set_theta(theta)
+    rng = np.random.default_rng(8)
+    q, qd, qdd = states(rng, 600, 4)
+    qd *= 0.2  # most speeds within a few ε of 0, where the shapes differ
+    x = np.hstack([q, qd, qdd])
+    y = truth.predict(x)
+    model, choice = select_coulomb(build, (x[:400], y[:400]), (x[400:], y[400:]))
+    assert (choice.coulomb, choice.eps) == (coulomb, eps)
+    assert choice.label == ('sign' if coulomb == 'sign' else f'tanh {eps:g}')
+    assert len(choice.scores) == len(CANDIDATES) and min(choice.scores.values()) < 1e-12
+    np.testing.assert_allclose(model.coulomb_friction, [6.0, 3.0, 15.0, 0.5], rtol=1e-6)
+
+
+def test_a_continuous_joint_takes_its_angle() -> None:
+    """Pinocchio holds a continuous joint as (cos, sin); the model takes the angle."""
+    text = SCARA_URDF.read_text().replace('<joint name="joint4" type="revolute">',
+                                          '<joint name="joint4" type="continuous">')
+    model = PhysicalModel(text, source='continuous wrist')
+    q, qd, qdd = states(np.random.default_rng(9), 20, 4)
+    q[:, 3] *= 3.0  # any angle
+    pinocchio_model = pin.buildModelFromXML(text)
+    assert pinocchio_model.nq == 5
+    data = pinocchio_model.createData()
+    q_pin = np.hstack([q[:, :3], np.cos(q[:, 3:]), np.sin(q[:, 3:])])
+    expected = np.array([pin.rnea(pinocchio_model, data, q_pin[k], qd[k], qdd[k])
+                         for k in range(20)])
+    np.testing.assert_allclose(model.regressor(q, qd, qdd) @ model.urdf_parameters(), expected,
+                               rtol=1e-10, atol=1e-10)
