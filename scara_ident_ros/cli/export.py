@@ -42,12 +42,16 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
 
 def run(args: argparse.Namespace) -> int:
     """Export, check with ONNX Runtime, print one summary line and the check."""
+    from scara_ident_ros.nn import FeedForwardNet
     from scara_ident_ros.nn.onnx_export import (INPUT_NAME, OUTPUT_NAME, network_to_onnx,
                                                 onnx_agreement, save_onnx)
     from scara_ident_ros.offline.evaluation import load_model, model_joint_names, model_method
 
     out: Path = args.out if args.out is not None else args.model.with_suffix('.onnx')
     network = load_model(args.model)
+    if not isinstance(network, FeedForwardNet):  # a physical or hybrid model: Pinocchio's
+        raise CliError(f'{args.model}: a {type(network).__name__}, not a network: export '
+                       'writes the networks (FFS, FFW, FFMW) only')
     if out.resolve() == args.model.resolve():
         raise CliError(f'--out {out} is the model file itself; give another name')
     problem = unwritable_file(out)
