@@ -7,6 +7,12 @@ deadlines and converts each sample to a ``sensor_msgs/JointState``:
 torque/force actually applied, ``header.stamp`` = simulated time. Once a second it
 reports on ``/diagnostics`` (hardware_id ``scara_sim``) its rate and its late samples
 (:func:`~scara_ident_ros.identification.health.simulator_health`).
+
+With ``trajectory:=external`` it is the arm under a trajectory controller: it follows the
+``trajectory_msgs/JointTrajectory`` commands on ``/joint_trajectory_controller/joint_trajectory``
+(remappable) as ``joint_trajectory_controller`` would
+(:class:`~scara_ident_ros.sim.trajectory_follower.TrajectoryFollower`), with the same
+computed torque + PD, holding the middle of each joint's range until the first command.
 """
 from __future__ import annotations
 
@@ -24,6 +30,7 @@ from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
+from trajectory_msgs.msg import JointTrajectory
 
 from scara_ident_ros.dynamics import ParamError, ScaraParams
 from scara_ident_ros.identification.health import Deltas, Health, simulator_health
@@ -34,7 +41,8 @@ from scara_ident_ros.nodes.runtime import POLL_PERIOD, ConfigError, run_node
 from scara_ident_ros.pacer import DeadlinePacer
 from scara_ident_ros.resources import config_path
 from scara_ident_ros.sim import SEQUENCE, TRAJECTORIES, SimConfig, Simulator, make_trajectory
-from scara_ident_ros.topics import CLOCK, JOINT_STATES
+from scara_ident_ros.sim.trajectory_follower import TrajectoryFollower
+from scara_ident_ros.topics import CLOCK, JOINT_STATES, JOINT_TRAJECTORY
 
 __all__ = ['ScaraSimNode', 'main', 'history_depth', 'HISTORY']
 
@@ -48,6 +56,7 @@ HISTORY = 10.0
 STATS_PERIOD = 10.0  # seconds between statistics log lines
 SPIN_PERIOD = 0.01  # seconds between two executor.spin_once calls while publishing
 ACK_TIMEOUT = 5.0  # seconds the last samples may take to be acknowledged at shutdown
+EXTERNAL = 'external'  # trajectory: follow JointTrajectory commands, as a controller would
 
 PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec('robot_config', '', 'YAML file of the robot parameters; empty: the installed '
@@ -66,7 +75,8 @@ PARAMETERS: tuple[ParamSpec, ...] = (
               's', min=0.0),
     ParamSpec('trajectory', SEQUENCE, 'Excitation: a preset finite Fourier series (gentle, '
               'standard, aggressive) repeated, or sequence, a new random standard-like one '
-              'every 5 s joined smoothly', choices=TRAJECTORIES),
+              'every 5 s joined smoothly; external: follow the JointTrajectory commands on '
+              f'{JOINT_TRAJECTORY} as a trajectory controller', choices=(*TRAJECTORIES, EXTERNAL)),
     ParamSpec('seed', 0, 'Seed of the excitation and of the measurement noise', min=0),
     ParamSpec('substeps', 4, 'RK4 integration steps per sample', min=1, max=100),
     ParamSpec('position_noise', 0.0, 'Std of measurement noise on q (rad or m)', min=0.0),
@@ -119,7 +129,10 @@ class ScaraSimNode(Node):
                 position_noise=s['position_noise'], velocity_noise=s['velocity_noise'],
                 effort_noise=s['effort_noise'], disturbance=s['disturbance'],
                 jitter=s['jitter'])
-            trajectory = make_trajectory(s['trajectory'], params, seed=s['seed'])
+            self.follower = (TrajectoryFollower(names, params.position_centre)
+                             if s['trajectory'] == EXTERNAL else None)
+            trajectory = self.follower or make_trajectory(s['trajectory'], params,
+                                                          seed=s['seed'])
             self.simulator = Simulator(params, trajectory, config)
         except (ParamError, OSError) as exc:
             raise ConfigError(str(exc)) from None
@@ -131,6 +144,9 @@ class ScaraSimNode(Node):
         self.publisher = self.create_publisher(JointState, JOINT_STATES, qos)
         self.clock_publisher = (self.create_publisher(Clock, CLOCK, 10)
                                 if s['publish_clock'] else None)
+        if self.follower is not None:
+            self.create_subscription(JointTrajectory, JOINT_TRAJECTORY, self.on_command,
+                                     QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE))
         self.msg = joint_state(0, names, frame_id=s['frame_id'])
         self.published = 0
         self.pacer = DeadlinePacer(self.period_ns, real_time_factor=s['real_time_factor'])
@@ -141,6 +157,24 @@ class ScaraSimNode(Node):
             f'simulating {path} at {s["rate_hz"]:g} Hz, trajectory {s["trajectory"]!r}, '
             f'seed {s["seed"]}, publishing {self.publisher.topic_name} (reliable, '
             f'{qos.depth} samples of history: {s["history"]:g} s)')
+
+    def on_command(self, msg: JointTrajectory) -> None:
+        """Give a trajectory command to the follower, in simulated time (trajectory external)."""
+        assert self.follower is not None
+        if self.waiting:
+            self.get_logger().warning('trajectory command before the first sample: ignored')
+            return
+        stamp_ns = msg.header.stamp.sec * NS_PER_S + msg.header.stamp.nanosec
+        points = msg.points
+        reason = self.follower.command(
+            list(msg.joint_names), stamp_ns - self.origin_ns if stamp_ns else None,
+            [p.time_from_start.sec * NS_PER_S + p.time_from_start.nanosec for p in points],
+            [p.positions for p in points],
+            [p.velocities for p in points] if all(len(p.velocities) for p in points) else None,
+            ([p.accelerations for p in points] if all(len(p.accelerations) for p in points)
+             else None), self.simulator.stamp_ns)
+        if reason is not None:
+            self.get_logger().warning(f'trajectory command refused: {reason}')
 
     def publish_next(self) -> None:
         """Advance the simulator one sample and publish it."""

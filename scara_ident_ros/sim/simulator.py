@@ -33,6 +33,7 @@ from scara_ident_ros.sim.controller import ComputedTorqueController
 from scara_ident_ros.sim.jitter import MAX_JITTER_FRACTION, StampJitter
 from scara_ident_ros.sim.sequence import SequenceTrajectory
 from scara_ident_ros.sim.trajectory import FourierTrajectory
+from scara_ident_ros.sim.trajectory_follower import TrajectoryFollower
 
 __all__ = ['DISTURBANCES', 'SimConfig', 'SimSample', 'SimRecord', 'Simulator']
 
@@ -198,8 +199,9 @@ class Simulator:
     ----------
     params : ScaraParams
         The true robot.
-    trajectory : FourierTrajectory or SequenceTrajectory
-        Desired motion; the state starts on it at t = 0.
+    trajectory : FourierTrajectory, SequenceTrajectory or TrajectoryFollower
+        Desired motion; the state starts on it at t = 0. A follower of external commands
+        changes while the simulation runs: it is evaluated one sample at a time.
     config : SimConfig, optional
         Simulation settings; default ``SimConfig()``.
 
@@ -211,7 +213,8 @@ class Simulator:
         The controller, with the true or a perturbed model.
     """
 
-    def __init__(self, params: ScaraParams, trajectory: FourierTrajectory | SequenceTrajectory,
+    def __init__(self, params: ScaraParams,
+                 trajectory: FourierTrajectory | SequenceTrajectory | TrajectoryFollower,
                  config: SimConfig | None = None) -> None:
         self.params = params
         self.trajectory = trajectory
@@ -366,7 +369,8 @@ class Simulator:
         index = k - self._chunk_start
         if not 0 <= index < len(self._desired):
             self._chunk_start = k
-            times = self._jitter.stamps_ns(k, _CHUNK) * 1e-9
+            batch = getattr(self.trajectory, 'batch_samples', _CHUNK)
+            times = self._jitter.stamps_ns(k, batch) * 1e-9
             q, qd, qdd = self.trajectory.evaluate(times)
             self._desired = list(zip(q.tolist(), qd.tolist(), qdd.tolist()))
             index = 0
