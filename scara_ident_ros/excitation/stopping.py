@@ -59,9 +59,12 @@ class Stop:
     def evaluate(self, t: npt.ArrayLike) -> Motion:
         """Commanded q, q', q'' at plan times t (N,) >= start (s), each (N, n); at rest
         after :attr:`end`."""
-        tau = np.clip((np.asarray(t, dtype=float) - self.start) / self.duration, 0.0, 1.0)
+        elapsed = np.asarray(t, dtype=float) - self.start
+        # a time within a nanosecond of the end (rounding of k * step) is the end: at rest
+        tau = np.where(elapsed >= self.duration - 1e-9, 1.0,
+                       np.clip(elapsed / self.duration, 0.0, 1.0))
         sigma = self.start + self.duration * (tau - tau ** 4 * (2.5 + tau * (tau - 3.0)))
-        rate = (1.0 - tau ** 3 * (10.0 + tau * (6.0 * tau - 15.0)))[:, None]
+        rate = ((1.0 - tau) ** 3 * (1.0 + tau * (3.0 + 6.0 * tau)))[:, None]  # 1 - s: 0 at rest
         rate_change = (-30.0 * (tau * (1.0 - tau)) ** 2 / self.duration)[:, None]
         q, qd, qdd = self.plan.evaluate(sigma)
         return q, qd * rate, qdd * rate ** 2 + qd * rate_change

@@ -108,8 +108,9 @@ class ExcitationNode(Node):
             raise ConfigError(str(exc)) from None
         self.send = self._make_sender()
         self.state: tuple[float, list[str], list[float]] | None = None
-        self.create_subscription(JointState, JOINT_STATES, self.on_joint_state,
-                                 QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT))
+        self.states_topic = self.create_subscription(
+            JointState, JOINT_STATES, self.on_joint_state,
+            QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT)).topic_name
         self.create_service(Trigger, '~/stop', self.on_stop)
         self.stop_requested = False
         self.exit_status = 0
@@ -237,8 +238,9 @@ class ExcitationNode(Node):
         assert self.state is not None
         silent = time.monotonic() - self.state[0]
         if silent > self.settings['state_timeout']:
-            self.fail(f'no {JOINT_STATES} for {silent:.2f} s: bringing the arm to rest', 1)
-            return f'{JOINT_STATES} lost'
+            self.fail(f'no {self.states_topic} for {silent:.2f} s: bringing the arm to rest',
+                      1)
+            return f'{self.states_topic} lost'
         return ''
 
     def send_chunk(self, t: float, stop_time: float) -> bool:
@@ -280,7 +282,7 @@ class ExcitationNode(Node):
             if stop.is_set():
                 return None
             if time.monotonic() > deadline:
-                what = (f'no {JOINT_STATES}' if self.state is None
+                what = (f'no {self.states_topic}' if self.state is None
                         else f'no controller on {self.controller_name}')
                 self.fail(f'{what} after {self.settings["wait_timeout"]:g} s', 2)
                 return None
@@ -288,8 +290,8 @@ class ExcitationNode(Node):
         _, names, positions = self.state
         missing = [name for name in self.limits.names if name not in names]
         if missing or len(positions) != len(names):
-            self.fail(f'joints {missing} are not in {JOINT_STATES} (it has {names})'
-                      if missing else f'{JOINT_STATES} has {len(names)} names and '
+            self.fail(f'joints {missing} are not in {self.states_topic} (it has {names})'
+                      if missing else f'{self.states_topic} has {len(names)} names and '
                       f'{len(positions)} positions', 2)
             return None
         start = np.array([positions[names.index(name)] for name in self.limits.names])
