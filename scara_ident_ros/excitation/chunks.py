@@ -6,7 +6,7 @@ to rest. The next chunk replaces it before its stop begins, so while chunks keep
 arm follows the plan; if they stop coming (the sender killed, the network down) the
 controller plays the stop and holds the arm at rest, as ``joint_trajectory_controller``
 holds a trajectory's last point. Every chunk ends at rest, which a controller with
-``allow_nonzero_velocity_at_trajectory_end: false`` (Jazzy's default) requires.
+``allow_nonzero_velocity_at_trajectory_end: false`` requires.
 
 Two chunks give the same values at the times they share (both are the plan there), so
 switching from one to the next anywhere in their overlap is continuous in q, q', q''.
