@@ -188,6 +188,8 @@ def load_motion_limits(*, urdf_file: str = '', robot_description: str = '',
         raise MotionLimitsError(' '.join(str(exc).split())) from None
     if not limits.names:
         raise MotionLimitsError(f'{limits.source}: no joint with position, velocity and '
-                                'acceleration limits')
+                                'acceleration limits (URDF has no acceleration limits: give '
+                                'joint_names and acceleration_max, or a robot_config naming '
+                                'the joints)')
     return MotionLimits(limits.names, limits.position_min, limits.position_max,
                         limits.velocity_max, limits.acceleration_max, limits.source)
