@@ -23,15 +23,17 @@ from __future__ import annotations
 
 import json
 import sys
+import threading
 import time
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 from builtin_interfaces.msg import Duration as DurationMsg
 from rclpy.executors import Executor
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
+from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState
 from std_srvs.srv import Trigger
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
@@ -107,10 +109,12 @@ class ExcitationNode(Node):
         except MotionLimitsError as exc:
             raise ConfigError(str(exc)) from None
         self.send = self._make_sender()
-        self.state: tuple[float, list[str], list[float]] | None = None
+        # raw: only the arrival counts while moving; the positions are read once, at start
+        self.state: tuple[float, bytes] | None = None
         self.states_topic = self.create_subscription(
             JointState, JOINT_STATES, self.on_joint_state,
-            QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT)).topic_name
+            QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT),
+            raw=True).topic_name
         self.create_service(Trigger, '~/stop', self.on_stop)
         self.stop_requested = False
         self.exit_status = 0
@@ -126,7 +130,7 @@ class ExcitationNode(Node):
 
     # -- boundary ----------------------------------------------------------------------------
 
-    def _make_sender(self) -> Any:
+    def _make_sender(self) -> Callable[[JointTrajectory], None]:
         """A function sending a JointTrajectory: the topic's publisher, or the action's."""
         if not self.settings['use_action']:
             self.publisher = self.create_publisher(
@@ -151,9 +155,9 @@ class ExcitationNode(Node):
             client.send_goal_async(FollowJointTrajectory.Goal(trajectory=trajectory))
         return send_goal
 
-    def on_joint_state(self, msg: JointState) -> None:
-        """Keep the latest positions and when they came."""
-        self.state = (time.monotonic(), list(msg.name), list(msg.position))
+    def on_joint_state(self, msg: bytes) -> None:
+        """Keep the latest joint state (serialised) and when it came."""
+        self.state = (time.monotonic(), msg)
 
     def on_stop(self, request: Trigger.Request, response: Trigger.Response
                 ) -> Trigger.Response:
@@ -193,7 +197,7 @@ class ExcitationNode(Node):
         """Plan time now (s): negative before the motion starts."""
         return (self.now_ns() - self.origin_ns) / NS_PER_S
 
-    def loop(self, executor: Executor, stop: Any) -> None:
+    def loop(self, executor: Executor, stop: threading.Event) -> None:
         """Wait for the arm and its controller, send the chunks, stop smoothly."""
         start = self.wait_for_start(executor, stop)
         if start is None:
@@ -223,13 +227,13 @@ class ExcitationNode(Node):
                     break
                 continue
             if time.monotonic() >= next_send:
-                next_send += s['chunk_period']
+                next_send = max(next_send + s['chunk_period'], time.monotonic())
                 stop_time = t + s['horizon']
                 if not self.send_chunk(t, stop_time if end is None else min(stop_time, end)):
                     return
         self.wait_for_rest(executor)
 
-    def stop_request(self, stop: Any) -> str:
+    def stop_request(self, stop: threading.Event) -> str:
         """Why the arm must stop now ('' if it need not)."""
         if stop.is_set():
             return 'interrupted'
@@ -274,7 +278,7 @@ class ExcitationNode(Node):
             executor.spin_once(timeout_sec=SPIN_PERIOD)
         self.get_logger().info(f'at rest after {self.sent} chunks')
 
-    def wait_for_start(self, executor: Executor, stop: Any) -> np.ndarray | None:
+    def wait_for_start(self, executor: Executor, stop: threading.Event) -> np.ndarray | None:
         """The arm's position once /joint_states and the controller are there; None (and
         the error reported) if they are not within ``wait_timeout`` or the start is bad."""
         deadline = time.monotonic() + self.settings['wait_timeout']
@@ -287,7 +291,8 @@ class ExcitationNode(Node):
                 self.fail(f'{what} after {self.settings["wait_timeout"]:g} s', 2)
                 return None
             executor.spin_once(timeout_sec=0.05)
-        _, names, positions = self.state
+        latest = deserialize_message(self.state[1], JointState)
+        names, positions = list(latest.name), list(latest.position)
         missing = [name for name in self.limits.names if name not in names]
         if missing or len(positions) != len(names):
             self.fail(f'joints {missing} are not in {self.states_topic} (it has {names})'
