@@ -29,6 +29,7 @@ setup(
     entry_points={
         'console_scripts': [
             'scara_sim = scara_ident_ros.nodes.scara_sim:main',
+            'robot_sim = scara_ident_ros.nodes.robot_sim:main',
             'identifier = scara_ident_ros.nodes.identifier:main',
             'recorder = scara_ident_ros.nodes.recorder:main',
             'player = scara_ident_ros.nodes.player:main',

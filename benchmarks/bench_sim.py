@@ -1,6 +1,7 @@
-"""Real-time behaviour of the ``scara_sim`` node at 1 kHz, seen from another process.
+"""Real-time behaviour of a simulator node at 1 kHz, seen from another process.
 
-The simulator runs as its own process (``python -m scara_ident_ros.nodes.scara_sim``,
+The simulator (``scara_sim``, or ``robot_sim`` with ``--node robot_sim --robot panda``)
+runs as its own process (``python -m scara_ident_ros.nodes.<node>``,
 ``wait_for_subscribers:=1`` so nothing is lost at start) and a lean subscriber runs in a
 second process (this script with ``--subscriber``: an EventsExecutor driven by
 ``spin_once``, a raw subscription whose CDR bytes are not deserialised, receive times
@@ -15,7 +16,7 @@ and stamps written into preallocated numpy arrays). Over a window of ``--seconds
 
 Run from the repository root::
 
-    .venv/bin/python benchmarks/bench_sim.py [--seconds 30]
+    .venv/bin/python benchmarks/bench_sim.py [--seconds 30] [--node robot_sim --robot panda]
 
 DDS stays on this machine (``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST``) and the run uses
 a domain of its own unless ``ROS_DOMAIN_ID`` is set. Prints a Markdown table.
@@ -38,7 +39,7 @@ import numpy as np
 
 from ros_env import ros_env  # benchmarks/: the script's own folder
 
-SIM_MODULE = 'scara_ident_ros.nodes.scara_sim'
+NODES = ('scara_sim', 'robot_sim')
 JOINT_STATES_TOPIC = '/joint_states'
 RATE_HZ = 1000.0
 TARGET_RATE = 999.0  # messages/s, at least
@@ -130,8 +131,12 @@ def stop(proc: subprocess.Popen[str], timeout: float = 20.0) -> int:
     return proc.wait()
 
 
-def measure(seconds: float, warmup: float, workdir: Path) -> dict[str, Any]:
-    """Run the simulator and the subscriber; return the figures of the window."""
+def measure(seconds: float, warmup: float, workdir: Path, node: str = 'scara_sim',
+            robot: str = 'panda') -> dict[str, Any]:
+    """Run the simulator node and the subscriber; return the figures of the window.
+
+    ``robot`` is robot_sim's ``robot`` parameter (ignored for scara_sim).
+    """
     env = ros_env({**os.environ, 'PYTHONUNBUFFERED': '1',
                    'RCUTILS_LOGGING_BUFFERED_STREAM': '0'})
     capacity = int((seconds + warmup + 30) * RATE_HZ * 1.2)
@@ -145,9 +150,10 @@ def measure(seconds: float, warmup: float, workdir: Path) -> dict[str, Any]:
     try:
         wait_for_line(subscriber, 'ready', START_TIMEOUT)
         with open(sim_log, 'w') as log:
+            robot_args = ['-p', f'robot:={robot}'] if node == 'robot_sim' else []
             sim = subprocess.Popen(
-                [sys.executable, '-m', SIM_MODULE, '--ros-args', '-p', f'rate_hz:={RATE_HZ}',
-                 '-p', 'wait_for_subscribers:=1'],
+                [sys.executable, '-m', f'scara_ident_ros.nodes.{node}', '--ros-args',
+                 '-p', f'rate_hz:={RATE_HZ}', '-p', 'wait_for_subscribers:=1', *robot_args],
                 stdin=subprocess.DEVNULL, stdout=log, stderr=subprocess.STDOUT, env=env)
         wait_for_line(subscriber, 'first', START_TIMEOUT)
         time.sleep(warmup)
@@ -204,7 +210,7 @@ def report(r: dict[str, Any]) -> str:
          verdict(r['sim_cpu'] <= TARGET_CPU)),
         ('subscriber CPU (% of one core)', f"{r['subscriber_cpu']:.1f}", '', ''),
     ]
-    lines = [f"scara_sim at {RATE_HZ:g} Hz, {r['window_s']:.1f} s window "
+    lines = [f"{r['what']} at {RATE_HZ:g} Hz, {r['window_s']:.1f} s window "
              f"({r['received']} messages received in all); load average "
              f"{r['load_before']} before, {r['load_after']} after; {os.cpu_count()} CPUs",
              '', '| figure | measured | target | met |', '| --- | ---: | --- | --- |']
@@ -218,6 +224,10 @@ def main() -> None:
     parser.add_argument('--seconds', type=float, default=30.0, help='window length (s)')
     parser.add_argument('--warmup', type=float, default=2.0,
                         help='seconds after the first message before the window opens')
+    parser.add_argument('--node', choices=NODES, default='scara_sim',
+                        help='simulator node to measure')
+    parser.add_argument('--robot', default='panda',
+                        help="robot_sim's robot (an example-robot-data arm)")
     parser.add_argument('--subscriber', action='store_true', help=argparse.SUPPRESS)
     parser.add_argument('--out', type=Path, help=argparse.SUPPRESS)
     parser.add_argument('--capacity', type=int, default=0, help=argparse.SUPPRESS)
@@ -227,7 +237,9 @@ def main() -> None:
         return
     load_before = ' '.join(f'{x:.2f}' for x in os.getloadavg())
     with tempfile.TemporaryDirectory() as workdir:
-        result = measure(args.seconds, args.warmup, Path(workdir))
+        result = measure(args.seconds, args.warmup, Path(workdir), args.node, args.robot)
+    result['what'] = (f'robot_sim (robot {args.robot})' if args.node == 'robot_sim'
+                      else args.node)
     result['load_before'] = load_before
     result['load_after'] = ' '.join(f'{x:.2f}' for x in os.getloadavg())
     print(report(result))

@@ -24,6 +24,7 @@ SUBCOMMANDS: dict[str, str] = {
     'evaluate': 'evaluate',
     'tables': 'tables',
     'recover': 'recover',
+    'export': 'export',
     'excitation': 'excitation',
 }
 

@@ -1,16 +1,18 @@
 """``scara-ident run``: the whole identification graph in one command.
 
-Starts, as separate processes, the MCAP recorder, three identifiers side by side
-(FFMW, FFW, FFS in the namespaces ``/ffmw``, ``/ffw``, ``/ffs``, all fed by
-``/joint_states``) and the simulated SCARA; each identifier subscribes once the
-recorder records its outputs, the simulator waits until the identifiers and the
+Starts, as separate processes, the MCAP recorder, one identifier serving the three
+networks side by side (FFMW, FFW, FFS publishing under ``/ffmw``, ``/ffw``, ``/ffs``,
+all fed by one subscription to ``/joint_states``, each learning in a process of its own
+beside the stream) and the simulated SCARA; the identifier subscribes once the
+recorder records its outputs, the simulator waits until the identifier and the
 recorder are subscribed, then publishes ``--duration`` seconds of
 samples at 1 kHz and stops; the others then drain their queues and are stopped
-with SIGINT, the identifiers first (they predict their last samples, whose zero-phase
-q'' waited for samples that never came, publish them while the recorder still records,
-and save their models), then the recorder (it closes the bag). A summary compares what
-was published with what was processed and recorded, with each identifier's windowed
-and validation NMSE. Unless
+with SIGINT, the identifier first (it predicts its last samples, whose zero-phase
+q'' waited for samples that never came, publishes them while the recorder still records,
+and saves the models), then the recorder (it closes the bag). A summary accounts for
+every published sample per method (predicted, skipped by reason, lost before the
+identifier, not drained when it stopped), flags any shortfall, and gives each method's
+windowed and validation NMSE and how often it learnt (weight updates). Unless
 ``--no-report``, the run's tables and figures are then produced from the bag
 (``scara-ident tables``).
 
@@ -60,10 +62,8 @@ STARTUP_TIMEOUT = 60.0  # s allowed for the processes to start and discover each
 DRAIN_TIME = 1.0  # s the consumers get to drain their queues after the last sample
 POLL_PERIOD = 0.1  # s between two looks at the processes and the stop signals
 INTERRUPTED = 130  # exit status after a Ctrl-C (128 + SIGINT), as a shell reports it
-JOINT_STATES_TOPIC = in_namespace(JOINT_STATES)  # the robot's: every identifier takes it
-#: lm_interval of each identifier per identifier run (benchmarks/bench_graph.py: three at
-#: 200 took 55-57 % of a core each and lost 17 % of the samples on 2 cores)
-LM_INTERVAL_PER_IDENTIFIER = 200
+JOINT_STATES_TOPIC = in_namespace(JOINT_STATES)  # the robot's: the identifier takes it
+IDENTIFIER = 'identifier'  # the identifier's process, logs and node name
 
 
 def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -88,10 +88,9 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
                              "reservoir of the stream, the identifier's default) or bp (the "
                              "paper's per-sample back-propagation)")
     parser.add_argument('--lm-interval', type=int, default=0,
-                        help='samples between two updates of each lm trainer (default: 200 '
-                             'per identifier, 600 for three: each identifier alone takes '
-                             'about 55 %% of a core with lm_interval 200, and three of them '
-                             'beside the simulator and recorder overload 2 cores)')
+                        help="least new samples between two updates of each lm trainer "
+                             "(default: the identifier's lm_interval); the trainers learn "
+                             'beside the stream, as often as the CPU allows')
     parser.add_argument('--compression', default='zstd', choices=('zstd', 'none'),
                         help='MCAP chunk compression of the bag (default: zstd)')
     parser.add_argument('--no-report', dest='report', action='store_false',
@@ -100,6 +99,10 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
                         help='start even if another graph already publishes /joint_states '
                              "or the identifiers' topics on this ROS domain (its samples "
                              'then mix with this run\'s)')
+    parser.add_argument('--robot', default=None, metavar='NAME',
+                        help='simulate this example-robot-data arm with robot_sim instead of '
+                             'the SCARA (ur5, panda, ...); the identifiers get its URDF and '
+                             'acceleration limits (default: the SCARA, scara_sim)')
     parser.set_defaults(func=run)
 
 
@@ -130,7 +133,6 @@ def run(args: argparse.Namespace) -> int:
                        f'got {args.trajectory!r}')
     if args.lm_interval < 0:
         raise CliError(f'--lm-interval must be >= 1, got {args.lm_interval}')
-    lm_interval = args.lm_interval or LM_INTERVAL_PER_IDENTIFIER * len(args.methods)
     if len(set(args.methods)) != len(args.methods):
         raise CliError(f'--methods names a method twice: {" ".join(args.methods)} (each runs '
                        'one identifier under its own namespace)')
@@ -147,25 +149,26 @@ def run(args: argparse.Namespace) -> int:
     for directory in (stats, models):
         directory.mkdir(parents=True, exist_ok=True)
 
+    sim_name, sim_args, robot_args = _simulator(getattr(args, 'robot', None))
     graph = ProcessGraph(out / 'logs')
     graph.start(NodeProcess('recorder', 'scara_ident_ros.nodes.recorder', [
         '-p', f'output:={bag}', '-p', f'compression:={args.compression}',
         '-p', f'stats_file:={stats / "recorder.json"}']))
-    for name in args.methods:
-        graph.start(NodeProcess(name, 'scara_ident_ros.nodes.identifier', [
-            '-r', f'__ns:=/{name}', '-r', f'{JOINT_STATES}:={JOINT_STATES_TOPIC}',
-            '-p', f'method:={name}', '-p', f'save_path:={models / name}.npz',
-            '-p', f'trainer:={args.trainer}', '-p', f'lm_interval:={lm_interval}',
-            # subscribe /joint_states only once the recorder records this identifier's
-            # outputs: the simulator's wait below then covers the predictions too
-            '-p', 'wait_for_subscribers:=1', '-p', f'wait_timeout:={STARTUP_TIMEOUT}',
-            '-p', f'stats_file:={stats / name}.json']))
-    sim = graph.start(NodeProcess('scara_sim', 'scara_ident_ros.nodes.scara_sim', [
+    graph.start(NodeProcess(IDENTIFIER, 'scara_ident_ros.nodes.identifier', [
+        '-r', f'{JOINT_STATES}:={JOINT_STATES_TOPIC}',
+        '-p', f'methods:=[{",".join(args.methods)}]',
+        '-p', f'save_path:={models}/{{method}}.npz', '-p', f'trainer:={args.trainer}',
+        *(['-p', f'lm_interval:={args.lm_interval}'] if args.lm_interval else []),
+        # subscribe /joint_states only once the recorder records every method's outputs:
+        # the simulator's wait below then covers the predictions too
+        '-p', 'wait_for_subscribers:=1', '-p', f'wait_timeout:={STARTUP_TIMEOUT}',
+        '-p', f'stats_file:={stats}/{{method}}.json', *robot_args]))
+    sim = graph.start(NodeProcess(sim_name, f'scara_ident_ros.nodes.{sim_name}', [
         '-p', f'duration:={args.duration}', '-p', f'trajectory:={args.trajectory}',
-        '-p', f'seed:={args.seed}', '-p', f'wait_for_subscribers:={len(args.methods) + 1}',
+        '-p', f'seed:={args.seed}', '-p', 'wait_for_subscribers:=2',
         '-p', f'wait_timeout:={STARTUP_TIMEOUT}',
-        '-p', f'stats_file:={stats / "scara_sim.json"}']))
-    print(f'scara-ident run: {args.duration:g} s at 1 kHz, identifiers '
+        '-p', f'stats_file:={stats / "scara_sim.json"}', *sim_args]))
+    print(f'scara-ident run: {args.duration:g} s at 1 kHz, identifying with '
           f'{", ".join(m.upper() for m in args.methods)}, recording {bag}', flush=True)
     with StopSignals() as signals:
         try:
@@ -219,7 +222,7 @@ def _watch(graph: ProcessGraph, sim: NodeProcess, signals: StopSignals,
         time.sleep(POLL_PERIOD)
     if signals.received is not None:
         print(f'scara-ident run: {signal.Signals(signals.received).name}: stopping the graph '
-              '(simulator, identifiers, recorder, in that order)', flush=True)
+              '(simulator, identifier, recorder, in that order)', flush=True)
 
 
 def _report(bag: Path, out: Path, methods: list[str], *, interrupted: bool) -> None:
@@ -247,13 +250,14 @@ def _summary(methods: list[str], stats: Path, bag: Path, out: Path,
     recorder = _read_json(stats / 'recorder.json')
     counts = bag_message_counts(bag)
     rows = {}
+    published = sim.get('published')
     for name in methods:
         info = _read_json(stats / f'{name}.json')
         rows[name] = {
             'trainer': info.get('trainer'),
-            'processed': info.get('processed'), 'learned': info.get('learned'),
-            'held_out': info.get('held_out'),
-            'skipped': info.get('skipped'), 'lost': info.get('lost'),
+            **stream_use(published, info),
+            'learned': info.get('learned'), 'held_out': info.get('held_out'),
+            'updates': info.get('updates'), 'updates_per_s': info.get('updates_per_s'),
             'mse_total': info.get('mse_total'), 'nmse_total': info.get('nmse_total'),
             'mse': info.get('mse'), 'nmse': info.get('nmse'),
             'validation_nmse_total': info.get('validation_nmse_total'),
@@ -263,11 +267,32 @@ def _summary(methods: list[str], stats: Path, bag: Path, out: Path,
             'model': str(out / 'models' / f'{name}.npz'),
         }
     return {'bag': str(bag), 'exit_codes': codes,
-            'joint_states': {'published': sim.get('published'), 'late': sim.get('late'),
+            'joint_states': {'published': published, 'late': sim.get('late'),
                              'recorded': counts.get(JOINT_STATES_TOPIC),
                              'lost': recorder.get('lost', {}).get(JOINT_STATES_TOPIC),
                              'publishers': recorder.get('publishers', {}).get(JOINT_STATES_TOPIC)},
             'recorder': recorder, 'methods': rows}
+
+
+def stream_use(published: int | None, info: dict[str, Any]) -> dict[str, Any]:
+    """How a method used the published samples, from its identifier's statistics.
+
+    Every sample published is predicted, skipped (by reason: refused, or pending when the
+    stream ended and dropped), lost before the identifier (missing stamps), or was still
+    queued when it stopped (not drained): ``predicted + skipped + lost + not_drained =
+    published``. ``shortfall`` counts the samples published and not predicted.
+    """
+    processed = info.get('processed')
+    predicted = info.get('predicted')
+    skipped = info.get('skipped') or {}
+    lost = info.get('lost') or 0
+    row: dict[str, Any] = {'processed': processed, 'predicted': predicted, 'skipped': skipped,
+                           'lost': info.get('lost'), 'not_drained': None, 'shortfall': None}
+    if published is not None and processed is not None:
+        row['not_drained'] = max(published - processed - lost, 0)
+    if published is not None and predicted is not None:
+        row['shortfall'] = published - predicted
+    return row
 
 
 def _fmt(value: Any) -> str:
@@ -285,14 +310,56 @@ def _print_summary(summary: dict[str, Any]) -> None:
     if (js['publishers'] or 0) > 1:
         print(f"WARNING: {js['publishers']} publishers on /joint_states during the run: "
               "another graph's samples are mixed with this run's in the bag and the models")
-    print('\n| method | trainer | processed | learned | held out | skipped | lost '
-          '| identified_torque published | recorded | final MSE (windowed) | final NMSE '
-          '| validation NMSE |')
-    print('|---|---|---|---|---|---|---|---|---|---|---|---|')
+    print('\n| method | trainer | predicted | skipped | lost | not drained | learned '
+          '| held out | updates (/s) | identified_torque published | recorded '
+          '| final MSE (windowed) | final NMSE | validation NMSE |')
+    print('|---|---|---|---|---|---|---|---|---|---|---|---|---|---|')
     for name, row in summary['methods'].items():
-        print(f"| {name.upper()} | {_fmt(row['trainer'])} | {_fmt(row['processed'])} | "
-              f"{_fmt(row['learned'])} | {_fmt(row['held_out'])} | "
-              f"{_fmt(row['skipped'] or 0)} | {_fmt(row['lost'])} | {_fmt(row['published'])} | "
+        updates = _fmt(row['updates'])
+        if row['updates_per_s'] is not None:
+            updates += f" ({row['updates_per_s']:.1f})"
+        print(f"| {name.upper()} | {_fmt(row['trainer'])} | {_fmt(row['predicted'])} | "
+              f"{_fmt(sum(row['skipped'].values()))} | {_fmt(row['lost'])} | "
+              f"{_fmt(row['not_drained'])} | {_fmt(row['learned'])} | "
+              f"{_fmt(row['held_out'])} | {updates} | {_fmt(row['published'])} | "
               f"{_fmt(row['recorded'])} | {_fmt(row['mse_total'])} | "
               f"{_fmt(row['nmse_total'])} | {_fmt(row['validation_nmse_total'])} |")
     print()
+    for name, row in summary['methods'].items():
+        if row['shortfall'] or row['predicted'] is None:
+            skipped = ', '.join(f'{k} {v}' for k, v in row['skipped'].items()) or 'none'
+            print(f"WARNING: {name.upper()} predicted {_fmt(row['predicted'])} of the "
+                  f"{_fmt(js['published'])} samples published: skipped {skipped}; lost "
+                  f"before the identifier {_fmt(row['lost'])}; not drained when it stopped "
+                  f"{_fmt(row['not_drained'])}")
+        elif row['recorded'] is not None and row['recorded'] != row['predicted']:
+            print(f"WARNING: {name.upper()}: {row['predicted']} predictions published, "
+                  f"{row['recorded']} recorded")
+
+
+# -- --robot: an example-robot-data arm simulated by robot_sim instead of the SCARA --------
+
+def _simulator(robot: str | None) -> tuple[str, list[str], list[str]]:
+    """The simulator node, its extra arguments and the identifiers' extra arguments.
+
+    None: ``scara_sim`` and no extra argument. A robot name: ``robot_sim`` with
+    ``robot:=NAME``; each identifier gets the robot's URDF, its simulated joints and the
+    acceleration limits robot_sim derives (URDF has none). Its final counters still go to
+    ``stats/scara_sim.json``, which the summary reads.
+    """
+    if robot is None:
+        return 'scara_sim', [], []
+    # imported here: pinocchio is loaded for --robot runs only
+    from scara_ident_ros.sim.example_robots import ExampleRobotError, example_robot
+    from scara_ident_ros.sim.pinocchio_robot import PinocchioRobot
+
+    try:
+        entry = example_robot(robot)
+    except ExampleRobotError as exc:
+        raise CliError(f'--robot: {exc}') from None
+    model = PinocchioRobot.from_urdf(entry.urdf, joints=entry.joints)
+    names = ','.join(model.joint_names)
+    limits = ','.join(repr(float(a)) for a in model.acceleration_max)
+    return 'robot_sim', ['-p', f'robot:={robot}'], [
+        '-p', f'urdf_file:={entry.urdf}', '-p', f'joint_names:=[{names}]',
+        '-p', f'acceleration_max:=[{limits}]']

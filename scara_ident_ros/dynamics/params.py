@@ -53,15 +53,22 @@ def _scalar(name: str, value: Any, *, minimum: float | None = None,
 def _vector4(name: str, value: Any, *, minimum: float | None = None, strict: bool = True,
              allow_scalar: bool = False) -> tuple[float, float, float, float]:
     """Return ``value`` as a tuple of 4 finite floats, each checked like :func:`_scalar`."""
-    if allow_scalar and not isinstance(value, (str, bytes)) and np.ndim(value) == 0:
-        value = [value] * N_JOINTS
-    if isinstance(value, (str, bytes, Mapping)) or not isinstance(value, (Sequence, np.ndarray)):
-        raise ParamError(f'{name} must be a sequence of {N_JOINTS} numbers, got {value!r}')
-    if len(value) != N_JOINTS:
-        raise ParamError(f'{name} must have {N_JOINTS} values, got {len(value)}: {value!r}')
-    items = tuple(_scalar(f'{name}[{i}]', v, minimum=minimum, strict=strict)
-                  for i, v in enumerate(value))
+    items = _vector(name, value, N_JOINTS, minimum=minimum, strict=strict,
+                    allow_scalar=allow_scalar)
     return items  # type: ignore[return-value]
+
+
+def _vector(name: str, value: Any, n: int, *, minimum: float | None = None,
+            strict: bool = True, allow_scalar: bool = False) -> tuple[float, ...]:
+    """Return ``value`` as a tuple of ``n`` finite floats, each checked like :func:`_scalar`."""
+    if allow_scalar and not isinstance(value, (str, bytes)) and np.ndim(value) == 0:
+        value = [value] * n
+    if isinstance(value, (str, bytes, Mapping)) or not isinstance(value, (Sequence, np.ndarray)):
+        raise ParamError(f'{name} must be a sequence of {n} numbers, got {value!r}')
+    if len(value) != n:
+        raise ParamError(f'{name} must have {n} values, got {len(value)}: {value!r}')
+    return tuple(_scalar(f'{name}[{i}]', v, minimum=minimum, strict=strict)
+                 for i, v in enumerate(value))
 
 
 def _integer(name: str, value: Any, *, minimum: int) -> int:

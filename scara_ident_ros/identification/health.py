@@ -100,8 +100,9 @@ class LossCounter:
     and their jitter is ``JITTER_MADS`` scaled median absolute deviations of them; a
     difference ``dt`` longer than ``LOST_GAP`` periods and than one period plus that
     jitter, and at most ``LOST_SPAN`` s, counts ``round(dt / period) - 1`` lost samples.
-    Larger jumps (a replay or simulator restarting, a pause) and stamps repeated or going
-    backwards count nothing.
+    Larger jumps are pauses (a gap between two recordings of a replayed bag, a simulator
+    restarting): counted in ``pauses`` and ``paused_s``, not as lost samples. Stamps
+    repeated or going backwards count nothing.
 
     The jitter term keeps jitter from being counted as loss, at the price of missing some
     real single losses in a very jittered stream: at 500 Hz (30,000 samples, 30 single
@@ -110,27 +111,38 @@ class LossCounter:
     and 4–8 of the 30.
 
     ``span_s`` replaces ``LOST_SPAN``: a recorder, which must report what a network
-    partition cost, counts jumps of up to a minute as lost samples.
+    partition cost, counts jumps of up to a minute as lost samples; an identifier, whose
+    q'' estimate restarts after ``max_gap``, counts longer jumps as pauses. With
+    ``pause_periods``, a jump is a pause only if it is also longer than that many periods
+    (``max_gap`` is 20 samples at 1 kHz, fewer than 3 at 125 Hz).
     """
 
-    def __init__(self, *, span_s: float = LOST_SPAN) -> None:
+    def __init__(self, *, span_s: float = LOST_SPAN, pause_periods: float = 0.0) -> None:
         self.span_ns = span_s * 1e9  #: longest stamp jump counted as lost samples, ns
+        self.pause_periods = pause_periods
         self.lost = 0  #: samples estimated lost so far
+        self.pauses = 0  #: stamp jumps longer than span_s (pauses, not losses)
+        self.paused_s = 0.0  #: their total length, s
         self.period_ns: float | None = None  #: the stream's sample period, once known
         self.gap_ns: float | None = None  #: shortest difference counted as a loss, once known
         self._last_ns: int | None = None
         self._dts: list[int] = []  # the latest stamp differences, ns
 
-    def observe(self, stamp_ns: int) -> None:
-        """Take the stamp (integer ns) of the next sample received."""
+    def observe(self, stamp_ns: int) -> bool:
+        """Take the stamp (integer ns) of the next sample received; return whether it
+        follows a pause (or a clock that went back)."""
         last = self._last_ns
         if last is None or stamp_ns > last:
             self._last_ns = stamp_ns
         if last is None or stamp_ns <= last:
-            return  # the first, a repeated or a late one: nothing known missing
+            # the first, a repeated or a late one: nothing known missing
+            return last is not None and stamp_ns < last - self.span_ns
         dt = stamp_ns - last
-        if dt > self.span_ns:
-            return
+        if dt > self.span_ns and (self.period_ns is None
+                                  or dt > self.pause_periods * self.period_ns):
+            self.pauses += 1
+            self.paused_s += dt / 1e9
+            return True
         dts = self._dts
         dts.append(dt)
         if len(dts) == PERIOD_SAMPLES or (self.period_ns is None and len(dts) >= 3):
@@ -143,6 +155,7 @@ class LossCounter:
         period_ns, gap_ns = self.period_ns, self.gap_ns
         if period_ns is not None and gap_ns is not None and dt >= gap_ns:
             self.lost += round(dt / period_ns) - 1
+        return False
 
 
 def _level(problems: list[tuple[Level, str]], summary: str) -> tuple[Level, str]:
@@ -159,7 +172,7 @@ def identifier_health(*, period_s: float, since_sample_s: float | None, processe
                       skipped: int, lost: int, learnt: int, recent_processed: int,
                       recent_skipped: int, recent_lost: int, lag_s: float | None,
                       error_finite: bool, validation_nmse: float | None,
-                      learning: bool) -> Health:
+                      learning: bool, update_rate: float | None = None) -> Health:
     """The identifier's health over the last ``period_s`` seconds.
 
     Parameters
@@ -181,6 +194,9 @@ def identifier_health(*, period_s: float, since_sample_s: float | None, processe
         The model's NMSE over the held-out samples; None or NaN until there are enough.
     learning : bool
         Whether the node learns (parameter ``learn``).
+    update_rate : float or None
+        Weight updates per second of a trainer that learns beside the stream; None for one
+        that learns in the message path. It falls when the CPU is short.
     """
     rate = recent_processed / period_s
     problems: list[tuple[Level, str]] = []
@@ -206,9 +222,11 @@ def identifier_health(*, period_s: float, since_sample_s: float | None, processe
         text = (f'validation NMSE {validation_nmse:.3g} > {NMSE_WARN:g}: the model predicts '
                 'worse than the mean (as it does in its first seconds of learning)')
         problems.append((Level.WARN, text))
+    updates = f' ({update_rate:.1f} updates/s)' if learning and update_rate is not None else ''
     level, message = _level(problems, f"identifying at {rate:.0f} samples/s, learning "
-                                      f"{'on' if learning else 'off'}")
+                                      f"{'on' if learning else 'off'}{updates}")
     return Health(level, message, {
+        **({'updates/s': f'{update_rate:.2f}'} if update_rate is not None else {}),
         'samples/s': f'{rate:.1f}', 'lag [ms]': _number(None if lag_s is None
                                                         else lag_s * 1e3, 3),
         'processed': str(processed), 'skipped': str(skipped), 'lost': str(lost),

@@ -14,7 +14,8 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from scara_ident_ros.identification.holdout import Holdout
-from scara_ident_ros.identification.input_stage import AccelerationEstimate
+from scara_ident_ros.identification.background_lm import BackgroundLM
+from scara_ident_ros.identification.input_stage import AccelerationEstimate, InputStage
 from scara_ident_ros.identification.joint_limits import JointLimits
 from scara_ident_ros.identification.joint_map import JointMap
 from scara_ident_ros.identification.online_identifier import Counts, OnlineIdentifier
@@ -109,12 +110,19 @@ class LazyCore:
 
     def reset(self) -> None:
         """Forget the network, the core and the early counters (fresh weights next build)."""
+        self.close()
         self.network, self.core, self.names, self.early = None, None, [], Counts()
 
     def build(self, names: Sequence[str], settings: CoreSettings,
-              differentiator: AccelerationEstimate) -> str:
+              differentiator: AccelerationEstimate, *, stage: InputStage | None = None,
+              background: bool = False) -> str:
         """Build the core for ``names``; return '' or, if some joint lacks limits (and there
-        is no warm start), why not. The early counters are added to the core's."""
+        is no warm start), why not. The early counters are added to the core's.
+
+        ``stage``: an input stage shared with other cores (see :class:`OnlineIdentifier`);
+        ``background``: the ``lm`` trainer learns in a process of its own
+        (:class:`~scara_ident_ros.identification.background_lm.BackgroundLM`).
+        """
         names = list(names)
         network = self.network
         if network is None:
@@ -147,18 +155,27 @@ class LazyCore:
             trainer=make_trainer(settings.trainer, network, capacity=settings.reservoir_size,
                                  interval=settings.lm_interval, steps=settings.lm_steps,
                                  seed=settings.seed, float64=settings.lm_float64,
-                                 slow_share=settings.lm_slow_share),
+                                 slow_share=settings.lm_slow_share, background=background,
+                                 label=f'lm-{settings.method}'),
             holdout=holdout, mse_window=settings.mse_window, learn=settings.learn,
-            max_gap_ns=round(settings.max_gap * 1e9), bounds=bounds)
+            max_gap_ns=round(settings.max_gap * 1e9), bounds=bounds, stage=stage)
         counts = self.core.counts
         counts.processed += self.early.processed
         for reason, skipped in self.early.skipped.items():
             counts.skipped[reason] += skipped
         return ''
 
+    def close(self) -> None:
+        """End the core's trainer if it runs beside the stream (its last weights are the
+        network's)."""
+        trainer = self.core.trainer if self.core is not None else None
+        if isinstance(trainer, BackgroundLM):
+            trainer.close()
+
     def first(self, settings: CoreSettings, differentiator: AccelerationEstimate,
               stamp_ns: int, names: Sequence[str], position: FloatArrayLike,
-              velocity: FloatArrayLike, effort: FloatArrayLike) -> Skipped | None:
+              velocity: FloatArrayLike, effort: FloatArrayLike, *,
+              background: bool = False) -> Skipped | None:
         """Build for the joints of this sample if it is valid (None); else count it skipped.
 
         A sample without effort fixes the joints too (it is predicted, not learnt); one
@@ -173,7 +190,7 @@ class LazyCore:
             note = (f'waiting for a message naming at least {settings.min_joints} joints '
                     f'(min_joints); this one names {list(names)}')
         if not isinstance(reason, SkipReason):
-            note = self.build(names, settings, differentiator)
+            note = self.build(names, settings, differentiator, background=background)
             if not note:
                 return None
             reason = SkipReason.UNKNOWN_JOINT

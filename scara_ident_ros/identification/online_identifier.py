@@ -166,6 +166,12 @@ class OnlineIdentifier:
         Samples with values beyond them (in joint order) are refused as ``OUT_OF_LIMITS``:
         never predicted, never learnt; predictions beyond their effort bounds are clipped
         to them (counted in ``clipped``), so that no absurd effort is ever handed out.
+    stage : InputStage, optional
+        An input stage shared with other identifiers (several models learning from one
+        stream, checked and differentiated once): the caller then pushes each sample into
+        it and hands the outcome to :meth:`take` of each. It replaces ``joint_names``,
+        ``differentiator``, ``max_gap_ns`` and the sample bounds (its own); the effort
+        bounds still clip this model's predictions.
 
     Raises
     ------
@@ -177,7 +183,8 @@ class OnlineIdentifier:
                  differentiator: AccelerationEstimate | None = None,
                  trainer: Trainer | None = None, holdout: Holdout | None = None,
                  mse_window: int = 1000, learn: bool = True,
-                 max_gap_ns: int = DEFAULT_MAX_GAP_NS, bounds: Bounds | None = None) -> None:
+                 max_gap_ns: int = DEFAULT_MAX_GAP_NS, bounds: Bounds | None = None,
+                 stage: InputStage | None = None) -> None:
         n = model.n_outputs
         if n < 1 or model.n_inputs != 3 * n:
             raise ValueError(f'model has {model.n_inputs} inputs and {n} outputs; '
@@ -186,9 +193,12 @@ class OnlineIdentifier:
             raise ValueError(f'mse_window must be at least {PAPER_WINDOW}, got {mse_window}')
         self.model = model
         self.learn = learn
-        self.joint_map = JointMap(joint_names, n_joints=n)
-        self.stage = InputStage(self.joint_map, need_effort=False, max_gap_ns=max_gap_ns,
-                                differentiator=differentiator, bounds=bounds)
+        if stage is None:
+            stage = InputStage(JointMap(joint_names, n_joints=n), need_effort=False,
+                               max_gap_ns=max_gap_ns, differentiator=differentiator,
+                               bounds=bounds)
+        self.stage = stage
+        self.joint_map = stage.check.joint_map
         self.trainer: Trainer = trainer if trainer is not None else BackPropagation(model)
         self.holdout = holdout
         self.errors = ErrorWindow(n, mse_window)
@@ -238,8 +248,25 @@ class OnlineIdentifier:
             complete, oldest first, each stamped with its own sample's stamp (with the
             zero-phase estimate, the sample ``lag`` before this one).
         """
-        self.counts.processed += 1
         reason, inputs = self.stage.push(stamp_ns, tuple(names), position, velocity, effort)
+        return self.take(stamp_ns, reason, inputs)
+
+    def take(self, stamp_ns: int, reason: SkipReason | None, inputs: Sequence[Input], *,
+             pushed: bool = True) -> list[StepResult]:
+        """Predict, record and learn what the stage gave for one sample (see ``stage``).
+
+        Parameters
+        ----------
+        stamp_ns : int
+            The sample's stamp (ns).
+        reason, inputs
+            What :meth:`InputStage.push` returned for it.
+        pushed : bool
+            The inputs come from a sample pushed now (counted as processed); False for
+            those of :meth:`InputStage.flush` at the end of a stream.
+        """
+        if pushed:
+            self.counts.processed += 1
         results = [StepResult(stamp_ns, None, reason)] if reason is not None else []
         results += [self._predict_and_learn(item) for item in inputs]
         self.counts.pending = self.stage.pending
@@ -247,9 +274,7 @@ class OnlineIdentifier:
 
     def finish(self) -> list[StepResult]:
         """End of the stream: predict (and learn) the samples still pending."""
-        results = [self._predict_and_learn(item) for item in self.stage.flush()]
-        self.counts.pending = self.stage.pending
-        return results
+        return self.take(0, None, self.stage.flush(), pushed=False)
 
     def _predict_and_learn(self, item: Input) -> StepResult:
         counts = self.counts

@@ -1,8 +1,9 @@
 """Validate one joint-state sample and bring it into the configured joint order.
 
 A sample either passes every check and comes out as a :class:`Sample` in joint order, or is
-rejected with a :class:`SkipReason` and changes no state at all: a rejected sample can never
-reach the network or the differentiator.
+rejected with a :class:`SkipReason`: a rejected sample never reaches the network or the
+differentiator, and is a missing sample to them, not a reason to restart the estimate (the
+one state it changes is the count of stamps far behind, which tells a restarted clock).
 
 Real drivers differ from the simulator in two ways handled here:
 
@@ -29,13 +30,16 @@ from scara_ident_ros.identification.joint_map import JointMap
 from scara_ident_ros.identification.skip_reason import SkipReason
 
 __all__ = ['Bounds', 'FloatArrayLike', 'Sample', 'SampleCheck', 'DEFAULT_MAX_GAP_NS',
-           'GAP_PERIODS', 'PERIOD_SAMPLES']
+           'GAP_PERIODS', 'PERIOD_SAMPLES', 'RESTART_SAMPLES']
 
 FloatArrayLike = Sequence[float] | NDArray[np.float64]
 """A message array: a list, an ``array.array('d')`` (what rclpy gives) or an ndarray."""
 
 DEFAULT_MAX_GAP_NS = 20_000_000  # ns: 20 missed samples at 1 kHz
 GAP_PERIODS = 5  # a gap is also longer than this many observed sample periods (4 lost)
+#: A clock restarts (a bag played again, a simulator restarted) when this many consecutive
+#: samples are stamped far behind the last accepted one; fewer are bad stamps, refused.
+RESTART_SAMPLES = 3
 PERIOD_SAMPLES = 15  # intervals whose median is the observed sample period
 
 
@@ -109,9 +113,11 @@ class SampleCheck:
         such a sample is accepted with ``Sample.effort`` None; a non-empty effort must
         still have the right length, and an infinite one is ``NON_FINITE``.
     max_gap_ns : int
-        A clock jump (ns), forwards or backwards, larger than this and than
-        :data:`GAP_PERIODS` observed periods (:attr:`period_ns`) marks a sample as ``gap``.
-        Smaller steps backwards are rejected as ``STAMP_BACKWARDS``.
+        A clock jump (ns) forwards larger than this and than :data:`GAP_PERIODS` observed
+        periods (:attr:`period_ns`) marks a sample as ``gap``. A step backwards is rejected
+        as ``STAMP_BACKWARDS``: one bad stamp must not restart the estimate. Only a jump
+        back beyond a gap that :data:`RESTART_SAMPLES` consecutive samples confirm is a
+        restarted clock: the last of them is accepted as ``gap``.
     bounds : Bounds, optional
         Reject finite values outside them as ``OUT_OF_LIMITS``; None checks none.
 
@@ -138,6 +144,7 @@ class SampleCheck:
         self._intervals: deque[int] = deque(maxlen=PERIOD_SAMPLES)  # ns, latest last
         self._period: int | None = None
         self._gap_ns = self.max_gap_ns
+        self._behind: list[int] = []  # stamps far behind the last accepted, consecutive
 
     @property
     def period_ns(self) -> int | None:
@@ -163,6 +170,7 @@ class SampleCheck:
         self._intervals.clear()
         self._period = None
         self._gap_ns = self.max_gap_ns
+        self._behind.clear()
 
     def check(self, stamp_ns: int, names: Sequence[str], position: FloatArrayLike,
               velocity: FloatArrayLike, effort: FloatArrayLike = ()) -> Sample | SkipReason:
@@ -191,7 +199,7 @@ class SampleCheck:
             dt = stamp_ns - last
             if dt == 0:
                 return SkipReason.STAMP_REPEATED
-            if dt < 0 and dt >= -self._gap_ns:
+            if dt < 0 and (dt >= -self._gap_ns or not self._clock_restarted(stamp_ns)):
                 return SkipReason.STAMP_BACKWARDS
             gap = dt > self._gap_ns or dt < 0
         m = len(names)
@@ -226,9 +234,21 @@ class SampleCheck:
         if self.joint_map.names is None:
             self.joint_map.adopt(names)
         self._last_stamp = stamp_ns
+        self._behind.clear()
         if dt > 0:
             self._observe(dt)
         return Sample(stamp_ns, values[0], values[1], values[2] if has_effort else None, gap)
+
+    def _clock_restarted(self, stamp_ns: int) -> bool:
+        """Whether a stamp far behind the last accepted one is a restarted clock (the
+        :data:`RESTART_SAMPLES` th of consecutive stamps that go forwards among themselves,
+        each within a gap of the previous one) rather than one bad stamp."""
+        behind = self._behind
+        if behind and 0 < stamp_ns - behind[-1] <= self._gap_ns:
+            behind.append(stamp_ns)
+        else:
+            behind[:] = [stamp_ns]
+        return len(behind) >= RESTART_SAMPLES
 
     def _observe(self, interval_ns: int) -> None:
         """Take one forward interval into the observed period and the gap threshold."""

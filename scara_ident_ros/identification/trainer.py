@@ -45,7 +45,7 @@ Both give the a-priori prediction of each sample, made before the sample is lear
 """
 from __future__ import annotations
 
-from typing import Any, Protocol, runtime_checkable
+from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import NDArray
@@ -55,6 +55,9 @@ from scara_ident_ros.nn import FeedForwardNet
 from scara_ident_ros.nn.scaling import MinMaxScaling
 from scara_ident_ros.nn.levenberg_marquardt import LevenbergMarquardt
 from scara_ident_ros.nn.training import StopTraining
+
+if TYPE_CHECKING:  # background_lm's learner process imports this module
+    from scara_ident_ros.identification.background_lm import BackgroundLM
 
 __all__ = ['Trainer', 'BackPropagation', 'ReservoirLM', 'TRAINERS', 'make_trainer',
            'starts_with_friction_steps']
@@ -239,16 +242,20 @@ class ReservoirLM:
     def learn(self, x: NDArray[np.float64], y: NDArray[np.float64]) -> NDArray[np.float64]:
         """Predict, keep the sample in the reservoir, and step every ``interval`` samples."""
         predicted = self.model.predict(x)
-        if self.slow is not None and bool(
-                np.any(np.abs(x[self._velocities]) < self._slow_below)):
-            self.slow.add(x, y)
-        else:
-            self.reservoir.add(x, y)
+        self.add(x, y)
         self._since += 1
         if self._since >= self.interval:
             self._since = 0
             self.step()
         return predicted
+
+    def add(self, x: NDArray[np.float64], y: NDArray[np.float64]) -> None:
+        """Offer one sample, x (3n,) and y (n,), to the reservoir (or to the slow one)."""
+        if self.slow is not None and bool(
+                np.any(np.abs(x[self._velocities]) < self._slow_below)):
+            self.slow.add(x, y)
+        else:
+            self.reservoir.add(x, y)
 
     def samples(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """The samples the LM steps fit: the reservoir's, then the slow ones, (m, ·)."""
@@ -259,7 +266,11 @@ class ReservoirLM:
 
     def step(self) -> bool:
         """Take ``steps`` LM steps on the reservoir now; return whether the weights changed."""
-        X, Y = self.samples()
+        return self.step_on(*self.samples())
+
+    def step_on(self, X: NDArray[np.float64], Y: NDArray[np.float64]) -> bool:
+        """Take ``steps`` LM steps on the samples X (m, 3n), Y (m, n) (physical units, e.g.
+        a copy of :meth:`samples`); return whether the weights changed."""
         if len(X) < 2:
             return False
         model = self.model
@@ -280,14 +291,23 @@ class ReservoirLM:
 
 def make_trainer(name: str, model: FeedForwardNet, *, capacity: int = 4000,
                  interval: int = 200, steps: int = 2, seed: int = 0, float64: bool = False,
-                 slow_share: float = 0.0) -> BackPropagation | ReservoirLM:
+                 slow_share: float = 0.0, background: bool = False, label: str = 'lm'
+                 ) -> BackPropagation | ReservoirLM | BackgroundLM:
     """Build the trainer called ``name`` (one of :data:`TRAINERS`) for ``model``.
 
     ``capacity``, ``interval``, ``steps``, ``seed``, ``float64`` and ``slow_share`` are
     :class:`ReservoirLM`'s; BP uses the network's own learning rate and momentum.
+    ``background``: ``lm`` learns in a process beside the caller (:class:`BackgroundLM`,
+    ``interval`` then the least samples between two updates, ``label`` naming its process);
+    BP stays per sample.
     """
     if name == 'bp':
         return BackPropagation(model)
+    if name == 'lm' and background:
+        from scara_ident_ros.identification.background_lm import BackgroundLM, LearnerSettings
+        return BackgroundLM(model, LearnerSettings(
+            capacity=capacity, interval=interval, steps=steps, seed=seed, float64=float64,
+            slow_share=slow_share, label=label))
     if name == 'lm':
         return ReservoirLM(model, capacity=capacity, interval=interval, steps=steps,
                            seed=seed, float64=float64, slow_share=slow_share)

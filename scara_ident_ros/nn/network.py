@@ -761,6 +761,20 @@ class FeedForwardNet:
         net.metadata = metadata
         return net
 
+    def __getstate__(self) -> dict[str, object]:
+        """Picklable state (for a learner in another process): the single-sample path is a
+        closure over buffers, rebuilt on unpickling."""
+        state = self.__dict__.copy()
+        state['_step'] = None if self._step is self._online_step else self._step
+        del state['_predict_one'], state['_online_step']
+        return state
+
+    def __setstate__(self, state: dict[str, object]) -> None:
+        self.__dict__.update(state)
+        self._predict_one, self._online_step = self._build_single_sample_path()
+        if self._step is None:
+            self._step = self._online_step
+
     def __repr__(self) -> str:
         k, a, b = self._constants
         return (f'FeedForwardNet({self._n_in}, {self._n_hid}, {self._n_out}, '

@@ -4,13 +4,19 @@ For every ``sensor_msgs/JointState`` it predicts the joint efforts from (q, q', 
 *before* learning from that sample (an honest a-priori prediction), publishes the
 prediction on ``identified_torque`` (same joint names, ``effort`` = predicted
 torque/force, ``header.stamp`` = the stamp of the sample it predicts), then learns from it
-(``trainer``: ``lm``, Levenberg–Marquardt steps on a reservoir of the whole stream, or
-``bp``, the paper's per-sample back-propagation). q'' is estimated zero-phase by default
+(``trainer``: ``lm``, Levenberg–Marquardt steps on a reservoir of the whole stream, taken
+in a learner process beside the stream so that no sample waits for a step, or ``bp``, the
+paper's per-sample back-propagation). q'' is estimated zero-phase by default
 (``differentiator: centred``), so each prediction is published ``window // 2`` samples
 after its sample (10 ms at 1 kHz). A fraction of the samples (whole blocks) is never learnt:
 the model's error on them is the validation NMSE. All of that is
 :class:`~scara_ident_ros.identification.OnlineIdentifier`; this node converts messages,
 publishes, checkpoints and logs.
+
+With ``methods`` (e.g. ``[ffmw, ffw, ffs]``) one node serves several networks from one
+subscription: each sample is checked and differentiated once, each network predicts and
+learns it and publishes under ``<method>/`` (``ffs/identified_torque``, ...), as separate
+nodes in namespaces would, for a third of their CPU.
 
 ``identification_mse`` (``std_msgs/Float64MultiArray``) carries the errors,
 ``data = [mse_1 .. mse_n, mse_total, nmse_1 .. nmse_n, nmse_total,
@@ -28,10 +34,12 @@ now or start again from fresh weights; ``/diagnostics`` says once a second how i
 """
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import sys
 import time
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -50,6 +58,11 @@ from scara_ident_ros.identification import (DIFFERENTIATORS, LIMIT_NAMES, TRAINE
                                             ErrorWindow, LazyCore, OnlineIdentifier, ReservoirLM,
                                             SkipReason, StepResult, check_warm_start,
                                             load_joint_limits, make_differentiator)
+from scara_ident_ros.identification.background_lm import BackgroundLM
+from scara_ident_ros.identification.error_window import ErrorStats
+from scara_ident_ros.identification.joint_limits import JointLimits
+from scara_ident_ros.identification.sample_check import GAP_PERIODS
+from scara_ident_ros.identification.stream_clock import StreamClock
 from scara_ident_ros.identification.health import (Deltas, Health, LossCounter,
                                                    identifier_health)
 from scara_ident_ros.methods import METHODS
@@ -90,6 +103,10 @@ PARAMETERS = (
     ParamSpec('method', 'ffs', 'Network: FFS (sigmoid, default: it identifies best, README '
               "'Results'), FFMW (MSLOG, the paper's) or FFW (SLOG)",
               choices=tuple(METHODS), fixed=NETWORK),
+    ParamSpec('methods', [], 'Several networks from one subscription, each publishing under '
+              '<method>/ in the node\'s namespace (the samples are checked and q\'\' '
+              'estimated once); empty: method alone, publishing in the node\'s namespace',
+              items=str, choices=tuple(METHODS), fixed=NETWORK),
     ParamSpec('joint_names', [], 'Joints to identify, in this order; empty: the joints of '
               'the first valid message (or of the warm-start model)', items=str, fixed=NETWORK),
     ParamSpec('min_joints', 1, 'Without joint_names: take the joints of the first valid '
@@ -115,8 +132,14 @@ PARAMETERS = (
               min=10, max=1_000_000, fixed='the reservoir is allocated once'),
     ParamSpec('lm_steps', 2, 'Levenberg-Marquardt steps of the lm trainer per update', min=1,
               max=100, read_only=False),
-    ParamSpec('lm_interval', 200, 'Samples between two updates of the lm trainer', min=1,
+    ParamSpec('lm_interval', 200, 'Samples between two updates of the lm trainer (beside '
+              'the stream: the least new samples between two)', min=1,
               max=1_000_000, read_only=False),
+    ParamSpec('lm_background', True, 'lm trainer: learn in a process beside the stream, at '
+              'lower CPU priority, so that no sample waits for a step (when the CPU is short, '
+              'learning slows down and the updates/s say so); false: steps in the message '
+              'path every lm_interval samples (reproducible, for experiments)',
+              fixed='the trainer is built once'),
     ParamSpec('lm_float64', False, 'lm trainer: assemble its normal equations in float64 '
               '(1.5x the CPU; on all-random weights, with lm_slow_share 0.25, it brought 5 '
               'seeds of 10 under 1e-3 on every joint; the friction steps bring all)',
@@ -134,9 +157,11 @@ PARAMETERS = (
               fixed=HOLDOUT),
     ParamSpec('validation_block', 500, 'Samples per held-out block', min=1, max=1_000_000,
               fixed=HOLDOUT),
-    ParamSpec('model_path', '', 'Warm-start from this saved model (.npz); empty: fresh',
+    ParamSpec('model_path', '', 'Warm-start from this saved model (.npz; with methods, '
+              '{method} in the path stands for each method); empty: fresh',
               fixed='read once, at start'),
-    ParamSpec('save_path', '', 'Save the model here periodically and on shutdown (atomically); '
+    ParamSpec('save_path', '', 'Save the model here periodically and on shutdown (atomically; '
+              'with methods, {method} in the path stands for each method); '
               'a model already there is continued from, not replaced (unless model_path is '
               'given); empty: never', fixed='a model there is continued from at start'),
     ParamSpec('checkpoint_period', 60.0, 'Seconds between checkpoints to save_path; 0: only '
@@ -178,16 +203,132 @@ PARAMETERS = (
     ParamSpec('effort_max', [], 'Per-joint |effort| limits (N·m or N)', items=float,
               fixed=LIMITS),
     ParamSpec('wait_for_subscribers', 0, 'Subscribe joint_states only once identified_torque '
-              'and identification_mse each have this many subscribers (e.g. a recorder), so '
-              'that no prediction goes unheard; 0: at once', min=0, fixed=START),
+              'and identification_mse (of each method) each have this many subscribers (e.g. '
+              'a recorder), so that no prediction goes unheard; 0: at once', min=0,
+              fixed=START),
     ParamSpec('wait_timeout', 30.0, 'Longest wait for those subscribers', 's', min=0.0,
               fixed=START),
     ParamSpec('stats_file', '', 'Write the final counters and errors here as JSON on '
-              'shutdown; empty: never', fixed='checked writable at start'),
+              'shutdown (with methods, {method} in the path stands for each method); empty: '
+              'never', fixed='checked writable at start'),
 )
 #: Rejections that mean the message's joints are not the identifier's
 JOINT_SET_REASONS = (SkipReason.UNKNOWN_JOINT, SkipReason.MISSING_JOINT,
                      SkipReason.DUPLICATE_JOINT, SkipReason.JOINT_COUNT)
+METHOD_FIELD = '{method}'  # stands for each method in a path parameter, with methods
+VALIDATION_PERIOD = 1.0  # s: the held-out score is recomputed at most this often per method
+
+
+def method_path(path: str, method: str) -> str:
+    """``path`` for ``method``: ``{method}`` in it replaced by the method's name."""
+    return path.replace(METHOD_FIELD, method)
+
+
+class Identification:
+    """One method's network, online core and outputs in an identifier node.
+
+    Parameters
+    ----------
+    node : Node
+        The node that publishes.
+    method : str
+        One of :data:`~scara_ident_ros.methods.METHODS`.
+    prefix : str
+        Namespace of its outputs, relative to the node's ('' or ``'<method>/'``).
+    limits : JointLimits
+        Scale a fresh network.
+    network : FeedForwardNet, optional
+        A warm start.
+    """
+
+    def __init__(self, node: Node, method: str, prefix: str, limits: JointLimits,
+                 network: FeedForwardNet | None) -> None:
+        self.method = method
+        self.lazy = LazyCore(limits, network)
+        self.torque_publisher = node.create_publisher(JointState, prefix + TORQUE, STREAM_QOS)
+        self.mse_publisher = node.create_publisher(Float64MultiArray, prefix + MSE, 10)
+        self.torque_msg = JointState()
+        self.max_lag_ns = 0  # ns, since the last statistics line
+        self.worst_lag_ns = 0  # ns, since start
+        self.period_lag_ns = 0  # ns, largest since the last diagnostics report
+        self.deltas = Deltas()
+        self.previous: list[dict[str, Any]] = []  # summaries from before each ~/reset
+        self._validation: ErrorStats | None = None
+        self._validated_at = -math.inf  # monotonic s
+
+    @property
+    def core(self) -> OnlineIdentifier | None:
+        """The online core, once the joints are known."""
+        return self.lazy.core
+
+    @property
+    def network(self) -> FeedForwardNet | None:
+        """The network: a warm start, or built with the core."""
+        return self.lazy.network
+
+    @property
+    def background(self) -> BackgroundLM | None:
+        """The trainer, if it learns beside the stream."""
+        trainer = self.core.trainer if self.core is not None else None
+        return trainer if isinstance(trainer, BackgroundLM) else None
+
+    def built(self, names: list[str]) -> None:
+        """The core is built for ``names``: make the message predictions are sent in."""
+        self.torque_msg = joint_state(0, names, effort=np.zeros(len(names)))
+        self._validation, self._validated_at = None, -math.inf
+
+    def validation(self, *, fresh: bool = False) -> ErrorStats | None:
+        """The held-out score, recomputed at most every :data:`VALIDATION_PERIOD` s once
+        there is one (scoring the whole held-out set at the error topic's rate would load
+        the message path); until then, while there are few held-out samples, each time."""
+        now = time.monotonic()
+        stale = self._validation is None or now - self._validated_at >= VALIDATION_PERIOD
+        if self.core is not None and (fresh or stale):
+            self._validation, self._validated_at = self.core.validation_stats(), now
+        return self._validation
+
+    def publish(self, results: list[StepResult], frame_id: str,
+                clock: StreamClock | None = None) -> None:
+        """Publish each prediction, stamped with its sample.
+
+        ``clock``: record how late each prediction is (against the stream's clock); not
+        for those let out on shutdown, whose lag is the time since the last sample.
+        """
+        out = self.torque_msg  # reused: publish() serialises it before returning
+        for result in results:
+            if result.effort is None:
+                continue
+            out.header.stamp.sec, out.header.stamp.nanosec = divmod(result.stamp_ns,
+                                                                    1_000_000_000)
+            out.header.frame_id = frame_id
+            out.effort = result.effort.tolist()
+            self.torque_publisher.publish(out)
+            if clock is None:
+                continue
+            lag_ns = clock.lag_ns(result.stamp_ns, time.time_ns())
+            if lag_ns > self.period_lag_ns:
+                self.period_lag_ns = lag_ns
+            if lag_ns > self.max_lag_ns:
+                self.max_lag_ns = lag_ns
+                self.worst_lag_ns = max(self.worst_lag_ns, lag_ns)
+
+    def publish_mse(self, names: list[str]) -> None:
+        """Publish the windowed per-joint and overall MSE and NMSE."""
+        if self.core is None or self.core.errors.count == 0:
+            return
+        dims, data = encode_mse(names, self.core.error_stats(), self.validation())
+        msg = Float64MultiArray(data=data)
+        msg.layout.dim = [MultiArrayDimension(**dim._asdict()) for dim in dims]
+        self.mse_publisher.publish(msg)
+
+    def learning(self) -> dict[str, Any]:
+        """How learning progresses: updates and their rate for a trainer beside the
+        stream."""
+        background = self.background
+        if background is None:
+            return {}
+        return {'updates': background.updates, 'updates_per_s': background.rate(),
+                'lm_steps_taken': background.steps, 'learn_dropped': background.dropped}
 
 
 class IdentifierNode(Node):
@@ -200,45 +341,55 @@ class IdentifierNode(Node):
             joint_names=s['joint_names'], robot_config=s['robot_config'],
             urdf_file=s['urdf_file'], robot_description=s['robot_description'],
             explicit={key: s[key] for key in LIMIT_NAMES})
-        names = list(s['joint_names'])
+        methods = list(s['methods']) or [s['method']]
+        if len(set(methods)) != len(methods):
+            raise ConfigError(f'methods names a method twice: {methods}')
+        several = len(s['methods']) > 0
+        for key in ('save_path', 'stats_file', 'model_path'):
+            if several and s[key] and METHOD_FIELD not in s[key]:
+                raise ConfigError(f'{key} {s[key]}: with methods, the path needs '
+                                  f'{METHOD_FIELD} (one file per method)')
+        self.paths = {key: {m: method_path(s[key], m) for m in methods}
+                      for key in ('save_path', 'stats_file', 'model_path')}
         for key in ('save_path', 'stats_file'):
-            problem = unwritable_file(s[key]) if s[key] else ''
-            if problem:
-                raise ConfigError(f'{key} {s[key]}: {problem}')
-        model_path = s['model_path']
-        # A restart continues from what was learnt instead of replacing it.
-        continuing = bool(not model_path and s['save_path'] and Path(s['save_path']).exists())
-        if continuing:
-            model_path = s['save_path']
-        network = self._load(model_path) if model_path else None
-        if network is not None:
-            names = check_warm_start(network, names, source=model_path, method=s['method'])
-            if continuing:
-                self.get_logger().info(f'continuing from the model at save_path {model_path}')
-        self.max_lag_ns = 0  # ns, since the last statistics line
-        self.worst_lag_ns = 0  # ns, since start
+            for path in self.paths[key].values():
+                problem = unwritable_file(path) if path else ''
+                if problem:
+                    raise ConfigError(f'{key} {path}: {problem}')
+        names = list(s['joint_names'])
         self.last_warning = 0.0
+        self.identifications: list[Identification] = []
+        for method in methods:
+            network = self._warm_start(method)
+            if network is not None:
+                source = self._model_source(method)
+                names = check_warm_start(network, names, source=source, method=method)
+                if source != self.paths['model_path'][method]:
+                    self.get_logger().info(f'{method}: continuing from the model at save_path '
+                                           f'{source}')
+            self.identifications.append(Identification(
+                self, method, f'{method}/' if several else '', self.limits, network))
         # checked at startup (a bad window ends it in one line), used once the joints are known
         self.differentiator = make_differentiator(s['differentiator'], window=s['window'],
                                                   cutoff_hz=s['cutoff_hz'])
-        self.lazy = LazyCore(self.limits, network)  # the core, once the joints are known
         missing_limits = self._build(names) if names else ''
         if missing_limits:
             raise ConfigError(f'joint_names: {missing_limits}')
         self.frame_id = ''  # header.frame_id of the latest sample, given to its predictions
-        self.torque_publisher = self.create_publisher(JointState, TORQUE, STREAM_QOS)
-        self.mse_publisher = self.create_publisher(Float64MultiArray, MSE, 10)
         self.subscription: Subscription | None = None
         self.mse_timer = self.create_timer(1.0 / s['mse_rate_hz'], self.publish_mse)
         self.create_timer(STATS_PERIOD, self.log_stats)
         self.checkpoint_timer: Timer | None = None
         self._start_checkpoints()
-        self.previous: list[dict[str, Any]] = []  # summaries from before each ~/reset
-        self.loss = LossCounter()  # samples missing from the stream, from the stamps
+        # samples missing from the stream, from the stamps; longer jumps than the q''
+        # estimate bridges are pauses (between recordings), counted apart
+        self.loss = LossCounter(span_s=s['max_gap'], pause_periods=GAP_PERIODS)
+        self.clock = StreamClock()  # lags against the stream's own clock
         self.last_sample: float | None = None  # monotonic s of the latest sample
-        self.period_lag_ns = 0  # ns, largest lag since the last diagnostics report
-        self.deltas = Deltas()
-        self.diagnostics = Diagnostics(self, 'identification', self.health)
+        self.diagnostics = [
+            Diagnostics(self, f'{ident.method} identification' if several
+                        else 'identification', partial(self.health, ident))
+            for ident in self.identifications]
         self.create_service(Trigger, '~/save_model', self.on_save_model)
         self.create_service(Trigger, '~/reset', self.on_reset)
         self.joints_text = str(names or '(from the first message)')
@@ -246,25 +397,46 @@ class IdentifierNode(Node):
             self.wait_deadline = time.monotonic() + s['wait_timeout']
             self.wait_timer = self.create_timer(WAIT_POLL_PERIOD, self._subscribe_when_heard)
             self.get_logger().info(
-                f"waiting for {s['wait_for_subscribers']} subscriber(s) on "
-                f'{self.torque_publisher.topic_name} and {self.mse_publisher.topic_name}')
+                f"waiting for {s['wait_for_subscribers']} subscriber(s) on " + ', '.join(
+                    f'{i.torque_publisher.topic_name} and {i.mse_publisher.topic_name}'
+                    for i in self.identifications))
         else:
             self._subscribe()
 
     @property
+    def first(self) -> Identification:
+        """The first (or only) method's identification."""
+        return self.identifications[0]
+
+    @property
     def network(self) -> FeedForwardNet | None:
-        """The network: a warm start, or built with the core."""
-        return self.lazy.network
+        """The first method's network: a warm start, or built with the core."""
+        return self.first.network
 
     @property
     def core(self) -> OnlineIdentifier | None:
-        """The online core, once the joints are known."""
-        return self.lazy.core
+        """The first method's online core, once the joints are known."""
+        return self.first.core
 
     @property
     def names(self) -> list[str]:
-        """The identified joints, once the core is built."""
-        return self.lazy.names
+        """The identified joints, once the cores are built."""
+        return self.first.lazy.names
+
+    def _model_source(self, method: str) -> str:
+        """Where ``method``'s warm start comes from: model_path, else a model at save_path
+        (a restart continues from what was learnt instead of replacing it), else ''."""
+        model_path = self.paths['model_path'][method]
+        save_path = self.paths['save_path'][method]
+        if not model_path and save_path and Path(save_path).exists():
+            return save_path
+        return model_path
+
+    def _warm_start(self, method: str) -> FeedForwardNet | None:
+        source = self._model_source(method)
+        if not source:
+            return None
+        return self._load(source)
 
     def _subscribe(self) -> None:
         """Subscribe ``joint_states``: from now on samples are processed."""
@@ -272,16 +444,18 @@ class IdentifierNode(Node):
         self.subscription = self.create_subscription(
             JointState, JOINT_STATES, self.on_joint_state, INPUT_QOS)
         self.publisher_watch = PublisherWatch(self, self.subscription.topic_name)
+        outputs = ', '.join(i.torque_publisher.topic_name for i in self.identifications)
         self.get_logger().info(
-            f"{s['method'].upper()} identifier on {self.subscription.topic_name} → "
-            f'{self.torque_publisher.topic_name}, joints {self.joints_text}, '
+            f"{'/'.join(i.method.upper() for i in self.identifications)} identifier on "
+            f'{self.subscription.topic_name} → {outputs}, joints {self.joints_text}, '
             f"learning {'on' if s['learn'] else 'off'}")
 
     def _subscribe_when_heard(self) -> None:
-        """Timer: subscribe once both outputs have ``wait_for_subscribers`` subscribers."""
+        """Timer: subscribe once every output has ``wait_for_subscribers`` subscribers."""
         wanted = self.settings['wait_for_subscribers']
-        heard = min(self.torque_publisher.get_subscription_count(),
-                    self.mse_publisher.get_subscription_count())
+        heard = min(min(i.torque_publisher.get_subscription_count(),
+                        i.mse_publisher.get_subscription_count())
+                    for i in self.identifications)
         if heard < wanted and time.monotonic() < self.wait_deadline:
             return
         if heard < wanted:
@@ -297,19 +471,25 @@ class IdentifierNode(Node):
         """Make parameters set while running take effect (they passed their checks)."""
         s = self.settings
         self.get_logger().info('set ' + ', '.join(f'{k} = {v!r}' for k, v in changed.items()))
-        method = METHODS[s['method']]
-        if self.network is not None and 'learning_rate' in changed:
-            self.network.learning_rate = s['learning_rate'] or method.learning_rate
-        if self.network is not None and 'momentum' in changed:
-            self.network.momentum = s['momentum'] if s['momentum'] >= 0 else method.momentum
-        if self.core is not None:
-            self.core.learn = s['learn']
-            self.core.stage.check.need_effort = s['learn']  # predict-only takes any sample
+        for ident in self.identifications:
+            method = METHODS[ident.method]
+            network, core = ident.network, ident.core
+            if network is not None and 'learning_rate' in changed:
+                network.learning_rate = s['learning_rate'] or method.learning_rate
+            if network is not None and 'momentum' in changed:
+                network.momentum = s['momentum'] if s['momentum'] >= 0 else method.momentum
+            if core is None:
+                continue
+            core.learn = s['learn']
+            core.stage.check.need_effort = s['learn']  # predict-only takes any sample
             if 'mse_window' in changed:
-                self.core.errors = ErrorWindow(self.core.n_joints, s['mse_window'])
-            if isinstance(self.core.trainer, ReservoirLM):
-                self.core.trainer.interval = s['lm_interval']
-                self.core.trainer.steps_per_update = s['lm_steps']
+                core.errors = ErrorWindow(core.n_joints, s['mse_window'])
+            trainer = core.trainer
+            if isinstance(trainer, ReservoirLM):
+                trainer.interval = s['lm_interval']
+                trainer.steps_per_update = s['lm_steps']
+            elif isinstance(trainer, BackgroundLM) and {'lm_interval', 'lm_steps'} & set(changed):
+                trainer.set_schedule(interval=s['lm_interval'], steps=s['lm_steps'])
         if 'mse_rate_hz' in changed:
             self.destroy_timer(self.mse_timer)
             self.mse_timer = self.create_timer(1.0 / s['mse_rate_hz'], self.publish_mse)
@@ -328,7 +508,9 @@ class IdentifierNode(Node):
     def on_save_model(self, request: Trigger.Request,
                       response: Trigger.Response) -> Trigger.Response:
         """Service ``~/save_model``: save to ``save_path`` now, or say why not."""
-        response.success, response.message = self.save_model()
+        saved = [self.save_model(ident) for ident in self.identifications]
+        response.success = all(ok for ok, _ in saved)
+        response.message = '; '.join(message for _, message in saved)
         self.get_logger().info(f'~/save_model: {response.message}')
         return response
 
@@ -344,35 +526,40 @@ class IdentifierNode(Node):
             response.success = False
             response.message = 'nothing to reset: no model yet (no valid sample so far)'
             return response
-        before = self.summary()
-        before.pop('previous', None)  # each reset's own counters, one entry per reset
-        self.previous.append(before)
-        self.lazy.reset()
+        befores = []
+        for ident in self.identifications:
+            before = self.summary(ident)
+            before.pop('previous', None)  # each reset's own counters, one entry per reset
+            ident.previous.append(before)
+            befores.append(before)
+            ident.lazy.reset()
         s = self.settings
         self.differentiator = make_differentiator(s['differentiator'], window=s['window'],
                                                   cutoff_hz=s['cutoff_hz'])
         if names is not None and (why := self._build(names)):
             self._warn(why)  # a warm start's joints without limits: the next sample tries
         response.success = True
-        response.message = (f"fresh weights (seed {s['seed']}); before the reset: "
-                            f"processed {before['processed']}, learned "
-                            f"{before.get('learned', 0)}, validation NMSE "
-                            f"{before.get('validation_nmse_total')}")
+        response.message = f"fresh weights (seed {s['seed']}); before the reset: " + '; '.join(
+            f"{before['method']}: processed {before['processed']}, learned "
+            f"{before.get('learned', 0)}, validation NMSE "
+            f"{before.get('validation_nmse_total')}" for before in befores)
         self.get_logger().info(f'~/reset: {response.message}')
         return response
 
-    def health(self, period_s: float) -> Health:
-        """The node's health over the last ``period_s`` s, for ``/diagnostics``."""
-        counts = self.lazy.counts
+    def health(self, ident: Identification, period_s: float) -> Health:
+        """A method's health over the last ``period_s`` s, for ``/diagnostics``."""
+        counts = ident.lazy.counts
         skipped = sum(counts.skipped.values())
-        recent = self.deltas(processed=counts.processed, skipped=skipped, lost=self.loss.lost)
+        recent = ident.deltas(processed=counts.processed, skipped=skipped, lost=self.loss.lost)
         error_finite, validation = True, None
-        if self.core is not None:
-            if self.core.errors.count:
-                error_finite = bool(np.isfinite(self.core.error_stats().mse_total))
-            stats = self.core.validation_stats()
+        core = ident.core
+        if core is not None:
+            if core.errors.count:
+                error_finite = bool(np.isfinite(core.error_stats().mse_total))
+            stats = ident.validation()
             validation = float(stats.nmse_total) if stats is not None else None
-        lag_ns, self.period_lag_ns = self.period_lag_ns, 0
+        lag_ns, ident.period_lag_ns = ident.period_lag_ns, 0
+        background = ident.background
         return identifier_health(
             period_s=period_s, processed=counts.processed, skipped=skipped,
             since_sample_s=(None if self.last_sample is None
@@ -380,7 +567,8 @@ class IdentifierNode(Node):
             lost=self.loss.lost, learnt=counts.learned, recent_processed=int(recent['processed']),
             recent_skipped=int(recent['skipped']), recent_lost=int(recent['lost']),
             lag_s=lag_ns / 1e9 if lag_ns else None, error_finite=error_finite,
-            validation_nmse=validation, learning=self.settings['learn'])
+            validation_nmse=validation, learning=self.settings['learn'],
+            update_rate=background.rate() if background is not None else None)
 
     # ------------------------------------------------------------------ configuration
     def _load(self, path: str) -> FeedForwardNet:
@@ -395,74 +583,86 @@ class IdentifierNode(Node):
             network.momentum = s['momentum']
         return network
 
+    def _core_settings(self, method: str) -> CoreSettings:
+        return dataclasses.replace(CoreSettings.of(self.settings), method=method)
+
     def _build(self, names: list[str]) -> str:
-        """Build the core for ``names`` (at start and on ~/reset); return '' or why not (a
-        joint without limits)."""
-        why = self.lazy.build(names, CoreSettings.of(self.settings), self.differentiator)
-        if not why:
-            self.torque_msg = joint_state(0, names, effort=np.zeros(len(names)))
-        return why
+        """Build every method's core for ``names``, sharing one input stage (at start and
+        on ~/reset); return '' or why not (a joint without limits)."""
+        stage = None
+        for ident in self.identifications:
+            why = ident.lazy.build(names, self._core_settings(ident.method),
+                                   self.differentiator, stage=stage,
+                                   background=self.settings['lm_background'])
+            if why:
+                return why
+            assert ident.core is not None
+            stage = ident.core.stage
+            ident.built(names)
+        return ''
 
     # ------------------------------------------------------------------ per sample
     def on_joint_state(self, msg: JointState) -> None:
-        """Predict, publish, learn: one input sample."""
+        """Check and differentiate once; predict, publish, learn for each method."""
         self.last_sample = time.monotonic()
-        self.loss.observe(stamp_to_ns(msg.header.stamp))
-        self.publisher_watch.stamps.observe(stamp_to_ns(msg.header.stamp))
-        if self.core is None and not self._build_from(msg):
-            return
-        assert self.core is not None  # built by _build_from
         stamp_ns = stamp_to_ns(msg.header.stamp)
-        self.frame_id = msg.header.frame_id
-        results = self.core.process(stamp_ns, msg.name, msg.position, msg.velocity,
-                                    msg.effort)
-        if results and results[0].reason in JOINT_SET_REASONS:
-            self._warn(f'skipped a sample ({results[0].reason.value}): it names joints '
+        self.clock.arrived(stamp_ns, time.time_ns(), restart=self.loss.observe(stamp_ns))
+        self.publisher_watch.stamps.observe(stamp_ns)
+        core = self.core
+        if core is None:
+            if not self._build_from(msg, stamp_ns):
+                return
+            core = self.core
+            assert core is not None  # built by _build_from
+        self.frame_id = frame_id = msg.header.frame_id
+        reason, inputs = core.stage.push(stamp_ns, tuple(msg.name), msg.position,
+                                         msg.velocity, msg.effort)
+        for ident in self.identifications:
+            assert ident.core is not None
+            ident.publish(ident.core.take(stamp_ns, reason, inputs), frame_id, self.clock)
+        if reason is None or reason is SkipReason.WARMING_UP:
+            return
+        if reason in JOINT_SET_REASONS:
+            self._warn(f'skipped a sample ({reason.value}): it names joints '
                        f'{list(msg.name)}, the identifier identifies {self.names} (set '
                        'joint_names, or min_joints to wait for a message naming them all)')
-            return
-        self._publish(results)
+        else:
+            self._warn(f'skipped a sample ({reason.value}); '
+                       f'{sum(core.counts.skipped.values())} so far')
 
-    def _publish(self, results: list[StepResult], *, measure_lag: bool = True) -> None:
-        """Publish each prediction, stamped with its sample; warn about rejections.
-
-        ``measure_lag``: record how late each prediction is (wall clock minus its stamp);
-        not for those let out on shutdown, whose lag is the time since the last sample.
-        """
-        assert self.core is not None
-        out = self.torque_msg  # reused: publish() serialises it before returning
-        for result in results:
-            if result.effort is None:
-                assert result.reason is not None
-                if result.reason is not SkipReason.WARMING_UP:
-                    self._warn(f'skipped a sample ({result.reason.value}); '
-                               f'{sum(self.core.counts.skipped.values())} so far')
-                continue
-            out.header.stamp.sec, out.header.stamp.nanosec = divmod(result.stamp_ns,
-                                                                    1_000_000_000)
-            out.header.frame_id = self.frame_id
-            out.effort = result.effort.tolist()
-            self.torque_publisher.publish(out)
-            if not measure_lag:
-                continue
-            lag_ns = time.time_ns() - result.stamp_ns
-            self.period_lag_ns = max(self.period_lag_ns, lag_ns)
-            if lag_ns > self.max_lag_ns:
-                self.max_lag_ns = lag_ns
-                self.worst_lag_ns = max(self.worst_lag_ns, lag_ns)
-
-    def _build_from(self, msg: JointState) -> bool:
+    def _build_from(self, msg: JointState, stamp_ns: int) -> bool:
         """Build for the joints of ``msg`` if it is valid; else count it as skipped."""
-        skipped = self.lazy.first(CoreSettings.of(self.settings), self.differentiator,
-                                  stamp_to_ns(msg.header.stamp), msg.name, msg.position,
-                                  msg.velocity, msg.effort)
+        first = self.first.lazy
+        skipped = first.first(self._core_settings(self.first.method), self.differentiator,
+                              stamp_ns, msg.name, msg.position, msg.velocity, msg.effort,
+                              background=self.settings['lm_background'])
         if skipped is None:
-            self.torque_msg = joint_state(0, self.names, effort=np.zeros(len(self.names)))
+            for ident in self.identifications[1:]:
+                ident.lazy.early = dataclasses.replace(first.early,
+                                                       skipped=dict(first.early.skipped))
+            why = self._build_others()
+            if why:
+                self._warn(why)
+                return False
+            self.first.built(self.names)
             return True
         if skipped.note:
             self._warn(skipped.note)
         self._warn(f'skipped a sample ({skipped.reason.value}) before the first valid one')
         return False
+
+    def _build_others(self) -> str:
+        """After the first method's core, build the others on its input stage."""
+        core = self.core
+        assert core is not None
+        for ident in self.identifications[1:]:
+            why = ident.lazy.build(self.names, self._core_settings(ident.method),
+                                   self.differentiator, stage=core.stage,
+                                   background=self.settings['lm_background'])
+            if why:
+                return why
+            ident.built(self.names)
+        return ''
 
     def _warn(self, text: str) -> None:
         now = time.monotonic()
@@ -472,32 +672,31 @@ class IdentifierNode(Node):
 
     # ------------------------------------------------------------------ periodic
     def publish_mse(self) -> None:
-        """Publish the windowed per-joint and overall MSE and NMSE."""
-        if self.core is None or self.core.errors.count == 0:
-            return
-        stats = self.core.error_stats()
-        validation = self.core.validation_stats()
-        dims, data = encode_mse(self.names, stats, validation)
-        msg = Float64MultiArray(data=data)
-        msg.layout.dim = [MultiArrayDimension(**dim._asdict()) for dim in dims]
-        self.mse_publisher.publish(msg)
+        """Publish each method's windowed per-joint and overall MSE and NMSE."""
+        for ident in self.identifications:
+            ident.publish_mse(self.names)
 
     def handled(self) -> int:
         """Samples taken from ``joint_states`` so far (a stop drains until it stays put)."""
-        return self.lazy.counts.processed
+        return self.first.lazy.counts.processed
 
-    def summary(self) -> dict[str, Any]:
-        """Counters and errors so far, as plain data."""
-        if self.core is None:
-            early = self.lazy.early
-            return {'method': self.settings['method'], 'processed': early.processed,
+    def summary(self, ident: Identification | None = None, *,
+                fresh: bool = False) -> dict[str, Any]:
+        """A method's counters and errors so far (the first method's by default), as plain
+        data; ``fresh``: score the held-out samples now."""
+        ident = ident or self.first
+        method = ident.method
+        core = ident.core
+        if core is None:
+            early = ident.lazy.early
+            return {'method': method, 'processed': early.processed,
                     'skipped': {reason.value: n for reason, n in early.skipped.items()
                                 if n}}
-        counts = self.core.counts
-        stats = self.core.error_stats()
-        validation = self.core.validation_stats()
+        counts = core.counts
+        stats = core.error_stats()
+        validation = ident.validation(fresh=fresh)
         return {
-            'method': self.settings['method'], 'trainer': self.settings['trainer'],
+            'method': method, 'trainer': self.settings['trainer'],
             'joint_names': self.names,
             'processed': counts.processed, 'predicted': counts.predicted,
             'learned': counts.learned, 'held_out': counts.held_out, 'refused': counts.refused,
@@ -509,76 +708,101 @@ class IdentifierNode(Node):
             'validation_nmse': validation.nmse.tolist() if validation is not None else None,
             'validation_nmse_total': (float(validation.nmse_total) if validation is not None
                                       else None),
-            'max_lag_ms': self.worst_lag_ns / 1e6, 'lost': self.loss.lost,
+            'max_lag_ms': ident.worst_lag_ns / 1e6, 'lost': self.loss.lost,
+            'pauses': self.loss.pauses, 'paused_s': self.loss.paused_s,
+            'wall_clock_stamps': self.clock.wall,
             'joint_states_publishers': self.publisher_watch.most_publishers,
             'stamps_backward': self.publisher_watch.stamps.backward,
-            **({'previous': self.previous} if self.previous else {}),
+            **ident.learning(),
+            **({'previous': ident.previous} if ident.previous else {}),
         }
 
     def log_stats(self) -> None:
-        """Log counters, skipped samples by reason, lag and the windowed error."""
-        info = self.summary()
-        validation = info.get('validation_nmse_total')
-        if info['processed'] and self.core is None:
-            self.get_logger().info(f"processed {info['processed']}, no valid sample yet: "
-                                   f"skipped {info['skipped']}")
-        elif info['processed']:
-            no_effort = f", {info['no_effort']} without effort" if info['no_effort'] else ''
-            # steps refused by the trainer (not finite, or undone by bp's guard, which also
-            # halves the learning rate) and predictions clipped to the effort limits
-            no_effort += ''.join(f', {key} {info[key]}' for key in ('refused', 'clipped')
+        """Log counters, skipped samples by reason, lag, learning and the windowed error."""
+        several = len(self.identifications) > 1
+        for ident in self.identifications:
+            info = self.summary(ident)
+            validation = info.get('validation_nmse_total')
+            who = f'{ident.method}: ' if several else ''
+            if info['processed'] and ident.core is None:
+                self.get_logger().info(f"{who}processed {info['processed']}, no valid sample "
+                                       f"yet: skipped {info['skipped']}")
+            elif info['processed']:
+                extra = f", {info['no_effort']} without effort" if info['no_effort'] else ''
+                # steps refused by the trainer (not finite, or undone by bp's guard, which
+                # also halves the learning rate) and predictions clipped to the effort limits
+                extra += ''.join(f', {key} {info[key]}' for key in ('refused', 'clipped')
                                  if info.get(key))
-            self.get_logger().info(
-                f"processed {info['processed']}, learned {info['learned']}, held out "
-                f"{info['held_out']}{no_effort}, skipped {info['skipped'] or 0}, max lag "
-                f"{self.max_lag_ns / 1e6:.2f} ms, windowed MSE {info['mse_total']:.4g}, NMSE "
-                f"{info['nmse_total']:.4g}, validation NMSE "
-                f"{math.nan if validation is None else validation:.4g}")
-        self.max_lag_ns = 0
+                if 'updates_per_s' in info:
+                    extra += (f", {info['updates']} updates ({info['updates_per_s']:.1f}/s)"
+                              + (f", {info['learn_dropped']} not learnt (learner behind)"
+                                 if info['learn_dropped'] else ''))
+                self.get_logger().info(
+                    f"{who}processed {info['processed']}, learned {info['learned']}, held out "
+                    f"{info['held_out']}{extra}, skipped {info['skipped'] or 0}, max lag "
+                    f"{ident.max_lag_ns / 1e6:.2f} ms, windowed MSE {info['mse_total']:.4g}, "
+                    f"NMSE {info['nmse_total']:.4g}, validation NMSE "
+                    f"{math.nan if validation is None else validation:.4g}")
+            ident.max_lag_ns = 0
 
-    def save_model(self) -> tuple[bool, str]:
-        """Save the model to ``save_path`` now (atomically); return success and what happened.
+    def save_model(self, ident: Identification | None = None) -> tuple[bool, str]:
+        """Save a method's model (the first's by default) to its ``save_path`` now
+        (atomically); return success and what happened.
 
         The save is atomic, so a failed one leaves the previous file intact, and the network
         in memory keeps learning.
         """
-        path = self.settings['save_path']
+        ident = ident or self.first
+        path = self.paths['save_path'][ident.method]
         if not path:
             return False, 'no save_path: start the node with -p save_path:=<file>.npz'
-        if self.network is None or self.core is None:
+        if ident.network is None or ident.core is None:
             return False, 'no model yet: no valid sample has fixed the joints'
         try:
             Path(path).parent.mkdir(parents=True, exist_ok=True)
-            self.network.save(path)
+            ident.network.save(path)
         except OSError as exc:
             return False, f'saving to {path} failed: {exc}'
-        return True, f'saved to {path} after {self.core.counts.learned} learned samples'
+        return True, f'saved to {path} after {ident.core.counts.learned} learned samples'
 
     def checkpoint(self) -> None:
-        """Save the model to ``save_path``, if there is one; a failure is logged, not fatal."""
-        if self.settings['save_path'] and self.core is not None:
-            saved, message = self.save_model()
-            if not saved:
-                self.get_logger().error(f'checkpoint: {message}')
+        """Save each model to its ``save_path``, if there is one; a failure is logged."""
+        if not self.settings['save_path']:
+            return
+        for ident in self.identifications:
+            if ident.core is not None:
+                saved, message = self.save_model(ident)
+                if not saved:
+                    self.get_logger().error(f'checkpoint: {message}')
 
     def close(self) -> None:
-        """On shutdown: predict and learn the pending samples, checkpoint, final statistics.
+        """On shutdown: predict and learn the pending samples, take the learners' last
+        weights, checkpoint, final statistics.
 
         The last ``window // 2`` predictions are published here, just before the process
         ends: wait (at most :data:`FLUSH_TIMEOUT`) until the subscribers have acknowledged
         them, as the node is destroyed right after and would take them along.
         """
-        if self.core is not None:
-            results = self.core.finish()
-            self._publish(results, measure_lag=False)
-            if results:
-                self.torque_publisher.wait_for_all_acked(Duration(seconds=FLUSH_TIMEOUT))
+        core = self.core
+        if core is not None:
+            inputs = core.stage.flush()
+            for ident in self.identifications:
+                assert ident.core is not None
+                results = ident.core.take(0, None, inputs, pushed=False)
+                ident.publish(results, self.frame_id)
+            if inputs:
+                for ident in self.identifications:
+                    ident.torque_publisher.wait_for_all_acked(Duration(seconds=FLUSH_TIMEOUT))
+        for ident in self.identifications:
+            ident.lazy.close()
         self.checkpoint()
         self.log_stats()
-        if self.settings['stats_file']:
-            stats_file = Path(self.settings['stats_file'])
-            stats_file.parent.mkdir(parents=True, exist_ok=True)
-            stats_file.write_text(json.dumps(self.summary(), indent=1))
+        for ident in self.identifications:
+            stats_file = self.paths['stats_file'][ident.method]
+            if stats_file:
+                Path(stats_file).parent.mkdir(parents=True, exist_ok=True)
+                Path(stats_file).write_text(json.dumps(self.summary(ident, fresh=True),
+                                                       indent=1))
 
 
 def main(args: list[str] | None = None) -> None:

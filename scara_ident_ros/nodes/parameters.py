@@ -87,7 +87,10 @@ class ParamSpec:
                 return f'must be a list of {self.items.__name__}, got {value!r}'
             if self.items is float and not all(math.isfinite(item) for item in value):
                 return f'must be a list of finite numbers, got {list(value)!r}'
-        if self.choices is not None and value not in self.choices:
+        if self.choices is not None and self.items is not None:
+            if not all(item in self.choices for item in value):
+                return f"must list only {', '.join(self.choices)}, got {list(value)!r}"
+        elif self.choices is not None and value not in self.choices:
             return f"must be one of {', '.join(self.choices)}, got {value!r}"
         if isinstance(value, (int, float)) and not isinstance(value, bool):
             if self.min is not None and value < self.min:

@@ -1,5 +1,7 @@
-"""SCARA simulator core in pure numpy: excitation trajectories (one periodic excitation or an
-endless sequence of them), controller, plant."""
+"""Simulator core in pure numpy: excitation trajectories (one periodic excitation or an
+endless sequence of them), controller, plant, for the SCARA or, with
+:mod:`scara_ident_ros.sim.pinocchio_robot` (imported on its own: it loads Pinocchio), any
+URDF arm."""
 from __future__ import annotations
 
 from scara_ident_ros.sim.controller import ComputedTorqueController

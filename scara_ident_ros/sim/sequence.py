@@ -29,9 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from scara_ident_ros.dynamics.model import ScaraModel
-from scara_ident_ros.dynamics.params import N_JOINTS, ScaraParams
-from scara_ident_ros.sim.trajectory import PRESETS, FourierTrajectory
+from scara_ident_ros.sim.trajectory import PRESETS, FourierTrajectory, Robot, inverse_dynamics_of
 
 __all__ = ['SequenceTrajectory', 'SEQUENCE_EXCITATION', 'SEQUENCE_LIMITS']
 
@@ -70,7 +68,7 @@ def _blend(first: FourierTrajectory, second: FourierTrajectory, u: np.ndarray,
            duration: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """q, q', q'' of the blend of two T-periodic excitations at local times u (N,) in [0, T].
 
-    Returns three ndarray of shape (N, 4).
+    Returns three ndarray of shape (N, n).
     """
     q_a, qd_a, qdd_a = first.evaluate(u)
     q_b, qd_b, qdd_b = second.evaluate(u)
@@ -87,7 +85,7 @@ class SequenceTrajectory:
 
     Parameters
     ----------
-    params : ScaraParams
+    params : ScaraParams or PinocchioRobot
         Robot whose limits and dynamics bound the motion.
     seed : int
         Seed (>= 0); equal seeds give equal sequences.
@@ -118,7 +116,7 @@ class SequenceTrajectory:
     evaluates, each segment costs its 1–2 ms once per period T.
     """
 
-    def __init__(self, params: ScaraParams, *, seed: int,
+    def __init__(self, params: Robot, *, seed: int,
                  excitation: Mapping[str, Any] | None = None,
                  limit_fractions: Mapping[str, float] | None = None,
                  max_attempts: int = 50, cache_size: int = 8) -> None:
@@ -141,7 +139,7 @@ class SequenceTrajectory:
         self.limit_fractions = limits
         self.max_attempts = max_attempts
         self.cache_size = cache_size
-        self._model = ScaraModel(params)
+        self._inverse_dynamics = inverse_dynamics_of(params)
         low, high = params.array('position_min'), params.array('position_max')
         margin = (1.0 - limits['position_fraction']) * 0.5 * (high - low)
         self._position_low, self._position_high = low + margin, high - margin   # rad, m
@@ -193,8 +191,8 @@ class SequenceTrajectory:
 
         Returns
         -------
-        q, qd, qdd : ndarray of shape (4,), or (N, 4) for an array of times
-            Position (rad, rad, m, rad), velocity (…/s) and acceleration (…/s²).
+        q, qd, qdd : ndarray of shape (n,), or (N, n) for an array of times
+            Position (rad or m), velocity (…/s) and acceleration (…/s²).
 
         Raises
         ------
@@ -213,7 +211,7 @@ class SequenceTrajectory:
             k = int(segment[0])
             q, qd, qdd = self._segment(k, times - k * duration)
         else:
-            q, qd, qdd = (np.empty((times.size, N_JOINTS)) for _ in range(3))
+            q, qd, qdd = (np.empty((times.size, self.q0.size)) for _ in range(3))
             for k in np.unique(segment).tolist():
                 rows = segment == k
                 q[rows], qd[rows], qdd[rows] = self._segment(k, times[rows] - k * duration)
@@ -239,7 +237,7 @@ class SequenceTrajectory:
 
         Returns
         -------
-        tuple of three ndarray of shape (4,)
+        tuple of three ndarray of shape (n,)
             Peak excursion, speed and acceleration (SI).
         """
         q, qd, qdd = self.evaluate(self.grid(points_per_harmonic, segments=segments))
@@ -274,7 +272,7 @@ class SequenceTrajectory:
     # -- internals ----------------------------------------------------------------------------
 
     def _segment(self, k: int, u: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """q, q', q'' of segment k at local times u = t − kT (N,), three (N, 4) arrays."""
+        """q, q', q'' of segment k at local times u = t − kT (N,), three (N, n) arrays."""
         return _blend(self.excitation(k), self.excitation(k + 1), u, self._duration)
 
     def _draw(self, k: int, attempt: int) -> FourierTrajectory:
@@ -313,5 +311,5 @@ class SequenceTrajectory:
                 or np.any(np.abs(qd) > self._velocity_max)
                 or np.any(np.abs(qdd) > self._acceleration_max)):
             return False
-        effort = self._model.inverse_dynamics(q, qd, qdd)
+        effort = self._inverse_dynamics(q, qd, qdd)
         return bool(np.all(np.abs(effort) <= self._effort_max))

@@ -1,4 +1,10 @@
-"""Fixed-rate simulation of the SCARA tracking an excitation under computed-torque control.
+"""Fixed-rate simulation of a robot tracking an excitation under computed-torque control.
+
+The robot is the SCARA (:class:`~scara_ident_ros.dynamics.params.ScaraParams`, its
+closed-form Lagrangian model) or any array dynamics with limits, such as a URDF's
+(:class:`~scara_ident_ros.sim.pinocchio_robot.PinocchioRobot`); the robot-specific maths of
+one sample (control law, dynamics, RK4) is its plant (:mod:`scara_ident_ros.sim.plant`),
+everything else here is shared.
 
 Each sample k at time t_k = k·dt (plus, with ``jitter``, a seeded offset e_k: the stamps of a
 real-time loop, see :mod:`scara_ident_ros.sim.jitter`):
@@ -8,32 +14,38 @@ real-time loop, see :mod:`scara_ident_ros.sim.jitter`):
    to the effort limits; τ_k and the disturbance T_d(t_k) are held over [t_k, t_{k+1})
    (zero-order hold, like a digital drive);
 3. the sample reports the readings, the true acceleration
-   q''_k = M⁻¹ (τ_k − T_d − C q' − F − G) at the true state, and τ_k plus optional noise;
+   q''_k = M⁻¹ (τ_k − T_d − C q' − F − G) at the true state (M with the rotor inertias of a
+   URDF robot), and τ_k plus optional noise;
 4. the true state is integrated to t_{k+1} by ``substeps`` classical RK4 steps.
 
 With jitter the steps have the lengths t_{k+1} − t_k, so every sample is the state at its own
 stamp and its effort the one applied from that stamp on: the inputs stay consistent.
 
-The per-sample work runs on plain Python floats (see ``ScaraModel.*_single``): at 4 RK4
-substeps one sample costs a few tens of microseconds, so a 1 kHz node keeps up.
+The SCARA's per-sample work runs on plain Python floats (see ``ScaraModel.*_single``), a URDF
+robot's on numpy arrays through Pinocchio: at 4 RK4 substeps one sample costs a few tens of
+microseconds for the SCARA, about a hundred for a 7-joint arm, so a 1 kHz node keeps up.
 """
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, fields
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from scara_ident_ros.dynamics.model import ScaraModel
 from scara_ident_ros.dynamics.params import (N_JOINTS, ParamError, ScaraParams, _check_keys,
-                                             _integer, _scalar, _vector4)
+                                             _integer, _scalar, _vector)
 from scara_ident_ros.sim.controller import ComputedTorqueController
 from scara_ident_ros.sim.jitter import MAX_JITTER_FRACTION, StampJitter
+from scara_ident_ros.sim.plant import ArrayPlant, Plant, ScaraPlant
 from scara_ident_ros.sim.sequence import SequenceTrajectory
 from scara_ident_ros.sim.trajectory import FourierTrajectory
 from scara_ident_ros.sim.trajectory_follower import TrajectoryFollower
+
+if TYPE_CHECKING:
+    from scara_ident_ros.sim.pinocchio_robot import PinocchioRobot
 
 __all__ = ['DISTURBANCES', 'SimConfig', 'SimSample', 'SimRecord', 'Simulator']
 
@@ -54,9 +66,9 @@ class SimConfig:
         Sample period (s), > 0 and a whole number of nanoseconds.
     substeps : int
         RK4 steps per sample, >= 1.
-    kp, kd : tuple of 4 float
+    kp, kd : tuple of n_joints float
         Controller gains (1/s², 1/s); a scalar applies to every joint.
-    position_noise, velocity_noise, effort_noise : tuple of 4 float
+    position_noise, velocity_noise, effort_noise : tuple of n_joints float
         Standard deviation of the Gaussian measurement noise on the reported positions
         (rad, m), velocities (rad/s, m/s) and efforts (N·m, N); a scalar applies to every
         joint. The controller sees the noisy positions and velocities; the state does not.
@@ -76,34 +88,39 @@ class SimConfig:
         integrated to the jittered stamps. 0: stamps exactly k·dt.
     seed : int
         Seed of the noise, disturbance, mismatch and jitter draws, >= 0.
+    n_joints : int
+        Number of joints of the robot, the length of the per-joint settings (4: the SCARA).
     """
 
     dt: float = 1e-3                                             # s
     substeps: int = 4
-    kp: tuple[float, ...] = (400.0, 400.0, 400.0, 400.0)         # 1/s², ωn = 20 rad/s
-    kd: tuple[float, ...] = (40.0, 40.0, 40.0, 40.0)             # 1/s, critically damped
-    position_noise: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)     # rad, rad, m, rad
-    velocity_noise: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)     # rad/s, rad/s, m/s, rad/s
-    effort_noise: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)       # N·m, N·m, N, N·m
+    kp: tuple[float, ...] | float = 400.0                        # 1/s², ωn = 20 rad/s
+    kd: tuple[float, ...] | float = 40.0                         # 1/s, critically damped
+    position_noise: tuple[float, ...] | float = 0.0              # rad or m, per joint
+    velocity_noise: tuple[float, ...] | float = 0.0              # rad/s or m/s, per joint
+    effort_noise: tuple[float, ...] | float = 0.0                # N·m or N, per joint
     disturbance: float = 0.0                                     # fraction of effort_max
     disturbance_kind: str = 'sinusoid'
     disturbance_frequency_hz: float = 0.5                        # Hz
     model_mismatch: float = 0.0
     jitter: float = 0.0                                          # s
     seed: int = 0
+    n_joints: int = N_JOINTS
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__
+        n = _integer('n_joints', self.n_joints, minimum=1)
+        set_(self, 'n_joints', n)
         set_(self, 'dt', _scalar('dt', self.dt, minimum=0.0))
         if abs(self.dt * 1e9 - round(self.dt * 1e9)) > 1e-3:
             raise ParamError(f'dt must be a whole number of nanoseconds, got {self.dt!r}')
         set_(self, 'substeps', _integer('substeps', self.substeps, minimum=1))
         for name in ('kp', 'kd'):
-            set_(self, name, _vector4(name, getattr(self, name), minimum=0.0,
-                                      allow_scalar=True))
+            set_(self, name, _vector(name, getattr(self, name), n, minimum=0.0,
+                                     allow_scalar=True))
         for name in ('position_noise', 'velocity_noise', 'effort_noise'):
-            set_(self, name, _vector4(name, getattr(self, name), minimum=0.0, strict=False,
-                                      allow_scalar=True))
+            set_(self, name, _vector(name, getattr(self, name), n, minimum=0.0, strict=False,
+                                     allow_scalar=True))
         set_(self, 'disturbance',
              _scalar('disturbance', self.disturbance, minimum=0.0, strict=False))
         if self.disturbance > 1.0:
@@ -154,13 +171,13 @@ class SimSample:
     ----------
     stamp_ns : int
         Time of the sample, k · dt plus its jitter (ns).
-    q, qd : ndarray of shape (4,)
-        Measured positions (rad, rad, m, rad) and velocities (rad/s, m/s), with noise if any.
-    qdd : ndarray of shape (4,)
+    q, qd : ndarray of shape (n,)
+        Measured positions (rad or m) and velocities (rad/s, m/s), with noise if any.
+    qdd : ndarray of shape (n,)
         True accelerations at the sample (rad/s², m/s²).
-    effort : ndarray of shape (4,)
+    effort : ndarray of shape (n,)
         Applied (clipped) efforts held over the step, with measurement noise if any
-        (N·m, N·m, N, N·m).
+        (N·m or N).
     """
 
     stamp_ns: int
@@ -178,7 +195,7 @@ class SimRecord:
     ----------
     stamp_ns : ndarray of shape (n,), int64
         Sample times (ns).
-    q, qd, qdd, effort : ndarray of shape (n, 4)
+    q, qd, qdd, effort : ndarray of shape (n, n_joints)
         As in :class:`SimSample`.
     """
 
@@ -193,51 +210,76 @@ class SimRecord:
 
 
 class Simulator:
-    """The SCARA plant, its computed-torque controller, sensors and disturbance.
+    """A robot (plant), its computed-torque controller, sensors and disturbance.
 
     Parameters
     ----------
-    params : ScaraParams
-        The true robot.
+    params : ScaraParams or PinocchioRobot
+        The true robot: the SCARA's parameters, or a URDF robot with its friction.
     trajectory : FourierTrajectory, SequenceTrajectory or TrajectoryFollower
-        Desired motion; the state starts on it at t = 0. A follower of external commands
-        changes while the simulation runs: it is evaluated one sample at a time.
+        Desired motion, built for the same robot; the state starts on it at t = 0. A
+        follower of external commands changes while the simulation runs: it is evaluated
+        one sample at a time.
     config : SimConfig, optional
-        Simulation settings; default ``SimConfig()``.
+        Simulation settings, ``n_joints`` that of the robot; default ``SimConfig()`` with
+        the robot's number of joints.
 
     Attributes
     ----------
-    model : ScaraModel
+    model : ScaraModel or PinocchioRobot
         The plant's model.
-    controller : ComputedTorqueController
+    controller : ComputedTorqueController or ArrayPlant
         The controller, with the true or a perturbed model.
+    plant : ScaraPlant or ArrayPlant
+        The per-sample maths (:mod:`scara_ident_ros.sim.plant`).
+
+    Raises
+    ------
+    ParamError
+        If the configuration's ``n_joints`` is not the robot's.
     """
 
-    def __init__(self, params: ScaraParams,
+    def __init__(self, params: ScaraParams | PinocchioRobot,
                  trajectory: FourierTrajectory | SequenceTrajectory | TrajectoryFollower,
                  config: SimConfig | None = None) -> None:
         self.params = params
         self.trajectory = trajectory
-        self.config = SimConfig() if config is None else config
+        n = len(params.effort_max)
+        self.config = SimConfig(n_joints=n) if config is None else config
         cfg = self.config
-        self.model = ScaraModel(params)
+        if cfg.n_joints != n:
+            raise ParamError(f'the simulation settings are for {cfg.n_joints} joints, the '
+                             f'robot has {n}: give SimConfig(n_joints={n}, ...)')
         noise_seed, disturbance_seed, mismatch_seed, jitter_seed = (
             np.random.SeedSequence(cfg.seed).spawn(4))
         self._noise_seed = noise_seed
         self._disturbance_seed = disturbance_seed
-        controller_params = params
-        if cfg.model_mismatch > 0.0:
-            controller_params = params.perturbed(
-                cfg.model_mismatch, seed=int(mismatch_seed.generate_state(1)[0]))
-        self.controller = ComputedTorqueController(ScaraModel(controller_params), cfg.kp,
-                                                   cfg.kd, effort_max=params.effort_max)
+        mismatch = int(mismatch_seed.generate_state(1)[0])
+        self.model: Any
+        self.controller: Any
+        self.plant: Plant
+        if isinstance(params, ScaraParams):
+            self.model = ScaraModel(params)
+            controller_params = params
+            if cfg.model_mismatch > 0.0:
+                controller_params = params.perturbed(cfg.model_mismatch, seed=mismatch)
+            self.controller = ComputedTorqueController(
+                ScaraModel(controller_params), cfg.kp, cfg.kd, effort_max=params.effort_max)
+            self.plant = ScaraPlant(self.model, self.controller)
+        else:
+            self.model = params
+            believed = (params.perturbed(cfg.model_mismatch, seed=mismatch)
+                        if cfg.model_mismatch > 0.0 else params)
+            self.controller = self.plant = ArrayPlant(
+                params, cfg.kp, cfg.kd, params.effort_max, controller_dynamics=believed)
+        self._n = n
         self._dt_ns = cfg.dt_ns
         self._h = cfg.dt / cfg.substeps
         self._jitter = StampJitter(cfg.dt_ns, cfg.jitter,
                                    seed=int(jitter_seed.generate_state(1)[0]))
-        self._noisy = any(cfg.position_noise + cfg.velocity_noise + cfg.effort_noise)
-        self._noise_std = np.array(cfg.position_noise + cfg.velocity_noise
-                                   + cfg.effort_noise)
+        self._noise_std = np.array([cfg.position_noise, cfg.velocity_noise,
+                                    cfg.effort_noise], dtype=float).ravel()   # (3 n,)
+        self._noisy = bool(self._noise_std.any())
         self._kind = cfg.disturbance_kind if cfg.disturbance > 0.0 else 'none'
         self._amplitude = tuple(cfg.disturbance * e for e in params.effort_max)  # N·m, N
         self.reset()
@@ -247,21 +289,20 @@ class Simulator:
     def reset(self) -> None:
         """Go back to t = 0 on the trajectory and restart the random streams."""
         cfg = self.config
+        n = self._n
         self._k = 0
         self._stamp_ns = self._jitter.stamp_ns(0)
         q, qd, _ = self.trajectory.evaluate(0.0)
-        self._q = tuple(q.tolist())
-        self._qd = tuple(qd.tolist())
+        self._q, self._qd = self.plant.native(np.stack([q, qd]))
         self._noise_rng = np.random.default_rng(self._noise_seed)
         rng = np.random.default_rng(self._disturbance_seed)
-        self._phase = tuple(rng.uniform(0.0, 2.0 * math.pi, N_JOINTS).tolist())
+        self._phase = tuple(rng.uniform(0.0, 2.0 * math.pi, n).tolist())
         self._dist_rng = rng
-        self._dist = (tuple((np.array(self._amplitude) * rng.standard_normal(N_JOINTS))
-                            .tolist())
-                      if self._kind == 'random' else (0.0,) * N_JOINTS)
+        self._dist = (tuple((np.array(self._amplitude) * rng.standard_normal(n)).tolist())
+                      if self._kind == 'random' else (0.0,) * n)
         self._alpha = math.exp(-2.0 * math.pi * cfg.disturbance_frequency_hz * cfg.dt)
         self._chunk_start = 0
-        self._desired: list[tuple[list[float], list[float], list[float]]] = []
+        self._desired: list[tuple[Any, Any, Any]] = []
 
     @property
     def stamp_ns(self) -> int:
@@ -270,11 +311,11 @@ class Simulator:
 
     @property
     def state(self) -> tuple[np.ndarray, np.ndarray]:
-        """True (noise-free) positions and velocities of the next sample, two (4,) arrays."""
+        """True (noise-free) positions and velocities of the next sample, two (n,) arrays."""
         return np.array(self._q), np.array(self._qd)
 
     def disturbance(self) -> np.ndarray:
-        """Disturbance T_d acting over the next step, shape (4,) (N·m, N)."""
+        """Disturbance T_d acting over the next step, shape (n,) (N·m, N)."""
         return np.array(self._disturbance_now())
 
     # -- stepping -----------------------------------------------------------------------------
@@ -301,17 +342,17 @@ class Simulator:
         Returns
         -------
         SimRecord
-            Arrays of shape (n,) and (n, 4).
+            Arrays of shape (n,) and (n, n_joints).
         """
         n = _integer('n', n, minimum=0)
         rows = [self.advance() for _ in range(n)]
         stamps = np.array([row[0] for row in rows], dtype=np.int64)
-        columns = [np.array([row[i] for row in rows], dtype=float).reshape(n, N_JOINTS)
+        columns = [np.array([row[i] for row in rows], dtype=float).reshape(n, self._n)
                    for i in range(1, 5)]
         return SimRecord(stamps, *columns)
 
-    def advance(self) -> tuple[int, tuple[float, ...], tuple[float, ...],
-                               tuple[float, ...], tuple[float, ...]]:
+    def advance(self) -> tuple[int, Sequence[float], Sequence[float], Sequence[float],
+                               Sequence[float]]:
         """One sample as plain Python floats: the numbers of :meth:`step`, without arrays.
 
         The real-time node's path (a 1 kHz publisher copies the floats into its message;
@@ -320,27 +361,23 @@ class Simulator:
         Returns
         -------
         tuple
-            ``(stamp_ns, q, qd, qdd, effort)``: the stamp (ns) and four tuples of 4 float,
-            as the fields of :class:`SimSample`.
+            ``(stamp_ns, q, qd, qdd, effort)``: the stamp (ns) and four sequences of
+            n_joints float, as the fields of :class:`SimSample`.
         """
         k = self._k
+        n = self._n
+        plant = self.plant
         q, qd = self._q, self._qd
         q_des, qd_des, qdd_des = self._desired_at(k)
         if self._noisy:
-            z = (self._noise_rng.standard_normal(3 * N_JOINTS) * self._noise_std).tolist()
-            q_meas = (q[0] + z[0], q[1] + z[1], q[2] + z[2], q[3] + z[3])
-            qd_meas = (qd[0] + z[4], qd[1] + z[5], qd[2] + z[6], qd[3] + z[7])
+            z = plant.native((self._noise_rng.standard_normal(3 * n)
+                              * self._noise_std).reshape(3, n))
+            q_meas, qd_meas = plant.add(q, z[0]), plant.add(qd, z[1])
         else:
             z = None
             q_meas, qd_meas = q, qd
-        tau = self.controller.compute_single(q_meas, qd_meas, q_des, qd_des, qdd_des)
-        if self._kind == 'none':
-            net = tau
-        else:
-            d = self._disturbance_now()
-            net = (tau[0] - d[0], tau[1] - d[1], tau[2] - d[2], tau[3] - d[3])
-        fd = self.model.forward_dynamics_single
-        qdd = fd(q, qd, net)
+        tau = plant.control(q_meas, qd_meas, q_des, qd_des, qdd_des)
+        net = tau if self._kind == 'none' else plant.sub(tau, self._disturbance_now())
         stamp = self._stamp_ns
         h = self._h
         if self.config.jitter:
@@ -348,23 +385,21 @@ class Simulator:
             h = (self._stamp_ns - stamp) * 1e-9 / self.config.substeps  # s
         else:
             self._stamp_ns = stamp + self._dt_ns
-        self._q, self._qd = _rk4(fd, q, qd, qdd, net, h, self.config.substeps)
+        qdd, self._q, self._qd = plant.step(q, qd, net, h, self.config.substeps)
         if self._kind == 'random':
             alpha = self._alpha
             gain = math.sqrt(1.0 - alpha * alpha)
-            xi = self._dist_rng.standard_normal(N_JOINTS).tolist()
+            xi = self._dist_rng.standard_normal(n).tolist()
             self._dist = tuple(alpha * d_i + gain * a_i * x_i for d_i, a_i, x_i
                                in zip(self._dist, self._amplitude, xi))
-        if z is not None:
-            effort = (tau[0] + z[8], tau[1] + z[9], tau[2] + z[10], tau[3] + z[11])
-        else:
-            effort = tau
+        effort = tau if z is None else plant.add(tau, z[2])
         self._k = k + 1
-        return stamp, q_meas, qd_meas, qdd, effort
+        floats = plant.floats
+        return stamp, floats(q_meas), floats(qd_meas), floats(qdd), floats(effort)
 
     # -- internals ----------------------------------------------------------------------------
 
-    def _desired_at(self, k: int) -> tuple[list[float], list[float], list[float]]:
+    def _desired_at(self, k: int) -> tuple[Any, Any, Any]:
         """Desired q, q', q'' at sample k's stamp, from a vectorised batch evaluated ahead."""
         index = k - self._chunk_start
         if not 0 <= index < len(self._desired):
@@ -372,7 +407,8 @@ class Simulator:
             batch = getattr(self.trajectory, 'batch_samples', _CHUNK)
             times = self._jitter.stamps_ns(k, batch) * 1e-9
             q, qd, qdd = self.trajectory.evaluate(times)
-            self._desired = list(zip(q.tolist(), qd.tolist(), qdd.tolist()))
+            native = self.plant.native
+            self._desired = list(zip(native(q), native(qd), native(qdd)))
             index = 0
         return self._desired[index]
 
@@ -383,27 +419,3 @@ class Simulator:
             return tuple(a * math.sin(w_t + p) for a, p in zip(self._amplitude, self._phase))
         return self._dist
 
-
-def _rk4(fd: Any, q: tuple[float, ...], v: tuple[float, ...], a: tuple[float, ...],
-         tau: tuple[float, ...], h: float, substeps: int
-         ) -> tuple[tuple[float, ...], tuple[float, ...]]:
-    """Integrate q' = v, v' = fd(q, v, tau) over ``substeps`` RK4 steps of length h.
-
-    ``a`` is fd(q, v, tau) at the start, reused as the first stage.
-    """
-    hh, h6 = 0.5 * h, h / 6.0
-    for step in range(substeps):
-        if step:
-            a = fd(q, v, tau)
-        v2 = (v[0] + hh * a[0], v[1] + hh * a[1], v[2] + hh * a[2], v[3] + hh * a[3])
-        q2 = (q[0] + hh * v[0], q[1] + hh * v[1], q[2] + hh * v[2], q[3] + hh * v[3])
-        a2 = fd(q2, v2, tau)
-        v3 = (v[0] + hh * a2[0], v[1] + hh * a2[1], v[2] + hh * a2[2], v[3] + hh * a2[3])
-        q3 = (q[0] + hh * v2[0], q[1] + hh * v2[1], q[2] + hh * v2[2], q[3] + hh * v2[3])
-        a3 = fd(q3, v3, tau)
-        v4 = (v[0] + h * a3[0], v[1] + h * a3[1], v[2] + h * a3[2], v[3] + h * a3[3])
-        q4 = (q[0] + h * v3[0], q[1] + h * v3[1], q[2] + h * v3[2], q[3] + h * v3[3])
-        a4 = fd(q4, v4, tau)
-        q = tuple(q[i] + h6 * (v[i] + 2.0 * (v2[i] + v3[i]) + v4[i]) for i in range(4))
-        v = tuple(v[i] + h6 * (a[i] + 2.0 * (a2[i] + a3[i]) + a4[i]) for i in range(4))
-    return q, v

@@ -8,22 +8,42 @@ For joint i with L harmonics of the base pulsation ωf = 2π f:
 
 The motion is periodic with period 1/f, band-limited (good for estimating q'' and for
 averaging noise) and its derivatives are analytic, so the reference for q, q', q'' is exact.
+
+A robot here is the SCARA's :class:`ScaraParams` or any object with the same limit accessors
+(``array(name)``, ``position_centre``, ``effort_max``) and a batch ``inverse_dynamics``, such
+as :class:`~scara_ident_ros.sim.pinocchio_robot.PinocchioRobot`: see :data:`Robot`.
 """
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
-from typing import TYPE_CHECKING, Any
+from collections.abc import Callable, Mapping
+from typing import TYPE_CHECKING, Any, Union
 
 import numpy as np
 
 from scara_ident_ros.dynamics.model import ScaraModel
-from scara_ident_ros.dynamics.params import N_JOINTS, ScaraParams
+from scara_ident_ros.dynamics.params import ScaraParams
 
 if TYPE_CHECKING:
+    from scara_ident_ros.sim.pinocchio_robot import PinocchioRobot
     from scara_ident_ros.sim.sequence import SequenceTrajectory
 
-__all__ = ['FourierTrajectory', 'PRESETS', 'SEQUENCE', 'TRAJECTORIES', 'make_trajectory']
+__all__ = ['FourierTrajectory', 'PRESETS', 'SEQUENCE', 'TRAJECTORIES', 'make_trajectory',
+           'Robot', 'inverse_dynamics_of']
+
+#: A robot whose limits and dynamics bound an excitation: the SCARA or a URDF robot.
+Robot = Union[ScaraParams, 'PinocchioRobot']
+
+
+def inverse_dynamics_of(robot: Robot) -> Callable[[np.ndarray, np.ndarray, np.ndarray],
+                                                  np.ndarray]:
+    """The robot's batch inverse dynamics (q, q', q'') (N, n) -> efforts (N, n), N·m or N.
+
+    The SCARA's closed-form :class:`ScaraModel`, or the robot's own ``inverse_dynamics``.
+    """
+    if isinstance(robot, ScaraParams):
+        return ScaraModel(robot).inverse_dynamics
+    return robot.inverse_dynamics
 
 #: Named excitation settings, keyword arguments of :meth:`FourierTrajectory.random`.
 #: The fractions are of the joint half-range and of the velocity, acceleration and effort
@@ -58,10 +78,11 @@ class FourierTrajectory:
 
     Parameters
     ----------
-    q0 : array_like of shape (4,)
-        Mean position of each joint over a period (rad, rad, m, rad).
-    a, b : array_like of shape (4, L)
-        Sine and cosine coefficients of the velocity (rad/s, m/s for joint 3).
+    q0 : array_like of shape (n,)
+        Mean position of each of the n joints over a period (rad or m; the SCARA: rad, rad,
+        m, rad).
+    a, b : array_like of shape (n, L)
+        Sine and cosine coefficients of the velocity (rad/s or m/s).
     base_frequency_hz : float
         Fundamental frequency f (Hz); the period is 1/f.
     """
@@ -71,10 +92,11 @@ class FourierTrajectory:
         q0 = np.array(q0, dtype=float)
         a = np.array(a, dtype=float)
         b = np.array(b, dtype=float)
-        if q0.shape != (N_JOINTS,):
-            raise ValueError(f'q0 must have shape (4,), got {q0.shape}')
-        if a.ndim != 2 or a.shape[0] != N_JOINTS or a.shape[1] < 1 or b.shape != a.shape:
-            raise ValueError(f'a and b must have the same shape (4, L) with L >= 1, '
+        if q0.ndim != 1 or q0.size < 1:
+            raise ValueError(f'q0 must have shape (n,), got {q0.shape}')
+        n = q0.size
+        if a.ndim != 2 or a.shape[0] != n or a.shape[1] < 1 or b.shape != a.shape:
+            raise ValueError(f'a and b must have the same shape ({n}, L) with L >= 1, '
                              f'got {a.shape} and {b.shape}')
         if not (np.all(np.isfinite(q0)) and np.all(np.isfinite(a)) and np.all(np.isfinite(b))):
             raise ValueError('q0, a and b must be finite')
@@ -88,7 +110,7 @@ class FourierTrajectory:
         self.base_frequency_hz = float(base_frequency_hz)
         omega = 2.0 * math.pi * self.base_frequency_hz * np.arange(1, a.shape[1] + 1)  # rad/s
         self._omega = omega
-        # coefficient matrices (L, 4) so that rows of sin/cos (N, L) map to (N, 4)
+        # coefficient matrices (L, n) so that rows of sin/cos (N, L) map to (N, n)
         self._pos_sin, self._pos_cos = (a / omega).T, (-b / omega).T
         self._acc_sin, self._acc_cos = (-a * omega).T, (b * omega).T
 
@@ -116,8 +138,8 @@ class FourierTrajectory:
 
         Returns
         -------
-        q, qd, qdd : ndarray of shape (4,), or (N, 4) for an array of times
-            Position (rad, rad, m, rad), velocity (…/s) and acceleration (…/s²).
+        q, qd, qdd : ndarray of shape (n,), or (N, n) for an array of times
+            Position (rad or m), velocity (…/s) and acceleration (…/s²).
         """
         t = np.asarray(t, dtype=float)
         if t.ndim > 1:
@@ -142,7 +164,7 @@ class FourierTrajectory:
 
         Returns
         -------
-        tuple of three ndarray of shape (4,)
+        tuple of three ndarray of shape (n,)
             Peak excursion, speed and acceleration (SI).
         """
         q, qd, qdd = self.evaluate(self.grid(points_per_harmonic))
@@ -150,7 +172,7 @@ class FourierTrajectory:
                 np.abs(qdd).max(axis=0))
 
     @classmethod
-    def random(cls, params: ScaraParams, *, seed: int, n_harmonics: int = 5,
+    def random(cls, params: Robot, *, seed: int, n_harmonics: int = 5,
                base_frequency_hz: float = 0.2, position_fraction: float = 0.8,
                velocity_fraction: float = 0.8, acceleration_fraction: float = 0.8,
                effort_fraction: float | None = 0.8) -> FourierTrajectory:
@@ -165,7 +187,7 @@ class FourierTrajectory:
 
         Parameters
         ----------
-        params : ScaraParams
+        params : ScaraParams or PinocchioRobot
             Robot whose limits and dynamics bound the motion.
         seed : int
             Seed of the random generator; equal seeds give equal trajectories.
@@ -199,8 +221,9 @@ class FourierTrajectory:
             if not 0.0 < value <= 1.0:
                 raise ValueError(f'{name} must be in (0, 1], got {value!r}')
         rng = np.random.default_rng(seed)
-        a = rng.standard_normal((N_JOINTS, n_harmonics))
-        b = rng.standard_normal((N_JOINTS, n_harmonics))
+        n = len(params.effort_max)
+        a = rng.standard_normal((n, n_harmonics))
+        b = rng.standard_normal((n, n_harmonics))
         unit = cls(params.position_centre, a, b, base_frequency_hz)
         excursion, speed, accel = unit.peaks()
         half_range = 0.5 * (params.array('position_max') - params.array('position_min'))
@@ -212,11 +235,11 @@ class FourierTrajectory:
                          base_frequency_hz)
         if effort_fraction is None:
             return trajectory
-        model = ScaraModel(params)
+        inverse_dynamics = inverse_dynamics_of(params)
         effort_max = params.array('effort_max')
         for _ in range(100):
             q, qd, qdd = trajectory.evaluate(trajectory.grid())
-            ratio = np.abs(model.inverse_dynamics(q, qd, qdd)).max(axis=0) / effort_max
+            ratio = np.abs(inverse_dynamics(q, qd, qdd)).max(axis=0) / effort_max
             if ratio.max() <= effort_fraction:
                 return trajectory
             shrink = max(0.5, min(0.95, effort_fraction / ratio.max()))
@@ -226,7 +249,7 @@ class FourierTrajectory:
                          f'{params.effort_max}: the motion needs {ratio.tolist()} of them')
 
 
-def make_trajectory(preset: str, params: ScaraParams, seed: int,
+def make_trajectory(preset: str, params: Robot, seed: int,
                     **overrides: Any) -> FourierTrajectory | SequenceTrajectory:
     """Build a random excitation by name: a preset of :data:`PRESETS` or :data:`SEQUENCE`.
 
@@ -234,8 +257,8 @@ def make_trajectory(preset: str, params: ScaraParams, seed: int,
     ----------
     preset : str
         One of :data:`TRAJECTORIES`.
-    params : ScaraParams
-        Robot whose limits bound the motion.
+    params : ScaraParams or PinocchioRobot
+        Robot whose limits (and dynamics: efforts) bound the motion.
     seed : int
         Seed of the random coefficients.
     **overrides

@@ -297,3 +297,32 @@ def test_zero_phase_predictions_are_a_priori_and_stamped_with_their_sample() -> 
         np.testing.assert_allclose(x_fit[0], expected_x(j), rtol=1e-9)  # exact q''
         assert result.effort is not None
         np.testing.assert_allclose(result.effort, x_pred @ weights.T, rtol=1e-13)
+
+
+def test_sporadic_bad_messages_do_not_stall_the_estimate() -> None:
+    """6 bad messages in every 10 (NaN, no velocity, wrong lengths, an unknown joint, a stamp
+    0.5 s back, inf) between 4 good ones: a refused sample is a missing one, so once the
+    window has filled every good sample is predicted."""
+    identifier = OnlineIdentifier(RecordingModel(), joint_names=NAMES)
+    good = predicted = 0
+    for k in range(1000):
+        stamp = T0 + k * MS
+        q, qd, e = state(k)
+        kind = k % 10
+        if kind < 4:
+            good += 1
+            results = identifier.process(stamp, NAMES, q, qd, e)
+        else:
+            bad = {4: (NAMES, [NAN, *q[1:]], qd, e), 5: (NAMES, q, [], e),
+                   6: (NAMES, q[:3], qd, e), 7: (('joint1', 'joint2', 'joint3', 'joint9'),
+                                                 q, qd, e),
+                   8: (NAMES, q, qd, e), 9: (NAMES, q, qd, [*e[:3], INF])}[kind]
+            results = identifier.process(stamp - 500 * MS if kind == 8 else stamp, *bad)
+            assert results[0].effort is None and results[0].reason is not None
+            assert results[0].reason is not SkipReason.GAP
+        predicted += sum(result.effort is not None for result in results)
+    predicted += len(identifier.finish())
+    assert good == 400
+    assert predicted == good
+    assert identifier.counts.skipped[SkipReason.WARMING_UP] == 0
+    assert identifier.counts.skipped[SkipReason.STAMP_BACKWARDS] == 100

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from scara_ident_ros.identification import Bounds, JointMap, Sample, SampleCheck, SkipReason
-from scara_ident_ros.identification.sample_check import PERIOD_SAMPLES
+from scara_ident_ros.identification.sample_check import PERIOD_SAMPLES, RESTART_SAMPLES
 
 NAMES = ['joint1', 'joint2', 'joint3']
 T0 = 1_000_000_000_000  # ns
@@ -90,10 +90,26 @@ def test_a_clock_jump_either_way_is_a_gap() -> None:
     assert not good(check, T0 + 50 * MS).gap  # exactly max_gap: still continuous
     assert good(check, T0 + 101 * MS).gap
     assert not good(check, T0 + 102 * MS).gap
-    assert good(check, T0).gap  # a simulator restarted: a jump back of more than max_gap
-    assert not good(check, T0 + MS).gap
+    # a simulator restarted: a jump back of more than max_gap, confirmed by the samples
+    # after it (RESTART_SAMPLES in a row), is a restarted clock; the first are refused
+    for k in range(RESTART_SAMPLES - 1):
+        assert check.check(T0 + k * MS, NAMES, [1.0, 2.0, 3.0], [4.0, 5.0, 6.0],
+                           [7.0, 8.0, 9.0]) is SkipReason.STAMP_BACKWARDS
+    assert good(check, T0 + (RESTART_SAMPLES - 1) * MS).gap
+    assert not good(check, T0 + RESTART_SAMPLES * MS).gap
     check.reset()
     assert not good(check, T0 - 10**12).gap  # after a reset, any time is a fresh start
+
+
+def test_one_stamp_far_back_is_refused_and_does_not_restart_the_clock() -> None:
+    """A bad stamp 0.5 s back between good samples is a missing sample, not a restart."""
+    check = make_check()
+    for k in range(5):
+        assert not good(check, T0 + k * MS).gap
+    assert check.check(T0 - 500 * MS, NAMES, [1.0, 2.0, 3.0], [4.0, 5.0, 6.0],
+                       [7.0, 8.0, 9.0]) is SkipReason.STAMP_BACKWARDS
+    assert not good(check, T0 + 6 * MS).gap  # the next good sample continues the history
+    assert check.last_stamp_ns == T0 + 6 * MS
 
 
 def test_what_counts_as_a_gap_scales_with_the_observed_period() -> None:

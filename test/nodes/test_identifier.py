@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import time
 import math
 import signal
 import sys
@@ -31,6 +32,7 @@ from std_msgs.msg import Float64MultiArray
 
 from scara_ident_ros.dynamics import ScaraParams
 from scara_ident_ros.identification import Holdout, InputStage, JointMap
+from scara_ident_ros.identification.sample_check import RESTART_SAMPLES
 from scara_ident_ros.methods import METHODS, limit_scaling, make_network
 from scara_ident_ros.nn import FeedForwardNet
 from scara_ident_ros.nodes.identifier import PARAMETERS
@@ -495,7 +497,10 @@ def hostile_stream(record: SimRecord
         good(gap=True)
         for _ in range(GOOD_BETWEEN):
             good()
-        offset -= 2 * NS_PER_S  # ... and backwards (a replay restarted)
+        offset -= 2 * NS_PER_S  # ... and backwards (a replay restarted): a restart once
+        for _ in range(RESTART_SAMPLES - 1):  # RESTART_SAMPLES in a row confirm it
+            q, qd, e = record.q[slot], record.qd[slot], record.effort[slot]
+            bad('stamp_backwards', NAMES, q, qd, e)
         good(gap=True)
         for _ in range(GOOD_BETWEEN):
             good()
@@ -815,3 +820,70 @@ def test_subscribes_anyway_after_wait_timeout(tmp_path: Path,
                                    DISCOVERY_TIMEOUT), node.stderr_so_far()
         out = stop(node)
     assert 'only 0 of 2 subscribers on the outputs after 1 s; subscribing anyway' in out.stderr
+
+
+@pytest.mark.slow
+def test_a_slow_trainer_does_not_delay_the_predictions(tmp_path: Path,
+                                                       listener: rostest.Listener) -> None:
+    """A deliberately slow lm trainer (100 hidden units, 5000 samples, an update every 10
+    samples: each step takes seconds) learns beside the stream: a stream paced at 1 kHz is
+    still predicted sample by sample, none later than a fraction of a second (with
+    lm_background false the same stream is held for seconds at each step)."""
+    n = 3000
+    record = simulated(n)
+    msgs = [sample_msg(record, i, T0_NS + i * PERIOD_NS) for i in range(n)]
+    feed = Feed(listener)
+    with identifier(tmp_path, 'hidden_units:=100', 'reservoir_size:=5000',
+                    'lm_interval:=10', 'lm_steps:=3', 'validation_fraction:=0.0') as node:
+        feed.wait_for(node)
+        start = time.monotonic()
+        for i, msg in enumerate(msgs):  # paced at 1 kHz, as a robot publishes
+            feed.publisher.publish(msg)
+            if i % 10 == 9:
+                ahead = start + (i + 1) * PERIOD_NS / NS_PER_S - time.monotonic()
+                listener.spin_until(lambda: False, max(ahead, 0.0))
+        assert listener.spin_until(lambda: len(feed.torques) >= n - LAG, STREAM_TIMEOUT)
+        stop(node)
+    feed.receive_rest(n)
+    info = stats(tmp_path)
+    assert info['predicted'] == n and info['learned'] == n
+    assert info['wall_clock_stamps'] is False  # T0_NS is no wall time: lag on its own clock
+    # the prediction waits LAG samples (10 ms) for its q''; a step in the message path
+    # would hold the stream for seconds
+    assert info['max_lag_ms'] < 500.0, info
+    assert info['updates'] >= 1, info  # the learner did learn, slowly
+
+
+@pytest.mark.slow
+def test_one_node_serves_several_methods(tmp_path: Path, listener: rostest.Listener) -> None:
+    """methods:=[ffmw,ffs]: one subscription, each method predicting every sample under its
+    own namespace, with its own model and statistics files."""
+    n = 1500
+    record = simulated(n)
+    msgs = [sample_msg(record, i, T0_NS + i * PERIOD_NS) for i in range(n)]
+    ffs, ffmw = Feed(listener, namespace='/ffs'), Feed(listener, namespace='/ffmw')
+    args = ['-p', 'methods:=[ffmw,ffs]', '-p', f'stats_file:={tmp_path}/{{method}}.json',
+            '-p', f'save_path:={tmp_path}/{{method}}.npz']
+    with rostest.NodeProcess(IDENTIFIER, args) as node:
+        ffs.wait_for(node)
+        ffmw.wait_for(node)
+        ffs.send(msgs, n - LAG)
+        assert listener.spin_until(lambda: len(ffmw.torques) >= n - LAG, STREAM_TIMEOUT)
+        stop(node)
+    ffs.receive_rest(n)
+    ffmw.receive_rest(n)
+    for method, feed in (('ffs', ffs), ('ffmw', ffmw)):
+        info = json.loads((tmp_path / f'{method}.json').read_text())
+        assert info['method'] == method and info['predicted'] == n, info
+        assert stamps(feed.torques) == [T0_NS + i * PERIOD_NS for i in range(n)]
+        assert FeedForwardNet.load(tmp_path / f'{method}.npz').metadata['method'] == method
+    # two networks: the predictions differ
+    assert not np.allclose([m.effort for m in ffs.torques], [m.effort for m in ffmw.torques])
+
+
+def test_methods_need_a_path_per_method(tmp_path: Path) -> None:
+    with rostest.NodeProcess(IDENTIFIER, ['-p', 'methods:=[ffmw,ffs]', '-p',
+                                          f'save_path:={tmp_path}/model.npz']) as node:
+        out = node.wait(DISCOVERY_TIMEOUT)
+    assert out.returncode == 2
+    assert 'with methods, the path needs {method}' in out.stderr

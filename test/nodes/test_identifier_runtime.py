@@ -180,7 +180,9 @@ def test_parameters_set_while_running_take_effect(tmp_path: Path,
 def test_save_model_and_reset_services(tmp_path: Path, listener: rostest.Listener) -> None:
     model = tmp_path / 'models' / 'model.npz'
     record = simulated(3000)
-    with start(tmp_path, f'save_path:={model}') as node:
+    # learning in the message path: the model saved after 2000 samples has surely learnt
+    # (a learner beside the stream may not have finished its first update by then)
+    with start(tmp_path, f'save_path:={model}', 'lm_background:=false') as node:
         session = Session(listener, node)
         no_model = session.trigger('save_model')
         assert not no_model.success and 'no model yet' in no_model.message

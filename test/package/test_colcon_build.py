@@ -18,7 +18,7 @@ import pytest
 
 REPO = Path(__file__).resolve().parents[2]
 PACKAGE = 'scara_ident_ros'
-NODES = ('scara_sim', 'identifier', 'recorder', 'player')
+NODES = ('scara_sim', 'robot_sim', 'identifier', 'recorder', 'player')
 EXECUTABLES = (*NODES, 'scara-ident')
 COPY_IGNORE = shutil.ignore_patterns('.venv', '.git', 'build', 'install', 'log', 'out',
                                      '__pycache__', '*.egg-info', '.pytest_cache')
@@ -65,7 +65,8 @@ def test_scara_ident_cli_starts_from_the_install(install: Path) -> None:
     result = subprocess.run([str(exe), '--help'], env=sourced_env(install),
                             capture_output=True, text=True, timeout=60, check=False)
     assert result.returncode == 0, result.stderr
-    for command in ('run', 'play', 'train', 'evaluate', 'tables', 'compare', 'recover'):
+    for command in ('run', 'play', 'train', 'evaluate', 'tables', 'compare', 'recover',
+                    'export'):
         assert command in result.stdout
 
 

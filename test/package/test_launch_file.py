@@ -15,6 +15,8 @@ from typing import Any
 
 import pytest
 
+from scara_ident_ros.nodes.runtime import STOP_TIMEOUT
+
 LAUNCH_FILE = Path(__file__).resolve().parents[2] / 'launch' / 'identification.launch.py'
 STAND_INS = {
     'launch': ['LaunchDescription'],
@@ -73,10 +75,9 @@ def test_the_file_imports_without_launch_installed() -> None:
 def test_it_starts_the_graph_of_scara_ident_run(description: list[StandIn]) -> None:
     nodes = of_type(description, 'Node')
     executables = sorted(node.kwargs['executable'] for node in nodes)
-    assert executables == ['identifier'] * 3 + ['recorder', 'scara_sim']
-    namespaces = {node.kwargs.get('namespace') for node in nodes
-                  if node.kwargs['executable'] == 'identifier'}
-    assert namespaces == {'ffmw', 'ffw', 'ffs'}
+    assert executables == ['identifier', 'recorder', 'scara_sim']
+    identifier = next(node for node in nodes if node.kwargs['executable'] == 'identifier')
+    assert identifier.kwargs['parameters'][1]['methods'] == ['ffmw', 'ffw', 'ffs']
     arguments = {action.args[0] for action in of_type(description, 'DeclareLaunchArgument')}
     assert arguments == {'bag', 'sim'}
 
@@ -90,3 +91,11 @@ def test_the_launch_ends_when_the_recorder_exits(description: list[StandIn]) -> 
     assert on_exit[0].kwargs['target_action'] is recorder
     assert [type(action).__name__ for action in on_exit[0].kwargs['on_exit']] == \
         ['LogInfo', 'Shutdown']
+
+
+def test_every_node_gets_the_grace_its_stop_needs(description: list[StandIn]) -> None:
+    """Ctrl-C on the launch: launch escalates to SIGTERM and SIGKILL only after a node's own
+    stop could have ended (STOP_TIMEOUT), so saves and statistics are written."""
+    for node in of_type(description, 'Node'):
+        for key in ('sigterm_timeout', 'sigkill_timeout'):
+            assert float(node.kwargs[key]) > STOP_TIMEOUT, (node.kwargs['executable'], key)

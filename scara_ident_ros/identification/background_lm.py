@@ -1,0 +1,323 @@
+"""Levenberg–Marquardt beside the stream: the reservoir and its steps in a process of its own.
+
+The message path of an identifier must cost microseconds per sample whatever the trainer
+does; an LM step on a reservoir of thousands of samples costs tens of milliseconds. So
+:class:`BackgroundLM` keeps only the prediction in the caller's process: each sample is
+predicted with the weights of the moment (a priori, before it is learnt) and put in a small
+batch; full batches go down a pipe to a learner process (:func:`_learner`), which keeps the
+:class:`~scara_ident_ros.identification.trainer.ReservoirLM` (reservoir, slow reservoir, LM
+state), takes ``steps`` LM steps whenever at least ``interval`` new samples have come, and
+sends the new weights back. The caller takes them between two samples
+(:meth:`BackgroundLM.poll`), so a prediction never sees half an update.
+
+An update takes the reservoir as it is when it starts; the samples that come during it
+count towards the next. Without new samples (the robot at rest, the stream ended) there
+is no update, so an idle stream costs no CPU; on stop, one last update takes the samples
+that came since the previous one.
+
+The learner runs at a lower CPU priority (``nice``) with one BLAS thread: when the CPU is
+short, the stream's processes (simulator, message paths, recorder) go first and learning
+slows down; :attr:`BackgroundLM.updates` and :meth:`BackgroundLM.rate` say by how much.
+A process rather than a thread: the steps' Python glue would otherwise hold the GIL that
+the message path needs, and a thread's priority cannot be lowered without risking that the
+GIL waits for it.
+
+The message path never blocks on the pipe: a batch is written only when the pipe has room
+for it in one atomic write (``select``); otherwise it waits in a bounded backlog, and
+batches beyond that are dropped and counted (:attr:`BackgroundLM.dropped`). The learner
+reads the pipe in a thread of its own, so it drains it even during a step.
+"""
+from __future__ import annotations
+
+import os
+import select
+import signal
+import subprocess
+import sys
+import threading
+import time
+from collections import deque
+from dataclasses import dataclass
+from multiprocessing.connection import Connection
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from scara_ident_ros.nn import FeedForwardNet
+
+__all__ = ['BackgroundLM', 'LearnerSettings']
+
+#: Bytes of one batch message at most: below PIPE_BUF (4096 on Linux), so a write into a
+#: pipe that select() calls writable neither blocks nor interleaves.
+BATCH_BYTES = 3000
+BACKLOG = 2000  # batches kept while the pipe is full (at 1 kHz, 4 joints: ~30 s of samples)
+STOP_TIMEOUT = 10.0  # s the learner gets to finish its step and send its last weights
+NICE = 10  # the learner's niceness: below the stream's processes (0), above `nice 19` jobs
+RATE_SPAN = 10.0  # s over which updates per second are reported
+#: The learner process's program: run with ``-c`` rather than ``-m``, which would import
+#: this module twice (once as the package's, once as ``__main__``).
+LEARNER_COMMAND = f'from {__name__} import main; main()'
+
+
+@dataclass(frozen=True)
+class LearnerSettings:
+    """What the learner process builds its :class:`ReservoirLM` from (see there)."""
+
+    capacity: int = 4000
+    interval: int = 200
+    steps: int = 2
+    seed: int = 0
+    float64: bool = False
+    slow_share: float = 0.0
+    nice: int = NICE
+    label: str = 'lm'  # names the learner on its command line (e.g. the method), for ps/top
+
+
+class BackgroundLM:
+    """The ``lm`` trainer with its reservoir and steps in a learner process.
+
+    Parameters
+    ----------
+    model : FeedForwardNet
+        The network the caller predicts with (its scaling set); the learner starts from a
+        copy of its weights, and every update it sends is copied into it.
+    settings : LearnerSettings
+        The reservoir and the steps. ``interval`` is the least number of new samples
+        between two updates: with the CPU to spare, an update starts as soon as that many
+        have come; without, later.
+
+    Attributes
+    ----------
+    sent : int
+        Samples handed to the learner (the ``learned`` samples of an identifier).
+    dropped : int
+        Samples not learnt because the learner could not take them (backlog full).
+    updates : int
+        Updates (``steps`` LM steps each) whose weights the model has taken.
+    steps : int
+        LM steps the learner has taken, as of its latest update.
+    """
+
+    name = 'lm'
+
+    def __init__(self, model: FeedForwardNet, settings: LearnerSettings = LearnerSettings()
+                 ) -> None:
+        self.model = model
+        self.settings = settings
+        width = model.n_inputs + model.n_outputs
+        self._batch = np.empty((max(1, BATCH_BYTES // (8 * width)), width))
+        self._n = 0
+        self._backlog: deque[NDArray[np.float64]] = deque()
+        self.sent = 0
+        self.dropped = 0
+        self.updates = 0
+        self.steps = 0
+        self.ready = False  # the learner has started and waits for samples
+        self._update_times: deque[float] = deque()
+        # A fresh interpreter (not fork: the caller has DDS threads; not multiprocessing's
+        # spawn: it re-runs the caller's __main__), with one BLAS thread of its own.
+        learner_reads, we_write = os.pipe()
+        we_read, learner_writes = os.pipe()
+        env = dict(os.environ, OPENBLAS_NUM_THREADS='1', OMP_NUM_THREADS='1',
+                   MKL_NUM_THREADS='1')
+        self._process = subprocess.Popen(
+            [sys.executable, '-c', LEARNER_COMMAND, str(learner_reads), str(learner_writes),
+             settings.label],
+            pass_fds=(learner_reads, learner_writes), env=env, stdin=subprocess.DEVNULL)
+        os.close(learner_reads)
+        os.close(learner_writes)
+        self._to_learner = Connection(we_write, readable=False)
+        self._from_learner = Connection(we_read, writable=False)
+        self._to_learner.send((model, settings))  # blocks until read: the learner is up
+        self._closed = False
+
+    # ------------------------------------------------------------------ message path
+    def learn(self, x: NDArray[np.float64], y: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Predict ``y`` (n,) from ``x`` (3n,) with the current weights, then hand the sample
+        to the learner; never waits for it."""
+        predicted = self.model.predict(x)
+        row = self._batch[self._n]
+        n_in = x.shape[0]
+        row[:n_in] = x
+        row[n_in:] = y
+        self._n += 1
+        self.sent += 1
+        if self._n == self._batch.shape[0]:
+            self._send(self._batch.copy())
+            self._n = 0
+            self.poll()
+        return predicted
+
+    def poll(self) -> bool:
+        """Take the newest weights the learner has sent, if any; return whether it had."""
+        got = False
+        try:
+            while self._from_learner.poll():
+                kind, theta, steps = self._from_learner.recv()
+                self.ready = True
+                if kind == 'weights':
+                    self.model.set_params(theta)
+                    self.updates += 1
+                    self.steps = steps
+                    self._update_times.append(time.monotonic())
+                    got = True
+        except (EOFError, OSError):  # the learner has ended: keep the weights we have
+            pass
+        return got
+
+    def wait_ready(self, timeout: float) -> bool:
+        """Wait (at most ``timeout`` s) until the learner has started; return whether it
+        has (samples given before are not lost either way: they wait in the pipe)."""
+        deadline = time.monotonic() + timeout
+        while not self.ready and self.alive and time.monotonic() < deadline:
+            if self._from_learner.poll(0.05):
+                self.poll()
+        return self.ready
+
+    def rate(self) -> float:
+        """Updates per second over the last :data:`RATE_SPAN` s."""
+        times, now = self._update_times, time.monotonic()
+        while times and times[0] < now - RATE_SPAN:
+            times.popleft()
+        return len(times) / RATE_SPAN
+
+    def set_schedule(self, *, interval: int, steps: int) -> None:
+        """Change the least samples between updates and the steps per update, from now on."""
+        self._send(('schedule', int(interval), int(steps)))
+
+    @property
+    def alive(self) -> bool:
+        """Whether the learner process runs."""
+        return self._process.poll() is None
+
+    def _send(self, item: Any) -> None:
+        backlog = self._backlog
+        if item is not None:
+            backlog.append(item)
+        while backlog and self._writable():
+            try:
+                self._to_learner.send(backlog[0])
+            except (BrokenPipeError, OSError):  # the learner has ended
+                backlog.clear()
+                return
+            backlog.popleft()
+        while len(backlog) > BACKLOG:
+            dropped = backlog.popleft()
+            if isinstance(dropped, np.ndarray):
+                self.dropped += dropped.shape[0]
+
+    def _writable(self) -> bool:
+        return bool(select.select([], [self._to_learner], [], 0)[1])
+
+    # ------------------------------------------------------------------ stop
+    def close(self, timeout: float = STOP_TIMEOUT) -> None:
+        """Hand over the last samples, let the learner finish its step, take its last
+        weights and end it (at most ``timeout`` s, then it is terminated)."""
+        if self._closed:
+            return
+        self._closed = True
+        if self._n:
+            self._send(self._batch[:self._n].copy())
+            self._n = 0
+        deadline = time.monotonic() + timeout
+        while self._backlog and time.monotonic() < deadline and self.alive:
+            self._send(None)
+            time.sleep(0.001)
+        self._backlog.clear()
+        try:
+            self._to_learner.send(('stop',))
+        except (BrokenPipeError, OSError):
+            pass
+        while time.monotonic() < deadline and self.alive:
+            self.poll()
+            time.sleep(0.005)
+        self.poll()
+        if self._process.poll() is None:
+            self._process.terminate()
+        try:
+            self._process.wait(1.0)
+        except subprocess.TimeoutExpired:
+            self._process.kill()
+            self._process.wait()
+        self._to_learner.close()
+        self._from_learner.close()
+
+
+def _learner(inbox: Connection, outbox: Connection, model: FeedForwardNet,
+             settings: LearnerSettings) -> None:
+    """The learner process: keep the reservoir, step, send weights, until told to stop."""
+    from scara_ident_ros.blas_threads import single_blas_thread
+    from scara_ident_ros.identification.trainer import ReservoirLM
+
+    try:
+        os.nice(settings.nice)
+    except OSError:
+        pass
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the node stops it (close), not Ctrl-C
+    trainer = ReservoirLM(model, capacity=settings.capacity, interval=settings.interval,
+                          steps=settings.steps, seed=settings.seed, float64=settings.float64,
+                          slow_share=settings.slow_share)
+    n_in = model.n_inputs
+    lock = threading.Condition()
+    state = {'new': 0, 'stop': False}
+
+    def read() -> None:
+        try:
+            while True:
+                item = inbox.recv()
+                with lock:
+                    if isinstance(item, np.ndarray):
+                        for row in item:
+                            trainer.add(row[:n_in], row[n_in:])
+                        state['new'] += item.shape[0]
+                    elif item[0] == 'schedule':
+                        trainer.interval, trainer.steps_per_update = item[1], item[2]
+                    elif item[0] == 'stop':
+                        state['stop'] = True
+                    lock.notify()
+                if state['stop']:
+                    return
+        except (EOFError, OSError):  # the caller has gone
+            with lock:
+                state['stop'] = True
+                lock.notify()
+
+    reader = threading.Thread(target=read, name='lm-inbox', daemon=True)
+    reader.start()
+    outbox.send(('ready', None, 0))
+    with single_blas_thread():
+        while True:
+            with lock:
+                while not state['stop'] and state['new'] < trainer.interval:
+                    lock.wait(0.5)
+                # the stop takes one last update if samples came since the previous one
+                if state['stop'] and not state['new']:
+                    break
+                last, state['new'] = state['stop'], 0
+                X, Y = (array.copy() for array in trainer.samples())
+            if trainer.step_on(X, Y):
+                try:
+                    outbox.send(('weights', model.get_params(), trainer.steps))
+                except (BrokenPipeError, OSError):
+                    break
+            if last:
+                break
+    try:
+        outbox.send(('stopped', None, trainer.steps))
+    except (BrokenPipeError, OSError):
+        pass
+
+
+def main(argv: list[str] | None = None) -> None:
+    """The learner process, started by :class:`BackgroundLM` as ``python -c
+    LEARNER_COMMAND READ_FD WRITE_FD LABEL``."""
+    args = sys.argv[1:] if argv is None else argv
+    inbox = Connection(int(args[0]), writable=False)
+    outbox = Connection(int(args[1]), readable=False)
+    try:
+        model, settings = inbox.recv()
+    except (EOFError, OSError):
+        return
+    _learner(inbox, outbox, model, settings)
+

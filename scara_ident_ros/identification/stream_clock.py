@@ -1,0 +1,46 @@
+"""How late a prediction is, against the stream's own clock when that is not the wall clock.
+
+A live robot stamps its samples with the wall clock: a prediction's lag is then the wall
+time of its publication minus its sample's stamp. A replayed bag (``scara-ident play``)
+or simulated time stamps them with another clock, whose offset from the wall clock is
+arbitrary (the bag's recording day: lag figures of 1.8e12 ms). There, the lag is measured
+against the stream's own clock: the offset is the smallest ``arrival − stamp`` seen (the
+sample that came with the least delay is taken as on time), and a prediction's lag is
+``publication − stamp − offset``. A pause in the stream (a gap between recordings, a
+restarted clock) starts the offset anew.
+"""
+from __future__ import annotations
+
+__all__ = ['StreamClock', 'WALL_TOLERANCE_NS']
+
+#: Stamps within this of the wall clock (ns) are taken as wall-clock stamps: a minute
+#: covers clocks synchronised between machines and any realistic delay.
+WALL_TOLERANCE_NS = 60_000_000_000
+
+
+class StreamClock:
+    """The offset between the wall clock and the stream's stamps, for lags.
+
+    Attributes
+    ----------
+    wall : bool or None
+        Whether the stamps are wall-clock stamps; None before the first sample.
+    """
+
+    def __init__(self) -> None:
+        self.wall: bool | None = None
+        self._offset_ns: int | None = None
+
+    def arrived(self, stamp_ns: int, now_ns: int, *, restart: bool = False) -> None:
+        """Take a sample stamped ``stamp_ns`` that arrived at wall time ``now_ns`` (both
+        ns); ``restart``: it follows a pause or a restarted clock."""
+        delay = now_ns - stamp_ns
+        self.wall = abs(delay) < WALL_TOLERANCE_NS
+        if self.wall:
+            self._offset_ns = 0
+        elif restart or self._offset_ns is None or delay < self._offset_ns:
+            self._offset_ns = delay
+
+    def lag_ns(self, stamp_ns: int, now_ns: int) -> int:
+        """How late (ns) something about the sample stamped ``stamp_ns`` is at ``now_ns``."""
+        return now_ns - stamp_ns - (self._offset_ns or 0)

@@ -1,0 +1,142 @@
+"""The lm trainer beside the stream: a learner process that the message path never waits for."""
+from __future__ import annotations
+
+import os
+import signal
+import time
+from collections.abc import Iterator
+
+import numpy as np
+import pytest
+from numpy.typing import NDArray
+
+from scara_ident_ros.identification import make_trainer
+from scara_ident_ros.identification.background_lm import BACKLOG, BackgroundLM, LearnerSettings
+from scara_ident_ros.methods import make_network
+from scara_ident_ros.nn import FeedForwardNet
+
+N_JOINTS = 2
+WAIT = 30.0  # s: the longest a test waits for the learner (a loaded CI machine)
+
+
+def network(seed: int = 0) -> FeedForwardNet:
+    net = make_network('ffs', N_JOINTS, n_hidden=10, seed=seed)
+    net.set_scaling(-np.ones(3 * N_JOINTS), np.ones(3 * N_JOINTS),
+                    -2 * np.ones(N_JOINTS), 2 * np.ones(N_JOINTS))
+    return net
+
+
+def data(n: int, seed: int = 0) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """A smooth target the network can learn: y from x of shape (n, 6)."""
+    X = np.random.default_rng(seed).uniform(-1.0, 1.0, (n, 3 * N_JOINTS))
+    return X, np.stack([np.sin(2 * X[:, 0]) + X[:, 3], X[:, 1] * X[:, 2]], axis=1)
+
+
+@pytest.fixture
+def trainer() -> Iterator[BackgroundLM]:
+    made = BackgroundLM(network(), LearnerSettings(capacity=500, interval=50, steps=2))
+    assert made.wait_ready(WAIT)
+    yield made
+    made.close()
+
+
+def stream(trainer: BackgroundLM, X: NDArray[np.float64], Y: NDArray[np.float64]) -> None:
+    """Feed the samples as a stream does, a few at a time (the learner updates when at
+    least ``interval`` new samples have come, so a burst would give it one update)."""
+    for k, (x, y) in enumerate(zip(X, Y, strict=True)):
+        assert trainer.learn(x, y).shape == (N_JOINTS,)
+        if k % 20 == 19:
+            time.sleep(0.002)
+
+
+def wait_until(condition, trainer: BackgroundLM) -> bool:  # type: ignore[no-untyped-def]
+    deadline = time.monotonic() + WAIT
+    while time.monotonic() < deadline:
+        trainer.poll()
+        if condition():
+            return True
+        time.sleep(0.01)
+    return False
+
+
+def test_it_learns_in_the_background_and_hands_over_its_last_weights(
+        trainer: BackgroundLM) -> None:
+    X, Y = data(3000)
+    model = trainer.model
+    before = float(np.mean((model.predict(X) - Y) ** 2))
+    stream(trainer, X, Y)
+    assert wait_until(lambda: trainer.updates >= 5, trainer), trainer.updates
+    assert trainer.sent == len(X) and trainer.dropped == 0
+    trainer.close()
+    assert not trainer.alive
+    after = float(np.mean((model.predict(X) - Y) ** 2))
+    assert after < 0.2 * before, (before, after)
+    assert trainer.steps >= 2 * trainer.updates
+
+
+def test_the_message_path_never_waits_for_a_stopped_learner(trainer: BackgroundLM) -> None:
+    """With the learner frozen (SIGSTOP: as if the CPU were taken from it), every sample is
+    still predicted at once; what the pipe cannot take waits in the backlog, and beyond
+    that is dropped and counted, never waited for."""
+    X, Y = data(200)
+    for x, y in zip(X, Y, strict=True):
+        trainer.learn(x, y)
+    pid = trainer._process.pid
+    os.kill(pid, signal.SIGSTOP)
+    try:
+        rows = BACKLOG * trainer._batch.shape[0] + 50_000  # more than pipe and backlog hold
+        X2, Y2 = data(rows, seed=1)
+        start = time.monotonic()
+        for x, y in zip(X2, Y2, strict=True):
+            assert np.isfinite(trainer.learn(x, y)).all()
+        took = time.monotonic() - start
+        assert trainer.dropped > 0  # the backlog overflowed: samples were let go, not waited for
+        assert trainer.sent == 200 + rows
+    finally:
+        os.kill(pid, signal.SIGCONT)
+    assert took < rows * 1e-3  # faster than the samples' own 1 kHz, however loaded
+    assert wait_until(lambda: trainer.updates >= 1, trainer)
+
+
+def test_weights_are_swapped_whole(trainer: BackgroundLM) -> None:
+    """Under a stream of updates, each prediction is made with one complete set of weights
+    the learner sent (or the first): never a mix of two."""
+    model = trainer.model
+    sent: list[NDArray[np.float64]] = [model.get_params()]
+    set_params = model.set_params
+
+    def record(theta: NDArray[np.float64]) -> None:
+        sent.append(np.array(theta, copy=True))
+        set_params(theta)
+
+    model.set_params = record  # type: ignore[method-assign]
+    probe = network()
+    X, Y = data(6000, seed=2)
+    for k, (x, y) in enumerate(zip(X, Y, strict=True)):
+        if k % 20 == 19:
+            time.sleep(0.002)
+        weights = model.get_params()
+        assert np.array_equal(weights, sent[-1])  # the last complete set received
+        predicted = trainer.learn(x, y)
+        probe.set_params(weights)
+        assert np.array_equal(predicted, probe.predict(x))  # made with exactly those
+    assert wait_until(lambda: len(sent) > 3, trainer)
+
+
+def test_the_schedule_changes_while_it_runs(trainer: BackgroundLM) -> None:
+    trainer.set_schedule(interval=10**9, steps=1)  # no more updates: never enough samples
+    X, Y = data(1000, seed=3)
+    for x, y in zip(X, Y, strict=True):
+        trainer.learn(x, y)
+    time.sleep(1.0)
+    trainer.poll()
+    assert trainer.updates == 0
+
+
+def test_make_trainer_builds_it_for_the_node() -> None:
+    made = make_trainer('lm', network(), capacity=100, interval=10, background=True)
+    try:
+        assert isinstance(made, BackgroundLM) and made.alive
+    finally:
+        made.close()
+    assert not made.alive
