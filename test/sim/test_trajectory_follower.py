@@ -10,6 +10,8 @@ import pytest
 from scara_ident_ros.dynamics import ScaraParams
 from scara_ident_ros.excitation import ExcitationPlan, load_motion_limits, make_chunk
 from scara_ident_ros.sim import SimConfig, Simulator
+from scara_ident_ros.sim.example_robots import example_robot
+from scara_ident_ros.sim.pinocchio_robot import PinocchioRobot, default_acceleration_max
 from scara_ident_ros.sim.trajectory_follower import TrajectoryFollower
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -79,15 +81,29 @@ def test_a_command_that_ended_before_it_came_is_refused() -> None:
                                              now_ns=3 * S)
 
 
-def test_the_simulated_scara_tracks_the_excitation_chunks() -> None:
-    """``trajectory:=external`` in-process: chunks sent every 0.25 s as the node sends them;
-    the arm holds until the plan's origin, then tracks the plan to within 5 mrad / 5 mm
-    (the simulator's own sequence: about 2.5 mrad), and comes to rest after the last."""
-    params = ScaraParams.from_yaml(ROOT / 'config' / 'scara.yaml')
-    limits = load_motion_limits(urdf_file=str(ROOT / 'urdf' / 'scara.urdf'))
+def scara() -> tuple[ScaraParams, str, tuple[float, ...]]:
+    return (ScaraParams.from_yaml(ROOT / 'config' / 'scara.yaml'),
+            str(ROOT / 'urdf' / 'scara.urdf'), ())
+
+
+def ur5() -> tuple[PinocchioRobot, str, tuple[float, ...]]:
+    entry = example_robot('ur5')
+    robot = PinocchioRobot.from_urdf(entry.urdf, joints=entry.joints)
+    return robot, entry.urdf, default_acceleration_max(robot)
+
+
+@pytest.mark.parametrize('arm', [scara, ur5])
+def test_the_simulated_arm_tracks_the_excitation_chunks(arm: object) -> None:
+    """``trajectory:=external`` in-process, the SCARA and a UR5 (URDF, Pinocchio): chunks
+    sent every 0.25 s as the node sends them; the arm holds until the plan's origin, then
+    tracks the plan to within 5 mrad / 5 mm (the SCARA's own sequence: about 2.5 mrad), and
+    comes to rest after the last."""
+    params, urdf, acceleration_max = arm()  # type: ignore[operator]
+    limits = load_motion_limits(urdf_file=urdf, joint_names=params.joint_names,
+                                acceleration_max=acceleration_max)
     margined = limits.with_margins(0.1, 0.5, 0.5)
     follower = TrajectoryFollower(params.joint_names, params.position_centre)
-    simulator = Simulator(params, follower, SimConfig())
+    simulator = Simulator(params, follower, SimConfig(n_joints=len(params.joint_names)))
     plan = ExcitationPlan(margined, params.position_centre, seed=4)
     origin = 0.5                       # s of simulated time: plan time 0
     end = origin + plan.approach_duration + 6.0
@@ -105,7 +121,8 @@ def test_the_simulated_scara_tracks_the_excitation_chunks() -> None:
         stamps.append(sample.stamp_ns / S)
     q, t = np.array(q), np.array(stamps)
     held = t < origin
-    np.testing.assert_array_equal(q[held], np.tile(params.position_centre, (held.sum(), 1)))
+    np.testing.assert_allclose(q[held], np.tile(params.position_centre, (held.sum(), 1)),
+                               rtol=0, atol=1e-9)
     moving = (t >= origin) & (t <= chunk.stop_time + origin)
     planned = plan.evaluate(t[moving] - origin)[0]
     error = np.abs(q[moving] - planned).max(axis=0)
