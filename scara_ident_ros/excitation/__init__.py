@@ -8,11 +8,11 @@ the ``excitation`` node and ``scara-ident excitation --dry-run`` share this core
 from __future__ import annotations
 
 from scara_ident_ros.excitation.chunks import Chunk, make_chunk
-from scara_ident_ros.excitation.joint_sequence import JointFourier, JointSequence
+from scara_ident_ros.excitation.joint_sequence import JointSequence
 from scara_ident_ros.excitation.motion_limits import (MotionLimits, MotionLimitsError,
                                                       load_motion_limits)
 from scara_ident_ros.excitation.plan import ExcitationPlan
 from scara_ident_ros.excitation.stopping import Stop, plan_stop
 
-__all__ = ['Chunk', 'ExcitationPlan', 'JointFourier', 'JointSequence', 'MotionLimits',
+__all__ = ['Chunk', 'ExcitationPlan', 'JointSequence', 'MotionLimits',
            'MotionLimitsError', 'Stop', 'load_motion_limits', 'make_chunk', 'plan_stop']

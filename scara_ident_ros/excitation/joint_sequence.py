@@ -1,19 +1,18 @@
-"""The simulator's ``sequence`` excitation for any joints: the same seeds and blends.
+"""The simulator's ``sequence`` excitation on a real arm's limits: the same seeds and blends.
 
 :class:`~scara_ident_ros.sim.sequence.SequenceTrajectory` builds the persistent excitation
-of the simulated SCARA: a new random Fourier excitation F_k every period T, drawn from
+of a simulated robot: a new random Fourier excitation F_k every period T, drawn from
 (seed, k, attempt) and scaled to fractions of the limits, consecutive ones joined by the
 quintic smoothstep s(τ) = 10τ³ − 15τ⁴ + 6τ⁵, a blend redrawn if it would leave the limits.
-It needs a :class:`~scara_ident_ros.dynamics.ScaraParams` (four joints, and a model whose
-efforts it also bounds). A real arm is described by its URDF: n joints, position, velocity
-and acceleration limits, no model. :class:`JointSequence` is the same construction on
-:class:`~scara_ident_ros.excitation.motion_limits.MotionLimits`, without the effort bound: on
-the SCARA's limits, with efforts that never bind, it gives the simulator's sequence to
-rounding (``test/excitation/test_joint_sequence.py`` checks it).
+It also bounds the efforts, through the robot's dynamics model (the SCARA's, or Pinocchio's
+from a URDF with trusted inertias). On a real arm the excitation trusts only the URDF's
+limits: :class:`JointSequence` is the same construction on
+:class:`~scara_ident_ros.excitation.motion_limits.MotionLimits`, without the effort bound.
+With efforts that never bind, it gives the simulator's sequence to rounding
+(``test/excitation/test_joint_sequence.py`` checks it on the SCARA).
 """
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 from typing import Any
 
@@ -22,8 +21,9 @@ from numpy.typing import NDArray
 
 from scara_ident_ros.excitation.motion_limits import MotionLimits
 from scara_ident_ros.sim.sequence import SEQUENCE_EXCITATION, SEQUENCE_LIMITS
+from scara_ident_ros.sim.trajectory import FourierTrajectory
 
-__all__ = ['JointFourier', 'JointSequence', 'smoothstep']
+__all__ = ['JointSequence', 'smoothstep']
 
 _GRID_PER_HARMONIC = 200       # check points per period of the highest harmonic
 Motion = tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]
@@ -40,44 +40,6 @@ def smoothstep(tau: NDArray[np.float64], duration: float) -> Motion:
     ds = 30.0 * (tau * rest) ** 2 / duration
     dds = 60.0 * tau * rest * (1.0 - 2.0 * tau) / duration ** 2
     return s, ds, dds
-
-
-class JointFourier:
-    """A finite Fourier series per joint (Swevers et al.), n joints, analytic q, q', q''.
-
-    Parameters
-    ----------
-    q0 : ndarray of shape (n,)
-        Mean position over a period (rad or m).
-    a, b : ndarray of shape (n, L)
-        Sine and cosine coefficients of the velocity (rad/s or m/s).
-    base_frequency_hz : float
-        Fundamental frequency f (Hz); the period is 1/f.
-    """
-
-    def __init__(self, q0: NDArray[np.float64], a: NDArray[np.float64],
-                 b: NDArray[np.float64], base_frequency_hz: float) -> None:
-        self.q0, self.a, self.b = q0, a, b
-        self.period = 1.0 / base_frequency_hz                                    # s
-        omega = 2.0 * math.pi * base_frequency_hz * np.arange(1, a.shape[1] + 1)  # rad/s
-        self._omega = omega
-        self._pos_sin, self._pos_cos = (a / omega).T, (-b / omega).T
-        self._acc_sin, self._acc_cos = (-a * omega).T, (b * omega).T
-
-    def evaluate(self, t: NDArray[np.float64]) -> Motion:
-        """q, q', q'' at times t (N,) (s, any sign: the series is periodic), each (N, n)."""
-        angle = np.multiply.outer(t, self._omega)
-        sin, cos = np.sin(angle), np.cos(angle)
-        return (self.q0 + sin @ self._pos_sin + cos @ self._pos_cos,
-                cos @ self.a.T + sin @ self.b.T,
-                sin @ self._acc_sin + cos @ self._acc_cos)
-
-    def peaks(self) -> Motion:
-        """Largest |q − q0|, |q'|, |q''| per joint over a dense grid of one period, (n,)."""
-        n = _GRID_PER_HARMONIC * self.a.shape[1]
-        q, qd, qdd = self.evaluate(np.arange(n) * (self.period / n))
-        return (np.abs(q - self.q0).max(axis=0), np.abs(qd).max(axis=0),
-                np.abs(qdd).max(axis=0))
 
 
 class JointSequence:
@@ -123,9 +85,9 @@ class JointSequence:
         self._low, self._high = limits.position_min + clear, limits.position_max - clear
         self._velocity_max = fractions['velocity_fraction'] * limits.velocity_max
         self._acceleration_max = fractions['acceleration_fraction'] * limits.acceleration_max
-        self._chain: list[JointFourier] = [self._draw(0, 0)]
+        self._chain: list[FourierTrajectory] = [self._draw(0, 0)]
 
-    def excitation(self, k: int) -> JointFourier:
+    def excitation(self, k: int) -> FourierTrajectory:
         """Excitation F_k, the motion at the start kT of segment k (built if need be)."""
         while len(self._chain) <= k:
             j = len(self._chain)
@@ -153,7 +115,7 @@ class JointSequence:
                 self.excitation(k), self.excitation(k + 1), t[rows] - k * self.period)
         return q, qd, qdd
 
-    def _blend(self, first: JointFourier, second: JointFourier,
+    def _blend(self, first: FourierTrajectory, second: FourierTrajectory,
                u: NDArray[np.float64]) -> Motion:
         """The blend from ``first`` to ``second`` at local times u (N,) in [0, T]."""
         q_a, qd_a, qdd_a = first.evaluate(u)
@@ -163,7 +125,7 @@ class JointSequence:
         return (q_a + s * dq, qd_a + s * dqd + ds * dq,
                 qdd_a + s * (qdd_b - qdd_a) + 2.0 * ds * dqd + dds * dq)
 
-    def _draw(self, k: int, attempt: int) -> JointFourier:
+    def _draw(self, k: int, attempt: int) -> FourierTrajectory:
         """Candidate ``attempt`` of excitation k, seeded from (seed, k, attempt) only, scaled
         per joint to the fractions of the half-range, velocity and acceleration limits."""
         seed = int(np.random.SeedSequence((self.seed, k, attempt)).generate_state(1)[0])
@@ -172,16 +134,17 @@ class JointSequence:
         a = rng.standard_normal((n, self.n_harmonics))
         b = rng.standard_normal((n, self.n_harmonics))
         centre = self.limits.centre
-        excursion, speed, accel = JointFourier(centre, a, b, self.base_frequency_hz).peaks()
+        unit = FourierTrajectory(centre, a, b, self.base_frequency_hz)
+        excursion, speed, accel = unit.peaks()
         half = 0.5 * (self.limits.position_max - self.limits.position_min)
         position, velocity, acceleration = self._draw_fractions
         scale = np.minimum.reduce([position * half / excursion,
                                    velocity * self.limits.velocity_max / speed,
                                    acceleration * self.limits.acceleration_max / accel])
-        return JointFourier(centre, a * scale[:, None], b * scale[:, None],
+        return FourierTrajectory(centre, a * scale[:, None], b * scale[:, None],
                             self.base_frequency_hz)
 
-    def _within_limits(self, first: JointFourier, second: JointFourier) -> bool:
+    def _within_limits(self, first: FourierTrajectory, second: FourierTrajectory) -> bool:
         """Whether the blend of two excitations keeps to the fractions on a dense grid."""
         u = np.linspace(0.0, self.period, _GRID_PER_HARMONIC * self.n_harmonics + 1)
         q, qd, qdd = self._blend(first, second, u)
