@@ -255,3 +255,36 @@ def test_help_lists_every_parameter_and_starts_nothing(tmp_path: Path) -> None:
     assert out.returncode == 0 and out.stderr == ''
     for spec in PARAMETERS:
         assert f'  {spec.name} = {spec.default!r}' in out.stdout
+
+
+def test_robot_sim_follows_a_command_as_a_controller(listener: Listener) -> None:
+    """robot_sim (a UR5 on Pinocchio) with trajectory:=external holds mid-range, then
+    follows a JointTrajectory on the controller's topic to its last point, at rest."""
+    from builtin_interfaces.msg import Duration
+    from trajectory_msgs.msg import JointTrajectoryPoint
+
+    from scara_ident_ros.sim.example_robots import example_robot
+    from scara_ident_ros.sim.pinocchio_robot import PinocchioRobot
+
+    entry = example_robot('ur5')
+    robot = PinocchioRobot.from_urdf(entry.urdf, joints=entry.joints)
+    names, centre = list(robot.joint_names), robot.position_centre
+    states: list[JointState] = listener.subscribe(JointState, '/joint_states')
+    publisher = listener.node.create_publisher(JointTrajectory, TOPIC, 10)
+    goal = centre + 0.2
+    with NodeProcess('scara_ident_ros.nodes.robot_sim',
+                     ['-p', 'robot:=ur5', '-p', 'trajectory:=external']) as sim:
+        assert listener.spin_until(lambda: len(states) > 200, TIMEOUT), sim.stderr_so_far()
+        np.testing.assert_allclose(states[-1].position, centre, atol=1e-6)
+        assert listener.spin_until(lambda: publisher.get_subscription_count() > 0, TIMEOUT)
+        command = JointTrajectory(joint_names=names[::-1])  # matched by name
+        command.points = [JointTrajectoryPoint(
+            positions=goal[::-1].tolist(), velocities=[0.0] * len(names),
+            accelerations=[0.0] * len(names), time_from_start=Duration(sec=1))]
+        publisher.publish(command)
+        sent = len(states)
+        assert listener.spin_until(lambda: len(states) > sent + 2500, TIMEOUT)
+        sim.stop()
+    assert 'refused' not in sim.stderr_so_far()
+    np.testing.assert_allclose(states[-1].position, goal, atol=1e-3)
+    assert np.abs(states[-1].velocity).max() < 1e-3
