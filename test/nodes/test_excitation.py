@@ -245,18 +245,6 @@ def test_the_loop_excitation_scara_sim_joint_states(listener: Listener,
     assert rest.sum() > 10 and np.abs(qd[rest]).max() < 1e-3
 
 
-def test_help_lists_every_parameter_and_starts_nothing(tmp_path: Path) -> None:
-    import subprocess
-
-    from scara_ident_ros.nodes.excitation import PARAMETERS
-
-    out = subprocess.run([sys.executable, '-m', MODULE, '--help'], cwd=tmp_path, text=True,
-                         capture_output=True, timeout=60, check=False)
-    assert out.returncode == 0 and out.stderr == ''
-    for spec in PARAMETERS:
-        assert f'  {spec.name} = {spec.default!r}' in out.stdout
-
-
 def test_robot_sim_follows_a_command_as_a_controller(listener: Listener) -> None:
     """robot_sim (a UR5 on Pinocchio) with trajectory:=external holds mid-range, then
     follows a JointTrajectory on the controller's topic to its last point, at rest."""
