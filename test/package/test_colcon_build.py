@@ -77,6 +77,7 @@ def test_node_starts_from_the_install_and_stops_on_sigint(
     ros_args = {
         'recorder': ['-p', f'output:={tmp_path / "bag"}'],
         'player': ['-p', f'bag:={REPO / "bags" / "demo_run"}', '-p', 'loop:=true'],
+        'robot_sim': ['-p', 'robot:=ur5'],
         # waits for /joint_states and a controller, which never come here
         'excitation': ['-p', f'urdf_file:={REPO / "urdf" / "scara.urdf"}',
                        '-p', 'wait_timeout:=60.0'],
