@@ -33,6 +33,7 @@ setup(
             'identifier = scara_ident_ros.nodes.identifier:main',
             'recorder = scara_ident_ros.nodes.recorder:main',
             'player = scara_ident_ros.nodes.player:main',
+            'excitation = scara_ident_ros.nodes.excitation:main',
             'scara-ident = scara_ident_ros.cli:main',
         ],
     },

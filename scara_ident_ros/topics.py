@@ -7,8 +7,8 @@ relative to their namespace: ``scara-ident run`` and the launch file start ident
 """
 from __future__ import annotations
 
-__all__ = ['CLOCK', 'DIAGNOSTICS', 'IDENTIFIER_OUTPUTS', 'JOINT_STATES', 'MSE', 'TORQUE',
-           'in_namespace', 'mse_topic', 'torque_topic']
+__all__ = ['CLOCK', 'DIAGNOSTICS', 'IDENTIFIER_OUTPUTS', 'JOINT_STATES', 'JOINT_TRAJECTORY',
+           'MSE', 'TORQUE', 'in_namespace', 'mse_topic', 'torque_topic']
 
 JOINT_STATES = 'joint_states'  # sensor_msgs/JointState: q, q', effort of the robot
 TORQUE = 'identified_torque'  # sensor_msgs/JointState: an identifier's a-priori predictions
@@ -16,6 +16,9 @@ MSE = 'identification_mse'  # std_msgs/Float64MultiArray: its errors (mse_layout
 IDENTIFIER_OUTPUTS = (TORQUE, MSE)
 DIAGNOSTICS = '/diagnostics'
 CLOCK = '/clock'
+#: trajectory_msgs/JointTrajectory: commands of ros2_control's joint_trajectory_controller
+#: (the controller's default name), sent by ``excitation``, followed by ``scara_sim``
+JOINT_TRAJECTORY = '/joint_trajectory_controller/joint_trajectory'
 
 
 def in_namespace(name: str, namespace: str = '') -> str:

@@ -25,6 +25,7 @@ SUBCOMMANDS: dict[str, str] = {
     'tables': 'tables',
     'recover': 'recover',
     'export': 'export',
+    'excitation': 'excitation',
 }
 
 

@@ -23,9 +23,9 @@ from scara_ident_ros.dynamics import ParamError
 from scara_ident_ros.dynamics.urdf_limits import UrdfError
 from scara_ident_ros.nodes.parameters import ParamSpec
 from scara_ident_ros.nodes.runtime import ConfigError, run_node
-from scara_ident_ros.nodes.sim_node import (SIM_PARAMETERS, SimulatorNode, fixed_at_start,
-                                            sim_config)
-from scara_ident_ros.sim import Simulator, make_trajectory
+from scara_ident_ros.nodes.sim_node import (SIM_PARAMETERS, SimulatorNode, desired_motion,
+                                            fixed_at_start, sim_config)
+from scara_ident_ros.sim import Simulator
 from scara_ident_ros.sim.example_robots import (EXAMPLE_ROBOTS, ExampleRobotError,
                                                 example_robot)
 from scara_ident_ros.sim.joint_friction import JointFriction
@@ -146,7 +146,7 @@ class RobotSimNode(SimulatorNode):
                 f'{robot.max_stable_step():.3g} s): raise substeps or rate_hz, or widen '
                 'stick_velocity')
         try:
-            trajectory = make_trajectory(s['trajectory'], robot, seed=s['seed'])
+            trajectory = desired_motion(s, robot, robot.joint_names)
             simulator = Simulator(robot, trajectory, config)
         except ParamError as exc:
             raise ConfigError(str(exc)) from None

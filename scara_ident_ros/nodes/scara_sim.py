@@ -19,9 +19,10 @@ from scara_ident_ros.dynamics import ParamError, ScaraParams
 from scara_ident_ros.nodes.parameters import ParamSpec
 from scara_ident_ros.nodes.runtime import ConfigError, run_node
 from scara_ident_ros.nodes.sim_node import (HISTORY, SIM_PARAMETERS, SimulatorNode,
-                                            fixed_at_start, history_depth, sim_config)
+                                            desired_motion, fixed_at_start, history_depth,
+                                            sim_config)
 from scara_ident_ros.resources import config_path
-from scara_ident_ros.sim import Simulator, make_trajectory
+from scara_ident_ros.sim import Simulator
 
 __all__ = ['ScaraSimNode', 'main', 'history_depth', 'HISTORY']
 
@@ -50,7 +51,7 @@ class ScaraSimNode(SimulatorNode):
             if len(names) != 4 or len(set(names)) != 4:
                 raise ConfigError(f"parameter 'joint_names' must be 4 distinct names, "
                                   f'got {list(names)}')
-            trajectory = make_trajectory(s['trajectory'], params, seed=s['seed'])
+            trajectory = desired_motion(s, params, names)
             simulator = Simulator(params, trajectory, sim_config(s, 4))
         except (ParamError, OSError) as exc:
             raise ConfigError(str(exc)) from None

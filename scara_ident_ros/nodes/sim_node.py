@@ -9,6 +9,12 @@ and converts each sample to a ``sensor_msgs/JointState``: ``position`` (rad, m),
 the node's name) its rate and its late samples
 (:func:`~scara_ident_ros.identification.health.simulator_health`). The parameters every
 simulator node has are :data:`SIM_PARAMETERS`.
+
+With ``trajectory:=external`` the robot is an arm under a trajectory controller: it follows
+the ``trajectory_msgs/JointTrajectory`` commands on
+``/joint_trajectory_controller/joint_trajectory`` (remappable) as ``joint_trajectory_controller``
+would (:class:`~scara_ident_ros.sim.trajectory_follower.TrajectoryFollower`), with the same
+computed torque + PD, holding the middle of each joint's range until the first command.
 """
 from __future__ import annotations
 
@@ -26,6 +32,7 @@ from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
+from trajectory_msgs.msg import JointTrajectory
 
 from scara_ident_ros.identification.health import Deltas, Health, simulator_health
 from scara_ident_ros.nodes.diagnostics import Diagnostics
@@ -33,11 +40,13 @@ from scara_ident_ros.nodes.messages import NS_PER_S, joint_state, ns_to_stamp
 from scara_ident_ros.nodes.parameters import ParamSpec, declare_parameters
 from scara_ident_ros.nodes.runtime import POLL_PERIOD
 from scara_ident_ros.pacer import DeadlinePacer
-from scara_ident_ros.sim import SEQUENCE, TRAJECTORIES, SimConfig, Simulator
-from scara_ident_ros.topics import CLOCK, JOINT_STATES
+from scara_ident_ros.sim import (SEQUENCE, TRAJECTORIES, FourierTrajectory, SequenceTrajectory,
+                                 SimConfig, Simulator, make_trajectory)
+from scara_ident_ros.sim.trajectory_follower import TrajectoryFollower
+from scara_ident_ros.topics import CLOCK, JOINT_STATES, JOINT_TRAJECTORY
 
-__all__ = ['SimulatorNode', 'SIM_PARAMETERS', 'HISTORY', 'history_depth', 'fixed_at_start',
-           'sim_config']
+__all__ = ['SimulatorNode', 'SIM_PARAMETERS', 'HISTORY', 'EXTERNAL', 'history_depth',
+           'fixed_at_start', 'sim_config', 'desired_motion']
 
 #: s of samples the publisher keeps for reliable subscribers (history depth = rate_hz x this):
 #: a subscriber cut off for up to 5 s (a network partition, a stalled process) gets every
@@ -49,6 +58,7 @@ HISTORY = 10.0
 STATS_PERIOD = 10.0  # seconds between statistics log lines
 SPIN_PERIOD = 0.01  # seconds between two executor.spin_once calls while publishing
 ACK_TIMEOUT = 5.0  # seconds the last samples may take to be acknowledged at shutdown
+EXTERNAL = 'external'  # trajectory: follow JointTrajectory commands, as a controller would
 
 #: The parameters of every simulator node, after its robot's own.
 SIM_PARAMETERS: tuple[ParamSpec, ...] = (
@@ -64,7 +74,9 @@ SIM_PARAMETERS: tuple[ParamSpec, ...] = (
               's', min=0.0),
     ParamSpec('trajectory', SEQUENCE, 'Excitation: a preset finite Fourier series (gentle, '
               'standard, aggressive) repeated, or sequence, a new random standard-like one '
-              'every 5 s joined smoothly', choices=TRAJECTORIES),
+              'every 5 s joined smoothly; external: follow the JointTrajectory commands on '
+              f'{JOINT_TRAJECTORY} as a trajectory controller',
+              choices=(*TRAJECTORIES, EXTERNAL)),
     ParamSpec('seed', 0, 'Seed of the excitation and of the measurement noise', min=0),
     ParamSpec('substeps', 4, 'RK4 integration steps per sample', min=1, max=100),
     ParamSpec('position_noise', 0.0, 'Std of measurement noise on q (rad or m)', min=0.0),
@@ -110,6 +122,16 @@ def sim_config(settings: dict[str, Any], n_joints: int) -> SimConfig:
         n_joints=n_joints)
 
 
+def desired_motion(settings: dict[str, Any], robot: Any, names: tuple[str, ...]
+                   ) -> FourierTrajectory | SequenceTrajectory | TrajectoryFollower:
+    """The ``trajectory`` of the settings for ``robot`` (ScaraParams or PinocchioRobot):
+    an excitation, or with ``external`` a follower of the commands to joints ``names`` (the
+    names on the wire), holding the middle of each range until the first."""
+    if settings['trajectory'] == EXTERNAL:
+        return TrajectoryFollower(names, robot.position_centre)
+    return make_trajectory(settings['trajectory'], robot, seed=settings['seed'])
+
+
 class SimulatorNode(Node):
     """Publish a simulator's joint states against absolute deadlines.
 
@@ -141,6 +163,11 @@ class SimulatorNode(Node):
         self.publisher = self.create_publisher(JointState, JOINT_STATES, qos)
         self.clock_publisher = (self.create_publisher(Clock, CLOCK, 10)
                                 if s['publish_clock'] else None)
+        desired = self.simulator.trajectory
+        self.follower = desired if isinstance(desired, TrajectoryFollower) else None
+        if self.follower is not None:
+            self.create_subscription(JointTrajectory, JOINT_TRAJECTORY, self.on_command,
+                                     QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE))
         self.msg = joint_state(0, names, frame_id=s['frame_id'])
         self.published = 0
         self.pacer = DeadlinePacer(self.period_ns, real_time_factor=s['real_time_factor'])
@@ -155,6 +182,24 @@ class SimulatorNode(Node):
     def build(self, settings: dict[str, Any]) -> tuple[Simulator, tuple[str, ...], str]:
         """The simulator, the joint names on the wire and what is simulated (for the log)."""
         raise NotImplementedError
+
+    def on_command(self, msg: JointTrajectory) -> None:
+        """Give a trajectory command to the follower, in simulated time (trajectory external)."""
+        assert self.follower is not None
+        if self.waiting:
+            self.get_logger().warning('trajectory command before the first sample: ignored')
+            return
+        stamp_ns = msg.header.stamp.sec * NS_PER_S + msg.header.stamp.nanosec
+        points = msg.points
+        reason = self.follower.command(
+            list(msg.joint_names), stamp_ns - self.origin_ns if stamp_ns else None,
+            [p.time_from_start.sec * NS_PER_S + p.time_from_start.nanosec for p in points],
+            [p.positions for p in points],
+            [p.velocities for p in points] if all(len(p.velocities) for p in points) else None,
+            ([p.accelerations for p in points] if all(len(p.accelerations) for p in points)
+             else None), self.simulator.stamp_ns)
+        if reason is not None:
+            self.get_logger().warning(f'trajectory command refused: {reason}')
 
     def publish_next(self) -> None:
         """Advance the simulator one sample and publish it."""

@@ -42,6 +42,7 @@ from scara_ident_ros.sim.jitter import MAX_JITTER_FRACTION, StampJitter
 from scara_ident_ros.sim.plant import ArrayPlant, Plant, ScaraPlant
 from scara_ident_ros.sim.sequence import SequenceTrajectory
 from scara_ident_ros.sim.trajectory import FourierTrajectory
+from scara_ident_ros.sim.trajectory_follower import TrajectoryFollower
 
 if TYPE_CHECKING:
     from scara_ident_ros.sim.pinocchio_robot import PinocchioRobot
@@ -215,8 +216,10 @@ class Simulator:
     ----------
     params : ScaraParams or PinocchioRobot
         The true robot: the SCARA's parameters, or a URDF robot with its friction.
-    trajectory : FourierTrajectory or SequenceTrajectory
-        Desired motion, built for the same robot; the state starts on it at t = 0.
+    trajectory : FourierTrajectory, SequenceTrajectory or TrajectoryFollower
+        Desired motion, built for the same robot; the state starts on it at t = 0. A
+        follower of external commands changes while the simulation runs: it is evaluated
+        one sample at a time.
     config : SimConfig, optional
         Simulation settings, ``n_joints`` that of the robot; default ``SimConfig()`` with
         the robot's number of joints.
@@ -237,7 +240,7 @@ class Simulator:
     """
 
     def __init__(self, params: ScaraParams | PinocchioRobot,
-                 trajectory: FourierTrajectory | SequenceTrajectory,
+                 trajectory: FourierTrajectory | SequenceTrajectory | TrajectoryFollower,
                  config: SimConfig | None = None) -> None:
         self.params = params
         self.trajectory = trajectory
@@ -401,7 +404,8 @@ class Simulator:
         index = k - self._chunk_start
         if not 0 <= index < len(self._desired):
             self._chunk_start = k
-            times = self._jitter.stamps_ns(k, _CHUNK) * 1e-9
+            batch = getattr(self.trajectory, 'batch_samples', _CHUNK)
+            times = self._jitter.stamps_ns(k, batch) * 1e-9
             q, qd, qdd = self.trajectory.evaluate(times)
             native = self.plant.native
             self._desired = list(zip(native(q), native(qd), native(qdd)))

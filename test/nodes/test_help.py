@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-NODES = ('identifier', 'scara_sim', 'robot_sim', 'recorder', 'player')
+NODES = ('identifier', 'scara_sim', 'robot_sim', 'recorder', 'player', 'excitation')
 
 
 @pytest.mark.parametrize('node', NODES)

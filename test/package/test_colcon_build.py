@@ -18,7 +18,7 @@ import pytest
 
 REPO = Path(__file__).resolve().parents[2]
 PACKAGE = 'scara_ident_ros'
-NODES = ('scara_sim', 'robot_sim', 'identifier', 'recorder', 'player')
+NODES = ('scara_sim', 'robot_sim', 'identifier', 'recorder', 'player', 'excitation')
 EXECUTABLES = (*NODES, 'scara-ident')
 COPY_IGNORE = shutil.ignore_patterns('.venv', '.git', 'build', 'install', 'log', 'out',
                                      '__pycache__', '*.egg-info', '.pytest_cache')
@@ -77,6 +77,10 @@ def test_node_starts_from_the_install_and_stops_on_sigint(
     ros_args = {
         'recorder': ['-p', f'output:={tmp_path / "bag"}'],
         'player': ['-p', f'bag:={REPO / "bags" / "demo_run"}', '-p', 'loop:=true'],
+        'robot_sim': ['-p', 'robot:=ur5'],
+        # waits for /joint_states and a controller, which never come here
+        'excitation': ['-p', f'urdf_file:={REPO / "urdf" / "scara.urdf"}',
+                       '-p', 'wait_timeout:=60.0'],
     }.get(name, [])
     proc = subprocess.Popen([str(exe), '--ros-args', *ros_args], env=sourced_env(install),
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)

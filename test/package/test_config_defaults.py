@@ -9,7 +9,7 @@ import yaml
 
 from scara_ident_ros.resources import config_path
 
-NODES = ('identifier', 'scara_sim', 'robot_sim', 'recorder', 'player')
+NODES = ('identifier', 'scara_sim', 'robot_sim', 'recorder', 'player', 'excitation')
 
 
 @pytest.mark.parametrize('node', NODES)

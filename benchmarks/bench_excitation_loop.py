@@ -1,0 +1,296 @@
+"""The excitation loop on this machine: excitation -> scara_sim (as the controller) ->
+/joint_states, and what a real arm would be sent.
+
+a. **Plan check** (no ROS). The chunks the ``excitation`` node sends over ``--seconds``
+   (every 0.25 s, 1 s ahead, then each chunk's stop), every point checked against the
+   SCARA's URDF limits with the node's margins: peak |q'| and |q''| as fractions of the
+   robot's limits, closest approach to the position limits (fraction of the range); and
+   stops begun every 0.1 s of the plan: peak |q''| of the stop against the limit.
+b. **Loop**. ``scara_sim trajectory:=external`` and ``excitation`` (until stopped) run as
+   processes; this script records ``/joint_states`` and the commands; after ``--seconds`` of
+   excitation it calls ``/excitation/stop``. Tracking error = measured q − the plan at the
+   same stamp, over the motion before the stop (max and RMS per joint). The stop: peak
+   |q''| of the last command after its stop began, and of the measured motion (q' of the
+   joint states differentiated), against the acceleration limits.
+c. ``--identify``: the issue's target. An identifier (its defaults: FFS, ``lm``) learns for
+   ``--seconds`` in two graphs, the loop above and ``scara_sim``'s own ``sequence``; both
+   saved models are then scored frozen on the held-out motions of
+   ``bench_learning_curves.py`` (5 ``standard`` excitations and 30 s of another ``sequence``,
+   never streamed): the loop should reach the held-out NMSE of the simulator's sequence.
+   Two minutes of graph each (``--seconds 120``): run it on a quiet machine.
+
+    .venv/bin/python benchmarks/bench_excitation_loop.py [--seconds 10] [--identify]
+        [--velocity-scale 0.5] [--acceleration-scale 0.5]
+
+DDS stays on this machine (``ros_env``). Prints Markdown tables.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ros_env import ros_env  # benchmarks/: the script's own folder
+
+ROOT = Path(__file__).resolve().parents[1]
+URDF = ROOT / 'urdf' / 'scara.urdf'
+CHUNK_PERIOD = 0.25  # s, the node's default
+HORIZON = 1.0  # s, the node's default
+STEP = 0.01  # s, the node's point period
+START_TIMEOUT = 60.0  # s, the machine is shared
+S = 1_000_000_000  # ns
+
+
+def plan_check(seconds: float, velocity_scale: float, acceleration_scale: float) -> None:
+    """Part a: every point of every chunk, and stops every 0.1 s."""
+    from scara_ident_ros.excitation import (ExcitationPlan, load_motion_limits, make_chunk,
+                                            plan_stop)
+
+    limits = load_motion_limits(urdf_file=str(URDF))
+    margined = limits.with_margins(0.1, velocity_scale, acceleration_scale)
+    start = np.array([0.5, -0.5, 0.05, 2.0])
+    plan = ExcitationPlan(margined, start, seed=0)
+    end = plan.approach_duration + seconds
+    chunks = [make_chunk(plan, t - STEP, min(t + HORIZON, end), STEP, margined)
+              for t in np.arange(0.0, end, CHUNK_PERIOD)]
+    q = np.vstack([c.q for c in chunks])
+    qd = np.vstack([c.qd for c in chunks])
+    qdd = np.vstack([c.qdd for c in chunks])
+    broken = margined.violations(q, qd, qdd, position_hull=start)
+    span = limits.position_max - limits.position_min
+    clearance = np.minimum(q - limits.position_min, limits.position_max - q).min(axis=0) / span
+    stops = [plan_stop(plan, t, margined, STEP) for t in np.arange(0.0, end, 0.1)]
+    stop_peak = np.zeros(limits.n_joints)
+    for stop in stops:
+        _, _, a = stop.evaluate(np.linspace(stop.start, stop.end, 201))
+        stop_peak = np.maximum(stop_peak, np.abs(a).max(axis=0))
+    durations = [stop.duration for stop in stops]
+    print(f'### a. Plan check: {len(chunks)} chunks, {len(q)} points, approach '
+          f'{plan.approach_duration:g} s + {seconds:g} s (margins 0.1, scales '
+          f'{velocity_scale:g}/{acceleration_scale:g})\n')
+    print('| joint | peak \\|q\'\\| / limit | peak \\|q\'\'\\| / limit | closest to a position '
+          'limit (of range) | stop peak \\|q\'\'\\| / limit |')
+    print('|---|---:|---:|---:|---:|')
+    for j, name in enumerate(limits.names):
+        print(f'| {name} | {np.abs(qd[:, j]).max() / limits.velocity_max[j]:.3f} | '
+              f'{np.abs(qdd[:, j]).max() / limits.acceleration_max[j]:.3f} | '
+              f'{clearance[j]:.3f} | {stop_peak[j] / limits.acceleration_max[j]:.3f} |')
+    print(f'\nviolations of the limits with margins: {len(broken)} '
+          f'({"; ".join(broken) if broken else "none"}); {len(stops)} stops of '
+          f'{min(durations):g}-{max(durations):g} s.\n')
+
+
+class Graph:
+    """Processes of one run, and a recorder of /joint_states and of the commands."""
+
+    def __init__(self, env: dict[str, str], logs: Path) -> None:
+        import rclpy
+        from rclpy.context import Context
+        from rclpy.experimental import EventsExecutor
+        from rclpy.qos import QoSProfile, ReliabilityPolicy
+        from sensor_msgs.msg import JointState
+        from trajectory_msgs.msg import JointTrajectory
+
+        os.environ.update({k: env[k] for k in ('ROS_DOMAIN_ID',
+                                               'ROS_AUTOMATIC_DISCOVERY_RANGE')})
+        self.env, self.logs = env, logs
+        self.context = Context()
+        rclpy.init(context=self.context)
+        self.node = rclpy.create_node('bench_excitation_loop', context=self.context)
+        self.executor = EventsExecutor(context=self.context)
+        self.executor.add_node(self.node)
+        self.states: list[tuple[int, list[float], list[float]]] = []
+        self.commands: list[Any] = []
+        self.node.create_subscription(
+            JointState, '/joint_states',
+            lambda m: self.states.append((m.header.stamp.sec * S + m.header.stamp.nanosec,
+                                          list(m.position), list(m.velocity))),
+            QoSProfile(depth=5000, reliability=ReliabilityPolicy.RELIABLE))
+        self.node.create_subscription(JointTrajectory,
+                                      '/joint_trajectory_controller/joint_trajectory',
+                                      self.commands.append, 10)
+        self.torques = 0  # identified_torque messages: the identifier is up
+
+        def count(_: Any) -> None:
+            self.torques += 1
+        self.node.create_subscription(JointState, '/identified_torque', count, 10)
+        self.processes: list[subprocess.Popen[bytes]] = []
+
+    def start(self, name: str, module: str, *params: str) -> subprocess.Popen[bytes]:
+        args = [sys.executable, '-m', module, '--ros-args']
+        for param in params:
+            args += ['-p', param]
+        log = (self.logs / f'{name}.log').open('wb')
+        process = subprocess.Popen(args, env=self.env, stdout=log, stderr=log)
+        self.processes.append(process)
+        return process
+
+    def spin(self, seconds: float, until: Any = None) -> None:
+        deadline = time.monotonic() + seconds
+        while time.monotonic() < deadline and not (until and until()):
+            self.executor.spin_once(timeout_sec=0.01)
+
+    def call_stop(self) -> None:
+        from std_srvs.srv import Trigger
+
+        client = self.node.create_client(Trigger, '/excitation/stop')
+        self.spin(START_TIMEOUT, client.service_is_ready)
+        future = client.call_async(Trigger.Request())
+        self.spin(START_TIMEOUT, future.done)
+
+    def close(self) -> None:
+        for process in reversed(self.processes):
+            if process.poll() is None:
+                process.send_signal(signal.SIGINT)
+            try:
+                process.wait(timeout=60)
+            except subprocess.TimeoutExpired:
+                process.kill()
+        self.spin(0.5)
+        self.executor.shutdown()
+        self.node.destroy_node()
+        self.context.try_shutdown()
+
+
+def loop(seconds: float, velocity_scale: float, acceleration_scale: float, env: dict[str, str],
+         logs: Path, identify: bool) -> Path | None:
+    """Part b (and the loop's half of part c): returns the identifier's model, if any."""
+    from scara_ident_ros.excitation import ExcitationPlan, load_motion_limits
+
+    graph = Graph(env, logs)
+    stats, model = logs / 'excitation.json', logs / 'loop_model.npz'
+    try:
+        graph.start('scara_sim', 'scara_ident_ros.nodes.scara_sim', 'trajectory:=external')
+        graph.spin(START_TIMEOUT, lambda: len(graph.states) > 200)
+        identifier = None
+        if identify:  # up and learning before the excitation starts; stopped with it
+            identifier = graph.start('identifier', 'scara_ident_ros.nodes.identifier',
+                                     f'save_path:={model}',
+                                     f'stats_file:={logs / "loop_identifier.json"}')
+            graph.spin(START_TIMEOUT, lambda: graph.torques > 0)
+        excitation = graph.start(
+            'excitation', 'scara_ident_ros.nodes.excitation', f'urdf_file:={URDF}',
+            f'velocity_scale:={velocity_scale}', f'acceleration_scale:={acceleration_scale}',
+            f'stats_file:={stats}', 'wait_timeout:=60.0')
+        graph.spin(START_TIMEOUT, lambda: len(graph.commands) > 0)
+        graph.spin(seconds + 2.0)  # the approach (1-2 s), then --seconds of sequence
+        graph.call_stop()
+        if identifier is not None:
+            identifier.send_signal(signal.SIGINT)
+        graph.spin(START_TIMEOUT, lambda: excitation.poll() is not None)
+        graph.spin(1.0)
+    finally:
+        graph.close()
+    run = json.loads(stats.read_text())
+    limits = load_motion_limits(urdf_file=str(URDF))
+    margined = limits.with_margins(run['position_margin'], run['velocity_scale'],
+                                   run['acceleration_scale'])
+    plan = ExcitationPlan(margined, np.array(run['start']), seed=run['seed'])
+    stamps = np.array([s[0] for s in graph.states])
+    q = np.array([s[1] for s in graph.states])
+    qd = np.array([s[2] for s in graph.states])
+    t = (stamps - run['origin_ns']) / S
+    moving = (t >= 0.0) & (t <= run['stop_time'])
+    error = q[moving] - plan.evaluate(t[moving])[0]
+    last = graph.commands[-1]
+    times = np.array([p.time_from_start.sec + p.time_from_start.nanosec * 1e-9
+                      for p in last.points])
+    commanded = np.abs(np.array([p.accelerations for p in last.points])[
+        times >= run['stop_time']]).max(axis=0)
+    stopping = (t >= run['stop_time']) & (t <= run['rest_time'] + 0.2)
+    measured = np.abs(np.gradient(qd[stopping], t[stopping], axis=0)).max(axis=0)
+    print(f'### b. Loop: excitation -> scara_sim -> /joint_states, {t[moving].size} samples '
+          f'over {t[moving].size / 1000:.1f} s of motion, {len(graph.commands)} chunks, '
+          f'stop at plan time {run["stop_time"]:.2f} s (load average '
+          f'{os.getloadavg()[0]:.1f})\n')
+    print('| joint | tracking max \\|e\\| | tracking RMS | stop: commanded peak \\|q\'\'\\| / '
+          'limit | stop: measured peak \\|q\'\'\\| / limit |')
+    print('|---|---:|---:|---:|---:|')
+    for j, name in enumerate(limits.names):
+        print(f'| {name} | {np.abs(error[:, j]).max():.2e} | '
+              f'{np.sqrt(np.mean(error[:, j] ** 2)):.2e} | '
+              f'{commanded[j] / limits.acceleration_max[j]:.3f} | '
+              f'{measured[j] / limits.acceleration_max[j]:.3f} |')
+    print('\n(e in rad, joint3 in m; limits: the URDF\'s, acceleration from config/scara.yaml; '
+          f'the stop keeps to {run["acceleration_scale"]:g} of them.)\n')
+    return model if identify else None
+
+
+def sequence_model(seconds: float, env: dict[str, str], logs: Path) -> Path:
+    """Part c's reference: the identifier on scara_sim's own sequence for ``seconds``."""
+    graph = Graph(env, logs)
+    model = logs / 'sequence_model.npz'
+    try:
+        identifier = graph.start('identifier_sequence', 'scara_ident_ros.nodes.identifier',
+                                 f'save_path:={model}',
+                                 f'stats_file:={logs / "sequence_identifier.json"}')
+        graph.spin(5.0)
+        graph.start('scara_sim_sequence', 'scara_ident_ros.nodes.scara_sim',
+                    'wait_for_subscribers:=2', f'duration:={seconds + 2.0}')
+        graph.spin(START_TIMEOUT + seconds + 2.0,
+                   lambda: graph.processes[-1].poll() is not None)
+        identifier.send_signal(signal.SIGINT)
+        identifier.wait(timeout=120)
+    finally:
+        graph.close()
+    return model
+
+
+def score(models: dict[str, tuple[Path, Path]]) -> None:
+    """Part c: the saved models (with the identifier's stats file) frozen on the held-out
+    motions."""
+    from scara_ident_ros.dynamics import ScaraParams
+    from scara_ident_ros.experiments.learning_curves import held_out_set
+    from scara_ident_ros.offline.evaluation import evaluate, load_model
+
+    params = ScaraParams.from_yaml(ROOT / 'config' / 'scara.yaml')
+    held_out = held_out_set(params)
+    print(f'### c. Held-out NMSE of the identifier\'s saved model ({held_out.X.shape[0]} '
+          'samples never streamed)\n')
+    print('| stream | samples learnt | ' + ' | '.join(params.joint_names) + ' | worst |')
+    print('|---|---:|' + '---:|' * (len(params.joint_names) + 1))
+    for label, (path, stats) in models.items():
+        nmse = evaluate(load_model(path), held_out.X, held_out.Y).nmse
+        learnt = json.loads(stats.read_text()).get('learned', '?')
+        print(f'| {label} | {learnt} | ' + ' | '.join(f'{x:.2e}' for x in nmse)
+              + f' | {np.max(nmse):.2e} |')
+    print()
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
+    parser.add_argument('--seconds', type=float, default=10.0,
+                        help='seconds of sequence after the approach (default 10)')
+    parser.add_argument('--velocity-scale', type=float, default=0.5)
+    parser.add_argument('--acceleration-scale', type=float, default=0.5)
+    parser.add_argument('--identify', action='store_true',
+                        help='part c: identifier on the loop and on the sequence, scored')
+    parser.add_argument('--logs', type=Path, default=None, help='keep the node logs here')
+    args = parser.parse_args()
+    plan_check(args.seconds, args.velocity_scale, args.acceleration_scale)
+    env = ros_env()
+    with tempfile.TemporaryDirectory() as scratch:
+        logs = args.logs or Path(scratch)
+        logs.mkdir(parents=True, exist_ok=True)
+        model = loop(args.seconds, args.velocity_scale, args.acceleration_scale, env, logs,
+                     args.identify)
+        if model is not None:
+            reference = sequence_model(args.seconds, env, logs)
+            score({f'loop ({args.seconds:g} s, scales {args.velocity_scale:g}/'
+                   f'{args.acceleration_scale:g})': (model, logs / 'loop_identifier.json'),
+                   f'scara_sim sequence ({args.seconds:g} s)':
+                       (reference, logs / 'sequence_identifier.json')})
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())

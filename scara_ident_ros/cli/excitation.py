@@ -1,0 +1,148 @@
+"""``scara-ident excitation --dry-run``: the excitation a real arm would get, moving nothing.
+
+Plans, as the ``excitation`` node does, the approach from ``--start`` (default: the middle
+of each range) to the sequence excitation, ``--seconds`` of it and the stop to rest, for the
+joints and limits of a URDF with the node's margins; checks every sample (``--point-period``)
+against the limits with margins; writes the samples to ``OUTPUT/excitation.csv`` (time, then
+q, q', q'' of each joint, SI) and a figure to ``OUTPUT/excitation.png``; prints the peaks as
+fractions of the robot's limits. A URDF without limits, a start outside the limits or a plan
+outside the margins ends it with one line and exit status 2. To move the arm, run the node:
+``ros2 run scara_ident_ros excitation --ros-args -p urdf_file:=...`` (docs/real_robot.md).
+"""
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from scara_ident_ros.cli import CliError
+
+if TYPE_CHECKING:
+    from scara_ident_ros.excitation import MotionLimits
+
+__all__ = ['add_parser', 'run']
+
+
+def _floats(text: str) -> list[float]:
+    return [float(item) for item in text.replace(',', ' ').split()]
+
+
+def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    """Register ``scara-ident excitation``."""
+    parser = subparsers.add_parser(
+        'excitation', help="plan a real arm's excitation and check it (--dry-run)",
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument('--dry-run', action='store_true', required=True,
+                        help='plan, check and write; move nothing (required)')
+    parser.add_argument('--urdf', type=Path, required=True, help="the arm's URDF file")
+    parser.add_argument('--joint-names', default='',
+                        help='comma-separated joints to excite (default: every limited one)')
+    parser.add_argument('--robot-config', default='',
+                        help='robot YAML with acceleration_max by joint name '
+                             '(default: config/scara.yaml)')
+    parser.add_argument('--acceleration-max', type=_floats, default=[],
+                        help='comma-separated acceleration limits of --joint-names')
+    parser.add_argument('--start', type=_floats, default=None,
+                        help='comma-separated start positions (default: mid-range)')
+    parser.add_argument('--seconds', type=float, default=30.0,
+                        help='seconds of excitation after the approach (default 30)')
+    parser.add_argument('--seed', type=int, default=0, help='seed of the sequence')
+    parser.add_argument('--position-margin', type=float, default=0.1,
+                        help='fraction of each range kept clear at both ends (default 0.1)')
+    parser.add_argument('--velocity-scale', type=float, default=0.5,
+                        help='fraction of the velocity limits (default 0.5)')
+    parser.add_argument('--acceleration-scale', type=float, default=0.5,
+                        help='fraction of the acceleration limits (default 0.5)')
+    parser.add_argument('--point-period', type=float, default=0.01,
+                        help='seconds between two samples (default 0.01)')
+    parser.add_argument('--output', type=Path, default=Path('excitation'),
+                        help='directory for excitation.csv and excitation.png')
+    parser.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Plan, check, write and summarise."""
+    from scara_ident_ros.excitation import (ExcitationPlan, MotionLimitsError,
+                                            load_motion_limits, make_chunk)
+
+    if not args.seconds > 0 or not 0.0 < args.point_period <= 0.1:
+        raise CliError('--seconds must be > 0 and --point-period in (0, 0.1]')
+    names = [name for name in args.joint_names.split(',') if name]
+    try:
+        limits = load_motion_limits(urdf_file=str(args.urdf), joint_names=names,
+                                    robot_config=args.robot_config,
+                                    acceleration_max=args.acceleration_max)
+        margined = limits.with_margins(args.position_margin, args.velocity_scale,
+                                       args.acceleration_scale)
+    except MotionLimitsError as exc:
+        raise CliError(str(exc)) from None
+    start = limits.centre if args.start is None else np.array(args.start, dtype=float)
+    if start.shape != (limits.n_joints,):
+        raise CliError(f'--start needs {limits.n_joints} positions ({list(limits.names)}), '
+                       f'got {start.size}')
+    outside = limits.outside(start)
+    if outside:
+        raise CliError(f'the start is outside the limits: {", ".join(outside)}')
+    plan = ExcitationPlan(margined, start, seed=args.seed)
+    chunk = make_chunk(plan, 0.0, plan.approach_duration + args.seconds, args.point_period,
+                       margined)
+    broken = margined.violations(chunk.q, chunk.qd, chunk.qdd, position_hull=start)
+    if broken:
+        raise CliError(f'the plan leaves the limits with margins: {"; ".join(broken)}')
+    args.output.mkdir(parents=True, exist_ok=True)
+    csv = args.output / 'excitation.csv'
+    header = ','.join(['t'] + [f'{kind}_{name}' for kind in ('q', 'qd', 'qdd')
+                               for name in limits.names])
+    np.savetxt(csv, np.column_stack([chunk.times, chunk.q, chunk.qd, chunk.qdd]),
+               delimiter=',', header=header, comments='', fmt='%.9g')
+    figure = args.output / 'excitation.png'
+    _plot(figure, chunk.times, (chunk.q, chunk.qd, chunk.qdd), limits, margined,
+          (plan.approach_duration, chunk.stop_time))
+    print(f'{len(chunk)} samples every {args.point_period:g} s: approach '
+          f'{plan.approach_duration:g} s, excitation {args.seconds:g} s (seed {args.seed}), '
+          f'stop {chunk.rest_time - chunk.stop_time:g} s; within the limits with margins')
+    print('peak |q\'| / velocity limit:     ' + _fractions(chunk.qd, limits.velocity_max))
+    print('peak |q\'\'| / acceleration limit: ' + _fractions(chunk.qdd, limits.acceleration_max))
+    print(f'wrote {csv} and {figure}')
+    return 0
+
+
+def _fractions(values: np.ndarray, limit: np.ndarray) -> str:
+    return ', '.join(f'{x:.2f}' for x in np.abs(values).max(axis=0) / limit)
+
+
+def _plot(path: Path, t: np.ndarray, motion: tuple[np.ndarray, ...], limits: MotionLimits,
+          margined: MotionLimits, marks: tuple[float, float]) -> None:
+    """q, q', q'' of each joint against time, with the limits and their margins."""
+    import matplotlib
+    matplotlib.use('Agg', force=True)
+    import matplotlib.pyplot as plt
+
+    names = limits.names
+    rows = len(names)
+    fig, axes = plt.subplots(rows, 3, figsize=(12, 1.8 * rows + 0.6), sharex=True,
+                             squeeze=False)
+    bounds = {0: ('position_min', 'position_max'), 1: ('velocity_max',),
+              2: ('acceleration_max',)}
+    for j, name in enumerate(names):
+        for col, (label, values) in enumerate(zip(('q', "q'", "q''"), motion)):
+            ax = axes[j, col]
+            ax.plot(t, values[:, j], lw=0.8)
+            for source, style in ((limits, 'r-'), (margined, 'r--')):
+                for key in bounds[col]:
+                    level = getattr(source, key)[j]
+                    ax.axhline(level, color=style[0], ls=style[1:], lw=0.6)
+                    if col:
+                        ax.axhline(-level, color=style[0], ls=style[1:], lw=0.6)
+            for mark in marks:
+                ax.axvline(mark, color='0.6', lw=0.6)
+            ax.set_ylabel(f'{name} {label}', fontsize=8)
+    for ax in axes[-1]:
+        ax.set_xlabel('plan time [s]')
+    fig.suptitle('excitation plan: approach | sequence | stop (red: limits, dashed: margins)',
+                 fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
