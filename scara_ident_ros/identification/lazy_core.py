@@ -14,18 +14,32 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from scara_ident_ros.identification.holdout import Holdout
+from scara_ident_ros.dynamics.hybrid_model import HybridModel, start_at_zero
+from scara_ident_ros.dynamics.physical_model import PhysicalModel
 from scara_ident_ros.identification.background_lm import BackgroundLM
+from scara_ident_ros.identification.hybrid_trainer import HybridTrainer
 from scara_ident_ros.identification.input_stage import AccelerationEstimate, InputStage
 from scara_ident_ros.identification.joint_limits import JointLimits
 from scara_ident_ros.identification.joint_map import JointMap
 from scara_ident_ros.identification.online_identifier import Counts, OnlineIdentifier
 from scara_ident_ros.identification.sample_check import FloatArrayLike, SampleCheck
 from scara_ident_ros.identification.skip_reason import SkipReason
-from scara_ident_ros.identification.trainer import make_trainer, starts_with_friction_steps
-from scara_ident_ros.methods import make_network
+from scara_ident_ros.identification.rls_trainer import RecursiveLeastSquaresTrainer
+from scara_ident_ros.identification.trainer import (Trainer, make_trainer,
+                                                    starts_with_friction_steps)
+from scara_ident_ros.methods import METHODS, make_network
 from scara_ident_ros.nn import FeedForwardNet
 
-__all__ = ['CoreSettings', 'LazyCore', 'Skipped']
+__all__ = ['CoreSettings', 'LazyCore', 'ONLINE_METHODS', 'OnlineModel', 'PHYSICAL_METHODS',
+           'Skipped']
+
+#: Models on the robot's URDF (they need it): its rigid-body model alone, learnt by RLS, or
+#: with an FFS network of its residual.
+PHYSICAL_METHODS = ('physical', 'hybrid')
+#: Every model an identifier learns online: the networks and the physical ones.
+ONLINE_METHODS = (*METHODS, *PHYSICAL_METHODS)
+RESIDUAL_SHARE = 0.25  # a hybrid's network outputs span this share of the effort limits
+OnlineModel = FeedForwardNet | PhysicalModel | HybridModel
 
 
 @dataclass(frozen=True)
@@ -96,8 +110,10 @@ class LazyCore:
         Samples skipped before the core was built.
     """
 
-    def __init__(self, limits: JointLimits, network: FeedForwardNet | None = None) -> None:
+    def __init__(self, limits: JointLimits, network: OnlineModel | None = None, *,
+                 urdf: str = '', urdf_source: str = 'robot_description') -> None:
         self.limits = limits
+        self.urdf, self.urdf_source = urdf, urdf_source
         self.network = network
         self.core: OnlineIdentifier | None = None
         self.names: list[str] = []
@@ -132,15 +148,10 @@ class LazyCore:
                         f'{list(self.limits.names)}, from {self.limits.source}): set '
                         'urdf_file, robot_config or position_min, position_max, '
                         'velocity_max, acceleration_max, effort_max and joint_names')
-            s = settings
-            ffmw = s.method == 'ffmw'
-            network = make_network(
-                s.method, len(names), n_hidden=s.hidden_units, seed=s.seed,
-                learning_rate=s.learning_rate or None,
-                momentum=s.momentum if s.momentum >= 0 else None,
-                k=s.k if ffmw else None, a=s.a if ffmw else None, b=s.b if ffmw else None,
-                friction_steps=starts_with_friction_steps(s.trainer, s.lm_friction_steps))
-            network.set_scaling(*self.limits.select(names).scaling())
+            if settings.method in PHYSICAL_METHODS and not self.urdf:
+                return (f'method {settings.method} needs the robot\'s URDF: set urdf_file or '
+                        'robot_description')
+            network = self._fresh(names, settings)
         network.metadata['joint_names'] = np.array(names)
         network.metadata['method'] = np.array(settings.method)
         bounds = (None if self.limits.missing(names)
@@ -150,13 +161,23 @@ class LazyCore:
                            block=settings.validation_block, seed=settings.seed)
                    if settings.validation_fraction > 0 else None)
         self.network, self.names = network, names
+
+        def trainer_of(net: FeedForwardNet) -> Trainer:
+            return make_trainer(settings.trainer, net, capacity=settings.reservoir_size,
+                                interval=settings.lm_interval, steps=settings.lm_steps,
+                                seed=settings.seed, float64=settings.lm_float64,
+                                slow_share=settings.lm_slow_share, background=background,
+                                label=f'lm-{settings.method}')
+
+        trainer: Trainer
+        if isinstance(network, PhysicalModel):
+            trainer = RecursiveLeastSquaresTrainer(network)
+        elif isinstance(network, HybridModel):
+            trainer = HybridTrainer(network, trainer_of(network.network))
+        else:
+            trainer = trainer_of(network)
         self.core = OnlineIdentifier(
-            network, joint_names=names, differentiator=differentiator,
-            trainer=make_trainer(settings.trainer, network, capacity=settings.reservoir_size,
-                                 interval=settings.lm_interval, steps=settings.lm_steps,
-                                 seed=settings.seed, float64=settings.lm_float64,
-                                 slow_share=settings.lm_slow_share, background=background,
-                                 label=f'lm-{settings.method}'),
+            network, joint_names=names, differentiator=differentiator, trainer=trainer,
             holdout=holdout, mse_window=settings.mse_window, learn=settings.learn,
             max_gap_ns=round(settings.max_gap * 1e9), bounds=bounds, stage=stage)
         counts = self.core.counts
@@ -165,10 +186,44 @@ class LazyCore:
             counts.skipped[reason] += skipped
         return ''
 
+    def _fresh(self, names: list[str], settings: CoreSettings) -> OnlineModel:
+        """A fresh model of ``settings.method`` for the joints ``names``.
+
+        ``physical``: the URDF's rigid-body model with friction and rotor inertia, from the
+        URDF's own inertias (RLS's prior). ``hybrid``: that plus an FFS network of its
+        residual, starting at zero output, its outputs scaled to :data:`RESIDUAL_SHARE` of
+        the effort limits (a residual is a fraction of the effort).
+        """
+        s = settings
+        scaling = self.limits.select(names).scaling()
+        if s.method in PHYSICAL_METHODS:
+            physical = PhysicalModel(self.urdf, joint_names=names, source=self.urdf_source)
+            physical.set_theta(physical.urdf_parameters())
+            if s.method == 'physical':
+                return physical
+            network = make_network('ffs', len(names), n_hidden=s.hidden_units, seed=s.seed,
+                                   friction_steps=s.lm_friction_steps)
+            x_min, x_max, y_min, y_max = scaling
+            network.set_scaling(x_min, x_max, RESIDUAL_SHARE * np.asarray(y_min),
+                                RESIDUAL_SHARE * np.asarray(y_max))
+            start_at_zero(network)
+            return HybridModel(physical, network)
+        ffmw = s.method == 'ffmw'
+        network = make_network(
+            s.method, len(names), n_hidden=s.hidden_units, seed=s.seed,
+            learning_rate=s.learning_rate or None,
+            momentum=s.momentum if s.momentum >= 0 else None,
+            k=s.k if ffmw else None, a=s.a if ffmw else None, b=s.b if ffmw else None,
+            friction_steps=starts_with_friction_steps(s.trainer, s.lm_friction_steps))
+        network.set_scaling(*scaling)
+        return network
+
     def close(self) -> None:
-        """End the core's trainer if it runs beside the stream (its last weights are the
+        """End the core's trainers that run beside the stream (their last weights are the
         network's)."""
         trainer = self.core.trainer if self.core is not None else None
+        if isinstance(trainer, HybridTrainer):
+            trainer = trainer.network
         if isinstance(trainer, BackgroundLM):
             trainer.close()
 

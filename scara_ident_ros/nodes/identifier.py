@@ -61,10 +61,14 @@ from scara_ident_ros.identification import (DIFFERENTIATORS, LIMIT_NAMES, TRAINE
 from scara_ident_ros.identification.background_lm import BackgroundLM, prestart
 from scara_ident_ros.identification.error_window import ErrorStats
 from scara_ident_ros.identification.joint_limits import JointLimits
+from scara_ident_ros.identification.lazy_core import ONLINE_METHODS, OnlineModel
 from scara_ident_ros.identification.sample_check import GAP_PERIODS
 from scara_ident_ros.identification.stream_clock import StreamClock
 from scara_ident_ros.identification.health import (Deltas, Health, LossCounter,
                                                    identifier_health)
+from scara_ident_ros.dynamics.hybrid_model import HybridModel
+from scara_ident_ros.dynamics.physical_model import PhysicalModel
+from scara_ident_ros.dynamics.urdf_limits import UrdfError
 from scara_ident_ros.methods import METHODS
 from scara_ident_ros.mse_layout import encode_mse
 from scara_ident_ros.nn import FeedForwardNet, ModelFormatError
@@ -101,13 +105,15 @@ LIMITS = "the network's input and output scaling"
 START = 'used at start only'
 
 PARAMETERS = (
-    ParamSpec('method', 'ffs', 'Network: FFS (sigmoid, default: it identifies best, README '
-              "'Results'), FFMW (MSLOG, the paper's) or FFW (SLOG)",
-              choices=tuple(METHODS), fixed=NETWORK),
+    ParamSpec('method', 'ffs', 'Model: the networks FFS (sigmoid, default: it identifies '
+              "best, README 'Results'), FFMW (MSLOG, the paper's) or FFW (SLOG); physical "
+              "(the URDF's rigid-body model with friction and rotor inertia, recursive least "
+              'squares) or hybrid (physical plus an FFS network of its residual): these need '
+              'urdf_file or robot_description', choices=ONLINE_METHODS, fixed=NETWORK),
     ParamSpec('methods', [], 'Several networks from one subscription, each publishing under '
               '<method>/ in the node\'s namespace (the samples are checked and q\'\' '
               'estimated once); empty: method alone, publishing in the node\'s namespace',
-              items=str, choices=tuple(METHODS), fixed=NETWORK),
+              items=str, choices=ONLINE_METHODS, fixed=NETWORK),
     ParamSpec('joint_names', [], 'Joints to identify, in this order; empty: the joints of '
               'the first valid message (or of the warm-start model)', items=str, fixed=NETWORK),
     ParamSpec('min_joints', 1, 'Without joint_names: take the joints of the first valid '
@@ -238,14 +244,16 @@ class Identification:
         Namespace of its outputs, relative to the node's ('' or ``'<method>/'``).
     limits : JointLimits
         Scale a fresh network.
-    network : FeedForwardNet, optional
+    network : FeedForwardNet, PhysicalModel or HybridModel, optional
         A warm start.
+    urdf : (str, str)
+        The robot's URDF and where it comes from, for the physical models ('' without).
     """
 
     def __init__(self, node: Node, method: str, prefix: str, limits: JointLimits,
-                 network: FeedForwardNet | None) -> None:
+                 network: OnlineModel | None, urdf: tuple[str, str]) -> None:
         self.method = method
-        self.lazy = LazyCore(limits, network)
+        self.lazy = LazyCore(limits, network, urdf=urdf[0], urdf_source=urdf[1])
         self.torque_publisher = node.create_publisher(JointState, prefix + TORQUE, STREAM_QOS)
         self.mse_publisher = node.create_publisher(Float64MultiArray, prefix + MSE, 10)
         self.template: JointStateTemplate | None = None  # the predictions' message
@@ -263,7 +271,7 @@ class Identification:
         return self.lazy.core
 
     @property
-    def network(self) -> FeedForwardNet | None:
+    def network(self) -> OnlineModel | None:
         """The network: a warm start, or built with the core."""
         return self.lazy.network
 
@@ -343,6 +351,7 @@ class IdentifierNode(Node):
             urdf_file=s['urdf_file'], robot_description=s['robot_description'],
             explicit={key: s[key] for key in LIMIT_NAMES})
         methods = list(s['methods']) or [s['method']]
+        self.urdf = self._urdf()
         if len(set(methods)) != len(methods):
             raise ConfigError(f'methods names a method twice: {methods}')
         several = len(s['methods']) > 0
@@ -364,12 +373,19 @@ class IdentifierNode(Node):
             network = self._warm_start(method)
             if network is not None:
                 source = self._model_source(method)
-                names = check_warm_start(network, names, source=source, method=method)
+                if isinstance(network, FeedForwardNet):
+                    names = check_warm_start(network, names, source=source, method=method)
+                elif names and list(network.joint_names) != names:
+                    raise ConfigError(f'cannot warm-start: {source} models the joints '
+                                      f'{list(network.joint_names)}, not joint_names {names}')
+                else:
+                    names = list(network.joint_names)
                 if source != self.paths['model_path'][method]:
                     self.get_logger().info(f'{method}: continuing from the model at save_path '
                                            f'{source}')
             self.identifications.append(Identification(
-                self, method, f'{method}/' if several else '', self.limits, network))
+                self, method, f'{method}/' if several else '', self.limits, network,
+                self.urdf))
         if s['trainer'] == 'lm' and s['lm_background']:
             prestart(len(methods))  # their interpreters start now, not with the stream
         # checked at startup (a bad window ends it in one line), used once the joints are known
@@ -413,7 +429,7 @@ class IdentifierNode(Node):
         return self.identifications[0]
 
     @property
-    def network(self) -> FeedForwardNet | None:
+    def network(self) -> OnlineModel | None:
         """The first method's network: a warm start, or built with the core."""
         return self.first.network
 
@@ -436,11 +452,11 @@ class IdentifierNode(Node):
             return save_path
         return model_path
 
-    def _warm_start(self, method: str) -> FeedForwardNet | None:
+    def _warm_start(self, method: str) -> OnlineModel | None:
         source = self._model_source(method)
         if not source:
             return None
-        return self._load(source)
+        return self._load(source, method)
 
     def _subscribe(self) -> None:
         """Subscribe ``joint_states``: from now on samples are processed."""
@@ -477,12 +493,14 @@ class IdentifierNode(Node):
         s = self.settings
         self.get_logger().info('set ' + ', '.join(f'{k} = {v!r}' for k, v in changed.items()))
         for ident in self.identifications:
-            method = METHODS[ident.method]
             network, core = ident.network, ident.core
-            if network is not None and 'learning_rate' in changed:
-                network.learning_rate = s['learning_rate'] or method.learning_rate
-            if network is not None and 'momentum' in changed:
-                network.momentum = s['momentum'] if s['momentum'] >= 0 else method.momentum
+            if isinstance(network, FeedForwardNet) and ident.method in METHODS:
+                method = METHODS[ident.method]
+                if 'learning_rate' in changed:
+                    network.learning_rate = s['learning_rate'] or method.learning_rate
+                if 'momentum' in changed:
+                    network.momentum = (s['momentum'] if s['momentum'] >= 0
+                                        else method.momentum)
             if core is None:
                 continue
             core.learn = s['learn']
@@ -576,17 +594,34 @@ class IdentifierNode(Node):
             update_rate=background.rate() if background is not None else None)
 
     # ------------------------------------------------------------------ configuration
-    def _load(self, path: str) -> FeedForwardNet:
+    def _load(self, path: str, method: str) -> OnlineModel:
         try:
-            network = FeedForwardNet.load(path)
-        except (ModelFormatError, OSError) as exc:
+            network: OnlineModel = (PhysicalModel.load(path) if method == 'physical'
+                                    else HybridModel.load(path) if method == 'hybrid'
+                                    else FeedForwardNet.load(path))
+        except (ModelFormatError, UrdfError, OSError) as exc:
             raise ConfigError(f'cannot warm-start: {exc}') from None
+        if not isinstance(network, FeedForwardNet):
+            return network
         s = self.settings
         if s['learning_rate'] > 0:
             network.learning_rate = s['learning_rate']
         if s['momentum'] >= 0:
             network.momentum = s['momentum']
         return network
+
+    def _urdf(self) -> tuple[str, str]:
+        """The robot's URDF (text) and its source, from robot_description or urdf_file."""
+        s = self.settings
+        if s['robot_description']:
+            return s['robot_description'], 'robot_description'
+        if s['urdf_file']:
+            try:
+                return Path(s['urdf_file']).read_text(encoding='utf-8'), s['urdf_file']
+            except (OSError, UnicodeDecodeError) as exc:
+                raise ConfigError(f"urdf_file {s['urdf_file']}: cannot read it: {exc}"
+                                  ) from None
+        return '', ''
 
     def _core_settings(self, method: str) -> CoreSettings:
         return dataclasses.replace(CoreSettings.of(self.settings), method=method)

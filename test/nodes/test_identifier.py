@@ -887,3 +887,28 @@ def test_methods_need_a_path_per_method(tmp_path: Path) -> None:
         out = node.wait(DISCOVERY_TIMEOUT)
     assert out.returncode == 2
     assert 'with methods, the path needs {method}' in out.stderr
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize('method', ['physical', 'hybrid'])
+def test_physical_and_hybrid_learn_through_the_node(tmp_path: Path, listener: rostest.Listener,
+                                                    method: str) -> None:
+    """method:=physical (the URDF's model by RLS) and hybrid (plus a residual network) learn
+    end to end: every sample predicted, the held-out error falls to a small fraction of the
+    effort's variance within seconds, and the model is saved."""
+    urdf = Path(__file__).resolve().parents[2] / 'urdf' / 'scara.urdf'
+    n = 4000
+    record = simulated(n)
+    msgs = [sample_msg(record, i, T0_NS + i * PERIOD_NS) for i in range(n)]
+    model = tmp_path / f'{method}.npz'
+    feed = Feed(listener)
+    with identifier(tmp_path, f'method:={method}', f'urdf_file:={urdf}',
+                    'validation_block:=200', f'save_path:={model}') as node:
+        feed.wait_for(node)
+        feed.send(msgs, n - LAG)
+        stop(node)
+    feed.receive_rest(n)
+    info = stats(tmp_path)
+    assert info['method'] == method and info['predicted'] == n, info
+    assert info['validation_nmse_total'] < 0.05, info
+    assert model.is_file()
