@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+from collections import deque
 import math
 import sys
 import time
@@ -63,7 +64,7 @@ from scara_ident_ros.identification.error_window import ErrorStats
 from scara_ident_ros.identification.joint_limits import JointLimits
 from scara_ident_ros.identification.lazy_core import ONLINE_METHODS, OnlineModel
 from scara_ident_ros.identification.sample_check import GAP_PERIODS
-from scara_ident_ros.identification.stream_clock import StreamClock
+from scara_ident_ros.identification.stream_clock import LagHistogram, StreamClock
 from scara_ident_ros.identification.health import (Deltas, Health, LossCounter,
                                                    identifier_health)
 from scara_ident_ros.dynamics.hybrid_model import HybridModel
@@ -224,6 +225,7 @@ JOINT_SET_REASONS = (SkipReason.UNKNOWN_JOINT, SkipReason.MISSING_JOINT,
                      SkipReason.DUPLICATE_JOINT, SkipReason.JOINT_COUNT)
 METHOD_FIELD = '{method}'  # stands for each method in a path parameter, with methods
 VALIDATION_PERIOD = 1.0  # s: the held-out score is recomputed at most this often per method
+ARRIVALS = 1000  # samples whose arrival time is kept until their prediction is out
 
 
 def method_path(path: str, method: str) -> str:
@@ -260,6 +262,7 @@ class Identification:
         self.max_lag_ns = 0  # ns, since the last statistics line
         self.worst_lag_ns = 0  # ns, since start
         self.period_lag_ns = 0  # ns, largest since the last diagnostics report
+        self.lags = LagHistogram()  # every prediction's lag, for percentiles
         self.deltas = Deltas()
         self.previous: list[dict[str, Any]] = []  # summaries from before each ~/reset
         self._validation: ErrorStats | None = None
@@ -315,6 +318,7 @@ class Identification:
             if clock is None:
                 continue
             lag_ns = clock.lag_ns(result.stamp_ns, time.time_ns())
+            self.lags.add(lag_ns)
             if lag_ns > self.period_lag_ns:
                 self.period_lag_ns = lag_ns
             if lag_ns > self.max_lag_ns:
@@ -405,6 +409,8 @@ class IdentifierNode(Node):
         # estimate bridges are pauses (between recordings), counted apart
         self.loss = LossCounter(span_s=s['max_gap'], pause_periods=GAP_PERIODS)
         self.clock = StreamClock()  # lags against the stream's own clock
+        self.arrivals: deque[tuple[int, int]] = deque(maxlen=ARRIVALS)  # (stamp, wall) ns
+        self.path_delays = LagHistogram()  # arrival to publication of each prediction
         self.last_sample: float | None = None  # monotonic s of the latest sample
         self.diagnostics = [
             Diagnostics(self, f'{ident.method} identification' if several
@@ -653,8 +659,9 @@ class IdentifierNode(Node):
     def on_sample(self, msg: RawJointState) -> None:
         """Check and differentiate once; predict, publish, learn for each method."""
         self.last_sample = time.monotonic()
-        stamp_ns = msg.stamp_ns
-        self.clock.arrived(stamp_ns, time.time_ns(), restart=self.loss.observe(stamp_ns))
+        stamp_ns, now_ns = msg.stamp_ns, time.time_ns()
+        self.clock.arrived(stamp_ns, now_ns, restart=self.loss.observe(stamp_ns))
+        self.arrivals.append((stamp_ns, now_ns))
         self.publisher_watch.stamps.observe(stamp_ns)
         core = self.core
         if core is None:
@@ -668,6 +675,8 @@ class IdentifierNode(Node):
         for ident in self.identifications:
             assert ident.core is not None
             ident.publish(ident.core.take(stamp_ns, reason, inputs), frame_id, self.clock)
+        if inputs:
+            self._time_the_path(inputs[0].stamp_ns, inputs[-1].stamp_ns)
         if reason is None or reason is SkipReason.WARMING_UP:
             return
         if reason in JOINT_SET_REASONS:
@@ -677,6 +686,17 @@ class IdentifierNode(Node):
         else:
             self._warn(f'skipped a sample ({reason.value}); '
                        f'{sum(core.counts.skipped.values())} so far')
+
+    def _time_the_path(self, first_ns: int, last_ns: int) -> None:
+        """Count the delay from the arrival of the samples stamped ``first_ns`` to
+        ``last_ns`` to now, when their predictions are out (the message path's own lag,
+        whatever the stream's clock; it includes the q'' estimate's wait for later
+        samples)."""
+        arrivals, now_ns = self.arrivals, time.time_ns()
+        while arrivals and arrivals[0][0] <= last_ns:
+            stamp, arrived = arrivals.popleft()
+            if stamp >= first_ns:
+                self.path_delays.add(now_ns - arrived)
 
     def _build_from(self, msg: RawJointState, stamp_ns: int) -> bool:
         """Build for the joints of ``msg`` if it is valid; else count it as skipped."""
@@ -756,8 +776,11 @@ class IdentifierNode(Node):
             'validation_nmse': validation.nmse.tolist() if validation is not None else None,
             'validation_nmse_total': (float(validation.nmse_total) if validation is not None
                                       else None),
-            'max_lag_ms': ident.worst_lag_ns / 1e6, 'lost': self.loss.lost,
+            'max_lag_ms': ident.worst_lag_ns / 1e6, 'lag_p50_ms': ident.lags.percentile_ms(50),
+            'lag_p99_ms': ident.lags.percentile_ms(99), 'lost': self.loss.lost,
             'pauses': self.loss.pauses, 'paused_s': self.loss.paused_s,
+            'path_delay_p50_ms': self.path_delays.percentile_ms(50),
+            'path_delay_p99_ms': self.path_delays.percentile_ms(99),
             'wall_clock_stamps': self.clock.wall,
             'joint_states_publishers': self.publisher_watch.most_publishers,
             'stamps_backward': self.publisher_watch.stamps.backward,

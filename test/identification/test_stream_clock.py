@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 from scara_ident_ros.identification.health import LossCounter
-from scara_ident_ros.identification.stream_clock import StreamClock
+from scara_ident_ros.identification.stream_clock import LAG_BINS, LagHistogram, StreamClock
 
 MS = 1_000_000  # ns
 NOW = 1_800_000_000_000_000_000  # ns, a wall clock
@@ -53,3 +53,14 @@ def test_a_pause_is_counted_apart_from_lost_samples() -> None:
     assert loss.lost == 3
     assert loss.pauses == 2 and abs(loss.paused_s - 2 * 0.501) < 1e-9
     assert sum(paused) == 2 and paused[1000] and paused[1997]
+
+
+def test_lag_percentiles_are_upper_bounds_of_1_ms_bins() -> None:
+    lags = LagHistogram()
+    assert lags.percentile_ms(99) is None
+    for k in range(1000):
+        lags.add((10 + (k % 10 == 0) * 40) * MS + 1)  # 90 % at 10 ms, 10 % at 50 ms
+    assert lags.percentile_ms(50) == 11.0
+    assert lags.percentile_ms(99) == 51.0
+    lags.add(10**12)  # beyond the bins: counted in the last
+    assert lags.percentile_ms(100) == LAG_BINS + 1
