@@ -39,3 +39,22 @@ def test_an_out_that_cannot_hold_the_run_is_refused_first(
         assert main(['run', '--out', str(out)]) == 2
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and f'--out {out}' in err[0], err
+
+
+def test_every_published_sample_is_accounted_for() -> None:
+    """predicted + skipped + lost + not drained = published; the shortfall is what was not
+    predicted."""
+    from scara_ident_ros.cli.run import stream_use
+
+    info = {'processed': 9_000, 'predicted': 8_700, 'skipped': {'warming_up': 20,
+                                                                'out_of_limits': 280},
+            'lost': 400}
+    row = stream_use(10_000, info)
+    assert row['not_drained'] == 600
+    assert (row['predicted'] + sum(row['skipped'].values()) + row['lost']
+            + row['not_drained']) == 10_000
+    assert row['shortfall'] == 1_300
+    whole = stream_use(10_000, {'processed': 10_000, 'predicted': 10_000, 'skipped': {},
+                                'lost': 0})
+    assert whole['not_drained'] == whole['shortfall'] == 0
+    assert stream_use(None, info)['not_drained'] is None

@@ -326,3 +326,20 @@ def test_sporadic_bad_messages_do_not_stall_the_estimate() -> None:
     assert predicted == good
     assert identifier.counts.skipped[SkipReason.WARMING_UP] == 0
     assert identifier.counts.skipped[SkipReason.STAMP_BACKWARDS] == 100
+
+
+def test_single_missing_samples_keep_the_estimate() -> None:
+    """Samples lost one at a time (every 50th) are gaps of 2 ms, not clock gaps: the q''
+    estimate goes on and every sample that came is predicted."""
+    identifier = OnlineIdentifier(RecordingModel(), joint_names=NAMES)
+    came = predicted = 0
+    for k in range(2000):
+        if k % 50 == 49:
+            continue
+        came += 1
+        results = identifier.process(T0 + k * MS, NAMES, *state(k))
+        predicted += sum(result.effort is not None for result in results)
+    predicted += len(identifier.finish())
+    assert predicted == came
+    assert identifier.counts.skipped[SkipReason.WARMING_UP] == 0
+    assert identifier.counts.skipped[SkipReason.GAP] == 0
