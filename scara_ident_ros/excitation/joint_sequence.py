@@ -20,26 +20,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from scara_ident_ros.excitation.motion_limits import MotionLimits
-from scara_ident_ros.sim.sequence import SEQUENCE_EXCITATION, SEQUENCE_LIMITS
+from scara_ident_ros.sim.sequence import SEQUENCE_EXCITATION, SEQUENCE_LIMITS, smoothstep
 from scara_ident_ros.sim.trajectory import FourierTrajectory
 
-__all__ = ['JointSequence', 'smoothstep']
+__all__ = ['JointSequence']
 
 _GRID_PER_HARMONIC = 200       # check points per period of the highest harmonic
 Motion = tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]
-
-
-def smoothstep(tau: NDArray[np.float64], duration: float) -> Motion:
-    """Quintic smoothstep s(τ) and its time derivatives s' (1/s), s'' (1/s²), shape (N, 1).
-
-    τ (N,) is clipped to [0, 1]; ``duration`` (s) is the time τ takes from 0 to 1.
-    """
-    tau = np.clip(tau, 0.0, 1.0)[:, None]
-    rest = 1.0 - tau
-    s = tau ** 3 * (10.0 + tau * (6.0 * tau - 15.0))
-    ds = 30.0 * (tau * rest) ** 2 / duration
-    dds = 60.0 * tau * rest * (1.0 - 2.0 * tau) / duration ** 2
-    return s, ds, dds
 
 
 class JointSequence:

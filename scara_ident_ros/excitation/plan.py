@@ -21,7 +21,8 @@ import numpy as np
 import numpy.typing as npt
 from numpy.typing import NDArray
 
-from scara_ident_ros.excitation.joint_sequence import JointSequence, Motion, smoothstep
+from scara_ident_ros.excitation.joint_sequence import JointSequence, Motion
+from scara_ident_ros.sim.sequence import smoothstep
 from scara_ident_ros.excitation.motion_limits import MotionLimits, MotionLimitsError
 from scara_ident_ros.sim.sequence import SEQUENCE_LIMITS
 

@@ -53,9 +53,13 @@ SEQUENCE_EXCITATION: dict[str, Any] = {
 _GRID_PER_HARMONIC = 200       # check points per period of the highest harmonic
 
 
-def _smoothstep(tau: np.ndarray, duration: float
-                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Quintic smoothstep s(τ) and its time derivatives s' (1/s), s'' (1/s²), shape (N, 1)."""
+def smoothstep(tau: np.ndarray, duration: float
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Quintic smoothstep s(τ) and its time derivatives s' (1/s), s'' (1/s²), shape (N, 1).
+
+    τ (N,) is clipped to [0, 1]; ``duration`` (s) is the time τ takes from 0 to 1. The
+    sequence's blends and the excitation's approach and stops all use it.
+    """
     tau = np.clip(tau, 0.0, 1.0)[:, None]
     rest = 1.0 - tau
     s = tau ** 3 * (10.0 + tau * (6.0 * tau - 15.0))
@@ -72,7 +76,7 @@ def _blend(first: FourierTrajectory, second: FourierTrajectory, u: np.ndarray,
     """
     q_a, qd_a, qdd_a = first.evaluate(u)
     q_b, qd_b, qdd_b = second.evaluate(u)
-    s, ds, dds = _smoothstep(u / duration, duration)
+    s, ds, dds = smoothstep(u / duration, duration)
     dq, dqd = q_b - q_a, qd_b - qd_a
     q = q_a + s * dq
     qd = qd_a + s * dqd + ds * dq
