@@ -66,6 +66,10 @@ def wait_for_samples_in_bag(run: subprocess.Popen[bytes], bag: Path, log: Path) 
         time.sleep(0.2)
 
 
+#: The graph's processes (one identifier serves every method; its learners are its children)
+NODES = ('scara_sim', 'identifier', 'recorder')
+
+
 def children(pid: int) -> list[int]:
     """The child processes of ``pid`` (Linux)."""
     text = Path(f'/proc/{pid}/task/{pid}/children').read_text()
@@ -98,7 +102,7 @@ def test_ctrl_c_stops_the_graph_once_in_order_and_keeps_every_sample(
 
     summary = json.loads((out / 'summary.json').read_text())
     assert summary['interrupted'] is True
-    assert summary['exit_codes'] == {name: 0 for name in ('scara_sim', *METHODS, 'recorder')}
+    assert summary['exit_codes'] == {name: 0 for name in NODES}
     published = summary['joint_states']['published']
     assert 1000 < published < 60_000, summary['joint_states']
     joint_states = read_joint_states(out / 'bag')
@@ -109,13 +113,13 @@ def test_ctrl_c_stops_the_graph_once_in_order_and_keeps_every_sample(
     # the recorder saw one publisher and no gap in the stamps
     assert summary['joint_states']['lost'] == 0 and summary['joint_states']['publishers'] == 1
     for method, row in summary['methods'].items():
-        # each identifier took the samples still queued when it was stopped, predicted
-        # them all, and the recorder (stopped last) recorded every prediction
+        # the identifier took the samples still queued when it was stopped, each method
+        # predicted them all, and the recorder (stopped last) recorded every prediction
         assert row['processed'] == row['published'] == row['recorded'] == published, \
             (method, row)
         recorded = read_joint_states(out / 'bag', topic=torque_topic(method))
         assert (recorded.stamp_ns == joint_states.stamp_ns).all(), method
-    for name in ('scara_sim', *METHODS, 'recorder'):
+    for name in NODES:
         text = (out / 'logs' / f'{name}.log').read_text()
         assert 'Traceback' not in text, (name, text[-2000:])
     assert f'published {published}, recorded {published}' in output
@@ -128,7 +132,10 @@ def test_no_node_outlives_a_killed_run(tmp_path: Path, domain: str) -> None:
     try:
         wait_for_samples_in_bag(run, out / 'bag', log)
         nodes = children(run.pid)
-        assert len(nodes) == len(METHODS) + 2, nodes
+        assert len(nodes) == len(NODES), nodes
+        learners = [pid for node in nodes for pid in children(node)]
+        assert len(learners) == len(METHODS), learners  # the identifier's, one per method
+        nodes += learners
         run.send_signal(signal.SIGKILL)  # the run alone: its nodes are in other sessions
         run.wait(timeout=10)
         deadline = time.monotonic() + 60
