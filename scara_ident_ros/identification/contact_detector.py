@@ -85,6 +85,7 @@ class ContactDetector:
         self.thresholds: NDArray[np.float64] | None = None
         self.validation_nmse: float | None = None
         self._over = np.zeros(n_joints, dtype=np.int64)  # consecutive samples over, per joint
+        self._active: NDArray[np.float64] | None = None  # the thresholds while armed
 
     @property
     def armed(self) -> bool:
@@ -103,15 +104,15 @@ class ContactDetector:
         nmse = None if validation_nmse is None or not math.isfinite(validation_nmse) \
             else float(validation_nmse)
         self.validation_nmse = nmse
-        if residuals is None or len(residuals) < MIN_RESIDUALS or nmse is None:
-            self.thresholds = None
-            return
-        spread = robust_spread(residuals)
-        if spread.shape != (self.n_joints,):
-            raise ValueError(f'residuals have {spread.shape[0]} joints, the detector '
-                             f'{self.n_joints}')
-        self.thresholds = (self.sigma * spread if np.all(np.isfinite(spread) & (spread > 0))
-                           else None)
+        self.thresholds = None
+        if residuals is not None and len(residuals) >= MIN_RESIDUALS and nmse is not None:
+            spread = robust_spread(residuals)
+            if spread.shape != (self.n_joints,):
+                raise ValueError(f'residuals have {spread.shape[0]} joints, the detector '
+                                 f'{self.n_joints}')
+            if np.all(np.isfinite(spread) & (spread > 0)):
+                self.thresholds = self.sigma * spread
+        self._active = self.thresholds if self.armed else None
 
     def check(self, external: NDArray[np.float64]) -> NDArray[np.bool_]:
         """The joints in contact at one sample, from its τ_ext (n,) (N·m or N): shape (n,).
@@ -119,16 +120,20 @@ class ContactDetector:
         All False while not armed (and the run counts start again); a non-finite τ_ext is
         not over the threshold.
         """
-        thresholds = self.thresholds
-        if thresholds is None or not self.armed:
+        thresholds = self._active
+        if thresholds is None:
             self._over[:] = 0
             return np.zeros(self.n_joints, dtype=bool)
-        over = np.abs(external) > thresholds  # NaN compares False
-        self._over = np.where(over, self._over + 1, 0)
+        over: NDArray[np.bool_] = np.abs(external) > thresholds  # NaN compares False
+        if self.min_samples == 1:
+            return over
+        self._over += 1
+        self._over[~over] = 0
         return np.asarray(self._over >= self.min_samples)
 
     def reset(self) -> None:
         """Forget the thresholds, the NMSE and the runs (a new model)."""
         self.thresholds = None
         self.validation_nmse = None
+        self._active = None
         self._over[:] = 0
