@@ -894,7 +894,9 @@ class IdentifierNode(Node):
                 ident.publish(results, self.frame_id)
             if inputs:
                 for ident in self.identifications:
-                    ident.torque_publisher.wait_for_all_acked(Duration(seconds=FLUSH_TIMEOUT))
+                    for publisher in (ident.torque_publisher, ident.external_publisher,
+                                      ident.contact_publisher):
+                        publisher.wait_for_all_acked(Duration(seconds=FLUSH_TIMEOUT))
         for ident in self.identifications:
             ident.lazy.close()
         self.checkpoint()
