@@ -68,7 +68,7 @@ class ContactDetector:
         The validation NMSE of the latest :meth:`calibrate`.
     """
 
-    def __init__(self, n_joints: int, *, sigma: float = 10.0, arm_nmse: float = 0.01,
+    def __init__(self, n_joints: int, *, sigma: float = 12.0, arm_nmse: float = 0.01,
                  min_samples: int = 1) -> None:
         if n_joints < 1:
             raise ValueError(f'n_joints must be at least 1, got {n_joints}')

@@ -223,7 +223,7 @@ PARAMETERS = (
     ParamSpec('stats_file', '', 'Write the final counters and errors here as JSON on '
               'shutdown (with methods, {method} in the path stands for each method); empty: '
               'never', fixed='checked writable at start'),
-    ParamSpec('contact_sigma', 10.0, "Contact threshold of each joint, in robust standard "
+    ParamSpec('contact_sigma', 12.0, "Contact threshold of each joint, in robust standard "
               "deviations (1.4826 x MAD) of the model's residuals on the held-out samples",
               min=0.1, max=1000.0, read_only=False),
     ParamSpec('contact_arm_nmse', 0.01, 'Contact detection is armed while the validation '
