@@ -79,9 +79,9 @@ from scara_ident_ros.methods import METHODS
 from scara_ident_ros.mse_layout import encode_mse
 from scara_ident_ros.nn import FeedForwardNet, ModelFormatError
 from scara_ident_ros.nodes.diagnostics import Diagnostics
-from scara_ident_ros.nodes.messages import joint_state
 from scara_ident_ros.nodes.joint_state_cdr import (JointStateReader, JointStateTemplate,
                                                    RawJointState)
+from scara_ident_ros.nodes.messages import joint_state
 from scara_ident_ros.nodes.parameters import ParamSpec, declare_parameters
 from scara_ident_ros.nodes.publisher_watch import PublisherWatch
 from scara_ident_ros.nodes.runtime import ConfigError, run_node
@@ -810,6 +810,7 @@ class IdentifierNode(Node):
             'validation_nmse': validation.nmse.tolist() if validation is not None else None,
             'validation_nmse_total': (float(validation.nmse_total) if validation is not None
                                       else None),
+            'contacts': ident.contacts, 'contact_thresholds': ident.contact_health()[1],
             'max_lag_ms': ident.worst_lag_ns / 1e6, 'lost': self.loss.lost,
             'pauses': self.loss.pauses, 'paused_s': self.loss.paused_s,
             'wall_clock_stamps': self.clock.wall,

@@ -9,6 +9,7 @@ once the parameter is raised above it.
 """
 from __future__ import annotations
 
+import json
 import sys
 from collections.abc import Iterator
 from pathlib import Path
@@ -120,7 +121,8 @@ def test_contact_only_once_armed_with_the_samples_stamp(tmp_path: Path,
     diagnostics = listener.subscribe(DiagnosticArray, '/diagnostics', rostest.reliable(100))
     args = ['-p', f'model_path:={tmp_path / "model.npz"}', '-p', 'learn:=false',
             '-p', f'validation_block:={BLOCK}', '-p', f'validation_fraction:={FRACTION}',
-            '-p', f'contact_sigma:={SIGMA}', '-p', 'contact_arm_nmse:=1e-9']
+            '-p', f'contact_sigma:={SIGMA}', '-p', 'contact_arm_nmse:=1e-9',
+            '-p', f'stats_file:={tmp_path / "stats.json"}']
     with rostest.NodeProcess(IDENTIFIER, args) as node:
         assert listener.spin_until(lambda: publisher.get_subscription_count() >= 1
                                    or node.exited(), TIMEOUT), 'identifier not matched'
@@ -152,3 +154,6 @@ def test_contact_only_once_armed_with_the_samples_stamp(tmp_path: Path,
     assert [stamp_to_ns(msg.header.stamp) for msg in contacts] == [int(stamps[PULSES[1]])]
     assert list(contacts[0].name) == ['joint1']
     assert list(contacts[0].effort) == [externals[PULSES[1]].effort[0]]  # the same τ_ext
+    info = json.loads((tmp_path / 'stats.json').read_text())
+    assert info['contacts'] == 1
+    np.testing.assert_allclose(info['contact_thresholds'], SIGMA * spread, rtol=1e-9)
