@@ -7,13 +7,20 @@ relative to their namespace: ``scara-ident run`` and the launch file start ident
 """
 from __future__ import annotations
 
-__all__ = ['CLOCK', 'DIAGNOSTICS', 'IDENTIFIER_OUTPUTS', 'JOINT_STATES', 'JOINT_TRAJECTORY',
-           'MSE', 'TORQUE', 'in_namespace', 'mse_topic', 'torque_topic']
+__all__ = ['CLOCK', 'CONTACT', 'DIAGNOSTICS', 'EXTERNAL_EFFORT', 'EXTERNAL_TORQUE',
+           'IDENTIFIER_OUTPUTS', 'JOINT_STATES', 'JOINT_TRAJECTORY', 'MSE', 'TORQUE',
+           'in_namespace', 'mse_topic', 'torque_topic']
 
 JOINT_STATES = 'joint_states'  # sensor_msgs/JointState: q, q', effort of the robot
 TORQUE = 'identified_torque'  # sensor_msgs/JointState: an identifier's a-priori predictions
 MSE = 'identification_mse'  # std_msgs/Float64MultiArray: its errors (mse_layout)
+EXTERNAL_TORQUE = 'external_torque'  # sensor_msgs/JointState: measured − predicted effort
+CONTACT = 'contact'  # sensor_msgs/JointState: the joints over their contact threshold
+#: What a run records of each identifier. external_torque is left out (as many messages as
+#: identified_torque, and measured − predicted of two recorded topics), and so is contact
+#: (the same residual over thresholds that diagnostics report).
 IDENTIFIER_OUTPUTS = (TORQUE, MSE)
+EXTERNAL_EFFORT = '~/external_effort'  # sensor_msgs/JointState: a simulator's applied contact
 DIAGNOSTICS = '/diagnostics'
 CLOCK = '/clock'
 #: trajectory_msgs/JointTrajectory: commands of ros2_control's joint_trajectory_controller

@@ -158,6 +158,9 @@ def run(args: argparse.Namespace) -> int:
         '-r', f'{JOINT_STATES}:={JOINT_STATES_TOPIC}',
         '-p', f'methods:=[{",".join(args.methods)}]',
         '-p', f'save_path:={models}/{{method}}.npz', '-p', f'trainer:={args.trainer}',
+        # not recorded: measured - predicted is in the bag already (joint_states and
+        # identified_torque); contacts are still detected and published
+        '-p', 'external_torque:=false',
         *(['-p', f'lm_interval:={args.lm_interval}'] if args.lm_interval else []),
         # subscribe /joint_states only once the recorder records every method's outputs:
         # the simulator's wait below then covers the predictions too

@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import math
 import statistics
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from enum import IntEnum
 
@@ -172,7 +173,10 @@ def identifier_health(*, period_s: float, since_sample_s: float | None, processe
                       skipped: int, lost: int, learnt: int, recent_processed: int,
                       recent_skipped: int, recent_lost: int, lag_s: float | None,
                       error_finite: bool, validation_nmse: float | None,
-                      learning: bool, update_rate: float | None = None) -> Health:
+                      learning: bool, update_rate: float | None = None,
+                      contact_armed: bool | None = None,
+                      contact_thresholds: Sequence[float] | None = None,
+                      contact_arm_nmse: float | None = None) -> Health:
     """The identifier's health over the last ``period_s`` seconds.
 
     Parameters
@@ -197,6 +201,14 @@ def identifier_health(*, period_s: float, since_sample_s: float | None, processe
     update_rate : float or None
         Weight updates per second of a trainer that learns beside the stream; None for one
         that learns in the message path. It falls when the CPU is short.
+    contact_armed : bool or None
+        Whether contact detection is armed (the validation NMSE is below
+        ``contact_arm_nmse``); None: no contact detection, nothing reported about it.
+    contact_thresholds : sequence of float or None
+        The per-joint contact thresholds on |measured − predicted| (N·m or N), None until
+        there are enough held-out samples.
+    contact_arm_nmse : float or None
+        The validation NMSE below which detection is armed.
     """
     rate = recent_processed / period_s
     problems: list[tuple[Level, str]] = []
@@ -231,7 +243,19 @@ def identifier_health(*, period_s: float, since_sample_s: float | None, processe
                                                         else lag_s * 1e3, 3),
         'processed': str(processed), 'skipped': str(skipped), 'lost': str(lost),
         'learnt': str(learnt), 'learning': str(learning).lower(),
-        'validation NMSE': _number(validation_nmse)})
+        'validation NMSE': _number(validation_nmse),
+        **_contact_values(contact_armed, contact_thresholds, contact_arm_nmse)})
+
+
+def _contact_values(armed: bool | None, thresholds: Sequence[float] | None,
+                    arm_nmse: float | None) -> dict[str, str]:
+    """The diagnostics values about contact detection (none without it)."""
+    if armed is None:
+        return {}
+    below = f'validation NMSE < {arm_nmse:g}' if arm_nmse is not None else 'identified'
+    return {'contact detection': 'armed' if armed else f'not armed (until {below})',
+            'contact thresholds': ('none yet' if thresholds is None
+                                   else ', '.join(_number(v) for v in thresholds))}
 
 
 def simulator_health(*, period_s: float, nominal_hz: float, published: int, late: int,

@@ -82,12 +82,17 @@ class StepResult:
         Why the sample was rejected, or None if a prediction was made.
     held_out : bool
         The sample is a validation sample: predicted, never learnt.
+    measured : ndarray of shape (n_joints,) or None
+        The sample's measured effort (N·m or N) in joint order, None if it had none or was
+        rejected: ``measured − effort`` is the effort the model does not explain (a
+        contact's, for a model that identifies).
     """
 
     stamp_ns: int
     effort: NDArray[np.float64] | None
     reason: SkipReason | None = None
     held_out: bool = False
+    measured: NDArray[np.float64] | None = None
 
 
 @dataclass
@@ -306,7 +311,7 @@ class OnlineIdentifier:
                 counts.clipped += 1
         if effort is not None:
             self.errors.update(effort, predicted)
-        return StepResult(item.stamp_ns, predicted, None, held_out)
+        return StepResult(item.stamp_ns, predicted, None, held_out, effort)
 
     def error_stats(self) -> ErrorStats:
         """Return the error statistics over the last ``mse_window`` predictions."""
@@ -315,6 +320,14 @@ class OnlineIdentifier:
     def paper_error(self) -> ErrorStats:
         """Return the paper's online figure: the statistics over the last 100 predictions."""
         return self.errors.recent(PAPER_WINDOW)
+
+    def held_out_residuals(self) -> NDArray[np.float64] | None:
+        """Measured − predicted effort of the current model on the held-out samples kept so
+        far, shape (K, n) (N·m or N); None without a holdout or held-out samples."""
+        if self.holdout is None or len(self.holdout.reservoir) == 0:
+            return None
+        reservoir = self.holdout.reservoir
+        return np.asarray(reservoir.Y - self.model.predict(reservoir.X))
 
     def validation_stats(self) -> ErrorStats | None:
         """Score the current model on the held-out samples kept so far.

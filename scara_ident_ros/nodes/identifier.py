@@ -18,6 +18,14 @@ subscription: each sample is checked and differentiated once, each network predi
 learns it and publishes under ``<method>/`` (``ffs/identified_torque``, ...), as separate
 nodes in namespaces would, for a third of their CPU.
 
+``external_torque`` (``sensor_msgs/JointState``, same stamps and joints as
+``identified_torque``) carries ``effort`` = measured − predicted: what the model does not
+explain, a contact's effort once it identifies. Once the validation NMSE is below
+``contact_arm_nmse`` (never before), a sample whose external torque exceeds a joint's
+threshold (``contact_sigma`` robust standard deviations of the held-out residuals) is
+reported on ``contact``: the joints over their threshold, ``effort`` = their external torque,
+the sample's stamp (:mod:`scara_ident_ros.identification.contact_detector`).
+
 ``identification_mse`` (``std_msgs/Float64MultiArray``) carries the errors,
 ``data = [mse_1 .. mse_n, mse_total, nmse_1 .. nmse_n, nmse_total,
 vnmse_1 .. vnmse_n, vnmse_total]`` with ``layout.dim[0]`` labelled
@@ -45,6 +53,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
@@ -60,6 +69,7 @@ from scara_ident_ros.identification import (DIFFERENTIATORS, LIMIT_NAMES, TRAINE
                                             SkipReason, StepResult, check_warm_start,
                                             load_joint_limits, make_differentiator)
 from scara_ident_ros.identification.background_lm import BackgroundLM, prestart
+from scara_ident_ros.identification.contact_detector import ContactDetector
 from scara_ident_ros.identification.error_window import ErrorStats
 from scara_ident_ros.identification.joint_limits import JointLimits
 from scara_ident_ros.identification.lazy_core import ONLINE_METHODS, OnlineModel
@@ -76,11 +86,12 @@ from scara_ident_ros.nn import FeedForwardNet, ModelFormatError
 from scara_ident_ros.nodes.diagnostics import Diagnostics
 from scara_ident_ros.nodes.joint_state_cdr import (JointStateReader, JointStateTemplate,
                                                    RawJointState)
+from scara_ident_ros.nodes.messages import joint_state
 from scara_ident_ros.nodes.parameters import ParamSpec, declare_parameters
 from scara_ident_ros.nodes.publisher_watch import PublisherWatch
 from scara_ident_ros.nodes.runtime import ConfigError, run_node
 from scara_ident_ros.paths import unwritable_file
-from scara_ident_ros.topics import JOINT_STATES, MSE, TORQUE
+from scara_ident_ros.topics import CONTACT, EXTERNAL_TORQUE, JOINT_STATES, MSE, TORQUE
 
 __all__ = ['IdentifierNode', 'main']
 
@@ -219,6 +230,17 @@ PARAMETERS = (
     ParamSpec('stats_file', '', 'Write the final counters and errors here as JSON on '
               'shutdown (with methods, {method} in the path stands for each method); empty: '
               'never', fixed='checked writable at start'),
+    ParamSpec('contact_sigma', 12.0, "Contact threshold of each joint, in robust standard "
+              "deviations (1.4826 x MAD) of the model's residuals on the held-out samples",
+              min=0.1, max=1000.0, read_only=False),
+    ParamSpec('contact_arm_nmse', 0.01, 'Contact detection is armed while the validation '
+              'NMSE (mean over the joints) is below this, never before', min=1e-12, max=10.0,
+              read_only=False),
+    ParamSpec('contact_min_samples', 1, 'Consecutive samples over the threshold before a '
+              'joint is reported on contact', min=1, max=1000, read_only=False),
+    ParamSpec('external_torque', True, 'Publish external_torque (measured - predicted) for '
+              'every prediction; false: contact detection only (one message less per sample '
+              'and method)', read_only=False),
 )
 #: Rejections that mean the message's joints are not the identifier's
 JOINT_SET_REASONS = (SkipReason.UNKNOWN_JOINT, SkipReason.MISSING_JOINT,
@@ -226,6 +248,18 @@ JOINT_SET_REASONS = (SkipReason.UNKNOWN_JOINT, SkipReason.MISSING_JOINT,
 METHOD_FIELD = '{method}'  # stands for each method in a path parameter, with methods
 VALIDATION_PERIOD = 1.0  # s: the held-out score is recomputed at most this often per method
 ARRIVALS = 1000  # samples whose arrival time is kept until their prediction is out
+
+
+#: contact messages are rare: a few seconds of them at 1 kHz
+CONTACT_QOS = QoSProfile(depth=1000, history=HistoryPolicy.KEEP_LAST,
+                         reliability=ReliabilityPolicy.RELIABLE)
+CONTACT_PARAMETERS = {'contact_sigma', 'contact_arm_nmse', 'contact_min_samples'}
+
+
+def contact_settings(settings: dict[str, Any]) -> dict[str, Any]:
+    """The :class:`ContactDetector` settings of the node's parameters."""
+    return {'sigma': settings['contact_sigma'], 'arm_nmse': settings['contact_arm_nmse'],
+            'min_samples': settings['contact_min_samples']}
 
 
 def method_path(path: str, method: str) -> str:
@@ -250,15 +284,27 @@ class Identification:
         A warm start.
     urdf : (str, str)
         The robot's URDF and where it comes from, for the physical models ('' without).
+    contact : dict
+        ``sigma``, ``arm_nmse`` and ``min_samples`` of its :class:`ContactDetector`.
     """
 
     def __init__(self, node: Node, method: str, prefix: str, limits: JointLimits,
-                 network: OnlineModel | None, urdf: tuple[str, str]) -> None:
+                 network: OnlineModel | None, urdf: tuple[str, str],
+                 contact: dict[str, Any]) -> None:
         self.method = method
         self.lazy = LazyCore(limits, network, urdf=urdf[0], urdf_source=urdf[1])
         self.torque_publisher = node.create_publisher(JointState, prefix + TORQUE, STREAM_QOS)
+        self.external_publisher = node.create_publisher(JointState, prefix + EXTERNAL_TORQUE,
+                                                        STREAM_QOS)
+        self.contact_publisher = node.create_publisher(JointState, prefix + CONTACT,
+                                                       CONTACT_QOS)
         self.mse_publisher = node.create_publisher(Float64MultiArray, prefix + MSE, 10)
         self.template: JointStateTemplate | None = None  # the predictions' message
+        self.external_template: JointStateTemplate | None = None  # the external torques'
+        self.contact_settings = dict(contact)
+        self.detector: ContactDetector | None = None  # once the joints are known
+        self.contacts = 0  # contact messages published
+        self.send_external = True  # publish external_torque (parameter external_torque)
         self.max_lag_ns = 0  # ns, since the last statistics line
         self.worst_lag_ns = 0  # ns, since start
         self.period_lag_ns = 0  # ns, largest since the last diagnostics report
@@ -285,9 +331,20 @@ class Identification:
         return trainer if isinstance(trainer, BackgroundLM) else None
 
     def built(self, names: list[str]) -> None:
-        """The core is built for ``names``: make the message predictions are sent in."""
+        """The core is built for ``names``: make the messages predictions and external
+        torques are sent in, and a disarmed contact detector."""
         self.template = JointStateTemplate(names)
+        self.external_template = JointStateTemplate(names)
+        self.detector = ContactDetector(len(names), **self.contact_settings)
         self._validation, self._validated_at = None, -math.inf
+
+    def set_contact(self, **settings: Any) -> None:
+        """Change the contact detector's ``sigma``, ``arm_nmse`` or ``min_samples``; the
+        thresholds follow at the next validation."""
+        self.contact_settings.update(settings)
+        if self.detector is not None:
+            self.detector = ContactDetector(self.detector.n_joints, **self.contact_settings)
+            self._validated_at = -math.inf
 
     def validation(self, *, fresh: bool = False) -> ErrorStats | None:
         """The held-out score, recomputed at most every :data:`VALIDATION_PERIOD` s once
@@ -297,24 +354,33 @@ class Identification:
         stale = self._validation is None or now - self._validated_at >= VALIDATION_PERIOD
         if self.core is not None and (fresh or stale):
             self._validation, self._validated_at = self.core.validation_stats(), now
+            if self.detector is not None:  # thresholds of the current model
+                self.detector.calibrate(
+                    self.core.held_out_residuals(),
+                    None if self._validation is None else self._validation.nmse_total)
         return self._validation
 
     def publish(self, results: list[StepResult], frame_id: str,
                 clock: StreamClock | None = None) -> None:
-        """Publish each prediction, stamped with its sample.
+        """Publish each prediction, its external torque and any contact, stamped with its
+        sample.
 
         ``clock``: record how late each prediction is (against the stream's clock); not
         for those let out on shutdown, whose lag is the time since the last sample.
         """
-        template = self.template
-        assert template is not None  # built with the core
+        template, external = self.template, self.external_template
+        assert template is not None and external is not None  # built with the core
         if template.frame_id != frame_id:
             template = self.template = JointStateTemplate(template.names, frame_id)
+            external = self.external_template = JointStateTemplate(template.names, frame_id)
         publish = self.torque_publisher.publish
         for result in results:
             if result.effort is None:
                 continue
             publish(template.fill(result.stamp_ns, result.effort))
+            if result.measured is not None:
+                self.publish_external(result.stamp_ns, result.measured - result.effort,
+                                      external, send=self.send_external)
             if clock is None:
                 continue
             lag_ns = clock.lag_ns(result.stamp_ns, time.time_ns())
@@ -324,6 +390,28 @@ class Identification:
             if lag_ns > self.max_lag_ns:
                 self.max_lag_ns = lag_ns
                 self.worst_lag_ns = max(self.worst_lag_ns, lag_ns)
+
+    def publish_external(self, stamp_ns: int, torque: NDArray[np.float64],
+                         template: JointStateTemplate, *, send: bool = True) -> None:
+        """Publish a sample's external torque (n,) (if ``send``) and, if some joints are
+        over their threshold, a contact message naming them."""
+        if send:
+            self.external_publisher.publish(template.fill(stamp_ns, torque))
+        assert self.detector is not None  # built with the core
+        over = self.detector.check(torque)
+        if over.any():
+            names = [name for name, hit in zip(template.names, over) if hit]
+            self.contact_publisher.publish(joint_state(stamp_ns, names, effort=torque[over],
+                                                       frame_id=template.frame_id))
+            self.contacts += 1
+
+    def contact_health(self) -> tuple[bool, list[float] | None]:
+        """Whether contact detection is armed, and the thresholds (N·m or N) if known."""
+        detector = self.detector
+        if detector is None:
+            return False, None
+        thresholds = detector.thresholds
+        return detector.armed, None if thresholds is None else thresholds.tolist()
 
     def publish_mse(self, names: list[str]) -> None:
         """Publish the windowed per-joint and overall MSE and NMSE."""
@@ -389,7 +477,8 @@ class IdentifierNode(Node):
                                            f'{source}')
             self.identifications.append(Identification(
                 self, method, f'{method}/' if several else '', self.limits, network,
-                self.urdf))
+                self.urdf, contact_settings(s)))
+            self.identifications[-1].send_external = s['external_torque']
         if s['trainer'] == 'lm' and s['lm_background']:
             prestart(len(methods))  # their interpreters start now, not with the stream
         # checked at startup (a bad window ends it in one line), used once the joints are known
@@ -519,6 +608,11 @@ class IdentifierNode(Node):
                 trainer.steps_per_update = s['lm_steps']
             elif isinstance(trainer, BackgroundLM) and {'lm_interval', 'lm_steps'} & set(changed):
                 trainer.set_schedule(interval=s['lm_interval'], steps=s['lm_steps'])
+        if CONTACT_PARAMETERS & set(changed):
+            for ident in self.identifications:
+                ident.set_contact(**contact_settings(s))
+        for ident in self.identifications:
+            ident.send_external = s['external_torque']
         if 'mse_rate_hz' in changed:
             self.destroy_timer(self.mse_timer)
             self.mse_timer = self.create_timer(1.0 / s['mse_rate_hz'], self.publish_mse)
@@ -589,6 +683,7 @@ class IdentifierNode(Node):
             validation = float(stats.nmse_total) if stats is not None else None
         lag_ns, ident.period_lag_ns = ident.period_lag_ns, 0
         background = ident.background
+        armed, thresholds = ident.contact_health()
         return identifier_health(
             period_s=period_s, processed=counts.processed, skipped=skipped,
             since_sample_s=(None if self.last_sample is None
@@ -597,7 +692,9 @@ class IdentifierNode(Node):
             recent_skipped=int(recent['skipped']), recent_lost=int(recent['lost']),
             lag_s=lag_ns / 1e9 if lag_ns else None, error_finite=error_finite,
             validation_nmse=validation, learning=self.settings['learn'],
-            update_rate=background.rate() if background is not None else None)
+            update_rate=background.rate() if background is not None else None,
+            contact_armed=armed, contact_thresholds=thresholds,
+            contact_arm_nmse=self.settings['contact_arm_nmse'])
 
     # ------------------------------------------------------------------ configuration
     def _load(self, path: str, method: str) -> OnlineModel:
@@ -776,6 +873,7 @@ class IdentifierNode(Node):
             'validation_nmse': validation.nmse.tolist() if validation is not None else None,
             'validation_nmse_total': (float(validation.nmse_total) if validation is not None
                                       else None),
+            'contacts': ident.contacts, 'contact_thresholds': ident.contact_health()[1],
             'max_lag_ms': ident.worst_lag_ns / 1e6, 'lag_p50_ms': ident.lags.percentile_ms(50),
             'lag_p99_ms': ident.lags.percentile_ms(99), 'lost': self.loss.lost,
             'pauses': self.loss.pauses, 'paused_s': self.loss.paused_s,
@@ -863,7 +961,9 @@ class IdentifierNode(Node):
                 ident.publish(results, self.frame_id)
             if inputs:
                 for ident in self.identifications:
-                    ident.torque_publisher.wait_for_all_acked(Duration(seconds=FLUSH_TIMEOUT))
+                    for publisher in (ident.torque_publisher, ident.external_publisher,
+                                      ident.contact_publisher):
+                        publisher.wait_for_all_acked(Duration(seconds=FLUSH_TIMEOUT))
         for ident in self.identifications:
             ident.lazy.close()
         self.checkpoint()

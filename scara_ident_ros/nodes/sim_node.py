@@ -15,6 +15,12 @@ the ``trajectory_msgs/JointTrajectory`` commands on
 ``/joint_trajectory_controller/joint_trajectory`` (remappable) as ``joint_trajectory_controller``
 would (:class:`~scara_ident_ros.sim.trajectory_follower.TrajectoryFollower`), with the same
 computed torque + PD, holding the middle of each joint's range until the first command.
+
+``~/external_effort`` (``sensor_msgs/JointState``: ``name`` and ``effort``, N·m or N) applies
+an external effort to the named joints (the others 0) from the next sample until the next
+message (an empty one ends it): a contact, a load the joints must supply, which accelerates
+the arm and to which the controller reacts, while ``effort`` stays the actuators' (see
+:meth:`~scara_ident_ros.sim.simulator.Simulator.apply_external`).
 """
 from __future__ import annotations
 
@@ -26,6 +32,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 from rclpy.duration import Duration
 from rclpy.executors import Executor
 from rclpy.node import Node
@@ -43,7 +50,7 @@ from scara_ident_ros.pacer import DeadlinePacer
 from scara_ident_ros.sim import (SEQUENCE, TRAJECTORIES, FourierTrajectory, SequenceTrajectory,
                                  SimConfig, Simulator, make_trajectory)
 from scara_ident_ros.sim.trajectory_follower import TrajectoryFollower
-from scara_ident_ros.topics import CLOCK, JOINT_STATES, JOINT_TRAJECTORY
+from scara_ident_ros.topics import CLOCK, EXTERNAL_EFFORT, JOINT_STATES, JOINT_TRAJECTORY
 
 __all__ = ['SimulatorNode', 'SIM_PARAMETERS', 'HISTORY', 'EXTERNAL', 'history_depth',
            'fixed_at_start', 'sim_config', 'desired_motion']
@@ -169,6 +176,8 @@ class SimulatorNode(Node):
             self.create_subscription(JointTrajectory, JOINT_TRAJECTORY, self.on_command,
                                      QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE))
         self.msg = joint_state(0, names, frame_id=s['frame_id'])
+        self.joint_index = {name: j for j, name in enumerate(names)}
+        self.create_subscription(JointState, EXTERNAL_EFFORT, self.on_external_effort, 10)
         self.published = 0
         self.pacer = DeadlinePacer(self.period_ns, real_time_factor=s['real_time_factor'])
         self.waiting = True  # for subscribers: nothing published yet on purpose
@@ -215,6 +224,24 @@ class SimulatorNode(Node):
         self.publisher.publish(msg)
         if self.clock_publisher is not None:
             self.clock_publisher.publish(Clock(clock=ns_to_stamp(stamp_ns)))
+
+    def on_external_effort(self, msg: JointState) -> None:
+        """``~/external_effort``: apply these efforts to the named joints (the others 0)
+        from the next sample on, until the next message; refuse unknown joints."""
+        index = self.joint_index
+        unknown = [name for name in msg.name if name not in index]
+        if unknown or len(msg.effort) != len(msg.name):
+            self.get_logger().warning(
+                f'external_effort ignored: it must name joints of {list(index)} with one '
+                f'effort each, got names {list(msg.name)} and {len(msg.effort)} efforts')
+            return
+        effort = np.zeros(len(index))
+        for name, value in zip(msg.name, msg.effort):
+            effort[index[name]] = value
+        try:
+            self.simulator.apply_external(effort)
+        except ValueError as exc:
+            self.get_logger().warning(f'external_effort ignored: {exc}')
 
     def loop(self, executor: Executor, stop: threading.Event) -> None:
         """Publish on absolute deadlines until ``stop`` is set or the duration is reached."""

@@ -14,9 +14,14 @@ real-time loop, see :mod:`scara_ident_ros.sim.jitter`):
    to the effort limits; τ_k and the disturbance T_d(t_k) are held over [t_k, t_{k+1})
    (zero-order hold, like a digital drive);
 3. the sample reports the readings, the true acceleration
-   q''_k = M⁻¹ (τ_k − T_d − C q' − F − G) at the true state (M with the rotor inertias of a
-   URDF robot), and τ_k plus optional noise;
+   q''_k = M⁻¹ (τ_k − T_d − τ_ext − C q' − F − G) at the true state (M with the rotor
+   inertias of a URDF robot), and τ_k plus optional noise;
 4. the true state is integrated to t_{k+1} by ``substeps`` classical RK4 steps.
+
+τ_ext is an external effort (a contact) set with :meth:`Simulator.apply_external` and held
+until the next call; like T_d it is a load the joint must supply, so it accelerates the arm
+and the controller reacts, while the reported effort stays the actuator's τ_k: a model of the
+free robot then sees measured − predicted ≈ τ_ext.
 
 With jitter the steps have the lengths t_{k+1} − t_k, so every sample is the state at its own
 stamp and its effort the one applied from that stamp on: the inputs stay consistent.
@@ -303,6 +308,7 @@ class Simulator:
         self._alpha = math.exp(-2.0 * math.pi * cfg.disturbance_frequency_hz * cfg.dt)
         self._chunk_start = 0
         self._desired: list[tuple[Any, Any, Any]] = []
+        self._external: Any = None  # τ_ext in the plant's vectors, None: no contact
 
     @property
     def stamp_ns(self) -> int:
@@ -313,6 +319,29 @@ class Simulator:
     def state(self) -> tuple[np.ndarray, np.ndarray]:
         """True (noise-free) positions and velocities of the next sample, two (n,) arrays."""
         return np.array(self._q), np.array(self._qd)
+
+    @property
+    def external(self) -> np.ndarray:
+        """External effort τ_ext acting from the next sample on, shape (n,) (N·m, N)."""
+        return (np.zeros(self._n) if self._external is None
+                else np.array(self.plant.floats(self._external), dtype=float))
+
+    def apply_external(self, effort: Sequence[float] | np.ndarray | None) -> None:
+        """Apply the external effort ``effort`` (n,) (N·m, N) from the next sample on,
+        until the next call; None or all zeros: none.
+
+        Raises
+        ------
+        ValueError
+            If ``effort`` has not n finite values.
+        """
+        if effort is None:
+            self._external = None
+            return
+        values = np.asarray(effort, dtype=float)
+        if values.shape != (self._n,) or not np.all(np.isfinite(values)):
+            raise ValueError(f'external effort must be {self._n} finite values, got {effort!r}')
+        self._external = self.plant.native(values[None, :])[0] if values.any() else None
 
     def disturbance(self) -> np.ndarray:
         """Disturbance T_d acting over the next step, shape (n,) (N·m, N)."""
@@ -378,6 +407,8 @@ class Simulator:
             q_meas, qd_meas = q, qd
         tau = plant.control(q_meas, qd_meas, q_des, qd_des, qdd_des)
         net = tau if self._kind == 'none' else plant.sub(tau, self._disturbance_now())
+        if self._external is not None:
+            net = plant.sub(net, self._external)
         stamp = self._stamp_ns
         h = self._h
         if self.config.jitter:

@@ -33,6 +33,19 @@ def test_identifier_ok_reports_its_figures() -> None:
                              'learning': 'true', 'validation NMSE': '0.05'}
 
 
+def test_identifier_says_whether_contact_detection_is_armed() -> None:
+    armed = identifier_health(**healthy_identifier(), contact_armed=True,
+                              contact_thresholds=[12.5, 5.25, 13.0, 0.5],
+                              contact_arm_nmse=0.01)
+    assert armed.level is Level.OK
+    assert armed.values['contact detection'] == 'armed'
+    assert armed.values['contact thresholds'] == '12.5, 5.25, 13, 0.5'
+    waiting = identifier_health(**healthy_identifier(), contact_armed=False,
+                                contact_thresholds=None, contact_arm_nmse=0.01)
+    assert waiting.values['contact detection'] == 'not armed (until validation NMSE < 0.01)'
+    assert waiting.values['contact thresholds'] == 'none yet'
+
+
 @pytest.mark.parametrize(('changes', 'level', 'words'), [
     ({'since_sample_s': 1.5, 'recent_processed': 0}, Level.WARN, 'no sample for 1.5 s (> 1 s)'),
     ({'since_sample_s': None, 'recent_processed': 0}, Level.WARN, 'no sample received yet'),

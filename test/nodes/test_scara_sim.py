@@ -266,3 +266,37 @@ def test_reports_its_rate_on_diagnostics(listener: Listener) -> None:
         assert last.message.startswith('publishing') and late <= 0.01 * 1200, last.message
     else:
         assert last.level == b'\x01' and f'{late} of' in last.message, last.message
+
+
+def test_external_effort_loads_the_simulated_joints_until_the_next_message(
+        listener: Listener) -> None:
+    """A 25 N·m external effort on joint1 from ``~/external_effort`` enters the dynamics
+    at one sample and is held: the published stream is then that of a local simulator with
+    the same effort applied there (the reported effort stays the actuators')."""
+    messages = listener.subscribe(JointState, JOINT_STATES_TOPIC)
+    publisher = listener.node.create_publisher(JointState, '/scara_sim/external_effort', 10)
+    with NodeProcess(MODULE, ['-p', 'wait_for_subscribers:=1', '-p', 'stamp_origin:=zero',
+                              '-p', 'duration:=3.0']) as node:
+        receive(listener, messages, 500)
+        assert listener.spin_until(lambda: publisher.get_subscription_count() >= 1, 10.0)
+        push = JointState(name=['joint1'], effort=[25.0])
+        publisher.publish(push)
+        listener.spin_until(lambda: False, 0.5)
+        publisher.publish(JointState())
+        listener.spin_until(node.exited, EXIT_TIMEOUT)
+        assert node.wait(EXIT_TIMEOUT).returncode == 0
+    receive(listener, messages, 3000)
+    q, effort = field(messages, 'position'), field(messages, 'effort')
+    params = ScaraParams()
+    free = Simulator(params, make_trajectory('sequence', params, 0), SimConfig()).simulate(3000)
+    differs = np.flatnonzero(np.any(q != free.q, axis=1))
+    assert differs.size, 'the external effort changed nothing'
+    start = int(differs[0]) - 1  # the first sample integrated under it
+    assert start >= 500
+    pushed = Simulator(params, make_trajectory('sequence', params, 0), SimConfig())
+    pushed.simulate(start)
+    pushed.apply_external([25.0, 0.0, 0.0, 0.0])
+    held = pushed.simulate(100)  # the effort stays for 0.5 s: these 100 ms are under it
+    np.testing.assert_allclose(q[start:start + 100], held.q, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(effort[start:start + 100], held.effort, rtol=0, atol=1e-9)
+    assert effort[start + 50, 0] - free.effort[start + 50, 0] > 5.0  # the controller reacts

@@ -183,3 +183,31 @@ def test_simulate_rejects_negative_counts() -> None:
     assert len(Simulator(PARAMS, TRAJ).simulate(0)) == 0
     with pytest.raises(ParamError, match='n must be >= 0'):
         Simulator(PARAMS, TRAJ).simulate(-1)
+
+
+def test_external_effort_enters_the_dynamics_not_the_reported_effort() -> None:
+    """τ_ext is a load on the joints: the true q'' obeys M q'' + ... = τ − τ_ext, the
+    reported effort stays the actuators' τ (so measured − ID(q, q', q'') = τ_ext), the arm
+    deviates and the controller reacts; None ends it."""
+    model = ScaraModel(PARAMS)
+    free, pushed = Simulator(PARAMS, TRAJ), Simulator(PARAMS, TRAJ)
+    free.simulate(100)
+    pushed.simulate(100)
+    external = np.array([20.0, 0.0, 0.0, -0.5])  # N·m, N·m, N, N·m
+    pushed.apply_external(external)
+    np.testing.assert_array_equal(pushed.external, external)
+    first = pushed.step()
+    np.testing.assert_allclose(
+        first.effort - model.inverse_dynamics(first.q, first.qd, first.qdd), external,
+        atol=1e-9)
+    np.testing.assert_allclose(first.effort, free.step().effort)  # nothing reacted yet
+    for _ in range(20):
+        later, reference = pushed.step(), free.step()
+    assert abs(later.q[0] - reference.q[0]) > 1e-4  # the arm gave way
+    assert later.effort[0] - reference.effort[0] > 1.0  # the controller pushes back
+    pushed.apply_external(None)
+    sample = pushed.step()
+    np.testing.assert_allclose(
+        sample.effort, model.inverse_dynamics(sample.q, sample.qd, sample.qdd), atol=1e-9)
+    with pytest.raises(ValueError):
+        pushed.apply_external([1.0, 2.0])

@@ -1,0 +1,159 @@
+"""The identifier's contact outputs in its own process, over real rclpy and Fast DDS.
+
+The node predicts with a fixed warm-start model (``learn:=false``): an FFS network whose
+output layer is fitted by least squares to the test's stream, so that it identifies it
+(validation NMSE below 1e-3) and every external torque can be computed here exactly. The
+test publishes the stream with a pulse added to joint1's measured effort on two samples: the
+first while detection is not armed (``contact_arm_nmse`` below the model's NMSE), the second
+once the parameter is raised above it.
+"""
+from __future__ import annotations
+
+import json
+import sys
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+import pytest
+from diagnostic_msgs.msg import DiagnosticArray
+from sensor_msgs.msg import JointState
+
+from scara_ident_ros.dynamics import ScaraParams
+from scara_ident_ros.identification import Holdout, InputStage, JointMap
+from scara_ident_ros.methods import limit_scaling, make_network
+from scara_ident_ros.nn import FeedForwardNet
+from scara_ident_ros.nodes.messages import NS_PER_S, ns_to_stamp, stamp_to_ns
+from scara_ident_ros.resources import config_path
+from scara_ident_ros.sim import SimConfig, Simulator, make_trajectory
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import rostest  # noqa: E402  (test/nodes is not a package: see rostest's docstring)
+
+IDENTIFIER = 'scara_ident_ros.nodes.identifier'
+NAMES = ('joint1', 'joint2', 'joint3', 'joint4')
+PERIOD_NS = 1_000_000  # 1 kHz
+T0_NS = 1_000 * NS_PER_S
+N = 1500  # samples: the first PART before arming, the rest after
+PART = 1000
+LAG = 10  # samples a prediction follows its sample (centred q'', window 21)
+PULSES = (650, 1300)  # samples whose joint1 effort gets PULSE added: before, after arming
+PULSE = 25.0  # N·m, 10 % of joint1's effort limit
+SIGMA = 20.0  # the residuals of this stream stay below 15 robust std (checked below)
+BLOCK, FRACTION = 50, 0.5  # held-out blocks: over 100 held-out samples in the first part
+TIMEOUT = 30.0  # s, the machine is shared
+SCARA = ScaraParams.from_yaml(config_path('scara.yaml'))
+
+
+def stream() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Stamps (N,), q, q', clean measured effort (N, 4) of the simulated SCARA."""
+    record = Simulator(SCARA, make_trajectory('standard', SCARA, seed=0),
+                       SimConfig(seed=0)).simulate(N)
+    stamps = T0_NS + PERIOD_NS * np.arange(N, dtype=np.int64)
+    return stamps, record.q, record.qd, record.effort
+
+
+def fitted_model(path: Path, X: np.ndarray, Y: np.ndarray) -> FeedForwardNet:
+    """An FFS network for the SCARA's limits, its output layer fitted to (X, Y), saved."""
+    net = make_network('ffs', 4)
+    net.set_scaling(*limit_scaling(*(SCARA.array(name) for name in (
+        'position_min', 'position_max', 'velocity_max', 'acceleration_max', 'effort_max'))))
+    hidden = net.forward_scaled(net.x_scaling.transform(X)).h
+    design = np.hstack([hidden, np.ones((len(X), 1))])
+    weights, *_ = np.linalg.lstsq(design, net.y_scaling.transform(Y), rcond=None)
+    theta = net.get_params()
+    net.unpack(theta)[1][:] = weights.T
+    net.set_params(theta)
+    net.metadata['joint_names'] = np.array(NAMES)
+    net.save(path)
+    return net
+
+
+def message(stamp_ns: int, q: np.ndarray, qd: np.ndarray, effort: np.ndarray) -> JointState:
+    msg = JointState()
+    msg.header.stamp = ns_to_stamp(stamp_ns)
+    msg.name = list(NAMES)
+    msg.position, msg.velocity, msg.effort = (
+        [float(v) for v in a] for a in (q, qd, effort))
+    return msg
+
+
+def contact_value(diagnostics: list[DiagnosticArray]) -> str | None:
+    """The latest 'contact detection' value reported on /diagnostics."""
+    for array in reversed(diagnostics):
+        for status in array.status:
+            for pair in status.values:
+                if pair.key == 'contact detection':
+                    return str(pair.value)
+    return None
+
+
+@pytest.fixture
+def listener() -> Iterator[rostest.Listener]:
+    listener = rostest.Listener()
+    yield listener
+    listener.close()
+
+
+def test_contact_only_once_armed_with_the_samples_stamp(tmp_path: Path,
+                                                        listener: rostest.Listener) -> None:
+    stamps, q, qd, effort = stream()
+    _, X, _ = InputStage(JointMap(NAMES)).batch(stamps, NAMES, q, qd, effort)
+    net = fitted_model(tmp_path / 'model.npz', X, effort)
+    measured = effort.copy()
+    measured[list(PULSES), 0] += PULSE
+    external = measured - net.predict(X)
+    rule = Holdout(12, 4, fraction=FRACTION, block=BLOCK, seed=0)
+    held = [i for i in range(N) if rule.held_out(i)]
+    assert not set(PULSES) & set(held)  # a pulse is never among the thresholds' samples
+    spread = 1.4826 * np.median(np.abs(external[held] - np.median(external[held], axis=0)),
+                                axis=0)
+    clean = np.ones(N, bool)
+    clean[list(PULSES)] = False
+    assert np.all(np.abs(external[clean]) < 15 * spread)  # no contact but the pulses
+    assert PULSE > SIGMA * spread[0]  # a pulse is over joint1's threshold, not the others'
+    assert np.all(np.abs(external[list(PULSES), 1:]) < 15 * spread[1:])
+
+    qos = rostest.reliable(N + 100)
+    publisher = listener.node.create_publisher(JointState, '/joint_states', qos)
+    externals = listener.subscribe(JointState, '/external_torque', qos)
+    contacts = listener.subscribe(JointState, '/contact', qos)
+    diagnostics = listener.subscribe(DiagnosticArray, '/diagnostics', rostest.reliable(100))
+    args = ['-p', f'model_path:={tmp_path / "model.npz"}', '-p', 'learn:=false',
+            '-p', f'validation_block:={BLOCK}', '-p', f'validation_fraction:={FRACTION}',
+            '-p', f'contact_sigma:={SIGMA}', '-p', 'contact_arm_nmse:=1e-9',
+            '-p', f'stats_file:={tmp_path / "stats.json"}']
+    with rostest.NodeProcess(IDENTIFIER, args) as node:
+        assert listener.spin_until(lambda: publisher.get_subscription_count() >= 1
+                                   or node.exited(), TIMEOUT), 'identifier not matched'
+        assert not node.exited(), node.stderr_so_far()
+        listener.spin_until(lambda: False, 1.0)  # its publishers learn of our subscribers
+        for i in range(PART):
+            publisher.publish(message(int(stamps[i]), q[i], qd[i], measured[i]))
+        assert listener.spin_until(lambda: len(externals) >= PART - LAG, TIMEOUT)
+        # the model identifies (NMSE < 1e-3) but not below contact_arm_nmse: not armed
+        assert listener.spin_until(
+            lambda: (contact_value(diagnostics) or '').startswith('not armed'), TIMEOUT)
+        assert contacts == []
+        results = listener.set_parameters('identifier', contact_arm_nmse=0.01)
+        assert all(result.successful for result in results)
+        assert listener.spin_until(lambda: contact_value(diagnostics) == 'armed', TIMEOUT)
+        for i in range(PART, N):
+            publisher.publish(message(int(stamps[i]), q[i], qd[i], measured[i]))
+        assert listener.spin_until(lambda: len(externals) >= N - LAG, TIMEOUT)
+        listener.spin_until(lambda: False, 0.5)  # nothing more may come
+        out = node.stop()
+        assert out.returncode == 0 and 'Traceback' not in out.stderr, out.stderr
+    listener.spin_until(lambda: len(externals) >= N, 5.0)  # the last LAG, on shutdown
+
+    # external_torque: measured − predicted of every sample, with its stamp
+    assert [stamp_to_ns(msg.header.stamp) for msg in externals] == stamps.tolist()
+    np.testing.assert_allclose([msg.effort for msg in externals], external, rtol=1e-9,
+                               atol=1e-9)
+    # contact: only the pulse after arming, on its joint, with its sample's stamp
+    assert [stamp_to_ns(msg.header.stamp) for msg in contacts] == [int(stamps[PULSES[1]])]
+    assert list(contacts[0].name) == ['joint1']
+    assert list(contacts[0].effort) == [externals[PULSES[1]].effort[0]]  # the same τ_ext
+    info = json.loads((tmp_path / 'stats.json').read_text())
+    assert info['contacts'] == 1
+    np.testing.assert_allclose(info['contact_thresholds'], SIGMA * spread, rtol=1e-9)
