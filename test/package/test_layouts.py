@@ -92,10 +92,18 @@ def recorded(make_node: Callable[[], Node], ros_args: list[str],
                     types[topic] = publisher.msg_type
                     sent = graph.setdefault(topic, [])
                     # a node may publish a message object or its serialized bytes
-                    patch.setattr(publisher, 'publish',
-                                  lambda msg, sent=sent, cls=publisher.msg_type: sent.append(
-                                      deserialize_message(msg, cls) if isinstance(msg, bytes)
-                                      else copy.deepcopy(msg)))
+                    def capture(msg: Any, sent: list[Any] = sent,
+                                cls: Any = publisher.msg_type) -> None:
+                        sent.append(deserialize_message(msg, cls) if isinstance(msg, bytes)
+                                    else copy.deepcopy(msg))
+
+                    patch.setattr(publisher, 'publish', capture)
+                    # the identifier sends serialized predictions to the handle directly
+                    for ident in getattr(node, 'identifications', ()):
+                        for name, its in (('send_torque', ident.torque_publisher),
+                                          ('send_external_torque', ident.external_publisher)):
+                            if its is publisher:
+                                patch.setattr(ident, name, capture)
                 yield node
         finally:
             node.destroy_node()
@@ -116,7 +124,7 @@ def published() -> Graph:
     for method in METHODS:
         # As scara-ident run starts them; learning off: it changes no message's shape.
         args = ['-r', f'__ns:=/{method}', '-r', 'joint_states:=/joint_states',
-                '-p', f'method:={method}', '-p', 'learn:=false']
+                '-p', f'method:={method}', '-p', 'learn:=false', '-p', 'external_torque:=false']
         with recorded(IdentifierNode, args, sent, types) as identifier:
             assert isinstance(identifier, IdentifierNode)
             for sample in samples:
