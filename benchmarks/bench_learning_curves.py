@@ -51,6 +51,8 @@ def main() -> int:
     parser.add_argument('--workers', type=int, default=2)
     parser.add_argument('--lm-steps', type=int, default=2,
                         help="the lm trainer's steps per update (the node's lm_steps)")
+    parser.add_argument('--reservoir-size', type=int, default=4000,
+                        help="the lm trainer's samples (the node's reservoir_size)")
     parser.add_argument('--no-references', dest='references', action='store_false',
                         help='leave out LS and RLS')
     parser.add_argument('--robot', default='scara',
@@ -70,6 +72,7 @@ def main() -> int:
     curves = run_curves(job_robot, seeds=range(args.seeds), methods=args.methods,
                         trainers=args.trainers, seconds=args.seconds, noise=args.noise,
                         workers=args.workers, lm_steps=args.lm_steps,
+                        reservoir_size=args.reservoir_size,
                         references=args.references, held_out_s=tuple(args.held_out))
     floor = (noise_floor(params, held_out_set(params, config=noisy_config(params, 99)))
              if args.noise else None)

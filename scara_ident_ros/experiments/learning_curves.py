@@ -29,7 +29,7 @@ Public API::
     regressor_curves(record, held_out, *, seed, checkpoints, physical=None)
         -> (LS Curve, RLS Curve)
     run_curves(robot, *, seeds, methods, trainers, seconds, noise=False, workers=2,
-               held_out_s=(6, 30), lm_steps=2, references=True)
+               held_out_s=(6, 30), lm_steps=2, references=True, reservoir_size=4000)
         -> list[Curve]                             every curve, the jobs in worker processes
     noisy_config(params, seed) -> SimConfig        the simulator's sensor-noise options
     noise_floor(params, held_out) -> ndarray (n,)  effort noise variance / effort variance
@@ -161,16 +161,16 @@ def network_curve(record: SimRecord, held_out: Dataset, params: Robot, *, method
                   checkpoints: Sequence[float] = CHECKPOINTS_S, window: int = 21,
                   lm_interval: int = 200, validation_block: int = 500,
                   lm_float64: bool = False, lm_slow_share: float = 0.0,
-                  lm_friction_steps: bool = True) -> Curve:
+                  lm_friction_steps: bool = True, reservoir_size: int = 4000) -> Curve:
     """Stream ``record`` through an identifier of ``method`` and ``trainer`` (node defaults).
 
     The network's scaling comes from the robot's limits, as in the node; 10 % of the
     samples (blocks of ``validation_block``) are held back for the identifier's own
     validation, as in the node. ``lm_steps``, ``lm_interval``, ``lm_float64``,
-    ``lm_slow_share``, ``lm_friction_steps``, ``window`` and ``validation_block`` are the
-    node's parameters of those names (the ``lm`` trainer's steps per update, samples between
-    updates, float64 normal equations, share of slow samples and friction-step units; the
-    centred q'' fit's samples).
+    ``lm_slow_share``, ``lm_friction_steps``, ``window``, ``validation_block`` and
+    ``reservoir_size`` are the node's parameters of those names (the ``lm`` trainer's steps
+    per update, samples between updates, float64 normal equations, share of slow samples,
+    friction-step units and reservoir samples; the centred q'' fit's samples).
     """
     n = len(params.joint_names)
     net = make_network(method, n, seed=seed,
@@ -179,6 +179,7 @@ def network_curve(record: SimRecord, held_out: Dataset, params: Robot, *, method
     ident = OnlineIdentifier(net, joint_names=params.joint_names,
                              differentiator=make_differentiator('centred', window=window),
                              trainer=make_trainer(trainer, net, steps=lm_steps,
+                                                  capacity=reservoir_size,
                                                   interval=lm_interval, seed=seed,
                                                   float64=lm_float64,
                                                   slow_share=lm_slow_share),
@@ -200,6 +201,8 @@ def network_curve(record: SimRecord, held_out: Dataset, params: Robot, *, method
     label = f'{method_spec(method).label} {trainer}'
     if trainer == 'lm' and lm_steps != 2:
         label += f' ×{lm_steps}'
+    if trainer == 'lm' and reservoir_size != 4000:
+        label += f' ({reservoir_size} samples)'
     return Curve(label, seed, np.asarray(checkpoints, float), np.array(scores), cpu)
 
 
@@ -292,8 +295,8 @@ def noise_floor(params: Robot, held_out: Dataset) -> FloatArray:
     return np.asarray(effort_std ** 2 / held_out.Y.var(axis=0))
 
 
-def _job(job: tuple[ScaraParams | str, str, str, int, float, bool, tuple[float, float], int]
-         ) -> list[Curve]:
+def _job(job: tuple[ScaraParams | str, str, str, int, float, bool, tuple[float, float], int,
+                    int]) -> list[Curve]:
     # One BLAS thread: a worker's LM systems gain nothing from more, and two workers with
     # two threads each on 2 cores doubled the CPU time measured per curve.
     with single_blas_thread():
@@ -301,7 +304,8 @@ def _job(job: tuple[ScaraParams | str, str, str, int, float, bool, tuple[float, 
 
 
 def _curves(robot: ScaraParams | str, method: str, trainer: str, seed: int, seconds: float,
-            noise: bool, held_out_s: tuple[float, float], lm_steps: int) -> list[Curve]:
+            noise: bool, held_out_s: tuple[float, float], lm_steps: int,
+            reservoir_size: int) -> list[Curve]:
     params = robot_by_name(robot) if isinstance(robot, str) else robot
     n = len(params.joint_names)
     config = noisy_config(params, seed) if noise else SimConfig(seed=seed, n_joints=n)
@@ -316,13 +320,15 @@ def _curves(robot: ScaraParams | str, method: str, trainer: str, seed: int, seco
         return list(regressor_curves(record, held_out, seed=seed, checkpoints=checkpoints,
                                      physical=physical))
     return [network_curve(record, held_out, params, method=method, trainer=trainer, seed=seed,
-                          lm_steps=lm_steps, checkpoints=checkpoints)]
+                          lm_steps=lm_steps, checkpoints=checkpoints,
+                          reservoir_size=reservoir_size)]
 
 
 def run_curves(robot: ScaraParams | str, *, seeds: Sequence[int], methods: Sequence[str],
                trainers: Sequence[str], seconds: float = 120.0, noise: bool = False,
                workers: int = 2, held_out_s: tuple[float, float] = (6.0, 30.0),
-               lm_steps: int = 2, references: bool = True) -> list[Curve]:
+               lm_steps: int = 2, references: bool = True,
+               reservoir_size: int = 4000) -> list[Curve]:
     """Every curve: LS and RLS, then each trainer and method, for each seed.
 
     ``robot`` is a SCARA's parameters or a name of :data:`ROBOTS` (built in each worker).
@@ -330,16 +336,16 @@ def run_curves(robot: ScaraParams | str, *, seeds: Sequence[int], methods: Seque
     Each seed's stream is ``seconds`` of ``sequence`` (seed = stream seed = weight seed),
     with the sensor noise of :func:`noisy_config` if ``noise`` (held-out data noisy too).
     ``held_out_s`` are the seconds of each held-out excitation and of the held-out
-    sequence (:func:`held_out_set`); ``lm_steps`` the ``lm`` trainer's steps per update;
-    ``references`` False leaves out LS and RLS.
+    sequence (:func:`held_out_set`); ``lm_steps`` the ``lm`` trainer's steps per update,
+    ``reservoir_size`` its samples; ``references`` False leaves out LS and RLS.
     The jobs run in ``workers`` processes, each with one BLAS thread. The CPU figures are
     then per process: on a machine with fewer free cores than workers they include waiting
     for the memory bus, not for the processor.
     """
-    jobs = [(robot, 'regressor', '', seed, seconds, noise, held_out_s, lm_steps)
-            for seed in seeds] if references else []
-    jobs += [(robot, m, t, seed, seconds, noise, held_out_s, lm_steps) for t in trainers
-             for m in methods for seed in seeds]
+    jobs = [(robot, 'regressor', '', seed, seconds, noise, held_out_s, lm_steps,
+             reservoir_size) for seed in seeds] if references else []
+    jobs += [(robot, m, t, seed, seconds, noise, held_out_s, lm_steps, reservoir_size)
+             for t in trainers for m in methods for seed in seeds]
     if workers <= 1:
         results = [_job(job) for job in jobs]
     else:
