@@ -76,10 +76,11 @@ def main() -> int:
                         references=args.references, held_out_s=tuple(args.held_out))
     floor = (noise_floor(params, held_out_set(params, config=noisy_config(params, 99)))
              if args.noise else None)
-    kind = 'with sensor noise' if args.noise else 'no noise'
+    kind = title = 'with sensor noise' if args.noise else 'no noise'
     if name != 'scara':
         label = name or Path(args.robot).name
-        kind += f', robot {label} (joints {", ".join(params.joint_names)})'
+        title += f', robot {label}'  # the joints would not fit in the figure's title
+        kind = title + f' (joints {", ".join(params.joint_names)})'
     print(f'### Learning curves, {kind}: {args.seconds:g} s of `sequence` stream, '
           f'{args.seeds} seeds (load average {os.getloadavg()[0]:.1f}, '
           f'{time.monotonic() - started:.0f} s)\n')
@@ -87,7 +88,7 @@ def main() -> int:
     figure = args.figure or HERE.parent / 'docs' / (
         'learning_curves' + ('_noise' if args.noise else '')
         + ('' if name == 'scara' else f'_{name or Path(args.robot).stem}') + '.png')
-    plot_learning_curves(figure, curves, f'Frozen models on motions never seen ({kind})',
+    plot_learning_curves(figure, curves, f'Frozen models on motions never seen ({title})',
                          floor)
     print(f'\nfigure: {figure}')
     return 0
