@@ -8,15 +8,17 @@ its frozen model is scored on held-out excitations (5 ``standard`` ones and 30 s
 ``sequence``, never streamed). LS and RLS on the SCARA's physical regressor, fitted to the
 same stream inputs, are the references (``scara_ident_ros.experiments.learning_curves``).
 ``--noise`` adds the simulator's sensor noise (position 1e-4, velocity 1e-3, effort 0.5 % of
-its limit) to the stream and the held-out data, and reports the noise floor. ``--robot FILE``
-takes another robot file (e.g. ``benchmarks/other_scara.yaml``: other masses, lengths,
-friction, effort limits and joint names), whose limits scale the networks as the node's
-limit parameters would.
+its limit) to the stream and the held-out data, and reports the noise floor. ``--robot``
+takes ``scara`` (the default), ``ur5`` or ``panda`` (``robot_sim``'s arms with friction and
+rotor inertia; LS and RLS are then the physical model of their URDF) or another SCARA robot
+file (e.g. ``benchmarks/other_scara.yaml``: other masses, lengths, friction, effort limits
+and joint names); its limits scale the networks as the node's limit parameters would.
 
 Prints a Markdown table (median [min-max] over seeds of the worst joint's NMSE) and writes a
 figure to docs/. Two worker processes, one BLAS thread each.
 
     .venv/bin/python benchmarks/bench_learning_curves.py [--seeds 5] [--seconds 120] [--noise]
+        [--robot scara|ur5|panda|FILE]
 """
 from __future__ import annotations
 
@@ -27,8 +29,10 @@ import time
 from pathlib import Path
 
 from scara_ident_ros.dynamics import ScaraParams
-from scara_ident_ros.experiments.learning_curves import (curves_markdown, held_out_set,
-                                                         noise_floor, noisy_config, run_curves)
+from scara_ident_ros.experiments.learning_curves import (ROBOTS, curves_markdown,
+                                                         held_out_set, noise_floor,
+                                                         noisy_config, robot_by_name,
+                                                         run_curves)
 from scara_ident_ros.offline.figures import plot_learning_curves
 from scara_ident_ros.resources import config_path
 
@@ -47,30 +51,44 @@ def main() -> int:
     parser.add_argument('--workers', type=int, default=2)
     parser.add_argument('--lm-steps', type=int, default=2,
                         help="the lm trainer's steps per update (the node's lm_steps)")
+    parser.add_argument('--reservoir-size', type=int, default=4000,
+                        help="the lm trainer's samples (the node's reservoir_size)")
     parser.add_argument('--no-references', dest='references', action='store_false',
                         help='leave out LS and RLS')
-    parser.add_argument('--robot', type=Path, default=None,
-                        help='robot file (default: the installed config/scara.yaml)')
+    parser.add_argument('--robot', default='scara',
+                        help=f'one of {", ".join(ROBOTS)} or a SCARA robot file '
+                        '(default: scara, the installed config/scara.yaml)')
+    parser.add_argument('--held-out', type=float, nargs=2, default=(6.0, 30.0),
+                        metavar=('EXCITATION_S', 'SEQUENCE_S'),
+                        help='seconds of each held-out excitation and of the held-out '
+                        'sequence')
     args = parser.parse_args()
-    params = ScaraParams.from_yaml(args.robot or config_path('scara.yaml'))
+    name = args.robot if args.robot in ROBOTS else None
+    robot_file = None if name else Path(args.robot)
+    params = (robot_by_name(name) if name else
+              ScaraParams.from_yaml(robot_file or config_path('scara.yaml')))
+    job_robot = name if name and name != 'scara' else params
     started = time.monotonic()
-    curves = run_curves(params, seeds=range(args.seeds), methods=args.methods,
+    curves = run_curves(job_robot, seeds=range(args.seeds), methods=args.methods,
                         trainers=args.trainers, seconds=args.seconds, noise=args.noise,
                         workers=args.workers, lm_steps=args.lm_steps,
-                        references=args.references)
+                        reservoir_size=args.reservoir_size,
+                        references=args.references, held_out_s=tuple(args.held_out))
     floor = (noise_floor(params, held_out_set(params, config=noisy_config(params, 99)))
              if args.noise else None)
-    kind = 'with sensor noise' if args.noise else 'no noise'
-    if args.robot:
-        kind += f', robot {args.robot.name} (joints {", ".join(params.joint_names)})'
+    kind = title = 'with sensor noise' if args.noise else 'no noise'
+    if name != 'scara':
+        label = name or Path(args.robot).name
+        title += f', robot {label}'  # the joints would not fit in the figure's title
+        kind = title + f' (joints {", ".join(params.joint_names)})'
     print(f'### Learning curves, {kind}: {args.seconds:g} s of `sequence` stream, '
           f'{args.seeds} seeds (load average {os.getloadavg()[0]:.1f}, '
           f'{time.monotonic() - started:.0f} s)\n')
     print(curves_markdown(curves, noise_floor=floor))
     figure = args.figure or HERE.parent / 'docs' / (
         'learning_curves' + ('_noise' if args.noise else '')
-        + (f'_{args.robot.stem}' if args.robot else '') + '.png')
-    plot_learning_curves(figure, curves, f'Frozen models on motions never seen ({kind})',
+        + ('' if name == 'scara' else f'_{name or Path(args.robot).stem}') + '.png')
+    plot_learning_curves(figure, curves, f'Frozen models on motions never seen ({title})',
                          floor)
     print(f'\nfigure: {figure}')
     return 0

@@ -31,9 +31,9 @@ from dataclasses import dataclass, field
 import numpy as np
 import numpy.typing as npt
 
-from scara_ident_ros.dynamics import ScaraParams
 from scara_ident_ros.identification import AccelerationEstimate, InputStage, JointMap
 from scara_ident_ros.sim import SimConfig, SimRecord, Simulator, make_trajectory
+from scara_ident_ros.sim.trajectory import Robot
 
 __all__ = ['ACCELERATIONS', 'Dataset', 'Evaluations', 'dataset_from_record',
            'make_dataset', 'simulate_dataset', 'simulate_record']
@@ -159,13 +159,13 @@ def make_dataset(stamp_ns: npt.ArrayLike, q: npt.ArrayLike, qd: npt.ArrayLike,
     return Dataset(kept, X, Y, 'estimated', name)
 
 
-def simulate_record(params: ScaraParams, *, seconds: float, seed: int,
+def simulate_record(params: Robot, *, seconds: float, seed: int,
                     preset: str = 'standard', config: SimConfig | None = None) -> SimRecord:
-    """Simulate the SCARA tracking a random excitation.
+    """Simulate the robot tracking a random excitation.
 
     Parameters
     ----------
-    params : ScaraParams
+    params : ScaraParams or PinocchioRobot
         The robot.
     seconds : float
         Duration (s); ``round(seconds / dt)`` samples.
@@ -174,14 +174,15 @@ def simulate_record(params: ScaraParams, *, seconds: float, seed: int,
     preset : str
         Excitation preset of :data:`scara_ident_ros.sim.PRESETS`.
     config : SimConfig, optional
-        Simulation settings; default ``SimConfig()`` (1 kHz, no noise, no disturbance).
+        Simulation settings; default ``SimConfig()`` for the robot's joints (1 kHz, no
+        noise, no disturbance).
     """
-    cfg = SimConfig() if config is None else config
+    cfg = SimConfig(n_joints=len(params.joint_names)) if config is None else config
     sim = Simulator(params, make_trajectory(preset, params, seed), cfg)
     return sim.simulate(max(0, round(seconds / cfg.dt)))
 
 
-def simulate_dataset(params: ScaraParams, *, seconds: float, seed: int,
+def simulate_dataset(params: Robot, *, seconds: float, seed: int,
                      preset: str = 'standard', acceleration: str = 'true',
                      config: SimConfig | None = None, name: str = '') -> Dataset:
     """`simulate_record` turned into a data set with true or estimated q''."""

@@ -23,7 +23,8 @@
     only lower the reservoir's error, so a step can never make the error explode). The
     network is fitted to all the motion seen, as offline training would fit it. JᵀJ is
     assembled in float32 (``normal_equations(single=True)``: 22 ms instead of 36 ms for 4000
-    samples), the rest in float64.
+    samples), the rest in float64, and the damped system is solved on its blocks
+    (``NormalBlocks.solve``). A step's cost grows with the joints: benchmarks/lm_arms.md.
     Cost (``benchmarks/bench_learning_curves.py`` reports it): with the defaults (4000
     samples, 2 steps every 200 samples: 10 steps/s at 1 kHz) 25–29 % of a core.
     The identifier's network for this trainer starts with friction steps

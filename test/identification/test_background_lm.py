@@ -140,3 +140,48 @@ def test_make_trainer_builds_it_for_the_node() -> None:
     finally:
         made.close()
     assert not made.alive
+
+
+def test_a_7_joint_arm_stream_keeps_up_with_the_learner_beside_it() -> None:
+    """A Panda's stream from the simulator through the identifier core with the background
+    lm trainer at its defaults: every sample is predicted and handed to the learner (none
+    dropped), the learner updates the weights, and the message path takes less CPU than the
+    stream's own duration (a loose bound: 1 ms a sample at 1 kHz)."""
+    from scara_ident_ros.experiments.datasets import simulate_record
+    from scara_ident_ros.identification import (Holdout, OnlineIdentifier,
+                                                make_differentiator)
+    from scara_ident_ros.methods import limit_scaling
+    from scara_ident_ros.sim.example_robots import example_robot
+    from scara_ident_ros.sim.pinocchio_robot import PinocchioRobot
+
+    arm = example_robot('panda')
+    robot = PinocchioRobot.from_urdf(arm.urdf, joints=arm.joints)
+    n = len(robot.joint_names)
+    assert n == 7
+    record = simulate_record(robot, seconds=4.0, seed=3, preset='sequence')
+    net = make_network('ffs', n, seed=0, friction_steps=True)
+    net.set_scaling(*limit_scaling(*(robot.array(name) for name in (
+        'position_min', 'position_max', 'velocity_max', 'acceleration_max', 'effort_max'))))
+    trainer = make_trainer('lm', net, background=True)
+    assert isinstance(trainer, BackgroundLM) and trainer.wait_ready(WAIT)
+    ident = OnlineIdentifier(net, joint_names=robot.joint_names,
+                             differentiator=make_differentiator('centred', window=21),
+                             trainer=trainer, holdout=Holdout(3 * n, n, seed=0))
+    try:
+        began = time.process_time()
+        for k in range(len(record)):
+            ident.process(int(record.stamp_ns[k]), robot.joint_names, record.q[k],
+                          record.qd[k], record.effort[k])
+            if k % 200 == 199:
+                trainer.poll()
+                time.sleep(0.01)  # the stream's pace, roughly: the learner gets the CPU
+        cpu = time.process_time() - began
+        counts = ident.counts
+        assert counts.processed == len(record)
+        assert counts.predicted == counts.processed - counts.pending
+        assert sum(counts.skipped.values()) == 0
+        assert trainer.sent == counts.learned > 0 and trainer.dropped == 0
+        assert wait_until(lambda: trainer.updates >= 1, trainer), trainer.updates
+        assert cpu < 4.0, cpu  # the stream's 4 s
+    finally:
+        trainer.close()
