@@ -145,7 +145,11 @@ def main() -> int:
     print('|---|---:|---:|---:|')
     stream = learning = 0.0
     for name, rows in sorted(samples.items()):
+        if len(rows) < 2:  # a process seen once (started or ended between two looks)
+            continue
         cpu, rss0, rss1 = steady_cpu(rows, steady)
+        if cpu < 0:  # its pid was taken by another process between two looks
+            continue
         if name.startswith('learner'):
             learning += cpu
         else:

@@ -53,7 +53,9 @@ T0_NS = 1_000_000_000_000  # stamp of the first sample of the throughput run (10
 IN_FLIGHT = 2000  # samples published but not yet answered, at most (node queue: 5000)
 BURST = 100  # samples published between two looks at the answers
 TARGET_RATE = 5000.0  # samples/s processed, at least
-TARGET_P99_MS = 2.0  # latency p99, at most
+#: latency p99, at most: the zero-phase q'' waits LAG samples (10 ms) by design; issue 18's
+#: bound on a prediction's lag
+TARGET_P99_MS = 50.0
 START_TIMEOUT = 60.0  # s for discovery, the machine is shared
 STALL_TIMEOUT = 30.0  # s without an answer before a run is declared stuck
 STOP_TIMEOUT = 20.0  # s for a node to exit after SIGINT
@@ -367,8 +369,7 @@ def report_latency(r: dict[str, Any]) -> str:
         ('joint states in window / answered', f"{r['states']} / {r['matched']}", 'equal',
          verdict(r['states'] == r['matched'])),
         ('identifier CPU (% of one core)', f"{r['cpu']:.1f}", '', ''),
-        ('skipped (stats_file)', f"{r['skipped']}", "{'warming_up': 1}",
-         verdict(r['skipped'] == {'warming_up': 1})),
+        ('skipped (stats_file)', f"{r['skipped']}", '{}', verdict(not r['skipped'])),
         ("node's own max lag, wall clock − stamp (ms)", f"{r['max_lag_ms']:.2f}", '', ''),
         ('joint states at the probe, arrival − stamp p99 / max (ms)',
          f"{r['arrival_p99']:.3f} / {r['arrival_max']:.3f}", '', ''),
