@@ -69,7 +69,7 @@ IDENTIFIER = 'identifier'  # the identifier's process, logs and node name
 def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Register ``scara-ident run``."""
     parser = subparsers.add_parser(
-        'run', help='run simulator, three identifiers and the recorder; summarise',
+        'run', help='run simulator, the identifier (three networks) and the recorder; summarise',
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument('--duration', type=float, default=60.0,
                         help='seconds of simulated samples at 1 kHz (default: 60)')
