@@ -11,7 +11,9 @@ restarted clock) starts the offset anew.
 """
 from __future__ import annotations
 
-__all__ = ['LAG_BINS', 'LagHistogram', 'StreamClock', 'WALL_TOLERANCE_NS']
+from collections import deque
+
+__all__ = ['LAG_BINS', 'LagHistogram', 'PathDelays', 'StreamClock', 'WALL_TOLERANCE_NS']
 
 #: Stamps within this of the wall clock (ns) are taken as wall-clock stamps: a minute
 #: covers clocks synchronised between machines and any realistic delay.
@@ -72,3 +74,33 @@ class LagHistogram:
             if total >= rank and n:
                 return float(index + 1)
         return float(LAG_BINS + 1)
+
+
+class PathDelays:
+    """The message path's own delay: from a sample's arrival to its prediction's
+    publication, whatever the stream's clock (it includes the q'' estimate's wait for the
+    samples after it).
+
+    Parameters
+    ----------
+    keep : int
+        Arrivals kept until their prediction is out (samples refused and never predicted
+        fall out of the oldest end).
+    """
+
+    def __init__(self, keep: int = 1000) -> None:
+        self._arrivals: deque[tuple[int, int]] = deque(maxlen=keep)  # (stamp, wall) ns
+        self.delays = LagHistogram()
+
+    def arrived(self, stamp_ns: int, now_ns: int) -> None:
+        """A sample stamped ``stamp_ns`` arrived at wall time ``now_ns`` (ns)."""
+        self._arrivals.append((stamp_ns, now_ns))
+
+    def out(self, first_ns: int, last_ns: int, now_ns: int) -> None:
+        """The predictions of the samples stamped ``first_ns`` to ``last_ns`` are out at
+        ``now_ns``: count their delays."""
+        arrivals = self._arrivals
+        while arrivals and arrivals[0][0] <= last_ns:
+            stamp, arrived = arrivals.popleft()
+            if stamp >= first_ns:
+                self.delays.add(now_ns - arrived)

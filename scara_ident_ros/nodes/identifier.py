@@ -44,7 +44,6 @@ from __future__ import annotations
 
 import dataclasses
 import json
-from collections import deque
 import math
 import sys
 import time
@@ -75,7 +74,8 @@ from scara_ident_ros.identification.error_window import ErrorStats
 from scara_ident_ros.identification.joint_limits import JointLimits
 from scara_ident_ros.identification.lazy_core import ONLINE_METHODS, OnlineModel
 from scara_ident_ros.identification.sample_check import GAP_PERIODS
-from scara_ident_ros.identification.stream_clock import LagHistogram, StreamClock
+from scara_ident_ros.identification.stream_clock import (LagHistogram, PathDelays,
+                                                         StreamClock)
 from scara_ident_ros.identification.health import (Deltas, Health, LossCounter,
                                                    identifier_health)
 from scara_ident_ros.dynamics.hybrid_model import HybridModel
@@ -248,7 +248,6 @@ JOINT_SET_REASONS = (SkipReason.UNKNOWN_JOINT, SkipReason.MISSING_JOINT,
                      SkipReason.DUPLICATE_JOINT, SkipReason.JOINT_COUNT)
 METHOD_FIELD = '{method}'  # stands for each method in a path parameter, with methods
 VALIDATION_PERIOD = 1.0  # s: the held-out score is recomputed at most this often per method
-ARRIVALS = 1000  # samples whose arrival time is kept until their prediction is out
 
 
 #: contact messages are rare: a few seconds of them at 1 kHz
@@ -505,8 +504,7 @@ class IdentifierNode(Node):
         # estimate bridges are pauses (between recordings), counted apart
         self.loss = LossCounter(span_s=s['max_gap'], pause_periods=GAP_PERIODS)
         self.clock = StreamClock()  # lags against the stream's own clock
-        self.arrivals: deque[tuple[int, int]] = deque(maxlen=ARRIVALS)  # (stamp, wall) ns
-        self.path_delays = LagHistogram()  # arrival to publication of each prediction
+        self.path = PathDelays()  # arrival to publication of each sample's predictions
         self.last_sample: float | None = None  # monotonic s of the latest sample
         self.diagnostics = [
             Diagnostics(self, f'{ident.method} identification' if several
@@ -765,7 +763,7 @@ class IdentifierNode(Node):
         self.last_sample = time.monotonic()
         stamp_ns, now_ns = msg.stamp_ns, time.time_ns()
         self.clock.arrived(stamp_ns, now_ns, restart=self.loss.observe(stamp_ns))
-        self.arrivals.append((stamp_ns, now_ns))
+        self.path.arrived(stamp_ns, now_ns)
         self.publisher_watch.stamps.observe(stamp_ns)
         core = self.core
         if core is None:
@@ -780,7 +778,7 @@ class IdentifierNode(Node):
             assert ident.core is not None
             ident.publish(ident.core.take(stamp_ns, reason, inputs), frame_id, self.clock)
         if inputs:
-            self._time_the_path(inputs[0].stamp_ns, inputs[-1].stamp_ns)
+            self.path.out(inputs[0].stamp_ns, inputs[-1].stamp_ns, time.time_ns())
         if reason is None or reason is SkipReason.WARMING_UP:
             return
         if reason in JOINT_SET_REASONS:
@@ -790,17 +788,6 @@ class IdentifierNode(Node):
         else:
             self._warn(f'skipped a sample ({reason.value}); '
                        f'{sum(core.counts.skipped.values())} so far')
-
-    def _time_the_path(self, first_ns: int, last_ns: int) -> None:
-        """Count the delay from the arrival of the samples stamped ``first_ns`` to
-        ``last_ns`` to now, when their predictions are out (the message path's own lag,
-        whatever the stream's clock; it includes the q'' estimate's wait for later
-        samples)."""
-        arrivals, now_ns = self.arrivals, time.time_ns()
-        while arrivals and arrivals[0][0] <= last_ns:
-            stamp, arrived = arrivals.popleft()
-            if stamp >= first_ns:
-                self.path_delays.add(now_ns - arrived)
 
     def _build_from(self, msg: RawJointState, stamp_ns: int) -> bool:
         """Build for the joints of ``msg`` if it is valid; else count it as skipped."""
@@ -884,8 +871,8 @@ class IdentifierNode(Node):
             'max_lag_ms': ident.worst_lag_ns / 1e6, 'lag_p50_ms': ident.lags.percentile_ms(50),
             'lag_p99_ms': ident.lags.percentile_ms(99), 'lost': self.loss.lost,
             'pauses': self.loss.pauses, 'paused_s': self.loss.paused_s,
-            'path_delay_p50_ms': self.path_delays.percentile_ms(50),
-            'path_delay_p99_ms': self.path_delays.percentile_ms(99),
+            'path_delay_p50_ms': self.path.delays.percentile_ms(50),
+            'path_delay_p99_ms': self.path.delays.percentile_ms(99),
             'wall_clock_stamps': self.clock.wall,
             'joint_states_publishers': self.publisher_watch.most_publishers,
             'stamps_backward': self.publisher_watch.stamps.backward,

@@ -2,7 +2,8 @@
 from __future__ import annotations
 
 from scara_ident_ros.identification.health import LossCounter
-from scara_ident_ros.identification.stream_clock import LAG_BINS, LagHistogram, StreamClock
+from scara_ident_ros.identification.stream_clock import (LAG_BINS, LagHistogram, PathDelays,
+                                                         StreamClock)
 
 MS = 1_000_000  # ns
 NOW = 1_800_000_000_000_000_000  # ns, a wall clock
@@ -64,3 +65,14 @@ def test_lag_percentiles_are_upper_bounds_of_1_ms_bins() -> None:
     assert lags.percentile_ms(99) == 51.0
     lags.add(10**12)  # beyond the bins: counted in the last
     assert lags.percentile_ms(100) == LAG_BINS + 1
+
+
+def test_the_path_delay_counts_each_predicted_sample_once() -> None:
+    """From arrival to publication; a refused sample (never predicted) is let go."""
+    path = PathDelays()
+    for k in range(30):
+        path.arrived(RECORDED + k * MS, NOW + k * MS)
+    path.out(RECORDED, RECORDED + 9 * MS, NOW + 19 * MS)  # 10 predictions, 10-19 ms late
+    path.out(RECORDED + 11 * MS, RECORDED + 11 * MS, NOW + 21 * MS)  # sample 10 never was
+    assert path.delays.count == 11
+    assert path.delays.percentile_ms(100) == 20.0
