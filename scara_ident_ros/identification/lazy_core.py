@@ -13,10 +13,10 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from scara_ident_ros.identification.holdout import Holdout
 from scara_ident_ros.dynamics.hybrid_model import HybridModel, start_at_zero
 from scara_ident_ros.dynamics.physical_model import PhysicalModel
 from scara_ident_ros.identification.background_lm import BackgroundLM
+from scara_ident_ros.identification.holdout import Holdout
 from scara_ident_ros.identification.hybrid_trainer import HybridTrainer
 from scara_ident_ros.identification.input_stage import AccelerationEstimate, InputStage
 from scara_ident_ros.identification.joint_limits import JointLimits
