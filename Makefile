@@ -4,6 +4,7 @@
 # Both create or reuse the virtual environment .venv and install everything into it.
 # While working on the maths, make test-core runs the pure-numpy tests alone, in seconds.
 # make lint runs ruff and mypy on the package, as CI (.ci/run) does before make test.
+# make docs writes docs/parameters.md from the nodes' parameter tables.
 
 PYTHON ?= $(shell command -v python3.11 || command -v python3)
 VENV ?= .venv
@@ -16,7 +17,7 @@ export ROS_AUTOMATIC_DISCOVERY_RANGE ?= LOCALHOST
 DEMO_DURATION ?= 60
 DEMO_OUT ?= out/demo
 
-.PHONY: demo test test-core lint bench venv clean
+.PHONY: demo test test-core lint docs bench venv clean
 
 venv: $(STAMP)
 
@@ -61,6 +62,10 @@ test-core: $(STAMP)
 lint: $(STAMP)
 	$(VENV)/bin/ruff check .
 	$(PY) -m mypy
+
+# docs/parameters.md from the nodes' ParamSpec tables (a test checks it is up to date).
+docs: $(STAMP)
+	$(PY) -m scara_ident_ros.nodes.parameter_reference docs/parameters.md
 
 bench: $(STAMP)
 	$(PY) -m pip install --quiet -r requirements-bench.txt -c constraints.txt
