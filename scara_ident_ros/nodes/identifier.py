@@ -119,7 +119,7 @@ START = 'used at start only'
 
 PARAMETERS = (
     ParamSpec('method', 'ffs', 'Model: the networks FFS (sigmoid, default: it identifies '
-              "best, README 'Results'), FFMW (MSLOG, the paper's) or FFW (SLOG); physical "
+              "best, docs/results.md), FFMW (MSLOG, the paper's) or FFW (SLOG); physical "
               "(the URDF's rigid-body model with friction and rotor inertia, recursive least "
               'squares) or hybrid (physical plus an FFS network of its residual): these need '
               'urdf_file or robot_description', choices=ONLINE_METHODS, fixed=NETWORK),
@@ -161,8 +161,8 @@ PARAMETERS = (
               'path every lm_interval samples (reproducible, for experiments)',
               fixed='the trainer is built once'),
     ParamSpec('lm_float64', False, 'lm trainer: assemble its normal equations in float64 '
-              '(1.5x the CPU; on all-random weights, with lm_slow_share 0.25, it brought 5 '
-              'seeds of 10 under 1e-3 on every joint; the friction steps bring all)',
+              '(more CPU; an earlier remedy for Coulomb friction on all-random weights, '
+              'before lm_friction_steps, docs/results.md)',
               fixed='the trainer is built once'),
     ParamSpec('lm_slow_share', 0.0, 'lm trainer: share of reservoir_size kept for samples '
               'where some joint moves slower than 1 % of its velocity limit (the friction '
@@ -171,7 +171,7 @@ PARAMETERS = (
     ParamSpec('lm_friction_steps', True, 'lm trainer: the first hidden units start as steps '
               "of each joint's speed at 0, the shape of Coulomb friction (half-widths 6.4, "
               '1.6, 0.4, 0.1 and 0.025 % of the velocity limit), the others random; false: all '
-              'random (joint 4 then misses 1e-3 after 120 s)', fixed=NETWORK),
+              'random (a Coulomb step is then learnt slowly, docs/results.md)', fixed=NETWORK),
     ParamSpec('validation_fraction', 0.1, 'Fraction of the samples (in blocks) never learnt, '
               'whose error is the validation NMSE; 0: none', min=0.0, max=0.9,
               fixed=HOLDOUT),
