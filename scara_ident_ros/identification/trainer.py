@@ -4,17 +4,14 @@
     The paper's online training: one back-propagation step (with momentum) per sample, on
     that sample only. It tracks the latest motion closely, and forgets the earlier ones:
     frozen after a stream, such a network predicts a motion it has not just seen worse than
-    the mean (README, "Results"). A guard keeps a too large learning rate or an odd sample
+    the mean (docs/results.md). A guard keeps a too large learning rate or an odd sample
     from making the error explode: a step after which the error on its own sample is more
     than ten times larger than before it and than the typical error of the last ~100
     samples (``GROWTH`` in squares, above a floor) is undone with the momentum, the sample
     counted as refused, and the learning rate halved for good (a rate that overshoots is too
-    large for this robot). Measured on ``sequence`` streams: at the paper's rate 0.1, no step
-    of 30,000 is undone (FFS, FFW, FFMW); at rate 3 (FFS, 5 s) an unguarded network ends
-    with NMSE 2.7e5–3.9e6 and predictions of 17,874 N·m, a guarded one with NMSE 4e-5–1.1e-3
-    (3 steps undone, rate lowered to 0.375); NMSE of the a-priori predictions over the
-    stream's last 2 s (tracking, not an unseen motion), one run, range over the 4 joints.
-    The identifier clips predictions beyond the effort limits.
+    large for this robot). At the paper's learning rate the guard does not act; how it
+    holds a too large one: docs/results.md, "The learning guard". The identifier clips
+    predictions beyond the effort limits.
 
 ``'lm'`` (:class:`ReservoirLM`, the default)
     Every sample goes into a :class:`Reservoir`, a uniform random sample of the whole stream
@@ -22,25 +19,19 @@
     Levenberg–Marquardt steps on the reservoir (the offline algorithm of Table 2, whose steps
     only lower the reservoir's error, so a step can never make the error explode). The
     network is fitted to all the motion seen, as offline training would fit it. JᵀJ is
-    assembled in float32 (``normal_equations(single=True)``: 22 ms instead of 36 ms for 4000
-    samples), the rest in float64, and the damped system is solved on its blocks
-    (``NormalBlocks.solve``). A step's cost grows with the joints: benchmarks/lm_arms.md.
-    Cost (``benchmarks/bench_learning_curves.py`` reports it): with the defaults (4000
-    samples, 2 steps every 200 samples: 10 steps/s at 1 kHz) 25–29 % of a core.
+    assembled in float32 (``normal_equations(single=True)``, faster than float64 and
+    accurate enough for the step), the rest in float64, and the damped system is solved on
+    its blocks (``NormalBlocks.solve``). A step's cost grows with the joints and the
+    reservoir (benchmarks/lm_arms.md, benchmarks/bench_learning_curves.py).
     The identifier's network for this trainer starts with friction steps
     (``make_network(friction_steps=True)``, the node's ``lm_friction_steps``): without
-    them, joint 4, whose effort is mostly Coulomb friction (a step in q'4), is still
-    underfitted after 120 s. Measured (FFS, ``sequence`` stream, benchmarks/
-    learning_curves.md and bench_lm_variants.py): frozen after 120 s, held-out NMSE per
-    joint (median of 5 seeds) 3.9e-5, 5.7e-5, 3.6e-7 and 2.4e-5, worst joint 5.7e-5
-    [3.8e-5–1.7e-4]; on all-random weights 1.6e-3 [1.4e-3–0.014], joint 4 the worst.
-    Two options, off by default, were the earlier attempt at joint 4 on all-random
-    weights: together they brought 5 seeds of 10 under 1e-3 on every joint (worst joint
-    median 1.5e-3 against 2.6e-3) at 1.5× the CPU (42–46 % of a core instead of 27–30 %):
-    ``float64`` assembles JᵀJ in float64, and ``slow_share`` keeps that share of the
-    reservoir for samples where some joint moves slower than 1 % of its velocity input's
-    half-range (:data:`SLOW_FRACTION`): the samples around q' = 0, where the Coulomb step
-    is, 2 % of a stream.
+    them, joint 4, whose effort is mostly Coulomb friction (a step in q'4), stays
+    underfitted after 120 s (benchmarks/learning_curves.md).
+    Two options, off by default, were the earlier attempt at joint 4 on all-random weights
+    (benchmarks/bench_lm_variants.py): ``float64`` assembles JᵀJ in float64, and
+    ``slow_share`` keeps that share of the reservoir for samples where some joint moves
+    slower than 1 % of its velocity input's half-range (:data:`SLOW_FRACTION`): the samples
+    around q' = 0, where the Coulomb step is, a small share of a stream.
 
 Both give the a-priori prediction of each sample, made before the sample is learnt.
 """
@@ -205,7 +196,7 @@ class ReservoirLM:
     seed : int
         Seed of the reservoir's draws.
     float64 : bool
-        Assemble JᵀJ in float64 (1.5× the cost) instead of float32.
+        Assemble JᵀJ in float64 (more CPU) instead of float32.
     slow_share : float
         Share of ``capacity`` in [0, 0.5] kept for slow samples (some joint below
         :data:`SLOW_FRACTION` of its velocity input's half-range), in a reservoir of their
