@@ -2,11 +2,10 @@
 
 Levenberg–Marquardt spends its time in a Cholesky factorisation and matrix products of a
 few hundred unknowns: too small to gain from a second BLAS thread, and on a busy machine
-OpenBLAS's spinning threads fight each other and everything else. Measured on the project's
-2-core machine under load: 40 ms per LM iteration (1000 samples, 12-40-4) on one thread,
-150–750 ms with the default two. :func:`single_blas_thread` limits numpy's (and scipy's)
-BLAS pools with ``threadpoolctl`` when it is installed (it comes with scikit-learn) and does
-nothing otherwise.
+OpenBLAS's spinning threads fight each other and everything else, which makes an LM
+iteration several times slower (docs/results.md). :func:`single_blas_thread` limits numpy's
+(and scipy's) BLAS pools with ``threadpoolctl`` when it is installed (it comes with
+scikit-learn) and does nothing otherwise.
 """
 from __future__ import annotations
 

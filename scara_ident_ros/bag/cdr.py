@@ -10,9 +10,8 @@ the end of that header)::
 
 :func:`split_joint_state` returns the stamp, the bytes of the ``name`` list (equal
 bytes mean equal name lists, so a caller decodes each distinct list once) and the
-byte spans of the three float arrays. Measured on this (shared, 2-core) machine for a 6-joint
-message: 3 µs per message, against 14 µs for rosbags' ``Typestore.deserialize_cdr`` (the
-fastest general deserializer installed) and 26 µs for ``mcap_ros2``'s dynamic decoder;
+byte spans of the three float arrays: several times faster than rosbags'
+``Typestore.deserialize_cdr`` or ``mcap_ros2``'s dynamic decoder (docs/results.md), and
 unlike rosbags it also accepts the slack bytes ``rclpy.serialization`` leaves at the
 end of a message with empty arrays.
 Big-endian messages (never produced by Fast DDS on x86/ARM) are left to rosbags.

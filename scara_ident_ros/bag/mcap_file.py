@@ -17,14 +17,11 @@ when it is killed needs:
 - Schema and channel ids are the caller's (the same in every file of a split bag),
   checked against those the library gives (1, 2, ...).
 
-Measured with ``benchmarks/bench_recorder.py --compare`` against the hand-written writer
-this replaced (commit b587b15; 5 interleaved runs each, 268-byte messages, on the shared
-2-core machine under load): the writer alone costs 3.5-3.7 µs per message instead of
-0.6-1.2 µs, with the same messages left unwritten by a kill (1,423 at 4 × 1 kHz, 2,230 at
-50 kHz). In the recorder node, whose CPU per message is mostly rclpy's, that is within the
-run-to-run spread: 110 µs [90-172] against 106 µs [84-174] per message at 1 kHz, no
-difference that shows at 20-100k messages/s. So no hand-written part is kept; the figures
-are in ``benchmarks/results.md``.
+The library's writer costs more per message than the hand-written one it replaced (commit
+b587b15), but in the recorder node, whose CPU per message is mostly rclpy's, the difference
+is within the run-to-run spread and a kill leaves the same messages unwritten, so no
+hand-written part is kept (``benchmarks/bench_recorder.py --compare``, figures in
+``benchmarks/results.md`` and docs/results.md).
 """
 from __future__ import annotations
 

@@ -32,12 +32,10 @@ QUICK: dict[str, Any] = {
     'search_seconds': 2.0, 'iterations': 5, 'samples': 200, 'window': 1000,
     'curve_seconds': 2.0,
 }
-#: Measured wall time of ``scara-ident compare`` with the defaults (see the module docstring):
-#: search 27 s, LM 116 s (15 trainings of about 7.7 s), online 16 s, simulation 4 s; the
-#: learning curves measured alone (benchmarks/bench_learning_curves.py, same jobs).
-DEFAULT_WALL_TIME = ('163 s wall without the learning curves (--curve-seconds 0), one BLAS '
-                     'thread, on the shared 2-core development machine; the learning curves '
-                     'add about 16 min (963 s, two worker processes, load average 2.4)')
+#: How long ``scara-ident compare`` takes with the defaults, roughly (figures with their
+#: conditions: docs/results.md, "The paper's Tables 2 and 3").
+DEFAULT_WALL_TIME = ('a few minutes without the learning curves (--curve-seconds 0); the '
+                     'learning curves add about a quarter of an hour')
 
 
 def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:

@@ -18,12 +18,10 @@ error against time (Fig. 15). All written to DIR: report.md, table2_offline.csv,
 table3_online.csv and PNG files. The paper's numbers are printed beside ours; it does not
 state its data scaling, so compare the normalised MSE and the ranking.
 
-Time, for a 60 s run at 1 kHz on one core: reading the bag, the online part and the
-figures about 10-15 s; each LM iteration about 17-22 ms at 500 samples (25 ms at 1000,
-40 ms at 2000), so the defaults (3 methods x 5 seeds x 315 iterations, 500 samples) train
-for about 90 s: about 1 min 45 s in all. --time-budget stops starting new rounds of seeds
-(one seed for every method) once the next would exceed it; scara-ident run uses 40 s,
-which gives 2 seeds and about 55 s in all on the project's 2-core machine.
+Time: for a 60 s run at 1 kHz the defaults (3 methods x 5 seeds x 315 iterations, 500
+samples) take a couple of minutes on one core, most of it LM training (docs/results.md).
+--time-budget stops starting new rounds of seeds (one seed for every method) once the next
+would exceed it; scara-ident run uses 40 s.
 """
 from __future__ import annotations
 

@@ -17,26 +17,20 @@ other blocks and runs at most 500 iterations (--iterations); it stops early when
 validation error has not reached a new best for 50 iterations in a row (--max-fail),
 counted from iteration 50 on (--min-iterations), and keeps the weights of the best
 validation error. Levenberg-Marquardt often raises the validation error for tens of
-iterations (once, measured, 170) before lowering it by orders of magnitude; a short
-patience (MATLAB's 6) stops it there.
+iterations before lowering it by orders of magnitude; a short patience (MATLAB's 6) stops
+it there.
 
 The network starts with friction steps (--friction-steps, as the identifier's lm trainer:
 up to 5 hidden units per joint, at most half the hidden units, begin as steps of its
 speed at 0, the shape of Coulomb friction).
 
-Measured (benchmarks/bench_train_defaults.py: FFS, 80 s of the simulated SCARA's
-'sequence' excitation, what scara-ident run records; NMSE on 4 other excitations; seeds
-0-5): these defaults give 3.0e-4 on the worst joint (joint 2 in most seeds) in the median
-seed, 1.3e-4 to 8.9e-4, in 15-45 s (2 shared cores); without friction steps 7.0e-4, 6.8e-5
-to 0.079; the former defaults (the last 20 % of the time validating, a stop after 6
-failures, all samples, 315 iterations, no steps) 1e-3 to 0.6 (seeds 0-2), in 35-210 s. On
-8 periodic excitations of 10 s (each one closed curve traced twice) the friction steps
-make the difference: 2.2e-4 in the median seed (1.1e-4 to 0.013) against 0.87 (0.39 to
-1.4) without. Record varied motion.
+The defaults were chosen with benchmarks/bench_train_defaults.py (how well they predict
+other motions, and how long they take: docs/results.md). The model predicts the motion it
+was trained on: record varied motion, as wide as the motion it is to predict.
 
-Time: one LM iteration costs about 15 ms plus 12 ms per 1000 training samples on one core
-(BLAS is held to one thread): 500 iterations on 8000 samples take at most about 1 minute,
-all 64000 samples of an 80 s bag (--samples 0) about 0.5 s per iteration.
+Time: an LM iteration's cost grows with the training samples (BLAS is held to one thread):
+the defaults take up to about a minute; all the samples of a long bag (--samples 0), much
+longer per iteration.
 A progress bar goes to stderr, the errors on the training and validation data to stdout.
 
 --method physical: the robot's physical model from its URDF (--urdf, required): base

@@ -3,9 +3,8 @@
 A robot's Coulomb friction changes sign with q', but how sharply depends on the drive:
 sign(q') is the ideal step, tanh(q'/ε) a smooth one, and the q'' estimated from q' blurs
 any step over the estimate's window. The held-out error depends on matching that
-sharpness: measured on two simulated robots whose friction steps differ
-(benchmarks/physical.md), the best fixed shape of one is several times worse than the best
-on the other, by orders of magnitude for sign on the smooth one. No single shape is right
+sharpness: on two simulated robots whose friction steps differ, the best fixed shape of one
+is far worse than the best on the other (benchmarks/physical.md). No single shape is right
 for every robot, so the fit tries each of :data:`CANDIDATES` by least squares on the
 training samples and keeps the one of lowest mean validation NMSE: a few more linear
 fits.

@@ -14,7 +14,7 @@ after splits), written by :class:`~scara_ident_ros.bag.BagWriter`.
 - Subscriptions are raw: rclpy hands the callback the serialized bytes, which are
   stamped with the reception time (``time.time_ns()``, as rosbag2 records the reception
   time) and appended to a list, which the loop hands to the writer in batches (nothing
-  is deserialized; the per-message Python is one append, and a few µs in the writer).
+  is deserialized; the per-message Python is one append, and the writer's own work).
 - Chunks are written and flushed at ``max_chunk_size`` bytes or ``max_chunk_duration``
   seconds, so a SIGKILL loses at most that; :func:`~scara_ident_ros.bag.recover_bag`
   makes such a bag readable again. On SIGINT/SIGTERM the bag is closed properly

@@ -33,9 +33,9 @@ from scara_ident_ros.sim.pinocchio_robot import FRICTION_DEFAULTS, PinocchioRobo
 
 __all__ = ['RobotSimNode', 'main', 'PARAMETERS', 'SUBSTEPS']
 
-#: RK4 steps per sample: 1 (1 ms at 1 kHz) where the SCARA takes 4. The arm's states differ
-#: from those of 16 substeps by < 1e-6 rad (Panda, 3 s of the sequence; 2 substeps: < 1e-7),
-#: and each substep costs four ABA calls: a 7-joint arm at 1 kHz then fits the CPU budget.
+#: RK4 steps per sample: 1 (1 ms at 1 kHz) where the SCARA takes 4. The arm's states stay
+#: close to those of a much finer integration (docs/nodes.md, robot_sim), and each substep
+#: costs four ABA calls: a 7-joint arm at 1 kHz then fits the CPU budget.
 #: The friction's sticking band allows steps up to about 3 ms with the defaults (checked at
 #: start, see PinocchioRobot.max_stable_step).
 SUBSTEPS = 1

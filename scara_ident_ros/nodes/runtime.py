@@ -1,9 +1,9 @@
 """Start, spin and stop a node the same way in every executable of the package.
 
 Every node runs in its own process on an :class:`rclpy.experimental.EventsExecutor`
-driven by ``spin_once`` in a loop: in the Jazzy wheels it costs about a quarter of
-the CPU of the default executor at 1 kHz (see ``benchmarks/bench_executor.py``),
-while its ``spin()`` fired a 1 ms timer at most once and ignored Ctrl-C.
+driven by ``spin_once`` in a loop: in the Jazzy wheels it costs a fraction of the CPU
+of the default executor at 1 kHz, while its ``spin()`` does not fire a 1 ms timer
+reliably and ignores Ctrl-C (``benchmarks/bench_executor.py``).
 
 SIGINT and SIGTERM set a stop flag that the loop checks at least every
 :data:`POLL_PERIOD`. A node with a ``handled()`` count (messages taken so far) then

@@ -59,8 +59,8 @@ __all__ = ['SimulatorNode', 'SIM_PARAMETERS', 'HISTORY', 'EXTERNAL', 'history_de
 #: a subscriber cut off for up to 5 s (a network partition, a stalled process) gets every
 #: sample once it is back, with as much again for the samples not yet acknowledged when the
 #: link went down and for the reconnection. A partition longer than the history loses the
-#: oldest samples (as many as it outlasts it: 8 s with 5 s of history lost 3,017 of 12,000;
-#: 2 s with 1 s lost 1,014); the recorder and the identifiers count them as lost.
+#: oldest samples (as many as it outlasts it); the recorder and the identifiers count them
+#: as lost.
 HISTORY = 10.0
 STATS_PERIOD = 10.0  # seconds between statistics log lines
 SPIN_PERIOD = 0.01  # seconds between two executor.spin_once calls while publishing
