@@ -1,9 +1,9 @@
 """Zero-lag joint acceleration: a local polynomial fitted around each sample.
 
 The causal estimates of :class:`~scara_ident_ros.identification.Differentiator` lag the true
-q'' (the 50 Hz low-pass by about 3 ms), and a model learnt from them learns that lag with the
-dynamics: least squares on the SCARA's physical regressor, exact with the true q'' (NMSE
-~1e-28), reaches only NMSE 0.03 with the low-pass estimate. A learning target does not have
+q'' (the 50 Hz low-pass by a few milliseconds), and a model learnt from them learns that lag
+with the dynamics: least squares on the SCARA's physical regressor, exact with the true q'',
+is far from exact with the low-pass estimate (docs/results.md). A learning target does not have
 to be causal: the identifier can wait a few samples. This estimate fits a polynomial of
 degree ``p`` to the ``W = 2m + 1`` velocities centred on a sample, at their actual stamps,
 and differentiates it at that sample, so it is

@@ -106,10 +106,8 @@ class LossCounter:
     repeated or going backwards count nothing.
 
     The jitter term keeps jitter from being counted as loss, at the price of missing some
-    real single losses in a very jittered stream: at 500 Hz (30,000 samples, 30 single
-    losses, 5 seeds) with stamp jitter of 0.1, 0.2 and 0.3 ms (5, 10, 15 % of the period)
-    it counts no false loss (``LOST_GAP`` alone counted 9 at 0.2 ms) and finds 30, 20–24
-    and 4–8 of the 30.
+    real single losses in a stream jittered by 10 % of its period or more
+    (docs/results.md).
 
     ``span_s`` replaces ``LOST_SPAN``: a recorder, which must report what a network
     partition cost, counts jumps of up to a minute as lost samples; an identifier, whose

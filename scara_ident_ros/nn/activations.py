@@ -21,9 +21,8 @@ to rounding for any z (no overflow, no warnings, tails not flushed to zero). The
 evaluates the same `LOGISTIC_TERMS` in the equivalent `TanhForm` (σ(u) = (1 + tanh(u/2))/2),
 which needs one transcendental call for all four terms of SLOG and agrees with them to
 ~1e-16 absolute: `hidden_layer` for batches; the per-sample path reads the same coefficients.
-The reference functions are 7× slower on a 1000 × 40 batch (9.5 ms against 1.3 ms) and 4× on
-one sample of 40 units (39 µs against ~10 µs for the whole prediction), too slow for LM and
-the 1 kHz path.
+The reference functions are several times slower on a batch and on one sample
+(docs/results.md), too slow for LM and the 1 kHz path.
 """
 from __future__ import annotations
 

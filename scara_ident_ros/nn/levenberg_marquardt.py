@@ -36,7 +36,7 @@ plain normal equations to rounding, at (n_h / n_params)³ of the factorisation's
 The Cholesky factor comes from ``np.linalg.cholesky``, not ``scipy.linalg.cho_factor``:
 numpy and scipy wheels each bundle their own OpenBLAS, and on a small machine the idle
 threads of one pool spin against the working threads of the other, which made the same
-factorisation and the following products 10–50× slower at random. Keeping every O(n³) and
+factorisation and the following products many times slower at random. Keeping every O(n³) and
 O(N·n²) operation in numpy's BLAS avoids that; scipy only does the O(n²) triangular solves.
 """
 from __future__ import annotations

@@ -114,10 +114,10 @@ class SequenceTrajectory:
     Notes
     -----
     Excitation k depends only on (seed, k), but building it needs the accepted excitations
-    0..k−1: evaluating at time t builds (once) and checks every segment up to t, 1–2 ms
-    each, so a first evaluation an hour ahead costs one to two seconds. Only the accepted
+    0..k−1: evaluating at time t builds (once) and checks every segment up to t, so a first
+    evaluation far ahead costs the checks of every segment before it. Only the accepted
     candidate number of each excitation is kept for good; in order, as the simulator
-    evaluates, each segment costs its 1–2 ms once per period T.
+    evaluates, each segment is built and checked once per period T.
     """
 
     def __init__(self, params: Robot, *, seed: int,
