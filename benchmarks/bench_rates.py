@@ -7,7 +7,7 @@ simulator's ``jitter`` (the state simulated at each jittered stamp), learnt onli
 with the ``lm`` trainer through the identifier's own pipeline, and the frozen model is
 scored at each checkpoint on the held-out motions of ``bench_learning_curves.py`` (at
 1 kHz, never streamed). At 500 Hz also with ``lm_interval`` 100 (the LM updates per second
-of 1 kHz), at 100 Hz with the settings the README recommends there (``window`` 5,
+of 1 kHz), at 100 Hz with the settings docs/real_robot.md recommends there (``window`` 5,
 ``lm_interval`` 40, ``validation_block`` 100).
 
 Prints a Markdown table: median [min-max] over seeds of the worst joint's held-out NMSE, and
