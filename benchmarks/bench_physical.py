@@ -67,7 +67,7 @@ from scara_ident_ros.dynamics.hybrid_model import fit_hybrid  # noqa: E402
 from scara_ident_ros.dynamics.physical_model import PhysicalModel  # noqa: E402
 from scara_ident_ros.experiments.datasets import (Dataset, dataset_from_record,  # noqa: E402
                                                   make_dataset, simulate_record)
-from scara_ident_ros.methods import make_network  # noqa: E402
+from scara_ident_ros.nn.presets import make_network  # noqa: E402
 from scara_ident_ros.offline.split import block_split  # noqa: E402
 
 SCARA_URDF = ROOT / 'urdf' / 'scara.urdf'

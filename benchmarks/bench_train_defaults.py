@@ -137,7 +137,7 @@ from scara_ident_ros.cli import train as train_cli  # noqa: E402
 from scara_ident_ros.dynamics import ScaraParams  # noqa: E402
 from scara_ident_ros.experiments.datasets import (Dataset, simulate_dataset,  # noqa: E402
                                                   simulate_record)
-from scara_ident_ros.methods import make_network  # noqa: E402
+from scara_ident_ros.nn.presets import make_network  # noqa: E402
 from scara_ident_ros.nn import FeedForwardNet  # noqa: E402
 from scara_ident_ros.blas_threads import single_blas_thread  # noqa: E402
 from scara_ident_ros.offline.dataset import time_split  # noqa: E402

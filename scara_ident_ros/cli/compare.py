@@ -13,7 +13,7 @@ from typing import Any
 
 from scara_ident_ros.cli import CliError
 from scara_ident_ros.experiments import DEFAULT_GOAL, DEFAULT_WINDOW, PAPER_ITERATIONS
-from scara_ident_ros.methods import METHODS
+from scara_ident_ros.nn.presets import METHODS
 from scara_ident_ros.offline import comparison
 from scara_ident_ros.offline.comparison import CompareSettings, run_comparison
 from scara_ident_ros.sim import TRAJECTORIES

@@ -49,7 +49,7 @@ from typing import Any
 
 from scara_ident_ros.cli import CliError
 from scara_ident_ros.identification.trainer import TRAINERS
-from scara_ident_ros.methods import METHODS
+from scara_ident_ros.nn.presets import METHODS
 from scara_ident_ros.paths import unwritable_dir
 from scara_ident_ros.process_graph import (NodeProcess, ProcessGraph, StopSignals,
                                            publishers_on)

@@ -31,7 +31,7 @@ import argparse
 from pathlib import Path
 
 from scara_ident_ros.cli import CliError
-from scara_ident_ros.methods import METHODS
+from scara_ident_ros.nn.presets import METHODS
 from scara_ident_ros.offline.report import (DEFAULT_SAMPLES, DEFAULT_SEEDS,
                                             DEFAULT_TIME_BUDGET_S, make_report)
 from scara_ident_ros.paths import unwritable_dir

@@ -68,7 +68,7 @@ import numpy as np
 
 from scara_ident_ros.cli import CliError
 from scara_ident_ros.dynamics.physical_model import COULOMB_EPS, COULOMB_MODES
-from scara_ident_ros.methods import METHODS, make_network
+from scara_ident_ros.nn.presets import METHODS, make_network
 from scara_ident_ros.nn import ALGORITHMS
 from scara_ident_ros.paths import unwritable_file
 
@@ -276,7 +276,7 @@ def _limit_ranges(urdf: Path, names: Sequence[str], X: np.ndarray, Y: np.ndarray
     the URDF does not have is refused (``UrdfError``).
     """
     from scara_ident_ros.dynamics.urdf_limits import read_urdf
-    from scara_ident_ros.methods import limit_scaling
+    from scara_ident_ros.nn.presets import limit_scaling
 
     limits = read_urdf(urdf)
     limits.select([name for name in names if name not in limits.unlimited])  # or UrdfError

@@ -23,7 +23,7 @@ from scara_ident_ros.experiments.datasets import (ACCELERATIONS, Dataset, Evalua
 from scara_ident_ros.experiments.hyperparameters import (DEFAULT_GRID, QUICK_GRID, Grid,
                                                          Hyperparameters, Scaling,
                                                          SearchResult, Trial, best_of,
-                                                         build_network, search)
+                                                         search)
 from scara_ident_ros.experiments.metrics import effort_errors, recent_errors
 from scara_ident_ros.experiments.table2 import (DEFAULT_GOAL, OfflineFit, OfflineRuns,
                                                  fit_offline, goal_iteration, offline_rows,
@@ -48,7 +48,7 @@ __all__ = [
     'Evaluations', 'Grid', 'HOLD', 'Hyperparameters', 'OfflineFit', 'OfflineRuns', 'OnlineTrace',
     'PAPER_ITERATIONS', 'PAPER_NOTE', 'PAPER_SAMPLES', 'PAPER_TABLE2', 'PAPER_TABLE3',
     'QUICK_GRID', 'REFERENCE', 'ReferenceFit', 'ResultRow', 'Scaling', 'SearchResult',
-    'Spread', 'Summary', 'Trial', 'best_of', 'build_network', 'dataset_from_record',
+    'Spread', 'Summary', 'Trial', 'best_of', 'dataset_from_record',
     'effort_errors', 'fit_offline', 'fit_reference', 'format_spread',
     'format_value', 'goal_iteration', 'hold_rows', 'joint_markdown', 'learn_online',
     'make_dataset', 'offline_markdown', 'offline_rows', 'online_markdown',

@@ -41,7 +41,7 @@ from scara_ident_ros.identification import (Holdout, InputStage, JointMap, Onlin
 from scara_ident_ros.identification.contact_detector import ContactDetector
 from scara_ident_ros.identification.online_identifier import EffortModel
 from scara_ident_ros.identification.trainer import starts_with_friction_steps
-from scara_ident_ros.methods import limit_scaling, make_network
+from scara_ident_ros.nn.presets import limit_scaling, make_network
 from scara_ident_ros.nn import FeedForwardNet
 from scara_ident_ros.sim import SimConfig, SimRecord, Simulator, make_trajectory
 

@@ -33,8 +33,6 @@ Public API::
     Hyperparameters.defaults(method) -> Hyperparameters      the METHODS values
     Grid(learning_rate=..., momentum=..., weight_scale=...)  .points() -> list, .size
     DEFAULT_GRID, QUICK_GRID
-    build_network(method, n_joints, hyperparameters=None, *, seed=0, n_hidden=40)
-        -> FeedForwardNet
     search(method, X, Y, *, scaling, grid=DEFAULT_GRID, seeds=(0, 1), score_fraction=0.5)
         -> SearchResult                                      .best, .trials
     best_of(results) -> dict[str, Hyperparameters]           method key -> choice
@@ -45,21 +43,21 @@ import itertools
 import math
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 
 import numpy as np
 import numpy.typing as npt
 
-from scara_ident_ros.methods import method as method_spec
-from scara_ident_ros.nn import FeedForwardNet
+from scara_ident_ros.nn.presets import make_network
+from scara_ident_ros.nn.presets import method as method_spec
 
 __all__ = ['DEFAULT_GRID', 'QUICK_GRID', 'Grid', 'Hyperparameters', 'Scaling', 'SearchResult',
-           'Trial', 'best_of', 'build_network', 'search']
+           'Trial', 'best_of', 'search']
 
 FloatArray = npt.NDArray[np.float64]
 
 #: Physical ranges (x_min (3n,), x_max (3n,), y_min (n,), y_max (n,)) mapped to [-1, 1], as
-#: returned by :func:`scara_ident_ros.methods.limit_scaling`.
+#: returned by :func:`scara_ident_ros.nn.presets.limit_scaling`.
 Scaling = tuple[npt.ArrayLike, npt.ArrayLike, npt.ArrayLike, npt.ArrayLike]
 
 
@@ -83,7 +81,7 @@ class Hyperparameters:
 
     @classmethod
     def defaults(cls, method: str) -> Hyperparameters:
-        """The defaults of ``method`` in :data:`scara_ident_ros.methods.METHODS`."""
+        """The defaults of ``method`` in :data:`scara_ident_ros.nn.presets.METHODS`."""
         spec = method_spec(method)
         return cls(spec.learning_rate, spec.momentum, spec.weight_scale)
 
@@ -194,20 +192,6 @@ class SearchResult:
                      and math.isfinite(t.score)), None)
 
 
-def build_network(method: str, n_joints: int, hyperparameters: Hyperparameters | None = None,
-                  *, seed: int = 0, n_hidden: int = 40) -> FeedForwardNet:
-    """The (3n)-n_hidden-n network of ``method`` with the given hyperparameters.
-
-    Like :func:`scara_ident_ros.methods.make_network`, which takes no ``weight_scale``;
-    None takes the method's defaults. The scaling is left unset.
-    """
-    spec = method_spec(method)
-    hyper = Hyperparameters.defaults(method) if hyperparameters is None else hyperparameters
-    return FeedForwardNet(3 * n_joints, n_hidden, n_joints, spec.activation, seed=seed,
-                          weight_scale=hyper.weight_scale, learning_rate=hyper.learning_rate,
-                          momentum=hyper.momentum)
-
-
 def _nmse(errors: FloatArray, y: FloatArray) -> float:
     var = y.var(axis=0)
     nmse = np.mean(errors ** 2, axis=0) / np.where(var > 0.0, var, np.nan)
@@ -218,7 +202,7 @@ def _nmse(errors: FloatArray, y: FloatArray) -> float:
 def _run(method: str, hyper: Hyperparameters, X: FloatArray, Y: FloatArray,
          scaling: Scaling, seed: int, n_scored: int) -> tuple[float, float]:
     """(a-priori, frozen) joint-mean NMSE of one run over the last n_scored samples."""
-    net = build_network(method, Y.shape[1], hyper, seed=seed)
+    net = make_network(method, Y.shape[1], seed=seed, **asdict(hyper))
     net.set_scaling(*scaling)
     n_fit = X.shape[0] - n_scored
     with np.errstate(over='ignore', invalid='ignore'):

@@ -57,7 +57,7 @@ from scara_ident_ros.experiments.tables import format_value
 from scara_ident_ros.identification import (Holdout, InputStage, JointMap, OnlineIdentifier,
                                             make_differentiator, make_trainer)
 from scara_ident_ros.identification.trainer import starts_with_friction_steps
-from scara_ident_ros.methods import limit_scaling, make_network, method as method_spec
+from scara_ident_ros.nn.presets import limit_scaling, make_network, method as method_spec
 from scara_ident_ros.resources import config_path
 from scara_ident_ros.sim import SimConfig, SimRecord
 from scara_ident_ros.sim.trajectory import Robot

@@ -31,19 +31,19 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Iterable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
 from scara_ident_ros.experiments.datasets import Evaluations
-from scara_ident_ros.experiments.hyperparameters import Hyperparameters, Scaling, build_network
+from scara_ident_ros.experiments.hyperparameters import Hyperparameters, Scaling
 from scara_ident_ros.experiments.metrics import effort_errors
 from scara_ident_ros.experiments.rows import ResultRow
 from scara_ident_ros.experiments.tables import PAPER_ITERATIONS
-from scara_ident_ros.methods import METHODS
-from scara_ident_ros.methods import method as method_spec
+from scara_ident_ros.nn.presets import METHODS, make_network
+from scara_ident_ros.nn.presets import method as method_spec
 from scara_ident_ros.nn import FeedForwardNet, FitHistory
 
 __all__ = ['DEFAULT_GOAL', 'OfflineFit', 'OfflineRuns', 'fit_offline', 'goal_iteration',
@@ -110,7 +110,8 @@ def fit_offline(method: str, X: npt.ArrayLike, Y: npt.ArrayLike, *, seed: int = 
     """
     x = np.asarray(X, dtype=np.float64)
     y = np.asarray(Y, dtype=np.float64)
-    net = build_network(method, y.shape[1], hyperparameters, seed=seed, n_hidden=n_hidden)
+    hyper = hyperparameters or Hyperparameters.defaults(method)
+    net = make_network(method, y.shape[1], seed=seed, n_hidden=n_hidden, **asdict(hyper))
     if scaling is not None:
         net.set_scaling(*scaling)
     wall, cpu = time.perf_counter(), time.process_time()

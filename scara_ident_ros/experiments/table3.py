@@ -36,18 +36,18 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Iterable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 
 import numpy as np
 import numpy.typing as npt
 
 from scara_ident_ros.experiments.datasets import Evaluations
-from scara_ident_ros.experiments.hyperparameters import Hyperparameters, Scaling, build_network
+from scara_ident_ros.experiments.hyperparameters import Hyperparameters, Scaling
 from scara_ident_ros.experiments.metrics import effort_errors, recent_errors
 from scara_ident_ros.experiments.rows import HOLD, ResultRow
 from scara_ident_ros.identification import PAPER_WINDOW
-from scara_ident_ros.methods import METHODS
-from scara_ident_ros.methods import method as method_spec
+from scara_ident_ros.nn.presets import METHODS, make_network
+from scara_ident_ros.nn.presets import method as method_spec
 from scara_ident_ros.nn import FeedForwardNet
 
 __all__ = ['DEFAULT_WINDOW', 'OnlineTrace', 'hold_rows', 'learn_online', 'online_rows',
@@ -199,9 +199,9 @@ def run_online(X: npt.ArrayLike, Y: npt.ArrayLike, evaluations: Evaluations | No
     rows: list[ResultRow] = []
     for name in methods:
         label = method_spec(name).label
-        hyper = (hyperparameters or {}).get(name)
+        hyper = (hyperparameters or {}).get(name) or Hyperparameters.defaults(name)
         for seed in seeds:
-            net = build_network(name, y.shape[1], hyper, seed=seed)
+            net = make_network(name, y.shape[1], seed=seed, **asdict(hyper))
             net.set_scaling(*scaling)
             trace = learn_online(net, x, y)
             new = online_rows(label, seed, trace, y, evaluations, window=window,

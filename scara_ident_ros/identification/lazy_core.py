@@ -27,7 +27,7 @@ from scara_ident_ros.identification.skip_reason import SkipReason
 from scara_ident_ros.identification.rls_trainer import RecursiveLeastSquaresTrainer
 from scara_ident_ros.identification.trainer import (Trainer, make_trainer,
                                                     starts_with_friction_steps)
-from scara_ident_ros.methods import METHODS, make_network
+from scara_ident_ros.nn.presets import METHODS, make_network
 from scara_ident_ros.nn import FeedForwardNet
 
 __all__ = ['CoreSettings', 'LazyCore', 'ONLINE_METHODS', 'OnlineModel', 'PHYSICAL_METHODS',

@@ -81,7 +81,7 @@ from scara_ident_ros.identification.health import (Deltas, Health, LossCounter,
 from scara_ident_ros.dynamics.hybrid_model import HybridModel
 from scara_ident_ros.dynamics.physical_model import PhysicalModel
 from scara_ident_ros.dynamics.urdf_limits import UrdfError
-from scara_ident_ros.methods import METHODS
+from scara_ident_ros.nn.presets import METHODS
 from scara_ident_ros.mse_layout import encode_mse
 from scara_ident_ros.nn import FeedForwardNet, ModelFormatError
 from scara_ident_ros.nodes.diagnostics import Diagnostics
@@ -275,7 +275,7 @@ class Identification:
     node : Node
         The node that publishes.
     method : str
-        One of :data:`~scara_ident_ros.methods.METHODS`.
+        One of :data:`~scara_ident_ros.nn.presets.METHODS`.
     prefix : str
         Namespace of its outputs, relative to the node's ('' or ``'<method>/'``).
     limits : JointLimits

@@ -62,8 +62,8 @@ from scara_ident_ros.experiments.tables import (PAPER_NOTE, format_value, joint_
                                                 offline_markdown, online_markdown,
                                                 ranking_text, write_csv)
 from scara_ident_ros.identification import PAPER_WINDOW, TRAINERS
-from scara_ident_ros.methods import limit_scaling
-from scara_ident_ros.methods import method as method_spec
+from scara_ident_ros.nn.presets import limit_scaling
+from scara_ident_ros.nn.presets import method as method_spec
 from scara_ident_ros.blas_threads import BLAS_THREADS, single_blas_thread
 from scara_ident_ros.offline.figures import plot_learning_curves
 

@@ -32,7 +32,7 @@ from scara_ident_ros.dynamics.physical_model import PhysicalModel
 from scara_ident_ros.dynamics.urdf_limits import UrdfError
 from scara_ident_ros.identification.warm_start import ModelMismatch, check_warm_start
 from scara_ident_ros.identification.warm_start import model_joint_names as network_joint_names
-from scara_ident_ros.methods import METHODS
+from scara_ident_ros.nn.presets import METHODS
 from scara_ident_ros.nn import FeedForwardNet, ModelFormatError
 from scara_ident_ros.nn.model_file import read_model_file
 from scara_ident_ros.offline.figures import effort_unit

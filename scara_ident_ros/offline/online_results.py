@@ -31,7 +31,7 @@ from scara_ident_ros.experiments.table3 import DEFAULT_WINDOW, stream_data_names
 from scara_ident_ros.experiments.rows import ResultRow
 from scara_ident_ros.identification import PAPER_WINDOW
 from scara_ident_ros.identification.error_window import normalised_mse
-from scara_ident_ros.methods import method as method_spec
+from scara_ident_ros.nn.presets import method as method_spec
 from scara_ident_ros.topics import mse_topic, torque_topic
 
 if TYPE_CHECKING:

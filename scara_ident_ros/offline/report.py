@@ -47,8 +47,8 @@ from scara_ident_ros.experiments.tables import (PAPER_ITERATIONS, PAPER_NOTE, PA
                                                 joint_markdown, offline_markdown,
                                                 online_markdown, ranking_text, write_csv)
 from scara_ident_ros.identification import PAPER_WINDOW
-from scara_ident_ros.methods import METHODS
-from scara_ident_ros.methods import method as method_spec
+from scara_ident_ros.nn.presets import METHODS
+from scara_ident_ros.nn.presets import method as method_spec
 from scara_ident_ros.mse_layout import METRICS, decode_mse
 from scara_ident_ros.nn import DEFAULT_CONSTANTS
 from scara_ident_ros.blas_threads import BLAS_THREADS

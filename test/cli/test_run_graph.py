@@ -25,7 +25,7 @@ import numpy as np
 import pytest
 
 from scara_ident_ros.bag import JointStateSeries, read_joint_states
-from scara_ident_ros.methods import METHODS
+from scara_ident_ros.nn.presets import METHODS
 from scara_ident_ros.offline.online_results import (OnlinePredictions, read_identifier_mse,
                                                     read_online_predictions, rolling_errors,
                                                     torque_topic)

@@ -11,7 +11,7 @@ import pytest
 
 from scara_ident_ros.cli import main
 from scara_ident_ros.identification import OnlineIdentifier
-from scara_ident_ros.methods import METHODS
+from scara_ident_ros.nn.presets import METHODS
 from scara_ident_ros.nn import FeedForwardNet
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'offline'))

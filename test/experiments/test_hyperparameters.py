@@ -2,14 +2,15 @@
 from __future__ import annotations
 
 import math
+from dataclasses import asdict
 
 import numpy as np
 import pytest
 
 from scara_ident_ros.dynamics import ScaraParams
-from scara_ident_ros.experiments import (Dataset, Grid, Hyperparameters, build_network, search,
+from scara_ident_ros.experiments import (Dataset, Grid, Hyperparameters, search,
                                          simulate_dataset)
-from scara_ident_ros.methods import METHODS, limit_scaling
+from scara_ident_ros.nn.presets import METHODS, limit_scaling, make_network
 
 PARAMS = ScaraParams()
 SCALING = limit_scaling(PARAMS.position_min, PARAMS.position_max, PARAMS.velocity_max,
@@ -28,8 +29,8 @@ def test_defaults_are_the_methods_table() -> None:
             spec.learning_rate, spec.momentum, spec.weight_scale)
 
 
-def test_build_network_uses_the_hyperparameters() -> None:
-    net = build_network('ffw', 4, Hyperparameters(0.2, 0.3, 1.5), seed=4)
+def test_make_network_uses_the_hyperparameters() -> None:
+    net = make_network('ffw', 4, seed=4, **asdict(Hyperparameters(0.2, 0.3, 1.5)))
     assert (net.n_inputs, net.n_hidden, net.n_outputs) == (12, 40, 4)
     assert net.activation == 'slog' and net.seed == 4
     assert (net.learning_rate, net.momentum, net.weight_scale) == (0.2, 0.3, 1.5)
@@ -44,7 +45,7 @@ def test_search_scores_every_point_and_picks_the_lowest(segment: Dataset) -> Non
     assert result.best.learning_rate == 0.05  # a tiny step barely learns in 0.5 s
     assert result.n_scored == round(0.5 * len(segment))
     # both figures recomputed by hand: frozen copy at the split, then a-priori errors
-    net = build_network('ffs', 4, result.best)
+    net = make_network('ffs', 4, **asdict(result.best))
     net.set_scaling(*SCALING)
     n_fit = len(segment) - result.n_scored
     net.partial_fit(segment.X[:n_fit], segment.Y[:n_fit])

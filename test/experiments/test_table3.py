@@ -5,10 +5,10 @@ import numpy as np
 import pytest
 
 from scara_ident_ros.dynamics import ScaraParams
-from scara_ident_ros.experiments import (Dataset, Hyperparameters, build_network, hold_rows,
+from scara_ident_ros.experiments import (Dataset, hold_rows,
                                          learn_online, online_rows, run_online,
                                          simulate_dataset)
-from scara_ident_ros.methods import limit_scaling
+from scara_ident_ros.nn.presets import limit_scaling, make_network
 from scara_ident_ros.nn import FeedForwardNet
 
 PARAMS = ScaraParams()
@@ -22,9 +22,8 @@ def stream() -> Dataset:
 
 
 def _net(**hyper: float) -> FeedForwardNet:
-    h = Hyperparameters(**{'learning_rate': 0.05, 'momentum': 0.5, 'weight_scale': 2.0,
-                           **hyper})
-    net = build_network('ffmw', 4, h, seed=1)
+    net = make_network('ffmw', 4, seed=1, **{'learning_rate': 0.05, 'momentum': 0.5,
+                                              'weight_scale': 2.0, **hyper})
     net.set_scaling(*SCALING)
     return net
 

@@ -20,7 +20,7 @@ from scara_ident_ros.experiments.datasets import dataset_from_record, simulate_r
 from scara_ident_ros.experiments.reference import fit_reference, predict_reference
 from scara_ident_ros.identification import (Holdout, InputStage, JointMap, OnlineIdentifier,
                                             ReservoirLM)
-from scara_ident_ros.methods import limit_scaling, make_network
+from scara_ident_ros.nn.presets import limit_scaling, make_network
 from scara_ident_ros.sim import SimConfig, SimRecord
 
 PARAMS = ScaraParams()

@@ -12,7 +12,7 @@ from scara_ident_ros.identification import (BackPropagation, Bounds, Holdout, On
                                             Reservoir, ReservoirLM, SkipReason, make_trainer)
 import itertools
 
-from scara_ident_ros.methods import FRICTION_STEP_WIDTHS, limit_scaling, make_network
+from scara_ident_ros.nn.presets import FRICTION_STEP_WIDTHS, limit_scaling, make_network
 from scara_ident_ros.nn import FeedForwardNet
 from scara_ident_ros.blas_threads import single_blas_thread
 

@@ -5,7 +5,7 @@ import io
 
 import numpy as np
 
-from scara_ident_ros.methods import make_network
+from scara_ident_ros.nn.presets import make_network
 from scara_ident_ros.offline.progress import TrainingProgress
 
 

@@ -1,7 +1,7 @@
-"""The paper's three identification methods and their default hyperparameters.
+"""The paper's three networks (FFMW, FFW, FFS), their default hyperparameters and factory.
 
-One table used by the identifier node, ``scara-ident compare``, ``train`` and
-``tables``, so that every part of the project means the same thing by "FFMW".
+One table and one factory used by the identifier node, ``scara-ident compare``, ``train``
+and ``tables``, so that every part of the project means the same thing by "FFMW".
 """
 from __future__ import annotations
 
@@ -40,7 +40,7 @@ class Method:
     (grid: learning rate 0.03–3, momentum 0/0.5/0.9, weight scale 1/4; the first 10 s of
     the simulated training stream; each point learns 5 s online from seeds 0 and 1 and is
     scored by the worst a-priori NMSE over the next 5 s, among points whose next larger
-    learning rate is still stable; see ``scara_ident_ros.experiments.hyperparameters``).
+    learning rate is still stable; see ``scara_ident_ros.paper.hyperparameters``).
     """
 
     name: str
@@ -83,12 +83,13 @@ FRICTION_STEP_WIDTHS = (0.064, 0.016, 0.004, 0.001, 0.00025)
 
 def make_network(name: str, n_joints: int, *, n_hidden: int = 40, seed: int = 0,
                  learning_rate: float | None = None, momentum: float | None = None,
-                 k: float | None = None, a: float | None = None,
-                 b: float | None = None, friction_steps: bool = False) -> FeedForwardNet:
+                 weight_scale: float | None = None, k: float | None = None,
+                 a: float | None = None, b: float | None = None,
+                 friction_steps: bool = False) -> FeedForwardNet:
     """Build the (3·n_joints)-n_hidden-n_joints network of method ``name``.
 
     Hyperparameters left as None take the method's defaults (:data:`METHODS`) and, for
-    k, a, b, the activation's (MSLOG: 2.5, 5, 5).
+    k, a, b, the activation's (MSLOG: 2.5, 5, 5). The scaling is left unset.
 
     With ``friction_steps``, the first hidden units start as steps of each joint's speed
     q' at 0, one per joint and width of :data:`FRICTION_STEP_WIDTHS`
@@ -101,7 +102,7 @@ def make_network(name: str, n_joints: int, *, n_hidden: int = 40, seed: int = 0,
     spec = method(name)
     network = FeedForwardNet(
         3 * n_joints, n_hidden, n_joints, spec.activation, seed=seed, k=k, a=a, b=b,
-        weight_scale=spec.weight_scale,
+        weight_scale=spec.weight_scale if weight_scale is None else weight_scale,
         learning_rate=spec.learning_rate if learning_rate is None else learning_rate,
         momentum=spec.momentum if momentum is None else momentum)
     if friction_steps:
