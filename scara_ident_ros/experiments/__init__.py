@@ -24,7 +24,8 @@ from scara_ident_ros.experiments.hyperparameters import (DEFAULT_GRID, QUICK_GRI
                                                          Hyperparameters, Scaling,
                                                          SearchResult, Trial, best_of,
                                                          search)
-from scara_ident_ros.experiments.metrics import effort_errors, recent_errors
+from scara_ident_ros.identification.error_window import recent_errors
+from scara_ident_ros.identification.metrics import effort_errors
 from scara_ident_ros.experiments.table2 import (DEFAULT_GOAL, OfflineFit, OfflineRuns,
                                                  fit_offline, goal_iteration, offline_rows,
                                                  run_offline, train_offline)

@@ -48,6 +48,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 import numpy.typing as npt
 
+from scara_ident_ros.identification.metrics import effort_errors
 from scara_ident_ros.nn.presets import make_network
 from scara_ident_ros.nn.presets import method as method_spec
 
@@ -193,9 +194,8 @@ class SearchResult:
 
 
 def _nmse(errors: FloatArray, y: FloatArray) -> float:
-    var = y.var(axis=0)
-    nmse = np.mean(errors ** 2, axis=0) / np.where(var > 0.0, var, np.nan)
-    value = float(np.nanmean(nmse))
+    """Joint-mean NMSE of a-priori ``errors`` of ``y``; +inf if not finite (diverged)."""
+    value = effort_errors(y, y - errors).nmse_total
     return value if math.isfinite(value) else math.inf
 
 

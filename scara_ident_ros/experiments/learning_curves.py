@@ -56,6 +56,7 @@ from scara_ident_ros.experiments.reference import fit_reference, predict_referen
 from scara_ident_ros.experiments.tables import format_value
 from scara_ident_ros.identification import (Holdout, InputStage, JointMap, OnlineIdentifier,
                                             make_differentiator, make_trainer)
+from scara_ident_ros.identification.metrics import effort_errors
 from scara_ident_ros.identification.trainer import starts_with_friction_steps
 from scara_ident_ros.nn.presets import limit_scaling, make_network, method as method_spec
 from scara_ident_ros.resources import config_path
@@ -153,7 +154,7 @@ def held_out_set(params: Robot, *, seed: int = 0, config: SimConfig | None = Non
 
 
 def _nmse(Y: FloatArray, predicted: FloatArray) -> FloatArray:
-    return np.asarray(np.mean((Y - predicted) ** 2, axis=0) / Y.var(axis=0))
+    return effort_errors(Y, predicted).nmse
 
 
 def network_curve(record: SimRecord, held_out: Dataset, params: Robot, *, method: str,

@@ -35,7 +35,8 @@ import numpy.typing as npt
 
 from scara_ident_ros.dynamics import LeastSquaresIdentifier, ScaraParams
 from scara_ident_ros.experiments.datasets import Evaluations
-from scara_ident_ros.experiments.metrics import effort_errors, recent_errors
+from scara_ident_ros.identification.error_window import recent_errors
+from scara_ident_ros.identification.metrics import effort_errors
 from scara_ident_ros.experiments.table3 import DEFAULT_WINDOW, stream_data_names
 from scara_ident_ros.experiments.rows import REFERENCE, ResultRow
 from scara_ident_ros.identification import PAPER_WINDOW

@@ -52,7 +52,7 @@ class ResultRow:
         Samples evaluated.
     mse, nmse : tuple of float, length n_joints
         Per-joint MSE ((N·m)², N²) and NMSE (MSE / effort variance), see
-        :mod:`scara_ident_ros.experiments.metrics`.
+        :mod:`scara_ident_ros.identification.metrics`.
     mse_mean, nmse_mean : float
         Their means over the joints.
     iterations : int or None

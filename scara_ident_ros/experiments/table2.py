@@ -39,7 +39,7 @@ import numpy.typing as npt
 
 from scara_ident_ros.experiments.datasets import Evaluations
 from scara_ident_ros.experiments.hyperparameters import Hyperparameters, Scaling
-from scara_ident_ros.experiments.metrics import effort_errors
+from scara_ident_ros.identification.metrics import effort_errors
 from scara_ident_ros.experiments.rows import ResultRow
 from scara_ident_ros.experiments.tables import PAPER_ITERATIONS
 from scara_ident_ros.nn.presets import METHODS, make_network

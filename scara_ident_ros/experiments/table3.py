@@ -43,7 +43,8 @@ import numpy.typing as npt
 
 from scara_ident_ros.experiments.datasets import Evaluations
 from scara_ident_ros.experiments.hyperparameters import Hyperparameters, Scaling
-from scara_ident_ros.experiments.metrics import effort_errors, recent_errors
+from scara_ident_ros.identification.error_window import recent_errors
+from scara_ident_ros.identification.metrics import effort_errors
 from scara_ident_ros.experiments.rows import HOLD, ResultRow
 from scara_ident_ros.identification import PAPER_WINDOW
 from scara_ident_ros.nn.presets import METHODS, make_network

@@ -9,13 +9,14 @@ from __future__ import annotations
 
 from scara_ident_ros.identification.centred_differentiator import CentredDifferentiator
 from scara_ident_ros.identification.differentiator import METHODS, Differentiator
-from scara_ident_ros.identification.error_window import PAPER_WINDOW, ErrorStats, ErrorWindow
+from scara_ident_ros.identification.error_window import PAPER_WINDOW, ErrorWindow
 from scara_ident_ros.identification.holdout import Holdout
 from scara_ident_ros.identification.input_stage import (DIFFERENTIATORS, AccelerationEstimate,
                                                         Input, InputStage, make_differentiator)
 from scara_ident_ros.identification.joint_limits import (LIMIT_NAMES, JointLimits, LimitsError,
                                                          load_joint_limits)
 from scara_ident_ros.identification.joint_map import JointMap
+from scara_ident_ros.identification.metrics import ErrorStats, effort_errors
 from scara_ident_ros.identification.lazy_core import CoreSettings, LazyCore, Skipped
 from scara_ident_ros.identification.online_identifier import (Counts, EffortModel,
                                                               OnlineIdentifier, StepResult)
@@ -34,6 +35,6 @@ __all__ = [
     'ErrorStats', 'ErrorWindow', 'Holdout', 'Input', 'InputStage', 'JointLimits', 'JointMap',
     'LIMIT_NAMES', 'LazyCore', 'LimitsError', 'METHODS', 'ModelMismatch', 'OnlineIdentifier',
     'PAPER_WINDOW', 'Reservoir', 'ReservoirLM', 'Sample', 'SampleCheck', 'SkipReason',
-    'Skipped', 'StepResult', 'TRAINERS', 'Trainer', 'check_warm_start', 'load_joint_limits',
-    'make_differentiator', 'make_trainer', 'model_joint_names',
+    'Skipped', 'StepResult', 'TRAINERS', 'Trainer', 'check_warm_start', 'effort_errors',
+    'load_joint_limits', 'make_differentiator', 'make_trainer', 'model_joint_names',
 ]

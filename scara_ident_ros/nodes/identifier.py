@@ -70,7 +70,7 @@ from scara_ident_ros.identification import (DIFFERENTIATORS, LIMIT_NAMES, TRAINE
                                             load_joint_limits, make_differentiator)
 from scara_ident_ros.identification.background_lm import BackgroundLM, prestart
 from scara_ident_ros.identification.contact_detector import ContactDetector
-from scara_ident_ros.identification.error_window import ErrorStats
+from scara_ident_ros.identification.metrics import ErrorStats
 from scara_ident_ros.identification.joint_limits import JointLimits
 from scara_ident_ros.identification.lazy_core import ONLINE_METHODS, OnlineModel
 from scara_ident_ros.identification.sample_check import GAP_PERIODS

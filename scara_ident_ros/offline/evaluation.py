@@ -22,7 +22,7 @@ from typing import Union
 import numpy as np
 import numpy.typing as npt
 
-from scara_ident_ros.experiments.metrics import effort_errors
+from scara_ident_ros.identification.metrics import effort_errors
 from scara_ident_ros.experiments.tables import format_value
 from scara_ident_ros.identification import ErrorStats
 from scara_ident_ros.dynamics.hybrid_model import KIND as HYBRID

@@ -26,11 +26,12 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
-from scara_ident_ros.experiments.metrics import effort_errors, recent_errors
+from scara_ident_ros.identification.error_window import recent_errors
+from scara_ident_ros.identification.metrics import effort_errors
 from scara_ident_ros.experiments.table3 import DEFAULT_WINDOW, stream_data_names
 from scara_ident_ros.experiments.rows import ResultRow
 from scara_ident_ros.identification import PAPER_WINDOW
-from scara_ident_ros.identification.error_window import normalised_mse
+from scara_ident_ros.identification.metrics import normalised_mse
 from scara_ident_ros.nn.presets import method as method_spec
 from scara_ident_ros.topics import mse_topic, torque_topic
 
@@ -128,7 +129,7 @@ def rolling_errors(measured: NDArray[np.float64], predicted: NDArray[np.float64]
         paper's figures do).
     nmse : ndarray of shape (N,)
         Mean over the joints of MSE / effort variance in the window, where defined
-        (:func:`~scara_ident_ros.identification.error_window.normalised_mse`); NaN where
+        (:func:`~scara_ident_ros.identification.metrics.normalised_mse`); NaN where
         it is for no joint.
     """
     y = np.asarray(measured, dtype=np.float64)

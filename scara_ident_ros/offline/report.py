@@ -37,7 +37,7 @@ from pathlib import Path
 import numpy as np
 
 from scara_ident_ros.experiments.datasets import Dataset
-from scara_ident_ros.experiments.metrics import effort_errors
+from scara_ident_ros.identification.metrics import effort_errors
 from scara_ident_ros.experiments.table2 import DEFAULT_GOAL, OfflineFit
 from scara_ident_ros.experiments.table3 import DEFAULT_WINDOW, stream_data_names
 from scara_ident_ros.experiments.reference import is_scara

@@ -4,7 +4,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from scara_ident_ros.experiments import effort_errors, recent_errors
+from scara_ident_ros.identification.error_window import recent_errors
+from scara_ident_ros.identification.metrics import effort_errors
 from scara_ident_ros.identification import ErrorWindow
 
 
