@@ -156,6 +156,7 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
 def run(args: argparse.Namespace) -> int:
     """Train and save; print the errors on the training and validation data."""
     from scara_ident_ros.blas_threads import single_blas_thread
+    from scara_ident_ros.identification import DIFFERENTIATOR_WINDOW
     from scara_ident_ros.offline.evaluation import errors_markdown, evaluate
     from scara_ident_ros.offline.progress import TrainingProgress
     from scara_ident_ros.offline.recording import load_recording, skipped_text
@@ -218,7 +219,7 @@ def run(args: argparse.Namespace) -> int:
         'topic': np.array(recording.topic), 'train_samples': np.array(len(train)),
         'validation_fraction': np.array(args.validation_fraction),
         'validation_block_s': np.array(args.validation_block),
-        'differentiator': np.array('centred'), 'window': np.array(21)}
+        'differentiator': np.array('centred'), 'window': np.array(DIFFERENTIATOR_WINDOW)}
     if args.urdf is not None:
         metadata['urdf_file'] = np.array(str(args.urdf))
     if args.method in PHYSICAL_METHODS:

@@ -112,7 +112,7 @@ def train_model(params: ScaraParams, *, seconds: float, seed: int, config: SimCo
                        friction_steps=starts_with_friction_steps('lm', True))
     net.set_scaling(*limit_scaling(*(params.array(name) for name in _LIMITS)))
     ident = OnlineIdentifier(net, joint_names=params.joint_names,
-                             differentiator=make_differentiator('centred', window=21),
+                             differentiator=make_differentiator('centred'),
                              trainer=make_trainer('lm', net, seed=seed),
                              holdout=Holdout(12, 4, block=500, seed=seed))
     names = params.joint_names

@@ -54,8 +54,9 @@ from scara_ident_ros.dynamics.recursive_least_squares import RecursiveLeastSquar
 from scara_ident_ros.experiments.datasets import Dataset, dataset_from_record, simulate_record
 from scara_ident_ros.experiments.reference import fit_reference, predict_reference
 from scara_ident_ros.experiments.tables import format_value
-from scara_ident_ros.identification import (Holdout, InputStage, JointMap, OnlineIdentifier,
-                                            make_differentiator, make_trainer)
+from scara_ident_ros.identification import (DIFFERENTIATOR_WINDOW, Holdout, InputStage,
+                                            JointMap, OnlineIdentifier, make_differentiator,
+                                            make_trainer)
 from scara_ident_ros.identification.metrics import effort_errors
 from scara_ident_ros.identification.trainer import starts_with_friction_steps
 from scara_ident_ros.nn.presets import limit_scaling, make_network, method as method_spec
@@ -159,7 +160,8 @@ def _nmse(Y: FloatArray, predicted: FloatArray) -> FloatArray:
 
 def network_curve(record: SimRecord, held_out: Dataset, params: Robot, *, method: str,
                   trainer: str, seed: int = 0, lm_steps: int = 2,
-                  checkpoints: Sequence[float] = CHECKPOINTS_S, window: int = 21,
+                  checkpoints: Sequence[float] = CHECKPOINTS_S,
+                  window: int = DIFFERENTIATOR_WINDOW,
                   lm_interval: int = 200, validation_block: int = 500,
                   lm_float64: bool = False, lm_slow_share: float = 0.0,
                   lm_friction_steps: bool = True, reservoir_size: int = 4000) -> Curve:

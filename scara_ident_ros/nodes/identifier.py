@@ -64,10 +64,11 @@ from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 from std_srvs.srv import Trigger
 
 from scara_ident_ros.blas_threads import single_blas_thread
-from scara_ident_ros.identification import (DIFFERENTIATORS, LIMIT_NAMES, TRAINERS, CoreSettings,
-                                            ErrorWindow, LazyCore, OnlineIdentifier, ReservoirLM,
-                                            SkipReason, StepResult, check_warm_start,
-                                            load_joint_limits, make_differentiator)
+from scara_ident_ros.identification import (DIFFERENTIATOR_WINDOW, DIFFERENTIATORS, LIMIT_NAMES,
+                                            TRAINERS, CoreSettings, ErrorWindow, LazyCore,
+                                            OnlineIdentifier, ReservoirLM, SkipReason,
+                                            StepResult, check_warm_start, load_joint_limits,
+                                            make_differentiator)
 from scara_ident_ros.identification.background_lm import BackgroundLM, prestart
 from scara_ident_ros.identification.contact_detector import ContactDetector
 from scara_ident_ros.identification.metrics import ErrorStats
@@ -195,8 +196,9 @@ PARAMETERS = (
               choices=DIFFERENTIATORS, fixed=ESTIMATE),
     ParamSpec('cutoff_hz', 50.0, 'Cut-off of the lowpass differentiator', 'Hz', min=0.1,
               fixed=ESTIMATE),
-    ParamSpec('window', 21, 'Samples of the centred (odd) and polynomial differentiators',
-              min=3, max=101, fixed=ESTIMATE),
+    ParamSpec('window', DIFFERENTIATOR_WINDOW,
+              'Samples of the centred (odd) and polynomial differentiators', min=3, max=101,
+              fixed=ESTIMATE),
     ParamSpec('limit_margin', 0.5, 'Refuse samples (out_of_limits) whose position leaves the '
               'joint range by more than this fraction of the range, or whose velocity or '
               'effort exceeds its limit by more than this fraction; negative: no check',
