@@ -106,8 +106,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from scara_ident_ros.blas_threads import single_blas_thread  # noqa: E402
 from scara_ident_ros.dynamics import ScaraParams  # noqa: E402
-from scara_ident_ros.experiments import learning_curves as lc  # noqa: E402
-from scara_ident_ros.experiments.datasets import Dataset, simulate_record  # noqa: E402
+from scara_ident_ros.paper import learning_curves as lc  # noqa: E402
+from scara_ident_ros.identification.dataset import Dataset  # noqa: E402
+from scara_ident_ros.paper.datasets import simulate_record  # noqa: E402
 from scara_ident_ros.identification import trainer as tr  # noqa: E402
 from scara_ident_ros.identification.metrics import effort_errors  # noqa: E402
 from scara_ident_ros.sim import SimConfig  # noqa: E402

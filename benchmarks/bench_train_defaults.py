@@ -135,15 +135,15 @@ from fake_bags import States, write_rosbag  # noqa: E402
 from scara_ident_ros.cli import main  # noqa: E402
 from scara_ident_ros.cli import train as train_cli  # noqa: E402
 from scara_ident_ros.dynamics import ScaraParams  # noqa: E402
-from scara_ident_ros.experiments.datasets import (Dataset, simulate_dataset,  # noqa: E402
-                                                  simulate_record)
+from scara_ident_ros.identification.dataset import Dataset  # noqa: E402
+from scara_ident_ros.paper.datasets import simulate_dataset, simulate_record  # noqa: E402
 from scara_ident_ros.nn.presets import make_network  # noqa: E402
 from scara_ident_ros.nn import FeedForwardNet  # noqa: E402
 from scara_ident_ros.blas_threads import single_blas_thread  # noqa: E402
-from scara_ident_ros.offline.dataset import time_split  # noqa: E402
-from scara_ident_ros.offline.evaluation import evaluate  # noqa: E402
-from scara_ident_ros.offline.recording import load_recording  # noqa: E402
-from scara_ident_ros.offline.split import block_split  # noqa: E402
+from scara_ident_ros.identification.split import time_split  # noqa: E402
+from scara_ident_ros.cli.evaluation import evaluate  # noqa: E402
+from scara_ident_ros.identification.recording import load_recording  # noqa: E402
+from scara_ident_ros.identification.split import block_split  # noqa: E402
 
 NAMES = ('joint1', 'joint2', 'joint3', 'joint4')
 START_NS = 1_700_000_000_000_000_000

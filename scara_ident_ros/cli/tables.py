@@ -32,8 +32,8 @@ from pathlib import Path
 
 from scara_ident_ros.cli import CliError
 from scara_ident_ros.nn.presets import METHODS
-from scara_ident_ros.offline.report import (DEFAULT_SAMPLES, DEFAULT_SEEDS,
-                                            DEFAULT_TIME_BUDGET_S, make_report)
+from scara_ident_ros.paper.report import (DEFAULT_SAMPLES, DEFAULT_SEEDS, DEFAULT_TIME_BUDGET_S,
+                                          make_report)
 from scara_ident_ros.paths import unwritable_dir
 
 __all__ = ['add_parser', 'make_report', 'run']

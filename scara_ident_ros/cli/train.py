@@ -73,7 +73,7 @@ from scara_ident_ros.nn import ALGORITHMS
 from scara_ident_ros.paths import unwritable_file
 
 if TYPE_CHECKING:
-    from scara_ident_ros.experiments.datasets import Dataset
+    from scara_ident_ros.identification.dataset import Dataset
     from scara_ident_ros.nn import FitHistory
 
 __all__ = ['FRICTION_STEPS', 'HYBRID_NETWORK', 'ITERATIONS', 'MAX_FAIL', 'MIN_ITERATIONS',
@@ -157,10 +157,10 @@ def run(args: argparse.Namespace) -> int:
     """Train and save; print the errors on the training and validation data."""
     from scara_ident_ros.blas_threads import single_blas_thread
     from scara_ident_ros.identification import DIFFERENTIATOR_WINDOW
-    from scara_ident_ros.offline.evaluation import errors_markdown, evaluate
-    from scara_ident_ros.offline.progress import TrainingProgress
-    from scara_ident_ros.offline.recording import load_recording, skipped_text
-    from scara_ident_ros.offline.split import block_index, block_split
+    from scara_ident_ros.cli.evaluation import errors_markdown, evaluate
+    from scara_ident_ros.cli.progress import TrainingProgress
+    from scara_ident_ros.identification.recording import load_recording, skipped_text
+    from scara_ident_ros.identification.split import block_index, block_split
 
     if args.iterations < 1:
         raise CliError(f'--iterations must be at least 1, got {args.iterations}')
@@ -303,9 +303,9 @@ def _train_physical(args: argparse.Namespace, names: Sequence[str], every_train:
     from scara_ident_ros.dynamics.coulomb_selection import select_coulomb
     from scara_ident_ros.dynamics.hybrid_model import HybridModel, fit_hybrid
     from scara_ident_ros.dynamics.physical_model import PhysicalModel
-    from scara_ident_ros.offline.evaluation import errors_markdown, evaluate
-    from scara_ident_ros.offline.parameters import parameters_markdown
-    from scara_ident_ros.offline.progress import TrainingProgress
+    from scara_ident_ros.cli.evaluation import errors_markdown, evaluate
+    from scara_ident_ros.cli.physical_parameters import parameters_markdown
+    from scara_ident_ros.cli.progress import TrainingProgress
 
     def build(coulomb: str, eps: float) -> PhysicalModel:
         return PhysicalModel.from_urdf_file(args.urdf, joint_names=names, coulomb=coulomb,

@@ -11,9 +11,9 @@ import pytest
 
 from scara_ident_ros.cli import main
 from scara_ident_ros.cli.tables import make_report
-from scara_ident_ros.offline.figures import figure_size_px
+from scara_ident_ros.paper.figures import figure_size_px
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'offline'))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'bag'))
 from fake_bags import (synthetic_states, write_rosbag,  # noqa: E402  (not a package)
                        write_run_bag)
 

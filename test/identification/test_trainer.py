@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 
 from scara_ident_ros.dynamics import ScaraParams
-from scara_ident_ros.experiments import simulate_dataset
+from scara_ident_ros.paper.datasets import simulate_dataset
 import pytest
 
 from scara_ident_ros.identification import trainer as trainer_module
