@@ -68,6 +68,7 @@ import numpy as np
 
 from scara_ident_ros.cli import CliError
 from scara_ident_ros.dynamics.physical_model import COULOMB_EPS, COULOMB_MODES
+from scara_ident_ros.identification.split import VALIDATION_BLOCK_S, VALIDATION_FRACTION
 from scara_ident_ros.nn.presets import METHODS, make_network
 from scara_ident_ros.nn import ALGORITHMS
 from scara_ident_ros.paths import unwritable_file
@@ -82,7 +83,6 @@ __all__ = ['FRICTION_STEPS', 'HYBRID_NETWORK', 'ITERATIONS', 'MAX_FAIL', 'MIN_IT
 #: Defaults of the options, chosen with benchmarks/bench_train_defaults.py (module docstring).
 ITERATIONS = 500           # Levenberg–Marquardt iterations at most
 SAMPLES = 8000             # training samples drawn from the training blocks
-VALIDATION_BLOCK_S = 1.0   # s, length of the validation time blocks
 MAX_FAIL = 50              # validation failures in a row that stop training
 MIN_ITERATIONS = 50        # iterations before validation failures count
 FRICTION_STEPS = True      # the network starts with friction steps, as the identifier's
@@ -124,10 +124,10 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     parser.add_argument('--joints', nargs='+', default=None, metavar='NAME',
                         help='joints to model, in this order (default: all, as in the '
                              'messages)')
-    parser.add_argument('--validation-fraction', type=float, default=0.2,
+    parser.add_argument('--validation-fraction', type=float, default=VALIDATION_FRACTION,
                         help='fraction of the recording\'s time blocks used for validation, '
                              'one block drawn from each stretch of 1/fraction blocks '
-                             '(default: 0.2; 0: none, no early stop)')
+                             f'(default: {VALIDATION_FRACTION:g}; 0: none, no early stop)')
     parser.add_argument('--validation-block', type=float, default=VALIDATION_BLOCK_S,
                         metavar='SECONDS',
                         help=f'length of the time blocks (default: {VALIDATION_BLOCK_S:g} s)')

@@ -1,5 +1,10 @@
 """Training and validation samples from one recording: whole time blocks, spread over it.
 
+The one validation split of batch training: ``scara-ident train`` early-stops on it and
+``scara-ident tables`` (:mod:`scara_ident_ros.paper.retraining`) reports on it, with the
+same defaults. The online identifier holds out blocks of its stream as they come
+(:class:`~scara_ident_ros.identification.holdout.Holdout`).
+
 `block_split` cuts the recording into blocks of ``block_s`` seconds and validates on a
 seeded ``validation_fraction`` of them, one drawn from each stratum of about
 ``1 / validation_fraction`` consecutive blocks, so the validation data visit every part of
@@ -7,7 +12,7 @@ the recording, hence every excitation it holds.
 
 Why blocks and not single samples: neighbouring samples at 1 kHz are nearly identical, so a
 random per-sample split would validate on copies of the training data and early stopping
-would never see overfitting. Why not the last part of the recording (`time_split`): a
+would never see overfitting. Why not the last part of the recording: a
 recording of several excitations ends with another motion than the rest, so its validation
 error measures an extrapolation the training cannot improve, and early stopping fires
 while Levenberg–Marquardt is still adapting its damping.
@@ -15,16 +20,27 @@ while Levenberg–Marquardt is still adapting its damping.
 Public API::
 
     block_index(stamp_ns, *, block_s, start_ns=None) -> ndarray (N,) of int64
-    block_split(data, validation_fraction, *, block_s=1.0, seed=0) -> (train, validation)
+    block_split(data, validation_fraction, *, block_s=VALIDATION_BLOCK_S, seed=0)
+        -> (train, validation)
 """
 from __future__ import annotations
 
 import numpy as np
 import numpy.typing as npt
 
+from scara_ident_ros.errors import ScaraIdentError
 from scara_ident_ros.identification.dataset import Dataset
 
-__all__ = ['block_index', 'block_split', 'time_split']
+__all__ = ['SplitError', 'VALIDATION_BLOCK_S', 'VALIDATION_FRACTION', 'block_index',
+           'block_split']
+
+#: Defaults of ``scara-ident train`` and ``tables``: a fifth of the 1 s blocks validate.
+VALIDATION_FRACTION = 0.2
+VALIDATION_BLOCK_S = 1.0  # s, length of the validation time blocks
+
+
+class SplitError(ScaraIdentError, ValueError):
+    """The samples fill too few blocks for a validation split (one-line message)."""
 
 
 def block_index(stamp_ns: npt.ArrayLike, *, block_s: float,
@@ -54,8 +70,8 @@ def block_index(stamp_ns: npt.ArrayLike, *, block_s: float,
     return (stamps - np.int64(start_ns)) // np.int64(block_ns)
 
 
-def block_split(data: Dataset, validation_fraction: float, *, block_s: float = 1.0,
-                seed: int = 0) -> tuple[Dataset, Dataset]:
+def block_split(data: Dataset, validation_fraction: float, *,
+                block_s: float = VALIDATION_BLOCK_S, seed: int = 0) -> tuple[Dataset, Dataset]:
     """Split samples into training and validation blocks spread over the recording.
 
     The samples are cut into blocks of ``block_s`` seconds from the first stamp; blocks
@@ -87,8 +103,9 @@ def block_split(data: Dataset, validation_fraction: float, *, block_s: float = 1
     Raises
     ------
     ValueError
-        If the fraction is outside [0, 1), ``block_s`` is not positive, or the fraction is
-        positive but the samples fill fewer than 2 blocks.
+        If the fraction is outside [0, 1) or ``block_s`` is not positive.
+    SplitError
+        If the fraction is positive but the samples fill fewer than 2 blocks.
     """
     if not 0.0 <= validation_fraction < 1.0:
         raise ValueError(f'validation fraction must be in [0, 1), got {validation_fraction}')
@@ -98,7 +115,7 @@ def block_split(data: Dataset, validation_fraction: float, *, block_s: float = 1
     present = np.unique(blocks)
     k = int(present.shape[0])
     if k < 2:
-        raise ValueError(f'{data.seconds:.3g} s of samples fill {k} block of {block_s:g} s; '
+        raise SplitError(f'{data.seconds:.3g} s of samples fill {k} block of {block_s:g} s; '
                          'a validation split needs at least 2')
     m = min(max(1, round(validation_fraction * k)), k - 1)
     edges = (np.arange(m + 1) * k) // m  # strata [edges[i], edges[i + 1]), none empty
@@ -107,30 +124,3 @@ def block_split(data: Dataset, validation_fraction: float, *, block_s: float = 1
     mask = np.isin(blocks, chosen)
     return data.take(~mask, 'train'), data.take(mask, 'validation')
 
-
-def time_split(data: Dataset, validation_fraction: float) -> tuple[Dataset, Dataset]:
-    """Split samples by time: the last ``validation_fraction`` of the duration validates.
-
-    Parameters
-    ----------
-    data : Dataset
-        Samples in time order.
-    validation_fraction : float
-        Fraction in [0, 1) of the time span, from its end, kept for validation.
-
-    Returns
-    -------
-    train, validation : Dataset
-        Samples stamped before, and from, ``t_0 + (1 - fraction)·(t_N − t_0)``, named
-        ``'train'`` and ``'validation'``; ``validation`` is empty when the fraction is 0 and
-        has at least one sample otherwise.
-    """
-    if not 0.0 <= validation_fraction < 1.0:
-        raise ValueError(f'validation fraction must be in [0, 1), got {validation_fraction}')
-    n = len(data)
-    if n == 0 or validation_fraction == 0.0:
-        return data.take(slice(None), 'train'), data.take(slice(0, 0), 'validation')
-    t0, t1 = int(data.stamp_ns[0]), int(data.stamp_ns[-1])
-    split_ns = t0 + round((1.0 - validation_fraction) * (t1 - t0))
-    cut = min(int(np.searchsorted(data.stamp_ns, split_ns, side='left')), n - 1)
-    return data.take(slice(0, cut), 'train'), data.take(slice(cut, None), 'validation')

@@ -7,8 +7,8 @@ and, for the online part, what ``scara-ident run`` records besides: per method
 
 Offline (Table 2 analog, Figures 6–13 offline and 14)
     :func:`~scara_ident_ros.paper.retraining.retrain`: each method retrained with
-    Levenberg–Marquardt from several seeds on samples of the run's first part, evaluated on
-    its last part and on the held-out runs.
+    Levenberg–Marquardt from several seeds on samples of the run's training blocks, evaluated
+    on its validation blocks (the split of ``scara-ident train``) and on the held-out runs.
 Online (Table 3 analog, Figures 6–13 online and 15)
     Each identifier's published predictions paired by stamp with ``/joint_states``
     (:mod:`~scara_ident_ros.paper.online_results`).
@@ -58,6 +58,8 @@ from scara_ident_ros.paper.online_results import (STREAM_ALL, OnlinePredictions,
                                                   read_identifier_mse, read_online_predictions,
                                                   rolling_errors, torque_topic)
 from scara_ident_ros.identification.recording import Recording, load_recording, skipped_text
+from scara_ident_ros.identification.split import (VALIDATION_BLOCK_S, VALIDATION_FRACTION,
+                                                   block_split)
 from scara_ident_ros.paper.retraining import Retraining, retrain
 
 __all__ = ['DEFAULT_SAMPLES', 'DEFAULT_SEEDS', 'DEFAULT_TIME_BUDGET_S', 'FIGURE_NMSE_WINDOW',
@@ -107,6 +109,7 @@ class _Settings:
     iterations: int
     samples: int
     validation_fraction: float
+    validation_block_s: float
     goal: float
     topic: str | None
     time_budget_s: float | None
@@ -116,7 +119,8 @@ def make_report(bags: Sequence[Path], out_dir: Path, *,
                 methods: Sequence[str] = tuple(METHODS),
                 seeds: int | Iterable[int] = DEFAULT_SEEDS,
                 iterations: int = PAPER_ITERATIONS, samples: int = DEFAULT_SAMPLES,
-                validation_fraction: float = 0.2, goal: float = DEFAULT_GOAL,
+                validation_fraction: float = VALIDATION_FRACTION,
+                validation_block_s: float = VALIDATION_BLOCK_S, goal: float = DEFAULT_GOAL,
                 topic: str | None = None,
                 time_budget_s: float | None = DEFAULT_TIME_BUDGET_S,
                 progress: Progress | None = _stderr, reference: bool | None = None) -> Path:
@@ -137,7 +141,10 @@ def make_report(bags: Sequence[Path], out_dir: Path, *,
     samples : int
         Training samples drawn at random from the run's training part (0: all of them).
     validation_fraction : float
-        Last fraction of the first run's time kept out of training, in [0, 1).
+        Fraction in [0, 1) of the first run's time blocks kept out of training
+        (:func:`~scara_ident_ros.identification.split.block_split`, seed 0).
+    validation_block_s : float
+        Length of those blocks (s).
     goal : float
         Training MSE goal (outputs scaled to [-1, 1]) for "iterations to the goal".
     topic : str, optional
@@ -162,6 +169,8 @@ def make_report(bags: Sequence[Path], out_dir: Path, *,
     ------
     BagError, RecordingError
         If a bag cannot be read or has too few usable joint-state samples.
+    SplitError
+        If the run fills too few blocks for the validation split.
     ValueError
         On invalid arguments.
     """
@@ -171,30 +180,31 @@ def make_report(bags: Sequence[Path], out_dir: Path, *,
         raise ValueError('need at least one bag')
     seed_list = list(range(seeds)) if isinstance(seeds, int) else [int(s) for s in seeds]
     settings = _Settings([method_spec(m).name for m in methods], seed_list, int(iterations),
-                         int(samples), float(validation_fraction), float(goal), topic,
+                         int(samples), float(validation_fraction),
+                         float(validation_block_s), float(goal), topic,
                          time_budget_s)
     if not settings.methods or not seed_list or iterations < 1 or samples < 0:
         raise ValueError('need a method, a seed, iterations >= 1 and samples >= 0')
-    if not 0.0 <= validation_fraction < 1.0:
-        raise ValueError(f'validation fraction must be in [0, 1), got {validation_fraction}')
     out_dir = Path(out_dir)
     timer = _Timer()
 
     run = load_recording(bags[0], topic=topic)
     names = run.samples.names
     held_out = [load_recording(bag, topic=topic, joints=names) for bag in bags[1:]]
-    out_dir.mkdir(parents=True, exist_ok=True)
+    train_part, validation = block_split(run.samples.data, validation_fraction,
+                                         block_s=validation_block_s)
     timer.lap('reading bags')
     say(f'{bags[0]}: {len(run.samples.data)} samples of {len(names)} joints over '
         f'{run.samples.data.seconds:.1f} s')
 
     if reference is None:
         reference = is_scara(names, run.samples.data.X)
-    offline = retrain(run.samples.data, [r.samples.data for r in held_out],
+    offline = retrain(train_part, validation, [r.samples.data for r in held_out],
                       methods=settings.methods, seeds=seed_list, iterations=iterations,
-                      n_samples=samples, validation_fraction=validation_fraction, goal=goal,
-                      time_budget_s=time_budget_s, progress=say, reference=reference)
+                      n_samples=samples, goal=goal, time_budget_s=time_budget_s,
+                      progress=say, reference=reference)
     timer.lap('offline training')
+    out_dir.mkdir(parents=True, exist_ok=True)  # not before the inputs are known good
     online = _online(run, settings.methods, say)
     timer.lap('online results')
     figures = _figures(out_dir, run, offline, online, settings)
@@ -285,7 +295,6 @@ def _markdown(bags: list[Path], run: Recording, held_out: list[Recording],
     summaries = summarise(offline.rows + online.rows)
     labels = [method_spec(m).label for m in settings.methods]
     short, long = stream_data_names(DEFAULT_WINDOW, PAPER_WINDOW)
-    train_percent = f'{100 * (1 - settings.validation_fraction):.0f} %'
     parts: list[str] = [
         '# Inverse-dynamics identification: the paper\'s tables and figures from recorded '
         'runs',
@@ -298,14 +307,14 @@ def _markdown(bags: list[Path], run: Recording, held_out: list[Recording],
         '## Table 2 analog: offline training (Levenberg–Marquardt)',
         f'Each network trained from {len(offline.seeds)} seeds '
         f'({", ".join(map(str, offline.seeds))}) for {settings.iterations} iterations on '
-        f'{len(offline.evaluations["train"])} samples of the run\'s first {train_percent} '
-        '(in time). Cells: median [min–max] over seeds. MSE: mean over the joints of each '
-        'joint\'s MSE in physical units ((N·m)² and N² mixed, like the paper); NMSE: mean '
+        f'{len(offline.evaluations["train"])} samples of the run\'s training blocks. '
+        'Cells: median [min–max] over seeds. MSE: mean over the joints of each joint\'s MSE'
+        ' in physical units ((N·m)² and N² mixed, like the paper); NMSE: mean '
         'over the joints of MSE / variance of the joint\'s effort. "Goal reached": runs '
         f'whose training MSE (outputs scaled to [-1, 1]) reached {settings.goal:g}, and '
         f'the iterations it took. `{offline.test}` = '
         + ('the first held-out run.' if held_out else
-           'the rest of the run, never trained on.')
+           'the run\'s validation blocks, never trained on.')
         + (' LS: the model-based least-squares reference (the SCARA\'s 14 base '
            'parameters), for comparison.' if any(r.method == 'LS' for r in offline.rows)
            else ''),
@@ -410,9 +419,11 @@ def _reproduction_text(bags: list[Path], run: Recording, held_out: list[Recordin
     subsample = (f'{len(offline.evaluations["train"])} of them drawn at random '
                  '(`Dataset.subsample(seed=0)`, the same for every method and seed)'
                  if s.samples else 'all of them')
-    lines.append(f'- Offline: the first {100 * (1 - s.validation_fraction):.0f} % of the run '
-                 f'by time ({offline.n_train_part} samples), {subsample}; min–max scaling to '
-                 '[-1, 1] from the training samples; 3n-40-n networks; seeds '
+    lines.append(f'- Offline: the run cut into blocks of {s.validation_block_s:g} s, '
+                 f'{100 * s.validation_fraction:.0f} % of them validating (one drawn from '
+                 'each stretch of 1/fraction blocks, seed 0, as `scara-ident train` does); '
+                 f'the other blocks\' {offline.n_train_part} samples train, {subsample}; '
+                 'min–max scaling to [-1, 1] from the training samples; 3n-40-n networks; seeds '
                  f'{", ".join(map(str, offline.seeds))}; Levenberg–Marquardt (μ from 1e-3, '
                  f'×10 on failure, ÷10 on success, as MATLAB\'s trainlm), {s.iterations} '
                  f'iterations, no early stopping; the goal {s.goal:g} is only counted.'
@@ -435,7 +446,8 @@ def _reproduction_text(bags: list[Path], run: Recording, held_out: list[Recordin
     command = ['scara-ident tables', *map(str, bags), '--out DIR',
                f'--methods {" ".join(s.methods)}', f'--seeds {len(offline.seeds)}',
                f'--iterations {s.iterations}', f'--samples {s.samples}',
-               f'--validation-fraction {s.validation_fraction:g}']
+               f'--validation-fraction {s.validation_fraction:g}',
+               f'--validation-block {s.validation_block_s:g}']
     if s.topic:
         command.append(f'--topic {s.topic}')
     contiguous = offline.seeds == list(range(len(offline.seeds)))

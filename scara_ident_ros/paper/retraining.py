@@ -1,13 +1,15 @@
 """The Table 2 analog from a recorded run: each method retrained offline from several seeds.
 
-The run's samples (made as the identifier makes them) are split by time: the first
-``1 − validation_fraction`` is the training part, of which ``samples`` random samples (the
-same for every method and seed) train each method's network with Levenberg–Marquardt for
-``iterations`` iterations (:func:`scara_ident_ros.paper.table2.train_offline`,
-scaling from the training samples); the rest of the run ("validation", never trained on) and any
-held-out runs are evaluated. With ``reference=True`` (the caller knows the run is the
-SCARA's, e.g. :func:`scara_ident_ros.paper.reference.is_scara`) the SCARA's
-model-based least-squares reference (LS) is added.
+The run's samples (made as the identifier makes them) come split as ``scara-ident train``
+splits them (:func:`~scara_ident_ros.identification.split.block_split`): a fraction of its
+time blocks, spread over the run, validate; the other blocks are the training part, of which
+``samples`` random samples (the same for every method and seed) train each method's network
+with Levenberg–Marquardt for ``iterations`` iterations
+(:func:`scara_ident_ros.paper.table2.train_offline`, scaling from the training samples);
+the validation blocks (never trained on) and any held-out runs are evaluated. With
+``reference=True`` (the caller knows the run is the SCARA's, e.g.
+:func:`scara_ident_ros.paper.reference.is_scara`) the SCARA's model-based least-squares
+reference (LS) is added.
 
 Seeds are run in rounds, so that a time budget can stop between rounds and every method
 still has the same seeds. Training holds the BLAS
@@ -16,9 +18,8 @@ to one thread (:mod:`~scara_ident_ros.blas_threads`).
 Public API::
 
     Retraining                                     rows, fits, evaluations, seeds, ...
-    retrain(samples, held_out, *, methods, seeds, iterations, n_samples,
-            validation_fraction, goal, time_budget_s=None, progress=None,
-            reference=False) -> Retraining
+    retrain(train_part, validation, held_out, *, methods, seeds, iterations, n_samples,
+            goal, time_budget_s=None, progress=None, reference=False) -> Retraining
 """
 from __future__ import annotations
 
@@ -32,7 +33,6 @@ from scara_ident_ros.identification.dataset import Dataset
 from scara_ident_ros.paper.table2 import OfflineFit, train_offline
 from scara_ident_ros.paper.rows import ResultRow
 from scara_ident_ros.blas_threads import single_blas_thread
-from scara_ident_ros.identification.split import time_split
 
 __all__ = ['Retraining', 'retrain']
 
@@ -48,7 +48,7 @@ class Retraining:
     fits : dict of str to list of OfflineFit
         Method key to its trained networks and histories, one per seed.
     evaluations : dict of str to Dataset
-        ``'train'`` (the samples trained on), ``'validation'`` (the run's last part, if
+        ``'train'`` (the samples trained on), ``'validation'`` (the run's validation blocks, if
         any), ``'held-out'``, ``'held-out-2'``, ... (further runs).
     seeds : list of int
         Seeds done for every method.
@@ -78,17 +78,18 @@ class Retraining:
         return 'train'
 
 
-def retrain(samples: Dataset, held_out: Sequence[Dataset] = (), *, methods: Sequence[str],
-            seeds: Sequence[int], iterations: int, n_samples: int,
-            validation_fraction: float, goal: float, time_budget_s: float | None = None,
+def retrain(train_part: Dataset, validation: Dataset, held_out: Sequence[Dataset] = (), *,
+            methods: Sequence[str], seeds: Sequence[int], iterations: int, n_samples: int,
+            goal: float, time_budget_s: float | None = None,
             progress: Callable[[str], None] | None = None,
             reference: bool = False) -> Retraining:
     """Retrain every method from every seed on a run and evaluate (module docstring).
 
     Parameters
     ----------
-    samples : Dataset
-        The run's samples, X (N, 3n) and Y (N, n), in time order.
+    train_part, validation : Dataset
+        The run's samples, X (N, 3n) and Y (N, n), in time order, split into its training
+        and validation blocks; ``validation`` may be empty.
     held_out : sequence of Dataset
         Further runs of the same joints, evaluated only.
     methods : sequence of str
@@ -99,8 +100,6 @@ def retrain(samples: Dataset, held_out: Sequence[Dataset] = (), *, methods: Sequ
         Levenberg–Marquardt iterations.
     n_samples : int
         Samples drawn at random from the training part (0: all).
-    validation_fraction : float
-        Last fraction of the run's time kept for validation, in [0, 1).
     goal : float
         Training goal (MSE of the scaled outputs) for the iterations-to-goal column.
     time_budget_s : float, optional
@@ -119,7 +118,6 @@ def retrain(samples: Dataset, held_out: Sequence[Dataset] = (), *, methods: Sequ
     if not seeds:
         raise ValueError('need at least one seed')
     started = time.perf_counter()
-    train_part, validation = time_split(samples, validation_fraction)
     train = train_part.subsample(n_samples, seed=0, name='train') if n_samples else \
         train_part.take(slice(None), 'train')
     evaluations: dict[str, Dataset] = {'train': train}

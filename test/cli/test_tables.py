@@ -11,6 +11,8 @@ import pytest
 
 from scara_ident_ros.cli import main
 from scara_ident_ros.cli.tables import make_report
+from scara_ident_ros.identification.recording import load_recording
+from scara_ident_ros.identification.split import VALIDATION_FRACTION, block_split
 from scara_ident_ros.paper.figures import figure_size_px
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'bag'))
@@ -99,6 +101,14 @@ def test_offline_csv_has_every_seed_and_data_set(report: Path) -> None:
     assert {'mse_joint1', 'nmse_joint4'} <= set(rows[0])
 
 
+def test_tables_validates_on_the_blocks_train_validates_on(report: Path,
+                                                            run_bag: tuple[Path, object]) -> None:
+    rows = list(csv.DictReader((report.parent / 'table2_offline.csv').open()))
+    _, validation = block_split(load_recording(run_bag[0]).samples.data, VALIDATION_FRACTION)
+    assert {int(r['n_samples']) for r in rows if r['data'] == 'validation'} == {len(validation)}
+    assert 0 < len(validation) <= 1000  # one block of 1 s of the 3 s run
+
+
 def test_figures_are_pngs_of_the_expected_size(report: Path) -> None:
     out = report.parent
     for m in ('ffmw', 'ffw', 'ffs'):
@@ -132,7 +142,7 @@ def test_cli_with_a_held_out_run_and_two_joints(tmp_path: Path,
 
 
 def test_a_bag_without_online_topics_gives_the_offline_part(tmp_path: Path) -> None:
-    bag = write_rosbag(tmp_path / 'plain', synthetic_states(2, 1.0), storage='mcap')
+    bag = write_rosbag(tmp_path / 'plain', synthetic_states(2, 2.0), storage='mcap')
     report = make_report([bag], tmp_path / 'out', methods=['ffw'], **FAST)
     text = report.read_text(encoding='utf-8')
     assert 'No online predictions in the bag for FFW (`/ffw/identified_torque`)' in text
@@ -143,7 +153,7 @@ def test_a_bag_without_online_topics_gives_the_offline_part(tmp_path: Path) -> N
 
 
 def test_time_budget_keeps_whole_rounds_of_seeds(tmp_path: Path) -> None:
-    bag = write_rosbag(tmp_path / 'plain', synthetic_states(2, 1.0), storage='mcap')
+    bag = write_rosbag(tmp_path / 'plain', synthetic_states(2, 2.0), storage='mcap')
     options = {**FAST, 'seeds': 3, 'time_budget_s': 1e-6}
     report = make_report([bag], tmp_path / 'out', methods=['ffmw', 'ffs'], **options)
     text = report.read_text(encoding='utf-8')
@@ -167,6 +177,10 @@ def test_bad_inputs_give_one_line(run_bag: tuple[Path, object], tmp_path: Path,
     few = write_rosbag(tmp_path / 'few', synthetic_states(2, 0.005))
     _one_line(main(['tables', str(few), '--out', str(out)]), capsys.readouterr().err,
               r'few.*need at least 20')
+    # a run of one block of 1 s: too short for the validation split of train and tables
+    short = write_rosbag(tmp_path / 'short', synthetic_states(2, 1.0))
+    _one_line(main(['tables', str(short), '--out', str(out)]), capsys.readouterr().err,
+              r'short.*fill 1 block of 1 s.*--validation-block')
     # a held-out run without the analysed run's joints
     other = write_rosbag(tmp_path / 'other', synthetic_states(2, 0.5, prefix='axis'))
     _one_line(main(['tables', str(run_bag[0]), str(other), '--out', str(out), '--seeds', '1',

@@ -10,7 +10,6 @@ import pytest
 
 from scara_ident_ros.identification import Differentiator, OnlineIdentifier
 from scara_ident_ros.identification.dataset import dataset_from_joint_states
-from scara_ident_ros.identification.split import time_split
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'bag'))
 from fake_bags import States, synthetic_states  # noqa: E402  (not a package)
@@ -94,17 +93,3 @@ def test_custom_differentiator_is_used() -> None:
     qd = states.velocity
     np.testing.assert_allclose(recorded.data.X[:, 4:], np.diff(qd, axis=0) * 1000.0)
 
-
-def test_time_split_keeps_the_last_fraction_for_validation() -> None:
-    data = dataset_from_joint_states(synthetic_states(2, 1.0)).data
-    train, val = time_split(data, 0.2)
-    assert len(train) + len(val) == len(data)
-    assert train.stamp_ns[-1] < val.stamp_ns[0]
-    assert abs(len(val) - 0.2 * len(data)) <= 2
-    assert (train.name, val.name) == ('train', 'validation')
-    train, val = time_split(data, 0.0)
-    assert len(train) == len(data) and len(val) == 0
-    with pytest.raises(ValueError, match='validation fraction'):
-        time_split(data, 1.0)
-    _, val = time_split(data.take(slice(0, 2)), 0.01)
-    assert len(val) == 1
