@@ -3,7 +3,9 @@
 Pure numpy, no rclpy: the ``identifier`` node converts messages and calls
 :meth:`OnlineIdentifier.process`. What it is built from is here too: the joint limits
 (:mod:`.joint_limits`), the checks of a warm start (:mod:`.warm_start`) and the build for the
-first valid sample's joints (:mod:`.lazy_core`).
+first valid sample's joints (:mod:`.lazy_core`). Batch training takes its samples the same
+way: :mod:`.dataset` (samples through the same input stage), :mod:`.recording` (from a bag),
+:mod:`.split` (the validation split); :mod:`.metrics` is the one MSE and NMSE.
 """
 from __future__ import annotations
 

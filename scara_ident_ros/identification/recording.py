@@ -21,7 +21,7 @@ from scara_ident_ros.identification.dataset import (JointStateArrays, RecordedDa
 
 __all__ = ['MIN_SAMPLES', 'Recording', 'RecordingError', 'load_recording', 'skipped_text']
 
-#: Fewest usable samples accepted: a windowed error and a time split need some history.
+#: Fewest usable samples accepted: a windowed error and a validation split need some history.
 MIN_SAMPLES = 20
 
 

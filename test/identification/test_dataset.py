@@ -1,4 +1,4 @@
-"""Samples from recorded joint states: same inputs as the online identifier, split by time."""
+"""Samples from joint states: the same inputs as the online identifier, shapes checked."""
 from __future__ import annotations
 
 import dataclasses
@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from scara_ident_ros.identification import Differentiator, OnlineIdentifier
-from scara_ident_ros.identification.dataset import dataset_from_joint_states
+from scara_ident_ros.identification.dataset import (Dataset, dataset_from_joint_states,
+                                                    make_dataset)
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'bag'))
 from fake_bags import States, synthetic_states  # noqa: E402  (not a package)
@@ -93,3 +94,10 @@ def test_custom_differentiator_is_used() -> None:
     qd = states.velocity
     np.testing.assert_allclose(recorded.data.X[:, 4:], np.diff(qd, axis=0) * 1000.0)
 
+
+def test_make_dataset_checks_shapes() -> None:
+    with pytest.raises(ValueError, match='X \\(N, 3n\\)'):
+        Dataset(np.arange(3), np.zeros((3, 5)), np.zeros((3, 2)))
+    data = make_dataset(np.arange(4) * 1_000_000, np.zeros((4, 2)), np.ones((4, 2)),
+                        np.ones((4, 2)), qdd=np.zeros((4, 2)))
+    assert data.X.shape == (4, 6)

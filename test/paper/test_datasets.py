@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from scara_ident_ros.dynamics import ScaraParams
-from scara_ident_ros.identification.dataset import Dataset, make_dataset
+from scara_ident_ros.identification.dataset import make_dataset
 from scara_ident_ros.paper.datasets import dataset_from_record, simulate_record
 from scara_ident_ros.identification import Differentiator
 from scara_ident_ros.sim import SimRecord
@@ -57,10 +57,3 @@ def test_head_and_subsample(record: SimRecord) -> None:
     assert np.array_equal(sub.X, data.subsample(100, seed=1).X)
     assert data.subsample(5000) is data
 
-
-def test_make_dataset_checks_shapes() -> None:
-    with pytest.raises(ValueError, match='X \\(N, 3n\\)'):
-        Dataset(np.arange(3), np.zeros((3, 5)), np.zeros((3, 2)))
-    data = make_dataset(np.arange(4) * 1_000_000, np.zeros((4, 2)), np.ones((4, 2)),
-                        np.ones((4, 2)), qdd=np.zeros((4, 2)))
-    assert data.X.shape == (4, 6)
