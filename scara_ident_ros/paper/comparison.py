@@ -58,7 +58,7 @@ from scara_ident_ros.paper.rows import ResultRow, summarise
 from scara_ident_ros.paper.tables import (PAPER_NOTE, format_value, joint_markdown,
                                           offline_markdown, online_markdown, ranking_text,
                                           write_csv)
-from scara_ident_ros.identification import PAPER_WINDOW, TRAINERS
+from scara_ident_ros.identification import DIFFERENTIATOR_WINDOW, PAPER_WINDOW, TRAINERS
 from scara_ident_ros.nn.presets import limit_scaling
 from scara_ident_ros.nn.presets import method as method_spec
 from scara_ident_ros.blas_threads import BLAS_THREADS, single_blas_thread
@@ -372,7 +372,8 @@ def _conditions(s: CompareSettings, seeds: list[int], methods: list[str],
         'goal_units': 'training MSE of outputs scaled to [-1, 1] by the training min-max',
         'online_window': window, 'paper_window': PAPER_WINDOW,
         'offline_acceleration': s.acceleration, 'online_acceleration': 'estimated',
-        'differentiator': 'centred, window 21, degree 2 (identifier default, zero-phase)',
+        'differentiator': f'centred, window {DIFFERENTIATOR_WINDOW}, degree 2 (identifier '
+                          'default, zero-phase)',
         'offline_scaling': 'min-max of the LM training samples',
         'online_scaling': 'robot joint limits (methods.limit_scaling)',
         'network': '12-40-4', 'sample_rate_hz': 1000.0,

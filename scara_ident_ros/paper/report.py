@@ -46,7 +46,7 @@ from scara_ident_ros.paper.tables import (PAPER_ITERATIONS, PAPER_NOTE, PAPER_SA
                                           PAPER_TABLE2, PAPER_TABLE3, format_value, joint_markdown,
                                           offline_markdown, online_markdown, ranking_text,
                                           write_csv)
-from scara_ident_ros.identification import PAPER_WINDOW
+from scara_ident_ros.identification import DIFFERENTIATOR_WINDOW, PAPER_WINDOW
 from scara_ident_ros.nn.presets import METHODS
 from scara_ident_ros.nn.presets import method as method_spec
 from scara_ident_ros.mse_layout import METRICS, decode_mse
@@ -413,8 +413,9 @@ def _reproduction_text(bags: list[Path], run: Recording, held_out: list[Recordin
                      f'usable samples over {data.data.seconds:.1f} s (skipped: '
                      f'{skipped_text(data)}).')
     lines.append('- Network inputs as the online identifier makes them (its `InputStage`): '
-                 '[q, q\', q\'\'] with q\'\' from q\' by a centred quadratic fit over 21 '
-                 'samples (zero-phase, `CentredDifferentiator(21, 2)`), invalid samples '
+                 '[q, q\', q\'\'] with q\'\' from q\' by a centred quadratic fit over '
+                 f'{DIFFERENTIATOR_WINDOW} samples (zero-phase, '
+                 f'`CentredDifferentiator({DIFFERENTIATOR_WINDOW}, 2)`), invalid samples '
                  'dropped; outputs: the measured efforts.')
     subsample = (f'{len(offline.evaluations["train"])} of them drawn at random '
                  '(`Dataset.subsample(seed=0)`, the same for every method and seed)'
