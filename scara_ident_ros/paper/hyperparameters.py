@@ -48,7 +48,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 import numpy.typing as npt
 
-from scara_ident_ros.identification.metrics import effort_errors
+from scara_ident_ros.identification.metrics import normalised_mse
 from scara_ident_ros.nn.presets import make_network
 from scara_ident_ros.nn.presets import method as method_spec
 
@@ -195,7 +195,8 @@ class SearchResult:
 
 def _nmse(errors: FloatArray, y: FloatArray) -> float:
     """Joint-mean NMSE of a-priori ``errors`` of ``y``; +inf if not finite (diverged)."""
-    value = effort_errors(y, y - errors).nmse_total
+    var = y.var(axis=0)
+    value = float(normalised_mse(np.mean(errors ** 2, axis=0), var, var)[1])
     return value if math.isfinite(value) else math.inf
 
 
