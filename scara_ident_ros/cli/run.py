@@ -232,6 +232,7 @@ def _report(bag: Path, out: Path, methods: list[str], *, interrupted: bool) -> N
     from scara_ident_ros.bag import BagError
     from scara_ident_ros.cli.tables import make_report
     from scara_ident_ros.identification.recording import RecordingError
+    from scara_ident_ros.identification.split import SplitError
 
     if interrupted:
         print('scara-ident run: making the report from the samples recorded (Ctrl-C again '
@@ -239,7 +240,7 @@ def _report(bag: Path, out: Path, methods: list[str], *, interrupted: bool) -> N
     try:
         report = make_report([bag], out, methods=methods)
     except (BagError, RecordingError, ValueError) as exc:
-        if not interrupted:
+        if not interrupted and not isinstance(exc, SplitError):  # too short to validate on
             raise
         print(f'scara-ident run: no report: {exc}')
         return

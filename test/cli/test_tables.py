@@ -201,3 +201,13 @@ def test_help_explains(capsys: pytest.CaptureFixture[str]) -> None:
     text = capsys.readouterr().out
     for word in ('Table 2', 'Table 3', 'identified_torque', 'Time', '--time-budget'):
         assert word in text, word
+
+
+def test_run_skips_the_report_of_a_run_too_short_to_validate_on(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from scara_ident_ros.cli.run import _report
+
+    bag = write_rosbag(tmp_path / 'short', synthetic_states(2, 1.0))
+    _report(bag, tmp_path / 'report', ['ffs'], interrupted=False)
+    assert 'scara-ident run: no report: 0.999 s of samples fill 1 block' in capsys.readouterr().out
+    assert not (tmp_path / 'report').exists()
