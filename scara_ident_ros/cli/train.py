@@ -68,6 +68,7 @@ import numpy as np
 
 from scara_ident_ros.cli import CliError
 from scara_ident_ros.dynamics.physical_model import COULOMB_EPS, COULOMB_MODES
+from scara_ident_ros.identification import DIFFERENTIATOR_WINDOW
 from scara_ident_ros.identification.split import VALIDATION_BLOCK_S, VALIDATION_FRACTION
 from scara_ident_ros.nn.presets import METHODS, make_network
 from scara_ident_ros.nn import ALGORITHMS
@@ -156,7 +157,6 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
 def run(args: argparse.Namespace) -> int:
     """Train and save; print the errors on the training and validation data."""
     from scara_ident_ros.blas_threads import single_blas_thread
-    from scara_ident_ros.identification import DIFFERENTIATOR_WINDOW
     from scara_ident_ros.cli.evaluation import errors_markdown, evaluate
     from scara_ident_ros.cli.progress import TrainingProgress
     from scara_ident_ros.identification.recording import load_recording, skipped_text

@@ -155,7 +155,6 @@ def make_dataset(stamp_ns: npt.ArrayLike, q: npt.ArrayLike, qd: npt.ArrayLike,
     return Dataset(kept, X, Y, 'estimated', name)
 
 
-
 class JointStateArrays(Protocol):
     """Joint states as arrays, one row per message (what the bag reader returns).
 
@@ -218,7 +217,8 @@ def dataset_from_joint_states(series: JointStateArrays, *,
         The recording; rows are taken in stamp order (stable for equal stamps, which the
         sample check then rejects as repeated).
     differentiator : Differentiator or CentredDifferentiator, optional
-        Estimator of q''; by default the identifier's, ``CentredDifferentiator(21, 2)``.
+        Estimator of q''; by default the identifier's, a centred quadratic fit
+        (:class:`CentredDifferentiator`).
     max_gap_ns : int
         A clock jump larger than this (ns) restarts the estimate, as online.
     name : str
