@@ -7,7 +7,7 @@ residuals. On motion never learnt: ``--clean-seconds`` without contact (false al
 ``--pulse-seconds`` with external effort pulses (``--amplitude`` of a random joint's effort
 limit for ``--pulse-ms``, about every 1.5 s) injected into the simulated dynamics (detection
 rate, delay). The raw-effort baseline is set to the detector's false-alarm count on the clean
-run (:mod:`scara_ident_ros.experiments.contact`). One row per ``--sigmas`` value.
+run (:mod:`scara_ident_ros.paper.contact`). One row per ``--sigmas`` value.
 
     .venv/bin/python benchmarks/bench_contact.py [--seconds 120] [--clean-seconds 600]
         [--pulse-seconds 300] [--sigmas 6 8 10] [--min-samples 1]
@@ -25,10 +25,9 @@ import numpy as np
 
 from scara_ident_ros.blas_threads import single_blas_thread
 from scara_ident_ros.dynamics import ScaraParams
-from scara_ident_ros.experiments.contact import (baseline_flags, detect, evaluate,
-                                                 matched_baseline, pulse_record,
-                                                 residuals_of, train_model)
-from scara_ident_ros.experiments.learning_curves import noisy_config
+from scara_ident_ros.paper.contact import (baseline_flags, detect, evaluate, matched_baseline,
+                                           pulse_record, residuals_of, train_model)
+from scara_ident_ros.paper.learning_curves import noisy_config
 from scara_ident_ros.identification.contact_detector import ContactDetector, robust_spread
 from scara_ident_ros.nodes.identifier import PARAMETERS
 from scara_ident_ros.resources import config_path

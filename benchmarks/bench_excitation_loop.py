@@ -249,8 +249,8 @@ def score(models: dict[str, tuple[Path, Path]]) -> None:
     """Part c: the saved models (with the identifier's stats file) frozen on the held-out
     motions."""
     from scara_ident_ros.dynamics import ScaraParams
-    from scara_ident_ros.experiments.learning_curves import held_out_set
-    from scara_ident_ros.offline.evaluation import evaluate, load_model
+    from scara_ident_ros.paper.learning_curves import held_out_set
+    from scara_ident_ros.cli.evaluation import evaluate, load_model
 
     params = ScaraParams.from_yaml(ROOT / 'config' / 'scara.yaml')
     held_out = held_out_set(params)

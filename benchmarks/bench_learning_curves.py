@@ -6,7 +6,7 @@ the identifier's default, Levenberg-Marquardt steps on a reservoir; ``bp``: the 
 per-sample back-propagation) through the identifier's own pipeline, and at each checkpoint
 its frozen model is scored on held-out excitations (5 ``standard`` ones and 30 s of another
 ``sequence``, never streamed). LS and RLS on the SCARA's physical regressor, fitted to the
-same stream inputs, are the references (``scara_ident_ros.experiments.learning_curves``).
+same stream inputs, are the references (``scara_ident_ros.paper.learning_curves``).
 ``--noise`` adds the simulator's sensor noise (position 1e-4, velocity 1e-3, effort 0.5 % of
 its limit) to the stream and the held-out data, and reports the noise floor. ``--robot``
 takes ``scara`` (the default), ``ur5`` or ``panda`` (``robot_sim``'s arms with friction and
@@ -29,11 +29,10 @@ import time
 from pathlib import Path
 
 from scara_ident_ros.dynamics import ScaraParams
-from scara_ident_ros.experiments.learning_curves import (ROBOTS, curves_markdown,
-                                                         held_out_set, noise_floor,
-                                                         noisy_config, robot_by_name,
-                                                         run_curves)
-from scara_ident_ros.offline.figures import plot_learning_curves
+from scara_ident_ros.paper.learning_curves import (ROBOTS, curves_markdown, held_out_set,
+                                                   noise_floor, noisy_config, robot_by_name,
+                                                   run_curves)
+from scara_ident_ros.paper.figures import plot_learning_curves
 from scara_ident_ros.resources import config_path
 
 HERE = Path(__file__).resolve().parent

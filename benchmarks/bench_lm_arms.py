@@ -29,7 +29,7 @@ import numpy as np
 from scipy.linalg import cho_solve
 
 from scara_ident_ros.blas_threads import single_blas_thread
-from scara_ident_ros.methods import make_network
+from scara_ident_ros.nn.presets import make_network
 from scara_ident_ros.nn.levenberg_marquardt import normal_blocks
 
 STEPS_PER_S = 10.0  # the node's default: 2 lm steps every 200 samples at 1 kHz

@@ -106,9 +106,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from scara_ident_ros.blas_threads import single_blas_thread  # noqa: E402
 from scara_ident_ros.dynamics import ScaraParams  # noqa: E402
-from scara_ident_ros.experiments import learning_curves as lc  # noqa: E402
-from scara_ident_ros.experiments.datasets import Dataset, simulate_record  # noqa: E402
+from scara_ident_ros.paper import learning_curves as lc  # noqa: E402
+from scara_ident_ros.identification.dataset import Dataset  # noqa: E402
+from scara_ident_ros.paper.datasets import simulate_record  # noqa: E402
 from scara_ident_ros.identification import trainer as tr  # noqa: E402
+from scara_ident_ros.identification.metrics import effort_errors  # noqa: E402
 from scara_ident_ros.sim import SimConfig  # noqa: E402
 
 VARIANTS = ('default', 'random-init', 'interval-600', 'float64', 'float64-300', 'asinh',
@@ -120,7 +122,7 @@ SLOW_SHARE = 0.25   # share of the reservoir's slots for the slow stratum
 
 
 def _nmse(y: np.ndarray, predicted: np.ndarray) -> np.ndarray:
-    return np.asarray(np.mean((y - predicted) ** 2, axis=0) / y.var(axis=0))
+    return effort_errors(y, predicted).nmse
 
 
 def _patch_all(variant: str, params: ScaraParams) -> tuple[int, Any]:

@@ -40,7 +40,7 @@ from threadpoolctl import threadpool_limits
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from scara_ident_ros.dynamics import ScaraParams  # noqa: E402
-from scara_ident_ros.methods import METHODS, limit_scaling, make_network  # noqa: E402
+from scara_ident_ros.nn.presets import METHODS, limit_scaling, make_network  # noqa: E402
 from scara_ident_ros.nn import FeedForwardNet  # noqa: E402
 from scara_ident_ros.nn.onnx_export import (INPUT_NAME, OUTPUT_NAME,  # noqa: E402
                                             network_to_onnx, relative_difference)

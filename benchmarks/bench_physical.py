@@ -65,10 +65,10 @@ from scara_ident_ros.dynamics import ScaraParams  # noqa: E402
 from scara_ident_ros.dynamics.coulomb_selection import select_coulomb  # noqa: E402
 from scara_ident_ros.dynamics.hybrid_model import fit_hybrid  # noqa: E402
 from scara_ident_ros.dynamics.physical_model import PhysicalModel  # noqa: E402
-from scara_ident_ros.experiments.datasets import (Dataset, dataset_from_record,  # noqa: E402
-                                                  make_dataset, simulate_record)
-from scara_ident_ros.methods import make_network  # noqa: E402
-from scara_ident_ros.offline.split import block_split  # noqa: E402
+from scara_ident_ros.identification.dataset import Dataset, make_dataset  # noqa: E402
+from scara_ident_ros.paper.datasets import dataset_from_record, simulate_record  # noqa: E402
+from scara_ident_ros.nn.presets import make_network  # noqa: E402
+from scara_ident_ros.identification.split import block_split  # noqa: E402
 
 SCARA_URDF = ROOT / 'urdf' / 'scara.urdf'
 UR5_VISCOUS = np.array([2.0, 2.0, 1.5, 0.5, 0.5, 0.3])   # N·m·s/rad

@@ -29,9 +29,9 @@ from typing import Any
 from threadpoolctl import threadpool_limits
 
 from scara_ident_ros.dynamics import ScaraParams
-from scara_ident_ros.experiments.datasets import simulate_record
-from scara_ident_ros.experiments.learning_curves import (CHECKPOINTS_S, Curve, curves_markdown,
-                                                         held_out_set, network_curve)
+from scara_ident_ros.paper.datasets import simulate_record
+from scara_ident_ros.paper.learning_curves import (CHECKPOINTS_S, Curve, curves_markdown,
+                                                   held_out_set, network_curve)
 from scara_ident_ros.resources import config_path
 from scara_ident_ros.sim import SimConfig
 

@@ -135,15 +135,15 @@ from fake_bags import States, write_rosbag  # noqa: E402
 from scara_ident_ros.cli import main  # noqa: E402
 from scara_ident_ros.cli import train as train_cli  # noqa: E402
 from scara_ident_ros.dynamics import ScaraParams  # noqa: E402
-from scara_ident_ros.experiments.datasets import (Dataset, simulate_dataset,  # noqa: E402
-                                                  simulate_record)
-from scara_ident_ros.methods import make_network  # noqa: E402
+from scara_ident_ros.identification.dataset import Dataset  # noqa: E402
+from scara_ident_ros.paper.datasets import simulate_dataset, simulate_record  # noqa: E402
+from scara_ident_ros.nn.presets import make_network  # noqa: E402
 from scara_ident_ros.nn import FeedForwardNet  # noqa: E402
 from scara_ident_ros.blas_threads import single_blas_thread  # noqa: E402
-from scara_ident_ros.offline.dataset import time_split  # noqa: E402
-from scara_ident_ros.offline.evaluation import evaluate  # noqa: E402
-from scara_ident_ros.offline.recording import load_recording  # noqa: E402
-from scara_ident_ros.offline.split import block_split  # noqa: E402
+from scara_ident_ros.cli.evaluation import evaluate  # noqa: E402
+from scara_ident_ros.identification.recording import load_recording  # noqa: E402
+from scara_ident_ros.identification.split import (VALIDATION_BLOCK_S,  # noqa: E402
+                                                   block_split)
 
 NAMES = ('joint1', 'joint2', 'joint3', 'joint4')
 START_NS = 1_700_000_000_000_000_000
@@ -204,11 +204,39 @@ def write_recording(path: Path, params: ScaraParams, data: str) -> Path:
     return write_rosbag(path, States(stamps, NAMES, q, qd, effort), storage='mcap')
 
 
+def time_split(data: Dataset, validation_fraction: float) -> tuple[Dataset, Dataset]:
+    """The split tried before blocks: the last ``validation_fraction`` of the time validates.
+
+    Parameters
+    ----------
+    data : Dataset
+        Samples in time order.
+    validation_fraction : float
+        Fraction in [0, 1) of the time span, from its end, kept for validation.
+
+    Returns
+    -------
+    train, validation : Dataset
+        Samples stamped before, and from, ``t_0 + (1 - fraction)·(t_N − t_0)``, named
+        ``'train'`` and ``'validation'``; ``validation`` is empty when the fraction is 0 and
+        has at least one sample otherwise.
+    """
+    if not 0.0 <= validation_fraction < 1.0:
+        raise ValueError(f'validation fraction must be in [0, 1), got {validation_fraction}')
+    n = len(data)
+    if n == 0 or validation_fraction == 0.0:
+        return data.take(slice(None), 'train'), data.take(slice(0, 0), 'validation')
+    t0, t1 = int(data.stamp_ns[0]), int(data.stamp_ns[-1])
+    split_ns = t0 + round((1.0 - validation_fraction) * (t1 - t0))
+    cut = min(int(np.searchsorted(data.stamp_ns, split_ns, side='left')), n - 1)
+    return data.take(slice(0, cut), 'train'), data.take(slice(cut, None), 'validation')
+
+
 def train_once(data: Dataset, setting: Setting, seed: int
                ) -> tuple[FeedForwardNet, dict[str, object]]:
     """What ``scara-ident train`` does with ``setting`` and ``--seed seed``."""
     if setting.split == 'blocks':
-        train, val = block_split(data, 0.2, block_s=train_cli.VALIDATION_BLOCK_S, seed=seed)
+        train, val = block_split(data, 0.2, block_s=VALIDATION_BLOCK_S, seed=seed)
     elif setting.split == 'time':
         train, val = time_split(data, 0.2)
     else:

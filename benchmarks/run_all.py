@@ -16,7 +16,7 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 BENCHMARKS = ('bench_executor.py', 'bench_sim.py', 'bench_online.py', 'bench_lm.py',
               'bench_onnx.py', 'bench_identifier.py', 'bench_recorder.py', 'bench_graph.py',
-              'bench_physical.py')
+              'bench_physical.py', 'bench_process.py')
 
 
 def main() -> int:

@@ -20,7 +20,7 @@ from typing import NamedTuple
 import numpy as np
 import numpy.typing as npt
 
-from scara_ident_ros.identification.error_window import ErrorStats
+from scara_ident_ros.identification.metrics import ErrorStats
 
 __all__ = ['METRICS', 'METRICS_LABEL', 'Dimension', 'decode_mse', 'encode_mse']
 

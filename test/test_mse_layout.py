@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from scara_ident_ros.identification.error_window import error_stats
+from scara_ident_ros.identification.metrics import error_stats
 from scara_ident_ros.mse_layout import METRICS_LABEL, decode_mse, encode_mse
 
 

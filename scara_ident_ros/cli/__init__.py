@@ -1,5 +1,9 @@
 """``scara-ident``: the project's command line, one module per subcommand.
 
+Besides them, what ``train``, ``evaluate`` and ``export`` share: :mod:`.evaluation` (a saved
+model checked and scored), :mod:`.progress` (the training progress bar) and
+:mod:`.physical_parameters` (a physical model's parameter tables).
+
 Each subcommand module defines ``add_parser(subparsers)`` (registering its
 ``argparse`` sub-parser, with ``help`` and ``description``) and
 ``run(args) -> int`` (the exit status). :func:`main` only dispatches.

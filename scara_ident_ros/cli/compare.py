@@ -1,6 +1,6 @@
 """``scara-ident compare``: the paper's comparison of FFMW, FFW and FFS on simulated data.
 
-Argument parsing only; the comparison is :mod:`scara_ident_ros.offline.comparison`.
+Argument parsing only; the comparison is :mod:`scara_ident_ros.paper.comparison`.
 """
 from __future__ import annotations
 
@@ -12,10 +12,12 @@ from pathlib import Path
 from typing import Any
 
 from scara_ident_ros.cli import CliError
-from scara_ident_ros.experiments import DEFAULT_GOAL, DEFAULT_WINDOW, PAPER_ITERATIONS
-from scara_ident_ros.methods import METHODS
-from scara_ident_ros.offline import comparison
-from scara_ident_ros.offline.comparison import CompareSettings, run_comparison
+from scara_ident_ros.paper.table2 import DEFAULT_GOAL
+from scara_ident_ros.paper.table3 import DEFAULT_WINDOW
+from scara_ident_ros.paper.tables import PAPER_ITERATIONS
+from scara_ident_ros.nn.presets import METHODS
+from scara_ident_ros.paper import comparison
+from scara_ident_ros.paper.comparison import CompareSettings, run_comparison
 from scara_ident_ros.sim import TRAJECTORIES
 
 __all__ = ['DEFAULTS', 'DEFAULT_WALL_TIME', 'QUICK', 'add_parser', 'main', 'run']

@@ -38,10 +38,10 @@ def run(args: argparse.Namespace) -> int:
     """Evaluate and print the table."""
     from scara_ident_ros.dynamics.hybrid_model import HybridModel
     from scara_ident_ros.dynamics.physical_model import PhysicalModel
-    from scara_ident_ros.offline.evaluation import (errors_markdown, evaluate, load_model,
-                                                    model_joint_names, model_method)
-    from scara_ident_ros.offline.parameters import parameters_markdown
-    from scara_ident_ros.offline.recording import load_recording, skipped_text
+    from scara_ident_ros.cli.evaluation import (errors_markdown, evaluate, load_model,
+                                                model_joint_names, model_method)
+    from scara_ident_ros.cli.physical_parameters import parameters_markdown
+    from scara_ident_ros.identification.recording import load_recording, skipped_text
 
     model = load_model(args.model)
     names = model_joint_names(model)

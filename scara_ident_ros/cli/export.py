@@ -45,7 +45,7 @@ def run(args: argparse.Namespace) -> int:
     from scara_ident_ros.nn import FeedForwardNet
     from scara_ident_ros.nn.onnx_export import (INPUT_NAME, OUTPUT_NAME, network_to_onnx,
                                                 onnx_agreement, save_onnx)
-    from scara_ident_ros.offline.evaluation import load_model, model_joint_names, model_method
+    from scara_ident_ros.cli.evaluation import load_model, model_joint_names, model_method
 
     out: Path = args.out if args.out is not None else args.model.with_suffix('.onnx')
     network = load_model(args.model)

@@ -49,10 +49,9 @@ from typing import Any
 
 from scara_ident_ros.cli import CliError
 from scara_ident_ros.identification.trainer import TRAINERS
-from scara_ident_ros.methods import METHODS
+from scara_ident_ros.nn.presets import METHODS
 from scara_ident_ros.paths import unwritable_dir
-from scara_ident_ros.process_graph import (NodeProcess, ProcessGraph, StopSignals,
-                                           publishers_on)
+from scara_ident_ros.process_graph import NodeProcess, ProcessGraph, StopSignals, publishers_on
 from scara_ident_ros.sim.trajectory import SEQUENCE, TRAJECTORIES
 from scara_ident_ros.topics import IDENTIFIER_OUTPUTS, JOINT_STATES, in_namespace, torque_topic
 
@@ -232,7 +231,8 @@ def _report(bag: Path, out: Path, methods: list[str], *, interrupted: bool) -> N
     """Make the tables and figures from the bag; after a Ctrl-C, from what it recorded."""
     from scara_ident_ros.bag import BagError
     from scara_ident_ros.cli.tables import make_report
-    from scara_ident_ros.offline.recording import RecordingError
+    from scara_ident_ros.identification.recording import RecordingError
+    from scara_ident_ros.identification.split import SplitError
 
     if interrupted:
         print('scara-ident run: making the report from the samples recorded (Ctrl-C again '
@@ -240,7 +240,7 @@ def _report(bag: Path, out: Path, methods: list[str], *, interrupted: bool) -> N
     try:
         report = make_report([bag], out, methods=methods)
     except (BagError, RecordingError, ValueError) as exc:
-        if not interrupted:
+        if not interrupted and not isinstance(exc, SplitError):  # too short to validate on
             raise
         print(f'scara-ident run: no report: {exc}')
         return

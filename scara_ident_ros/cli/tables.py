@@ -6,10 +6,12 @@ predictions, stamped like their input) and /<m>/identification_mse. MORE_BAGS ar
 held-out runs (other excitations) evaluated by the offline models.
 
 Table 2 analog (offline): each method's 3n-40-n network retrained from --seeds seeds with
-Levenberg-Marquardt for --iterations iterations on --samples random samples of the first
-(1 - --validation-fraction) of BAG's time; MSE and normalised MSE (MSE / variance of each
-joint's effort) on the training samples, on the rest of BAG (never trained on) and on
-MORE_BAGS, iterations to the goal, training time: median [min-max] over seeds.
+Levenberg-Marquardt for --iterations iterations on --samples random samples of BAG's
+training blocks: as in scara-ident train, BAG is cut into blocks of --validation-block
+seconds (1 s) and 20 % of them (--validation-fraction), one drawn from each stretch of 5
+blocks, validate. MSE and normalised MSE (MSE / variance of each joint's effort) on the
+training samples, on the validation blocks (never trained on) and on MORE_BAGS,
+iterations to the goal, training time: median [min-max] over seeds.
 Table 3 analog (online): what the identifiers published during the run, paired by stamp
 with /joint_states: error over the last 100 samples (the paper's figure), over the last
 5000, and over the whole run. Figures: measured vs identified effort per joint and method
@@ -29,9 +31,11 @@ import argparse
 from pathlib import Path
 
 from scara_ident_ros.cli import CliError
-from scara_ident_ros.methods import METHODS
-from scara_ident_ros.offline.report import (DEFAULT_SAMPLES, DEFAULT_SEEDS,
-                                            DEFAULT_TIME_BUDGET_S, make_report)
+from scara_ident_ros.identification.split import (VALIDATION_BLOCK_S, VALIDATION_FRACTION,
+                                                   SplitError)
+from scara_ident_ros.nn.presets import METHODS
+from scara_ident_ros.paper.report import (DEFAULT_SAMPLES, DEFAULT_SEEDS, DEFAULT_TIME_BUDGET_S,
+                                          make_report)
 from scara_ident_ros.paths import unwritable_dir
 
 __all__ = ['add_parser', 'make_report', 'run']
@@ -56,9 +60,13 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     parser.add_argument('--samples', type=int, default=DEFAULT_SAMPLES,
                         help=f'training samples drawn at random from the run for LM '
                              f'(default: {DEFAULT_SAMPLES}; 0: all)')
-    parser.add_argument('--validation-fraction', type=float, default=0.2,
-                        help="last fraction of the run's time kept out of training "
-                             '(default: 0.2)')
+    parser.add_argument('--validation-fraction', type=float, default=VALIDATION_FRACTION,
+                        help="fraction of the run's time blocks kept out of training, one "
+                             'block drawn from each stretch of 1/fraction blocks '
+                             f'(default: {VALIDATION_FRACTION:g})')
+    parser.add_argument('--validation-block', type=float, default=VALIDATION_BLOCK_S,
+                        metavar='SECONDS',
+                        help=f'length of the time blocks (default: {VALIDATION_BLOCK_S:g} s)')
     parser.add_argument('--time-budget', type=float, default=0.0, metavar='SECONDS',
                         help='start no new round of seeds after this much offline training '
                              f'(default: 0, no limit; scara-ident run uses '
@@ -77,12 +85,19 @@ def run(args: argparse.Namespace) -> int:
     if not 0.0 <= args.validation_fraction < 1.0:
         raise CliError(f'--validation-fraction must be in [0, 1), got '
                        f'{args.validation_fraction}')
+    if not args.validation_block > 0.0:
+        raise CliError(f'--validation-block must be positive, got {args.validation_block}')
     problem = unwritable_dir(args.out)
     if problem:
         raise CliError(f'--out {args.out} {problem}')
-    report = make_report(list(args.bags), args.out, methods=args.methods, seeds=args.seeds,
-                         iterations=args.iterations, samples=args.samples,
-                         validation_fraction=args.validation_fraction, topic=args.topic,
-                         time_budget_s=args.time_budget or None)
+    try:
+        report = make_report(list(args.bags), args.out, methods=args.methods,
+                             seeds=args.seeds, iterations=args.iterations,
+                             samples=args.samples, validation_fraction=args.validation_fraction,
+                             validation_block_s=args.validation_block, topic=args.topic,
+                             time_budget_s=args.time_budget or None)
+    except SplitError as exc:
+        raise CliError(f'{args.bags[0]}: {exc}; lower --validation-block or give '
+                       '--validation-fraction 0') from None
     print(f'report: {report}')
     return 0

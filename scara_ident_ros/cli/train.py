@@ -62,12 +62,14 @@ import numpy as np
 
 from scara_ident_ros.cli import CliError
 from scara_ident_ros.dynamics.physical_model import COULOMB_EPS, COULOMB_MODES
-from scara_ident_ros.methods import METHODS, make_network
+from scara_ident_ros.identification import DIFFERENTIATOR_WINDOW
+from scara_ident_ros.identification.split import VALIDATION_BLOCK_S, VALIDATION_FRACTION
+from scara_ident_ros.nn.presets import METHODS, make_network
 from scara_ident_ros.nn import ALGORITHMS
 from scara_ident_ros.paths import unwritable_file
 
 if TYPE_CHECKING:
-    from scara_ident_ros.experiments.datasets import Dataset
+    from scara_ident_ros.identification.dataset import Dataset
     from scara_ident_ros.nn import FitHistory
 
 __all__ = ['FRICTION_STEPS', 'HYBRID_NETWORK', 'ITERATIONS', 'MAX_FAIL', 'MIN_ITERATIONS',
@@ -76,7 +78,6 @@ __all__ = ['FRICTION_STEPS', 'HYBRID_NETWORK', 'ITERATIONS', 'MAX_FAIL', 'MIN_IT
 #: Defaults of the options, chosen with benchmarks/bench_train_defaults.py (module docstring).
 ITERATIONS = 500           # Levenberg–Marquardt iterations at most
 SAMPLES = 8000             # training samples drawn from the training blocks
-VALIDATION_BLOCK_S = 1.0   # s, length of the validation time blocks
 MAX_FAIL = 50              # validation failures in a row that stop training
 MIN_ITERATIONS = 50        # iterations before validation failures count
 FRICTION_STEPS = True      # the network starts with friction steps, as the identifier's
@@ -118,10 +119,10 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     parser.add_argument('--joints', nargs='+', default=None, metavar='NAME',
                         help='joints to model, in this order (default: all, as in the '
                              'messages)')
-    parser.add_argument('--validation-fraction', type=float, default=0.2,
+    parser.add_argument('--validation-fraction', type=float, default=VALIDATION_FRACTION,
                         help='fraction of the recording\'s time blocks used for validation, '
                              'one block drawn from each stretch of 1/fraction blocks '
-                             '(default: 0.2; 0: none, no early stop)')
+                             f'(default: {VALIDATION_FRACTION:g}; 0: none, no early stop)')
     parser.add_argument('--validation-block', type=float, default=VALIDATION_BLOCK_S,
                         metavar='SECONDS',
                         help=f'length of the time blocks (default: {VALIDATION_BLOCK_S:g} s)')
@@ -150,10 +151,10 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
 def run(args: argparse.Namespace) -> int:
     """Train and save; print the errors on the training and validation data."""
     from scara_ident_ros.blas_threads import single_blas_thread
-    from scara_ident_ros.offline.evaluation import errors_markdown, evaluate
-    from scara_ident_ros.offline.progress import TrainingProgress
-    from scara_ident_ros.offline.recording import load_recording, skipped_text
-    from scara_ident_ros.offline.split import block_index, block_split
+    from scara_ident_ros.cli.evaluation import errors_markdown, evaluate
+    from scara_ident_ros.cli.progress import TrainingProgress
+    from scara_ident_ros.identification.recording import load_recording, skipped_text
+    from scara_ident_ros.identification.split import block_index, block_split
 
     if args.iterations < 1:
         raise CliError(f'--iterations must be at least 1, got {args.iterations}')
@@ -212,7 +213,7 @@ def run(args: argparse.Namespace) -> int:
         'topic': np.array(recording.topic), 'train_samples': np.array(len(train)),
         'validation_fraction': np.array(args.validation_fraction),
         'validation_block_s': np.array(args.validation_block),
-        'differentiator': np.array('centred'), 'window': np.array(21)}
+        'differentiator': np.array('centred'), 'window': np.array(DIFFERENTIATOR_WINDOW)}
     if args.urdf is not None:
         metadata['urdf_file'] = np.array(str(args.urdf))
     if args.method in PHYSICAL_METHODS:
@@ -270,7 +271,7 @@ def _limit_ranges(urdf: Path, names: Sequence[str], X: np.ndarray, Y: np.ndarray
     the URDF does not have is refused (``UrdfError``).
     """
     from scara_ident_ros.dynamics.urdf_limits import read_urdf
-    from scara_ident_ros.methods import limit_scaling
+    from scara_ident_ros.nn.presets import limit_scaling
 
     limits = read_urdf(urdf)
     limits.select([name for name in names if name not in limits.unlimited])  # or UrdfError
@@ -296,9 +297,9 @@ def _train_physical(args: argparse.Namespace, names: Sequence[str], every_train:
     from scara_ident_ros.dynamics.coulomb_selection import select_coulomb
     from scara_ident_ros.dynamics.hybrid_model import HybridModel, fit_hybrid
     from scara_ident_ros.dynamics.physical_model import PhysicalModel
-    from scara_ident_ros.offline.evaluation import errors_markdown, evaluate
-    from scara_ident_ros.offline.parameters import parameters_markdown
-    from scara_ident_ros.offline.progress import TrainingProgress
+    from scara_ident_ros.cli.evaluation import errors_markdown, evaluate
+    from scara_ident_ros.cli.physical_parameters import parameters_markdown
+    from scara_ident_ros.cli.progress import TrainingProgress
 
     def build(coulomb: str, eps: float) -> PhysicalModel:
         return PhysicalModel.from_urdf_file(args.urdf, joint_names=names, coulomb=coulomb,

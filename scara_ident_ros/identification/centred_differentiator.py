@@ -27,9 +27,11 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ['CentredDifferentiator']
+__all__ = ['CentredDifferentiator', 'DIFFERENTIATOR_WINDOW']
 
 NS = 1e-9  # seconds per nanosecond
+#: Samples of the default fit, here and of the identifier's ``window`` parameter.
+DIFFERENTIATOR_WINDOW = 21
 
 
 class CentredDifferentiator:
@@ -48,7 +50,7 @@ class CentredDifferentiator:
 
     method = 'centred'
 
-    def __init__(self, window: int = 21, degree: int = 2) -> None:
+    def __init__(self, window: int = DIFFERENTIATOR_WINDOW, degree: int = 2) -> None:
         if degree < 1 or window < degree + 2 or window % 2 == 0:
             raise ValueError(f'a centred fit needs an odd window >= degree + 2 and degree >= '
                              f'1, got window {window}, degree {degree}')

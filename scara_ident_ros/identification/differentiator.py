@@ -26,6 +26,10 @@ time by which the estimate lags the true q'' when q'' is a ramp; see :meth:`Diff
     the slope is that of the window's mean time, delay ``(W - 1) T / 2``. Higher ``p`` and
     smaller ``W`` cost noise: the std is ``s * sqrt(sum(w_i ** 2))`` for the fit's weights
     ``w``, larger than that of a centred (delayed) Savitzky–Golay filter.
+
+:data:`DIFFERENTIATORS` names these and the zero-lag ``'centred'`` fit
+(:class:`~scara_ident_ros.identification.centred_differentiator.CentredDifferentiator`, the
+default); :func:`make_differentiator` builds any of them.
 """
 from __future__ import annotations
 
@@ -36,9 +40,16 @@ from typing import cast
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ['Differentiator', 'METHODS']
+from scara_ident_ros.identification.centred_differentiator import (DIFFERENTIATOR_WINDOW,
+                                                                   CentredDifferentiator)
 
-METHODS = ('backward', 'lowpass', 'polynomial')
+__all__ = ['AccelerationEstimate', 'CAUSAL_DIFFERENTIATORS', 'DIFFERENTIATORS',
+           'DIFFERENTIATOR_WINDOW', 'Differentiator', 'make_differentiator']
+
+#: Names of the acceleration estimates: ``'centred'`` (:class:`CentredDifferentiator`, the
+#: zero-lag default), then the causal ones of :class:`Differentiator`.
+DIFFERENTIATORS = ('centred', 'lowpass', 'backward', 'polynomial')
+CAUSAL_DIFFERENTIATORS = DIFFERENTIATORS[1:]
 NS = 1e-9  # seconds per nanosecond
 
 
@@ -65,8 +76,9 @@ class Differentiator:
 
     def __init__(self, method: str = 'lowpass', *, cutoff_hz: float = 50.0, window: int = 7,
                  degree: int = 2) -> None:
-        if method not in METHODS:
-            raise ValueError(f'unknown differentiation method {method!r}; choose from {METHODS}')
+        if method not in CAUSAL_DIFFERENTIATORS:
+            raise ValueError(f'unknown differentiation method {method!r}; choose from '
+                             f'{CAUSAL_DIFFERENTIATORS}')
         if not (math.isfinite(cutoff_hz) and cutoff_hz > 0.0):
             raise ValueError(f'cutoff_hz must be positive and finite, got {cutoff_hz}')
         if degree < 1 or window < degree + 1:
@@ -192,3 +204,29 @@ class Differentiator:
         normal = fit[:, :p + 1].T @ fit  # (p + 1, p + 1 + n): [B'B | B'V]
         coef = np.linalg.solve(normal[:, :p + 1], normal[:, p + 1:])  # (p + 1, n)
         return cast(NDArray[np.float64], coef[1] / (span * NS))
+
+
+AccelerationEstimate = Differentiator | CentredDifferentiator
+
+
+def make_differentiator(method: str = 'centred', *, window: int = DIFFERENTIATOR_WINDOW,
+                        cutoff_hz: float = 50.0, degree: int = 2) -> AccelerationEstimate:
+    """Build the acceleration estimate called ``method`` (one of :data:`DIFFERENTIATORS`).
+
+    Parameters
+    ----------
+    method : str
+        ``'centred'`` (zero-phase, :class:`CentredDifferentiator`) or a causal
+        :class:`Differentiator` method.
+    window : int
+        Samples per polynomial fit (``'centred'``: odd; ``'polynomial'``).
+    cutoff_hz : float
+        Cut-off of ``'lowpass'`` (Hz).
+    degree : int
+        Polynomial degree (``'centred'``, ``'polynomial'``).
+    """
+    if method == 'centred':
+        return CentredDifferentiator(window, degree)
+    if method not in DIFFERENTIATORS:
+        raise ValueError(f'unknown differentiator {method!r}; choose from {DIFFERENTIATORS}')
+    return Differentiator(method, cutoff_hz=cutoff_hz, window=window, degree=degree)

@@ -4,52 +4,22 @@ Per joint: the mean squared error (MSE) of the a-priori predictions over the las
 samples, and the normalised MSE (NMSE): the MSE divided by the variance of that joint's
 measured effort over the same samples. The NMSE is free of units and of the effort's scale,
 so joints (N·m and N) and robots can be compared; NMSE = 1 is no better than predicting the
-window's mean effort. NMSE is defined where the effort's variance over the samples exceeds
-:data:`VARIANCE_RESOLUTION` times the squared effort scale its rounding error is relative to
-(less is rounding, not motion): :func:`normalised_mse` holds that definition for every caller
-(this window, ``experiments.metrics`` and ``offline.online_results``).
+window's mean effort; the definitions are :mod:`~scara_ident_ros.identification.metrics`.
 
 The paper's online figure, "the error over the last 100 samples", is ``recent(100).mse``.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
+import numpy.typing as npt
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ['ErrorStats', 'ErrorWindow', 'PAPER_WINDOW', 'VARIANCE_RESOLUTION', 'error_stats',
-           'no_error_stats', 'normalised_mse']
+from scara_ident_ros.identification.metrics import (ErrorStats, check_pair, error_stats,
+                                                    no_error_stats)
+
+__all__ = ['ErrorWindow', 'PAPER_WINDOW', 'recent_errors']
 
 PAPER_WINDOW = 100  # samples: the paper's "error over the last 100 samples"
-#: Variances at most this fraction of the squared effort scale are rounding: NMSE undefined.
-VARIANCE_RESOLUTION = 1e-12
-
-
-@dataclass(frozen=True)
-class ErrorStats:
-    """Error statistics over a window of samples.
-
-    Attributes
-    ----------
-    mse : ndarray of shape (n_joints,)
-        Mean squared prediction error per joint, (N·m)² or N²; NaN when ``count`` is 0.
-    nmse : ndarray of shape (n_joints,)
-        ``mse`` divided by the (population) variance of the joint's measured effort over the
-        same samples; NaN where that variance is nil (see :func:`normalised_mse`).
-    mse_total : float
-        Mean of ``mse`` over the joints (mixing units, as the paper's figures do).
-    nmse_total : float
-        Mean of ``nmse`` over the joints where it is defined; NaN if it is nowhere.
-    count : int
-        Number of samples the statistics cover.
-    """
-
-    mse: NDArray[np.float64]
-    nmse: NDArray[np.float64]
-    mse_total: float
-    nmse_total: float
-    count: int
 
 
 class ErrorWindow:
@@ -163,45 +133,25 @@ class ErrorWindow:
         self._sums = self._rows.sum(axis=0)
 
 
-def normalised_mse(mse: NDArray[np.float64], var: NDArray[np.float64],
-                   scale: NDArray[np.float64]
-                   ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """NMSE per joint and its mean over the joints where it is defined: the one definition.
+def recent_errors(Y: npt.ArrayLike, Y_hat: npt.ArrayLike,
+                  k: int = PAPER_WINDOW) -> ErrorStats:
+    """MSE and NMSE over the last ``k`` samples, as the online identifier reports them.
+
+    Feeds the last ``k`` samples to an :class:`ErrorWindow` and returns its
+    ``recent(k)``; ``recent_errors(Y, Y_hat, 100).mse_total`` is the paper's "error over
+    the last 100 samples".
 
     Parameters
     ----------
-    mse, var : ndarray of shape (..., n)
-        Per joint: mean squared error, and the effort's variance over the same samples.
-    scale : ndarray of shape (..., n) or (n,)
-        The squared effort magnitude the rounding error of ``var`` is relative to: ``var``
-        itself for a two-pass variance, the mean square about the reference for running
-        sums. NMSE is defined where ``var > VARIANCE_RESOLUTION * scale``.
-
-    Returns
-    -------
-    nmse : ndarray of shape (..., n)
-        ``mse / var``, NaN where undefined.
-    nmse_total : ndarray of shape (...)
-        Mean of ``nmse`` over the joints where it is defined; NaN where it is nowhere.
+    Y, Y_hat : array_like of shape (N, n)
+        Measured and predicted efforts (N·m, N).
+    k : int
+        Window length in samples, >= 1; fewer if N < k.
     """
-    defined = var > VARIANCE_RESOLUTION * scale
-    nmse = np.divide(mse, var, out=np.full(np.shape(mse), np.nan), where=defined)
-    n_defined = defined.sum(axis=-1)
-    total = np.divide(np.where(defined, nmse, 0.0).sum(axis=-1), n_defined,
-                      out=np.full(np.shape(n_defined), np.nan), where=n_defined > 0)
-    return nmse, total
-
-
-def error_stats(mse: NDArray[np.float64], var: NDArray[np.float64], scale: NDArray[np.float64],
-                count: int) -> ErrorStats:
-    """:class:`ErrorStats` of ``count`` samples from per-joint arrays of shape (n,)
-    (see :func:`normalised_mse`)."""
-    nmse, nmse_total = normalised_mse(mse, var, scale)
-    return ErrorStats(mse=mse, nmse=nmse, mse_total=float(mse.mean()),
-                      nmse_total=float(nmse_total), count=count)
-
-
-def no_error_stats(n_joints: int) -> ErrorStats:
-    """:class:`ErrorStats` of no samples: MSE and NMSE NaN for each of ``n_joints``, count 0."""
-    zeros = np.zeros(n_joints)
-    return error_stats(np.full(n_joints, np.nan), zeros, zeros, 0)
+    y, y_hat = check_pair(Y, Y_hat)
+    if k < 1:
+        raise ValueError(f'k must be >= 1, got {k}')
+    window = ErrorWindow(y.shape[1], k)
+    for row, row_hat in zip(y[-k:], y_hat[-k:]):
+        window.update(row, row_hat)
+    return window.recent(k)

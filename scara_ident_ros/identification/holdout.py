@@ -15,7 +15,7 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from scara_ident_ros.identification.error_window import ErrorStats
+from scara_ident_ros.identification.metrics import ErrorStats, effort_errors
 from scara_ident_ros.identification.reservoir import Reservoir
 
 __all__ = ['Holdout', 'MIN_VALIDATION_SAMPLES']
@@ -72,14 +72,6 @@ class Holdout:
         Returns None with fewer than :data:`MIN_VALIDATION_SAMPLES` samples kept.
         NMSE per joint is the MSE over the variance of that joint's held-out efforts.
         """
-        count = len(self.reservoir)
-        if count < MIN_VALIDATION_SAMPLES:
+        if len(self.reservoir) < MIN_VALIDATION_SAMPLES:
             return None
-        y = self.reservoir.Y
-        mse = np.mean((y - predicted) ** 2, axis=0)
-        variance = y.var(axis=0)
-        nmse = np.full_like(mse, np.nan)
-        np.divide(mse, variance, out=nmse, where=variance > 0)
-        defined = nmse[np.isfinite(nmse)]
-        return ErrorStats(mse, nmse, float(mse.mean()),
-                          float(defined.mean()) if defined.size else math.nan, count)
+        return effort_errors(self.reservoir.Y, predicted)

@@ -24,43 +24,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from scara_ident_ros.identification.centred_differentiator import CentredDifferentiator
-from scara_ident_ros.identification.differentiator import Differentiator
+from scara_ident_ros.identification.differentiator import AccelerationEstimate, Differentiator
 from scara_ident_ros.identification.joint_map import JointMap
 from scara_ident_ros.identification.sample_check import (DEFAULT_MAX_GAP_NS, Bounds,
                                                          FloatArrayLike, Sample, SampleCheck)
 from scara_ident_ros.identification.skip_reason import SkipReason
 
-__all__ = ['Input', 'InputStage', 'AccelerationEstimate', 'make_differentiator',
-           'DIFFERENTIATORS']
-
-AccelerationEstimate = Differentiator | CentredDifferentiator
-
-#: Names of the acceleration estimates; ``'centred'`` is the zero-lag default.
-DIFFERENTIATORS = ('centred', 'lowpass', 'backward', 'polynomial')
-
-
-def make_differentiator(method: str = 'centred', *, window: int = 21, cutoff_hz: float = 50.0,
-                        degree: int = 2) -> AccelerationEstimate:
-    """Build the acceleration estimate called ``method`` (one of :data:`DIFFERENTIATORS`).
-
-    Parameters
-    ----------
-    method : str
-        ``'centred'`` (zero-phase, :class:`CentredDifferentiator`) or a causal
-        :class:`Differentiator` method.
-    window : int
-        Samples per polynomial fit (``'centred'``: odd; ``'polynomial'``).
-    cutoff_hz : float
-        Cut-off of ``'lowpass'`` (Hz).
-    degree : int
-        Polynomial degree (``'centred'``, ``'polynomial'``).
-    """
-    if method == 'centred':
-        return CentredDifferentiator(window, degree)
-    if method not in DIFFERENTIATORS:
-        raise ValueError(f'unknown differentiator {method!r}; choose from {DIFFERENTIATORS}')
-    return Differentiator(method, cutoff_hz=cutoff_hz, window=window, degree=degree)
-
+__all__ = ['Input', 'InputStage']
 
 class Input(NamedTuple):
     """One network input with its target.

@@ -21,7 +21,7 @@ from scara_ident_ros.dynamics import ScaraParams
 from scara_ident_ros.dynamics.urdf_limits import UrdfError, UrdfLimits, parse_urdf, read_urdf
 from scara_ident_ros.errors import ScaraIdentError
 from scara_ident_ros.identification.sample_check import Bounds
-from scara_ident_ros.methods import limit_scaling
+from scara_ident_ros.nn.presets import limit_scaling
 from scara_ident_ros.resources import config_path
 
 __all__ = ['LIMIT_NAMES', 'JointLimits', 'LimitsError', 'load_joint_limits']
@@ -127,7 +127,7 @@ class JointLimits:
 
     def scaling(self) -> tuple[NDArray[np.float64], ...]:
         """The network's ``x_min, x_max`` (3n,) and ``y_min, y_max`` (n,): see
-        :func:`~scara_ident_ros.methods.limit_scaling`."""
+        :func:`~scara_ident_ros.nn.presets.limit_scaling`."""
         return limit_scaling(*(getattr(self, key) for key in LIMIT_NAMES))
 
     def bounds(self, margin: float) -> Bounds | None:

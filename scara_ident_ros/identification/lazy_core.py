@@ -18,7 +18,8 @@ from scara_ident_ros.dynamics.physical_model import PhysicalModel
 from scara_ident_ros.identification.background_lm import BackgroundLM
 from scara_ident_ros.identification.holdout import Holdout
 from scara_ident_ros.identification.hybrid_trainer import HybridTrainer
-from scara_ident_ros.identification.input_stage import AccelerationEstimate, InputStage
+from scara_ident_ros.identification.differentiator import AccelerationEstimate
+from scara_ident_ros.identification.input_stage import InputStage
 from scara_ident_ros.identification.joint_limits import JointLimits
 from scara_ident_ros.identification.joint_map import JointMap
 from scara_ident_ros.identification.online_identifier import Counts, OnlineIdentifier
@@ -27,7 +28,7 @@ from scara_ident_ros.identification.skip_reason import SkipReason
 from scara_ident_ros.identification.rls_trainer import RecursiveLeastSquaresTrainer
 from scara_ident_ros.identification.trainer import (Trainer, make_trainer,
                                                     starts_with_friction_steps)
-from scara_ident_ros.methods import METHODS, make_network
+from scara_ident_ros.nn.presets import METHODS, make_network
 from scara_ident_ros.nn import FeedForwardNet
 
 __all__ = ['CoreSettings', 'LazyCore', 'ONLINE_METHODS', 'OnlineModel', 'PHYSICAL_METHODS',

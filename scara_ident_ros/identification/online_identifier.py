@@ -20,9 +20,11 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-from scara_ident_ros.identification.error_window import PAPER_WINDOW, ErrorStats, ErrorWindow
+from scara_ident_ros.identification.error_window import PAPER_WINDOW, ErrorWindow
+from scara_ident_ros.identification.metrics import ErrorStats
 from scara_ident_ros.identification.holdout import Holdout
-from scara_ident_ros.identification.input_stage import AccelerationEstimate, Input, InputStage
+from scara_ident_ros.identification.differentiator import AccelerationEstimate
+from scara_ident_ros.identification.input_stage import Input, InputStage
 from scara_ident_ros.identification.joint_map import JointMap
 from scara_ident_ros.identification.sample_check import (DEFAULT_MAX_GAP_NS, Bounds,
                                                          FloatArrayLike)

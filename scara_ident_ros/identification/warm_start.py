@@ -12,7 +12,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from scara_ident_ros.errors import ScaraIdentError
-from scara_ident_ros.methods import METHODS
+from scara_ident_ros.nn.presets import METHODS
 from scara_ident_ros.nn import FeedForwardNet
 
 __all__ = ['ModelMismatch', 'check_warm_start', 'model_joint_names']

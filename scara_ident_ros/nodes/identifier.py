@@ -64,13 +64,14 @@ from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 from std_srvs.srv import Trigger
 
 from scara_ident_ros.blas_threads import single_blas_thread
-from scara_ident_ros.identification import (DIFFERENTIATORS, LIMIT_NAMES, TRAINERS, CoreSettings,
-                                            ErrorWindow, LazyCore, OnlineIdentifier, ReservoirLM,
-                                            SkipReason, StepResult, check_warm_start,
-                                            load_joint_limits, make_differentiator)
+from scara_ident_ros.identification import (DIFFERENTIATOR_WINDOW, DIFFERENTIATORS, LIMIT_NAMES,
+                                            TRAINERS, CoreSettings, ErrorWindow, LazyCore,
+                                            OnlineIdentifier, ReservoirLM, SkipReason,
+                                            StepResult, check_warm_start, load_joint_limits,
+                                            make_differentiator)
 from scara_ident_ros.identification.background_lm import BackgroundLM, prestart
 from scara_ident_ros.identification.contact_detector import ContactDetector
-from scara_ident_ros.identification.error_window import ErrorStats
+from scara_ident_ros.identification.metrics import ErrorStats
 from scara_ident_ros.identification.joint_limits import JointLimits
 from scara_ident_ros.identification.lazy_core import ONLINE_METHODS, OnlineModel
 from scara_ident_ros.identification.sample_check import GAP_PERIODS
@@ -81,7 +82,7 @@ from scara_ident_ros.identification.health import (Deltas, Health, LossCounter,
 from scara_ident_ros.dynamics.hybrid_model import HybridModel
 from scara_ident_ros.dynamics.physical_model import PhysicalModel
 from scara_ident_ros.dynamics.urdf_limits import UrdfError
-from scara_ident_ros.methods import METHODS
+from scara_ident_ros.nn.presets import METHODS
 from scara_ident_ros.mse_layout import encode_mse
 from scara_ident_ros.nn import FeedForwardNet, ModelFormatError
 from scara_ident_ros.nodes.diagnostics import Diagnostics
@@ -195,8 +196,9 @@ PARAMETERS = (
               choices=DIFFERENTIATORS, fixed=ESTIMATE),
     ParamSpec('cutoff_hz', 50.0, 'Cut-off of the lowpass differentiator', 'Hz', min=0.1,
               fixed=ESTIMATE),
-    ParamSpec('window', 21, 'Samples of the centred (odd) and polynomial differentiators',
-              min=3, max=101, fixed=ESTIMATE),
+    ParamSpec('window', DIFFERENTIATOR_WINDOW,
+              'Samples of the centred (odd) and polynomial differentiators', min=3, max=101,
+              fixed=ESTIMATE),
     ParamSpec('limit_margin', 0.5, 'Refuse samples (out_of_limits) whose position leaves the '
               'joint range by more than this fraction of the range, or whose velocity or '
               'effort exceeds its limit by more than this fraction; negative: no check',
@@ -275,7 +277,7 @@ class Identification:
     node : Node
         The node that publishes.
     method : str
-        One of :data:`~scara_ident_ros.methods.METHODS`.
+        One of :data:`~scara_ident_ros.nn.presets.METHODS`.
     prefix : str
         Namespace of its outputs, relative to the node's ('' or ``'<method>/'``).
     limits : JointLimits

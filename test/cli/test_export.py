@@ -10,7 +10,7 @@ import pytest
 
 from scara_ident_ros.cli import main
 from scara_ident_ros.dynamics import ScaraParams
-from scara_ident_ros.methods import limit_scaling, make_network
+from scara_ident_ros.nn.presets import limit_scaling, make_network
 from scara_ident_ros.nn import FeedForwardNet
 from scara_ident_ros.nn import onnx_export
 

@@ -6,7 +6,7 @@ module. It runs in a ROS domain of its own and in a session of its own, so that 
 happens to the test (failure, timeout, Ctrl-C) the whole process group it started is
 stopped on the way out. The tests then read the recorded bag with the package's own
 reader and pair the identifiers' predictions with the joint states by stamp
-(:mod:`scara_ident_ros.offline.online_results`), independently of the counters the
+(:mod:`scara_ident_ros.paper.online_results`), independently of the counters the
 processes reported.
 """
 from __future__ import annotations
@@ -25,10 +25,10 @@ import numpy as np
 import pytest
 
 from scara_ident_ros.bag import JointStateSeries, read_joint_states
-from scara_ident_ros.methods import METHODS
-from scara_ident_ros.offline.online_results import (OnlinePredictions, read_identifier_mse,
-                                                    read_online_predictions, rolling_errors,
-                                                    torque_topic)
+from scara_ident_ros.nn.presets import METHODS
+from scara_ident_ros.paper.online_results import (OnlinePredictions, read_identifier_mse,
+                                                  read_online_predictions, rolling_errors,
+                                                  torque_topic)
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from ros_domains import claim_domain  # noqa: E402  (test/ is no package)

@@ -21,8 +21,8 @@ import numpy as np
 import pytest
 
 from scara_ident_ros.bag import read_joint_states
-from scara_ident_ros.methods import METHODS
-from scara_ident_ros.offline.online_results import torque_topic
+from scara_ident_ros.nn.presets import METHODS
+from scara_ident_ros.paper.online_results import torque_topic
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from ros_domains import claim_domain  # noqa: E402  (test/ is no package)

@@ -11,9 +11,11 @@ import pytest
 
 from scara_ident_ros.cli import main
 from scara_ident_ros.cli.tables import make_report
-from scara_ident_ros.offline.figures import figure_size_px
+from scara_ident_ros.identification.recording import load_recording
+from scara_ident_ros.identification.split import VALIDATION_FRACTION, block_split
+from scara_ident_ros.paper.figures import figure_size_px
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'offline'))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'bag'))
 from fake_bags import (synthetic_states, write_rosbag,  # noqa: E402  (not a package)
                        write_run_bag)
 
@@ -99,6 +101,14 @@ def test_offline_csv_has_every_seed_and_data_set(report: Path) -> None:
     assert {'mse_joint1', 'nmse_joint4'} <= set(rows[0])
 
 
+def test_tables_validates_on_the_blocks_train_validates_on(report: Path,
+                                                            run_bag: tuple[Path, object]) -> None:
+    rows = list(csv.DictReader((report.parent / 'table2_offline.csv').open()))
+    _, validation = block_split(load_recording(run_bag[0]).samples.data, VALIDATION_FRACTION)
+    assert {int(r['n_samples']) for r in rows if r['data'] == 'validation'} == {len(validation)}
+    assert 0 < len(validation) <= 1000  # one block of 1 s of the 3 s run
+
+
 def test_figures_are_pngs_of_the_expected_size(report: Path) -> None:
     out = report.parent
     for m in ('ffmw', 'ffw', 'ffs'):
@@ -132,7 +142,7 @@ def test_cli_with_a_held_out_run_and_two_joints(tmp_path: Path,
 
 
 def test_a_bag_without_online_topics_gives_the_offline_part(tmp_path: Path) -> None:
-    bag = write_rosbag(tmp_path / 'plain', synthetic_states(2, 1.0), storage='mcap')
+    bag = write_rosbag(tmp_path / 'plain', synthetic_states(2, 2.0), storage='mcap')
     report = make_report([bag], tmp_path / 'out', methods=['ffw'], **FAST)
     text = report.read_text(encoding='utf-8')
     assert 'No online predictions in the bag for FFW (`/ffw/identified_torque`)' in text
@@ -143,7 +153,7 @@ def test_a_bag_without_online_topics_gives_the_offline_part(tmp_path: Path) -> N
 
 
 def test_time_budget_keeps_whole_rounds_of_seeds(tmp_path: Path) -> None:
-    bag = write_rosbag(tmp_path / 'plain', synthetic_states(2, 1.0), storage='mcap')
+    bag = write_rosbag(tmp_path / 'plain', synthetic_states(2, 2.0), storage='mcap')
     options = {**FAST, 'seeds': 3, 'time_budget_s': 1e-6}
     report = make_report([bag], tmp_path / 'out', methods=['ffmw', 'ffs'], **options)
     text = report.read_text(encoding='utf-8')
@@ -167,6 +177,10 @@ def test_bad_inputs_give_one_line(run_bag: tuple[Path, object], tmp_path: Path,
     few = write_rosbag(tmp_path / 'few', synthetic_states(2, 0.005))
     _one_line(main(['tables', str(few), '--out', str(out)]), capsys.readouterr().err,
               r'few.*need at least 20')
+    # a run of one block of 1 s: too short for the validation split of train and tables
+    short = write_rosbag(tmp_path / 'short', synthetic_states(2, 1.0))
+    _one_line(main(['tables', str(short), '--out', str(out)]), capsys.readouterr().err,
+              r'short.*fill 1 block of 1 s.*--validation-block')
     # a held-out run without the analysed run's joints
     other = write_rosbag(tmp_path / 'other', synthetic_states(2, 0.5, prefix='axis'))
     _one_line(main(['tables', str(run_bag[0]), str(other), '--out', str(out), '--seeds', '1',
@@ -187,3 +201,13 @@ def test_help_explains(capsys: pytest.CaptureFixture[str]) -> None:
     text = capsys.readouterr().out
     for word in ('Table 2', 'Table 3', 'identified_torque', 'Time', '--time-budget'):
         assert word in text, word
+
+
+def test_run_skips_the_report_of_a_run_too_short_to_validate_on(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from scara_ident_ros.cli.run import _report
+
+    bag = write_rosbag(tmp_path / 'short', synthetic_states(2, 1.0))
+    _report(bag, tmp_path / 'report', ['ffs'], interrupted=False)
+    assert 'scara-ident run: no report: 0.999 s of samples fill 1 block' in capsys.readouterr().out
+    assert not (tmp_path / 'report').exists()

@@ -11,10 +11,10 @@ import pytest
 
 from scara_ident_ros.cli import main
 from scara_ident_ros.identification import OnlineIdentifier
-from scara_ident_ros.methods import METHODS
+from scara_ident_ros.nn.presets import METHODS
 from scara_ident_ros.nn import FeedForwardNet
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'offline'))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'bag'))
 from fake_bags import (States, synthetic_states,  # noqa: E402  (not a package)
                        write_bare_mcap, write_rosbag, write_run_bag)
 

@@ -12,7 +12,7 @@ from scara_ident_ros.dynamics.hybrid_model import HybridModel
 from scara_ident_ros.dynamics.physical_model import PhysicalModel
 from scara_ident_ros.nn import FeedForwardNet
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'offline'))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'bag'))
 from fake_bags import States, write_rosbag  # noqa: E402  (not a package)
 
 URDF = Path(__file__).resolve().parents[2] / 'urdf' / 'scara.urdf'

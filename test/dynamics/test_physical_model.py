@@ -17,7 +17,7 @@ from scara_ident_ros.dynamics.physical_model import PhysicalModel
 from scara_ident_ros.dynamics.recursive_least_squares import RecursiveLeastSquares
 from scara_ident_ros.dynamics.urdf_limits import UrdfError
 from scara_ident_ros.identification.rls_trainer import RecursiveLeastSquaresTrainer
-from scara_ident_ros.methods import make_network
+from scara_ident_ros.nn.presets import make_network
 from scara_ident_ros.nn import FeedForwardNet, ModelFormatError
 
 SCARA_URDF = Path(__file__).resolve().parents[2] / 'urdf' / 'scara.urdf'

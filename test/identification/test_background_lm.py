@@ -12,7 +12,7 @@ from numpy.typing import NDArray
 
 from scara_ident_ros.identification import make_trainer
 from scara_ident_ros.identification.background_lm import BACKLOG, BackgroundLM, LearnerSettings
-from scara_ident_ros.methods import make_network
+from scara_ident_ros.nn.presets import make_network
 from scara_ident_ros.nn import FeedForwardNet
 
 N_JOINTS = 2
@@ -147,10 +147,9 @@ def test_a_7_joint_arm_stream_keeps_up_with_the_learner_beside_it() -> None:
     lm trainer at its defaults: every sample is predicted and handed to the learner (none
     dropped), the learner updates the weights, and the message path takes less CPU than the
     stream's own duration (a loose bound: 1 ms a sample at 1 kHz)."""
-    from scara_ident_ros.experiments.datasets import simulate_record
-    from scara_ident_ros.identification import (Holdout, OnlineIdentifier,
-                                                make_differentiator)
-    from scara_ident_ros.methods import limit_scaling
+    from scara_ident_ros.paper.datasets import simulate_record
+    from scara_ident_ros.identification import Holdout, OnlineIdentifier, make_differentiator
+    from scara_ident_ros.nn.presets import limit_scaling
     from scara_ident_ros.sim.example_robots import example_robot
     from scara_ident_ros.sim.pinocchio_robot import PinocchioRobot
 

@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 
 from scara_ident_ros.dynamics import ScaraModel, ScaraParams
-from scara_ident_ros.experiments.contact import detect, evaluate, pulse_record, residuals_of
-from scara_ident_ros.experiments.learning_curves import noisy_config
+from scara_ident_ros.paper.contact import detect, evaluate, pulse_record, residuals_of
+from scara_ident_ros.paper.learning_curves import noisy_config
 from scara_ident_ros.identification import Holdout, OnlineIdentifier
 from scara_ident_ros.identification.contact_detector import (MAD_TO_SIGMA, ContactDetector,
                                                              robust_spread)

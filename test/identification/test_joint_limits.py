@@ -10,7 +10,7 @@ import pytest
 from scara_ident_ros.dynamics import ParamError, ScaraParams
 from scara_ident_ros.dynamics.urdf_limits import UrdfError
 from scara_ident_ros.identification import LIMIT_NAMES, JointLimits, LimitsError, load_joint_limits
-from scara_ident_ros.methods import limit_scaling
+from scara_ident_ros.nn.presets import limit_scaling
 
 ROOT = Path(__file__).resolve().parents[2]
 URDF = ROOT / 'urdf' / 'scara.urdf'

@@ -6,7 +6,7 @@ import pytest
 
 from scara_ident_ros.identification import (CoreSettings, JointLimits, LazyCore, SkipReason,
                                             Skipped, make_differentiator)
-from scara_ident_ros.methods import make_network
+from scara_ident_ros.nn.presets import make_network
 
 NAMES = ['a', 'b']
 LIMITS = JointLimits.of(NAMES, {

@@ -12,7 +12,7 @@ import pytest
 
 from scara_ident_ros.identification import (Holdout, OnlineIdentifier, ReservoirLM,
                                             SkipReason)
-from scara_ident_ros.methods import make_network
+from scara_ident_ros.nn.presets import make_network
 
 NAMES = ('joint1', 'joint2', 'joint3', 'joint4')
 T0 = 1_700_000_000_000_000_000  # ns

@@ -16,11 +16,11 @@ import pytest
 from numpy.typing import NDArray
 
 from scara_ident_ros.dynamics import ScaraParams
-from scara_ident_ros.experiments.datasets import dataset_from_record, simulate_record
-from scara_ident_ros.experiments.reference import fit_reference, predict_reference
+from scara_ident_ros.paper.datasets import dataset_from_record, simulate_record
+from scara_ident_ros.paper.reference import fit_reference, predict_reference
 from scara_ident_ros.identification import (Holdout, InputStage, JointMap, OnlineIdentifier,
                                             ReservoirLM)
-from scara_ident_ros.methods import limit_scaling, make_network
+from scara_ident_ros.nn.presets import limit_scaling, make_network
 from scara_ident_ros.sim import SimConfig, SimRecord
 
 PARAMS = ScaraParams()

@@ -4,15 +4,16 @@ from __future__ import annotations
 import numpy as np
 
 from scara_ident_ros.dynamics import ScaraParams
-from scara_ident_ros.experiments import simulate_dataset
+from scara_ident_ros.paper.datasets import simulate_dataset
 import pytest
 
 from scara_ident_ros.identification import trainer as trainer_module
+from scara_ident_ros.identification.metrics import effort_errors
 from scara_ident_ros.identification import (BackPropagation, Bounds, Holdout, OnlineIdentifier,
                                             Reservoir, ReservoirLM, SkipReason, make_trainer)
 import itertools
 
-from scara_ident_ros.methods import FRICTION_STEP_WIDTHS, limit_scaling, make_network
+from scara_ident_ros.nn.presets import FRICTION_STEP_WIDTHS, limit_scaling, make_network
 from scara_ident_ros.nn import FeedForwardNet
 from scara_ident_ros.blas_threads import single_blas_thread
 
@@ -225,7 +226,7 @@ def _bp_stream(learning_rate: float) -> tuple[BackPropagation, np.ndarray, np.nd
 
 
 def _last_nmse(predicted: np.ndarray, Y: np.ndarray) -> np.ndarray:
-    return np.mean((Y[-2000:] - predicted[-2000:]) ** 2, axis=0) / Y[-2000:].var(axis=0)
+    return effort_errors(Y[-2000:], predicted[-2000:]).nmse
 
 
 def test_bp_guard_keeps_a_too_large_learning_rate_from_exploding(

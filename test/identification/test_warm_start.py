@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from scara_ident_ros.identification import ModelMismatch, check_warm_start, model_joint_names
-from scara_ident_ros.methods import make_network
+from scara_ident_ros.nn.presets import make_network
 from scara_ident_ros.nn import FeedForwardNet
 
 NAMES = ['joint1', 'joint2']

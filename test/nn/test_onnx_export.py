@@ -17,7 +17,7 @@ import pytest
 from onnx import numpy_helper
 
 from scara_ident_ros.dynamics import ScaraParams
-from scara_ident_ros.methods import METHODS, limit_scaling, make_network
+from scara_ident_ros.nn.presets import METHODS, limit_scaling, make_network
 from scara_ident_ros.nn import FeedForwardNet
 from scara_ident_ros.nn.onnx_export import (INPUT_NAME, IR_VERSION, OPSET, OUTPUT_NAME,
                                             network_to_onnx, onnx_agreement,

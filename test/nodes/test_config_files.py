@@ -45,8 +45,9 @@ def typed(value: Any) -> Any:
     return (type(value).__name__, value)
 
 
-def test_the_simulator_node_is_found() -> None:
-    assert 'scara_sim' in NODES
+def test_every_node_is_found() -> None:
+    assert {'identifier', 'scara_sim', 'robot_sim', 'recorder', 'player',
+            'excitation'} <= set(NODES)
 
 
 @pytest.mark.parametrize('node', NODES)

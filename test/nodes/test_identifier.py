@@ -33,7 +33,7 @@ from std_msgs.msg import Float64MultiArray
 from scara_ident_ros.dynamics import ScaraParams
 from scara_ident_ros.identification import Holdout, InputStage, JointMap
 from scara_ident_ros.identification.sample_check import RESTART_SAMPLES
-from scara_ident_ros.methods import METHODS, limit_scaling, make_network
+from scara_ident_ros.nn.presets import METHODS, limit_scaling, make_network
 from scara_ident_ros.nn import FeedForwardNet
 from scara_ident_ros.nodes.identifier import PARAMETERS
 from scara_ident_ros.nodes.messages import NS_PER_S, ns_to_stamp, stamp_to_ns

@@ -21,7 +21,7 @@ from sensor_msgs.msg import JointState
 
 from scara_ident_ros.dynamics import ScaraParams
 from scara_ident_ros.identification import Holdout, InputStage, JointMap
-from scara_ident_ros.methods import limit_scaling, make_network
+from scara_ident_ros.nn.presets import limit_scaling, make_network
 from scara_ident_ros.nn import FeedForwardNet
 from scara_ident_ros.nodes.messages import NS_PER_S, ns_to_stamp, stamp_to_ns
 from scara_ident_ros.resources import config_path

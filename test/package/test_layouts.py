@@ -7,7 +7,7 @@ series name: ``/topic/field[index]`` in general, ``/topic/<joint name>/<field>``
 
 What the graph publishes is not copied here: the simulator and the three identifiers are
 built in-process as ``scara-ident run`` starts them (namespaces ``/<method>`` for every
-method of :data:`scara_ident_ros.methods.METHODS`, ``joint_states`` remapped to
+method of :data:`scara_ident_ros.nn.presets.METHODS`, ``joint_states`` remapped to
 ``/joint_states``). Their publishers give the topic names and message classes; the
 messages they publish on a few hundred simulated samples give the joint names, the array
 lengths and the labels of ``identification_mse``'s dimensions. Nothing is sent: each
@@ -37,7 +37,7 @@ import rclpy
 from rclpy.serialization import deserialize_message
 from rclpy.node import Node
 
-from scara_ident_ros.methods import METHODS
+from scara_ident_ros.nn.presets import METHODS
 from scara_ident_ros.nodes.identifier import IdentifierNode
 from scara_ident_ros.nodes.scara_sim import ScaraSimNode
 

@@ -1,0 +1,141 @@
+"""A saved model checked against a recording, evaluated, and its errors as a table.
+
+A model file holds a network, a physical model or a hybrid (its ``kind``,
+:mod:`scara_ident_ros.nn.model_file`); all three predict efforts from X = [q, q', q''].
+
+Public API::
+
+    ModelMismatch                                   one-line error (ValueError)
+    SavedModel                                      FeedForwardNet | PhysicalModel | HybridModel
+    load_model(path) -> SavedModel                  a model file of ours, for inverse dynamics
+    model_joint_names(model) -> tuple | None        ``metadata['joint_names']``, checked
+    model_method(model) -> str                      method key from metadata or activation
+    evaluate(model, X, Y) -> ErrorStats             per-joint MSE and NMSE
+    errors_markdown(names, results) -> str          joints as rows, data sets as columns
+"""
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Union
+
+import numpy as np
+import numpy.typing as npt
+
+from scara_ident_ros.identification.metrics import effort_errors
+from scara_ident_ros.paper.tables import format_value
+from scara_ident_ros.identification import ErrorStats
+from scara_ident_ros.dynamics.hybrid_model import KIND as HYBRID
+from scara_ident_ros.dynamics.hybrid_model import HybridModel
+from scara_ident_ros.dynamics.physical_model import KIND as PHYSICAL
+from scara_ident_ros.dynamics.physical_model import PhysicalModel
+from scara_ident_ros.dynamics.urdf_limits import UrdfError
+from scara_ident_ros.identification.warm_start import ModelMismatch, check_warm_start
+from scara_ident_ros.identification.warm_start import model_joint_names as network_joint_names
+from scara_ident_ros.nn.presets import METHODS
+from scara_ident_ros.nn import FeedForwardNet, ModelFormatError
+from scara_ident_ros.nn.model_file import read_model_file
+from scara_ident_ros.paper.figures import effort_unit
+
+__all__ = ['ModelMismatch', 'SavedModel', 'errors_markdown', 'evaluate', 'load_model',
+           'model_joint_names', 'model_method']
+
+#: What a model file holds.
+SavedModel = Union[FeedForwardNet, PhysicalModel, HybridModel]
+
+
+def load_model(path: Path) -> SavedModel:
+    """Read a model file of any kind (network, physical, hybrid) that maps [q, q', q''] to
+    efforts.
+
+    Raises
+    ------
+    ModelMismatch
+        If the file is missing, the path is a directory, the file is not a model of
+        ours (not a .npz archive, another format, corrupt), a network's sizes are not 3n
+        inputs for n outputs, or it records another number of joints
+        (:func:`~scara_ident_ros.identification.warm_start.check_warm_start`).
+    """
+    path = Path(path)
+    if path.is_dir():
+        raise ModelMismatch(f'{path}: is a directory, not a model file (.npz)')
+    if not path.exists():
+        raise ModelMismatch(f'{path}: no such model file')
+    if not path.is_file():
+        raise ModelMismatch(f'{path}: not a regular file, not a model file')
+    try:
+        kind = read_model_file(path).kind
+        model: SavedModel
+        if kind == PHYSICAL:
+            model = PhysicalModel.load(path)
+        elif kind == HYBRID:
+            model = HybridModel.load(path)
+        else:
+            model = FeedForwardNet.load(path)
+    except (ModelFormatError, UrdfError) as exc:
+        raise ModelMismatch(' '.join(str(exc).split())) from None
+    except (OSError, ValueError, KeyError, EOFError) as exc:
+        raise ModelMismatch(f'{path}: not a scara-ident model file '
+                            f'({type(exc).__name__}: {" ".join(str(exc).split())})') from None
+    if isinstance(model, FeedForwardNet):
+        check_warm_start(model, source=str(path))
+    return model
+
+
+def model_joint_names(model: SavedModel) -> tuple[str, ...] | None:
+    """The joints the model was trained for, in output order, or None if not recorded."""
+    if isinstance(model, FeedForwardNet):
+        return network_joint_names(model)
+    return model.joint_names
+
+
+def model_method(model: SavedModel) -> str:
+    """The method key: ``metadata['method']`` if recorded, else from the activation (or
+    the kind)."""
+    method = model.metadata.get('method')
+    if not isinstance(model, FeedForwardNet):
+        return str(method) if method is not None else (
+            PHYSICAL if isinstance(model, PhysicalModel) else HYBRID)
+    if method is not None and str(method) in METHODS:
+        return str(method)
+    for key, spec in METHODS.items():
+        if spec.activation == model.activation:
+            return key
+    return model.activation
+
+
+def evaluate(model: SavedModel, X: npt.ArrayLike, Y: npt.ArrayLike) -> ErrorStats:
+    """Per-joint MSE and NMSE of the model's predictions of Y (N, n) from X (N, 3n)."""
+    return effort_errors(Y, model.predict(np.asarray(X, dtype=np.float64)))
+
+
+def errors_markdown(names: Sequence[str], results: Mapping[str, ErrorStats]) -> str:
+    """A Markdown table: one row per joint (and their mean), MSE and NMSE per data set.
+
+    Parameters
+    ----------
+    names : sequence of str of length n
+        Joint names, in the order of the statistics.
+    results : mapping of str to ErrorStats
+        Data set name (e.g. ``'train'``) to its statistics.
+    """
+    header = ['joint']
+    for data, stats in results.items():
+        header += [f'{data} MSE', f'{data} NMSE']
+    rows = []
+    for j, name in enumerate(names):
+        unit = effort_unit(name, names)
+        cells = [f'{name} ({unit})']
+        for stats in results.values():
+            cells += [format_value(float(stats.mse[j])), format_value(float(stats.nmse[j]))]
+        rows.append(cells)
+    mean = ['mean']
+    for stats in results.values():
+        mean += [format_value(stats.mse_total), format_value(stats.nmse_total)]
+    rows.append(mean)
+    counts = ', '.join(f'{data}: {stats.count} samples' for data, stats in results.items())
+    lines = ['| ' + ' | '.join(header) + ' |', '|' + '|'.join('---' for _ in header) + '|']
+    lines += ['| ' + ' | '.join(cells) + ' |' for cells in rows]
+    units = ('MSE in (N·m)² or N² per joint (the mean mixes units); '
+             'NMSE = MSE / variance of the joint\'s effort.')
+    return '\n'.join(lines) + f'\n\n{counts}. {units}\n'

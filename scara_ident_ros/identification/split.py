@@ -1,0 +1,126 @@
+"""Training and validation samples from one recording: whole time blocks, spread over it.
+
+The one validation split of batch training: ``scara-ident train`` early-stops on it and
+``scara-ident tables`` (:mod:`scara_ident_ros.paper.retraining`) reports on it, with the
+same defaults. The online identifier holds out blocks of its stream as they come
+(:class:`~scara_ident_ros.identification.holdout.Holdout`).
+
+`block_split` cuts the recording into blocks of ``block_s`` seconds and validates on a
+seeded ``validation_fraction`` of them, one drawn from each stratum of about
+``1 / validation_fraction`` consecutive blocks, so the validation data visit every part of
+the recording, hence every excitation it holds.
+
+Why blocks and not single samples: neighbouring samples at 1 kHz are nearly identical, so a
+random per-sample split would validate on copies of the training data and early stopping
+would never see overfitting. Why not the last part of the recording: a
+recording of several excitations ends with another motion than the rest, so its validation
+error measures an extrapolation the training cannot improve, and early stopping fires
+while Levenberg–Marquardt is still adapting its damping.
+
+Public API::
+
+    block_index(stamp_ns, *, block_s, start_ns=None) -> ndarray (N,) of int64
+    block_split(data, validation_fraction, *, block_s=VALIDATION_BLOCK_S, seed=0)
+        -> (train, validation)
+"""
+from __future__ import annotations
+
+import numpy as np
+import numpy.typing as npt
+
+from scara_ident_ros.errors import ScaraIdentError
+from scara_ident_ros.identification.dataset import Dataset
+
+__all__ = ['SplitError', 'VALIDATION_BLOCK_S', 'VALIDATION_FRACTION', 'block_index',
+           'block_split']
+
+#: Defaults of ``scara-ident train`` and ``tables``: a fifth of the 1 s blocks validate.
+VALIDATION_FRACTION = 0.2
+VALIDATION_BLOCK_S = 1.0  # s, length of the validation time blocks
+
+
+class SplitError(ScaraIdentError, ValueError):
+    """The samples fill too few blocks for a validation split (one-line message)."""
+
+
+def block_index(stamp_ns: npt.ArrayLike, *, block_s: float,
+                start_ns: int | None = None) -> npt.NDArray[np.int64]:
+    """The time block of each sample: ``(stamp − start) // block``.
+
+    Parameters
+    ----------
+    stamp_ns : array_like of shape (N,)
+        Sample times (ns), not before ``start_ns``.
+    block_s : float
+        Block length (s), > 0; rounded to whole nanoseconds.
+    start_ns : int, optional
+        Start of block 0 (ns); default the first stamp.
+
+    Returns
+    -------
+    ndarray of shape (N,) of int64
+        Block numbers, 0 for the first ``block_s`` seconds.
+    """
+    stamps = np.asarray(stamp_ns, dtype=np.int64)
+    block_ns = round(block_s * 1e9)
+    if not block_ns > 0:
+        raise ValueError(f'block length must be positive, got {block_s} s')
+    if start_ns is None:
+        start_ns = int(stamps[0]) if stamps.shape[0] else 0
+    return (stamps - np.int64(start_ns)) // np.int64(block_ns)
+
+
+def block_split(data: Dataset, validation_fraction: float, *,
+                block_s: float = VALIDATION_BLOCK_S, seed: int = 0) -> tuple[Dataset, Dataset]:
+    """Split samples into training and validation blocks spread over the recording.
+
+    The samples are cut into blocks of ``block_s`` seconds from the first stamp; blocks
+    without samples (pauses in the recording) do not count. Of the K blocks with samples,
+    m = round(fraction·K) (at least 1, at most K − 1) validate: the K blocks are cut into
+    m strata of consecutive blocks, as equal as can be, and one block of each stratum,
+    drawn with ``seed``, validates. So m/K is within 1/K of the fraction, every stratum of
+    the recording has a validation block, and the split depends on nothing but the stamps,
+    the fraction, ``block_s`` and ``seed``.
+
+    Parameters
+    ----------
+    data : Dataset
+        Samples with increasing stamps.
+    validation_fraction : float
+        Fraction in [0, 1) of the blocks kept for validation; 0 gives no validation.
+    block_s : float
+        Block length (s), > 0.
+    seed : int
+        Seed of the draw of a block in each stratum.
+
+    Returns
+    -------
+    train, validation : Dataset
+        The samples of the training and of the validation blocks, each in time order, named
+        ``'train'`` and ``'validation'``; every sample is in exactly one of them.
+        ``validation`` is empty when the fraction is 0.
+
+    Raises
+    ------
+    ValueError
+        If the fraction is outside [0, 1) or ``block_s`` is not positive.
+    SplitError
+        If the fraction is positive but the samples fill fewer than 2 blocks.
+    """
+    if not 0.0 <= validation_fraction < 1.0:
+        raise ValueError(f'validation fraction must be in [0, 1), got {validation_fraction}')
+    blocks = block_index(data.stamp_ns, block_s=block_s)
+    if len(data) == 0 or validation_fraction == 0.0:
+        return data.take(slice(None), 'train'), data.take(slice(0, 0), 'validation')
+    present = np.unique(blocks)
+    k = int(present.shape[0])
+    if k < 2:
+        raise SplitError(f'{data.seconds:.3g} s of samples fill {k} block of {block_s:g} s; '
+                         'a validation split needs at least 2')
+    m = min(max(1, round(validation_fraction * k)), k - 1)
+    edges = (np.arange(m + 1) * k) // m  # strata [edges[i], edges[i + 1]), none empty
+    rng = np.random.default_rng(seed)
+    chosen = present[rng.integers(edges[:-1], edges[1:])]
+    mask = np.isin(blocks, chosen)
+    return data.take(~mask, 'train'), data.take(mask, 'validation')
+

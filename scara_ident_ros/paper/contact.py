@@ -1,0 +1,229 @@
+"""Contact detection measured offline: an identified model against a raw-effort threshold.
+
+The identifier's pipeline, without ROS: the SCARA tracks ``scara_sim``'s default excitation
+(``sequence``) with the simulator's sensor noise; an FFS network learns ``train_s`` seconds of
+it online as the node does (input stage with the zero-phase q'', the synchronous
+Levenberg-Marquardt reservoir trainer, 10 % held-out blocks); it is then frozen, and a
+:class:`~scara_ident_ros.identification.contact_detector.ContactDetector` takes its thresholds
+from the held-out residuals. On motions the model never learnt (other seeds):
+
+- a clean run (no contact) gives the false alarms: rising edges of "some joint in contact";
+- a run with external effort pulses (``amplitude`` of a random joint's effort limit, random
+  sign, ``pulse_s`` long, one every ``spacing_s`` on average) gives the detection rate and
+  the delay from a pulse's start to the first sample flagged on its joint, within the pulse
+  or ``tail_s`` after it. The delay is that of the sample's stamp; the node publishes it
+  ``lag`` samples later (the zero-phase q'').
+
+The baseline flags a joint when its raw measured ``|effort|`` exceeds a fixed threshold
+``c · max|effort_j|`` of the clean run, ``c`` the smallest that gives no more false alarms on
+the clean run than the model's detector: the same false-alarm rate, compared on detection.
+
+Public API::
+
+    ContactRun                         what one detector found (rates, delays)
+    train_model(params, *, seconds, seed, config) -> (net, residuals, nmse, lag)
+    pulse_record(params, *, seconds, seed, config, amplitude, pulse_s, spacing_s)
+        -> (record, pulses)            a simulated run with pulses (start index, joint, effort)
+    residuals_of(net, record, names) -> (index (K,), residual (K, n))
+    evaluate(flags_clean, flags_pulses, ...) -> ContactRun
+"""
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from scara_ident_ros.dynamics import ScaraParams
+from scara_ident_ros.identification import (Holdout, InputStage, JointMap, OnlineIdentifier,
+                                            make_differentiator, make_trainer)
+from scara_ident_ros.identification.contact_detector import ContactDetector
+from scara_ident_ros.identification.online_identifier import EffortModel
+from scara_ident_ros.identification.trainer import starts_with_friction_steps
+from scara_ident_ros.nn.presets import limit_scaling, make_network
+from scara_ident_ros.nn import FeedForwardNet
+from scara_ident_ros.sim import SimConfig, SimRecord, Simulator, make_trajectory
+
+__all__ = ['ContactRun', 'Pulse', 'alarm_events', 'baseline_flags', 'detect',
+           'evaluate', 'matched_baseline', 'pulse_record', 'residuals_of', 'train_model']
+
+FloatArray = npt.NDArray[np.float64]
+BoolArray = npt.NDArray[np.bool_]
+_LIMITS = ('position_min', 'position_max', 'velocity_max', 'acceleration_max', 'effort_max')
+
+
+@dataclass(frozen=True)
+class Pulse:
+    """One external effort pulse: from sample ``start`` for ``length`` samples, ``effort``
+    (N·m or N) on ``joint``."""
+
+    start: int
+    length: int
+    joint: int
+    effort: float
+
+
+@dataclass(frozen=True)
+class ContactRun:
+    """What one detector found.
+
+    Attributes
+    ----------
+    detected : int
+        Pulses flagged on their joint within the pulse or its tail.
+    pulses : int
+        Pulses sent.
+    delays_s : ndarray of shape (detected,)
+        From each detected pulse's start to the stamp of its first flagged sample (s).
+    false_alarms : int
+        Rising edges of "some joint flagged" on the clean run.
+    clean_s : float
+        Seconds of clean run.
+    """
+
+    detected: int
+    pulses: int
+    delays_s: FloatArray
+    false_alarms: int
+    clean_s: float
+
+    @property
+    def rate(self) -> float:
+        """Share of the pulses detected."""
+        return self.detected / self.pulses if self.pulses else float('nan')
+
+    @property
+    def false_alarms_per_10_min(self) -> float:
+        """False alarms per 600 s of clean run."""
+        return self.false_alarms * 600.0 / self.clean_s
+
+
+def train_model(params: ScaraParams, *, seconds: float, seed: int, config: SimConfig,
+                hidden: int = 40) -> tuple[FeedForwardNet, FloatArray, float, int]:
+    """An FFS network trained online on ``seconds`` of ``sequence`` stream, as the node does.
+
+    Returns the frozen network, its residuals on the held-out samples (K, 4) (N·m or N), its
+    validation NMSE (mean over joints) and the lag of its predictions (samples).
+    """
+    record = Simulator(params, make_trajectory('sequence', params, seed),
+                       config).simulate(round(seconds / config.dt))
+    net = make_network('ffs', 4, n_hidden=hidden, seed=seed,
+                       friction_steps=starts_with_friction_steps('lm', True))
+    net.set_scaling(*limit_scaling(*(params.array(name) for name in _LIMITS)))
+    ident = OnlineIdentifier(net, joint_names=params.joint_names,
+                             differentiator=make_differentiator('centred'),
+                             trainer=make_trainer('lm', net, seed=seed),
+                             holdout=Holdout(12, 4, block=500, seed=seed))
+    names = params.joint_names
+    for i in range(len(record)):
+        ident.process(int(record.stamp_ns[i]), names, record.q[i], record.qd[i],
+                      record.effort[i])
+    residuals = ident.held_out_residuals()
+    stats = ident.validation_stats()
+    if residuals is None or stats is None:
+        raise ValueError(f'{seconds} s of stream held out too few samples to score')
+    return net, residuals, float(stats.nmse_total), ident.lag
+
+
+def pulse_record(params: ScaraParams, *, seconds: float, seed: int, config: SimConfig,
+                 amplitude: float = 0.1, pulse_s: float = 0.1, spacing_s: float = 0.0
+                 ) -> tuple[SimRecord, list[Pulse]]:
+    """Simulate ``seconds`` of unseen ``sequence`` motion with external effort pulses.
+
+    Pulses of ``amplitude`` times a random joint's effort limit (random sign), ``pulse_s``
+    long, start at random times at least ``spacing_s`` apart (their average spacing is
+    ``spacing_s`` · 1.5); ``spacing_s`` 0: no pulses (a clean run).
+    """
+    sim = Simulator(params, make_trajectory('sequence', params, seed), config)
+    n = round(seconds / config.dt)
+    length = max(1, round(pulse_s / config.dt))
+    pulses: list[Pulse] = []
+    if spacing_s > 0:
+        rng = np.random.default_rng([seed, 7])
+        gap = round(spacing_s / config.dt)
+        start = gap // 2
+        limits = params.array('effort_max')
+        while start + length + gap // 2 < n:
+            joint = int(rng.integers(4))
+            effort = float(amplitude * limits[joint] * rng.choice((-1.0, 1.0)))
+            pulses.append(Pulse(start, length, joint, effort))
+            start += length + gap + int(rng.integers(gap))
+    external = np.zeros((n, 4))
+    for pulse in pulses:
+        external[pulse.start:pulse.start + pulse.length, pulse.joint] = pulse.effort
+    rows = []
+    current = None
+    for k in range(n):
+        row = external[k]
+        if current is None or not np.array_equal(row, current):
+            sim.apply_external(row)
+            current = row
+        rows.append(sim.advance())
+    stamps = np.array([row[0] for row in rows], dtype=np.int64)
+    columns = [np.array([row[i] for row in rows], dtype=float).reshape(n, 4)
+               for i in range(1, 5)]
+    return SimRecord(stamps, *columns), pulses
+
+
+def residuals_of(net: EffortModel, record: SimRecord, names: tuple[str, ...]
+                 ) -> tuple[npt.NDArray[np.int64], FloatArray, FloatArray]:
+    """The frozen model's τ_ext = measured − predicted on a record, through the input stage.
+
+    Returns the record's index of each predicted sample (K,), τ_ext (K, 4) and the measured
+    effort (K, 4).
+    """
+    stage = InputStage(JointMap(names, n_joints=4))
+    stamps, X, Y = stage.batch(record.stamp_ns, names, record.q, record.qd, record.effort)
+    index = np.searchsorted(record.stamp_ns, stamps)
+    return index, Y - net.predict(X), Y
+
+
+def detect(detector: ContactDetector, external: FloatArray) -> BoolArray:
+    """The detector's flags (K, n) sample by sample over τ_ext (K, n)."""
+    return np.array([detector.check(row) for row in external])
+
+
+def baseline_flags(effort: FloatArray, thresholds: FloatArray) -> BoolArray:
+    """A fixed threshold on the raw measured effort: |effort| (K, n) > thresholds (n,)."""
+    return np.abs(effort) > thresholds
+
+
+def alarm_events(flags: BoolArray) -> int:
+    """Rising edges of "some joint flagged" over flags (K, n)."""
+    some = np.any(flags, axis=1).astype(np.int8)
+    return int(some[0] + np.count_nonzero(np.diff(some) == 1)) if some.size else 0
+
+
+def evaluate(clean_flags: BoolArray, pulse_flags: BoolArray, pulse_index: npt.NDArray[np.int64],
+             pulses: list[Pulse], *, dt: float, clean_s: float, tail_s: float = 0.05
+             ) -> ContactRun:
+    """Detection rate and delays on the pulse run, false alarms on the clean run.
+
+    ``pulse_index`` is the record index of each row of ``pulse_flags``.
+    """
+    delays = []
+    tail = round(tail_s / dt)
+    for pulse in pulses:
+        rows = np.flatnonzero((pulse_index >= pulse.start)
+                              & (pulse_index < pulse.start + pulse.length + tail))
+        hits = rows[pulse_flags[rows, pulse.joint]]
+        if hits.size:
+            delays.append((pulse_index[hits[0]] - pulse.start) * dt)
+    return ContactRun(len(delays), len(pulses), np.array(delays), alarm_events(clean_flags),
+                      clean_s)
+
+
+def matched_baseline(clean_effort: FloatArray, allowed: int,
+                     check: Callable[[FloatArray], BoolArray] | None = None) -> FloatArray:
+    """Per-joint raw-effort thresholds ``c · max|effort_j|`` of the clean run, with the
+    smallest ``c`` (bisection) that gives at most ``allowed`` false alarms on it."""
+    peak = np.max(np.abs(clean_effort), axis=0)
+    lo, hi = 0.0, 1.0 + 1e-9  # at hi nothing on the clean run is over
+    for _ in range(40):
+        mid = 0.5 * (lo + hi)
+        if alarm_events(baseline_flags(clean_effort, mid * peak)) <= allowed:
+            hi = mid
+        else:
+            lo = mid
+    return np.asarray(hi * peak)

@@ -1,0 +1,94 @@
+"""Validation blocks spread over the recording: every sample once, whole blocks, seeded."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from scara_ident_ros.identification.dataset import Dataset
+from scara_ident_ros.identification.split import block_index, block_split
+
+START_NS = 1_700_000_000_000_000_000
+
+
+def _samples(seconds: float, *, rate_hz: float = 1000.0, pause_s: tuple[float, float] = (0, 0),
+             n: int = 2) -> Dataset:
+    """``seconds`` of samples at ``rate_hz``, none stamped within ``pause_s`` (start, end)."""
+    t = np.arange(round(seconds * rate_hz)) / rate_hz
+    t = t[(t < pause_s[0]) | (t >= pause_s[1])]
+    X = np.repeat(t[:, None], 3 * n, axis=1)  # the time in every column: easy to trace
+    return Dataset(START_NS + np.round(t * 1e9).astype(np.int64), X, X[:, :n].copy())
+
+
+def test_every_sample_once_in_time_order() -> None:
+    data = _samples(20.0)
+    train, val = block_split(data, 0.2)
+    assert len(train) + len(val) == len(data)
+    both = np.sort(np.concatenate([train.stamp_ns, val.stamp_ns]))
+    np.testing.assert_array_equal(both, data.stamp_ns)
+    assert np.all(np.diff(train.stamp_ns) > 0) and np.all(np.diff(val.stamp_ns) > 0)
+    np.testing.assert_allclose(val.X[:, 0], (val.stamp_ns - START_NS) * 1e-9)  # rows kept
+    assert (train.name, val.name) == ('train', 'validation')
+
+
+def test_validation_is_whole_blocks_one_per_stratum() -> None:
+    data = _samples(60.0)  # 60 blocks of 1 s, 1000 samples each
+    train, val = block_split(data, 0.2, block_s=1.0, seed=3)
+    blocks = block_index(val.stamp_ns, block_s=1.0, start_ns=START_NS)
+    chosen, counts = np.unique(blocks, return_counts=True)
+    assert chosen.tolist() == sorted(set(chosen.tolist())) and np.all(counts == 1000)  # whole
+    assert len(chosen) == 12  # 20 % of 60 blocks
+    np.testing.assert_array_equal(chosen // 5, np.arange(12))  # one in each 5 blocks
+    assert not np.isin(block_index(train.stamp_ns, block_s=1.0, start_ns=START_NS),
+                       chosen).any()
+    # spread over the whole recording, not its end (what time_split would give)
+    assert chosen[0] < 5 and chosen[-1] >= 55
+
+
+@pytest.mark.parametrize('fraction', [0.05, 0.1, 0.2, 0.3, 0.5, 0.9])
+@pytest.mark.parametrize('seconds', [2.5, 7.0, 33.3, 80.0])
+def test_fraction_is_kept_within_one_block(fraction: float, seconds: float) -> None:
+    data = _samples(seconds, rate_hz=200.0)
+    blocks = int(np.ceil(seconds))
+    _, val = block_split(data, fraction, block_s=1.0)
+    chosen = np.unique(block_index(val.stamp_ns, block_s=1.0, start_ns=START_NS))
+    assert 1 <= len(chosen) <= blocks - 1
+    assert abs(len(chosen) - fraction * blocks) <= 1
+    assert abs(len(val) - fraction * len(data)) <= 200  # one block of samples
+
+
+def test_block_length_is_an_option() -> None:
+    data = _samples(10.0)
+    _, val = block_split(data, 0.2, block_s=0.25)
+    chosen, counts = np.unique(block_index(val.stamp_ns, block_s=0.25, start_ns=START_NS),
+                               return_counts=True)
+    assert len(chosen) == 8 and np.all(counts == 250)
+
+
+def test_the_seed_draws_the_blocks() -> None:
+    data = _samples(40.0, rate_hz=100.0)
+    first = block_split(data, 0.25, seed=7)[1].stamp_ns
+    np.testing.assert_array_equal(block_split(data, 0.25, seed=7)[1].stamp_ns, first)
+    others = [block_split(data, 0.25, seed=seed)[1].stamp_ns for seed in range(5)]
+    assert len({tuple(stamps.tolist()) for stamps in others}) > 1
+
+
+def test_pauses_are_no_blocks() -> None:
+    data = _samples(20.0, pause_s=(5.0, 15.0))  # 10 s with samples, then 10 s without
+    _, val = block_split(data, 0.2)
+    chosen = np.unique(block_index(val.stamp_ns, block_s=1.0, start_ns=START_NS))
+    assert len(chosen) == 2 and len(val) == 2000  # 20 % of the 10 blocks that have samples
+    assert chosen[0] < 5 <= 15 <= chosen[1]  # one before the pause, one after
+
+
+def test_no_fraction_no_validation_and_bad_input() -> None:
+    data = _samples(3.0)
+    train, val = block_split(data, 0.0)
+    assert len(train) == len(data) and len(val) == 0 and val.X.shape == (0, 6)
+    empty = data.take(slice(0, 0))
+    assert [len(part) for part in block_split(empty, 0.2)] == [0, 0]
+    with pytest.raises(ValueError, match='validation fraction'):
+        block_split(data, 1.0)
+    with pytest.raises(ValueError, match='block length'):
+        block_split(data, 0.2, block_s=0.0)
+    with pytest.raises(ValueError, match=r'fill 1 block of 5 s; .* at least 2'):
+        block_split(data, 0.2, block_s=5.0)
