@@ -64,6 +64,7 @@ from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 from std_srvs.srv import Trigger
 
 from scara_ident_ros.blas_threads import single_blas_thread
+from scara_ident_ros.errors import ConfigError
 from scara_ident_ros.identification import (DIFFERENTIATORS, LIMIT_NAMES, TRAINERS, CoreSettings,
                                             ErrorWindow, LazyCore, OnlineIdentifier, ReservoirLM,
                                             SkipReason, StepResult, check_warm_start,
@@ -90,7 +91,7 @@ from scara_ident_ros.nodes.joint_state_cdr import (JointStateReader, JointStateT
 from scara_ident_ros.nodes.messages import joint_state
 from scara_ident_ros.nodes.parameters import ParamSpec, declare_parameters
 from scara_ident_ros.nodes.publisher_watch import PublisherWatch
-from scara_ident_ros.nodes.runtime import ConfigError, run_node
+from scara_ident_ros.nodes.runtime import run_node
 from scara_ident_ros.paths import unwritable_file
 from scara_ident_ros.topics import CONTACT, EXTERNAL_TORQUE, JOINT_STATES, MSE, TORQUE
 

@@ -16,8 +16,9 @@ import sys
 from typing import Any
 
 from scara_ident_ros.dynamics import ParamError, ScaraParams
+from scara_ident_ros.errors import ConfigError
 from scara_ident_ros.nodes.parameters import ParamSpec
-from scara_ident_ros.nodes.runtime import ConfigError, run_node
+from scara_ident_ros.nodes.runtime import run_node
 from scara_ident_ros.nodes.sim_node import (HISTORY, SIM_PARAMETERS, SimulatorNode,
                                             desired_motion, fixed_at_start, history_depth,
                                             sim_config)

@@ -153,7 +153,7 @@ class SimulatorNode(Node):
     -----
     A subclass implements :meth:`build`, which returns the simulator, the joint names on
     the wire and what is simulated (for the start-up log line); it raises
-    :class:`~scara_ident_ros.nodes.runtime.ConfigError` for bad parameters.
+    :class:`~scara_ident_ros.errors.ConfigError` for bad parameters.
     """
 
     def __init__(self, name: str, parameters: tuple[ParamSpec, ...]) -> None:
