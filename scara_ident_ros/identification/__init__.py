@@ -1,9 +1,9 @@
 """Online identification core: joint-state samples in, a-priori effort predictions out.
 
 Pure numpy, no rclpy: the ``identifier`` node converts messages and calls
-:meth:`OnlineIdentifier.process`. What it is built from is here too: the joint limits
-(:mod:`.joint_limits`), the checks of a warm start (:mod:`.warm_start`) and the build for the
-first valid sample's joints (:mod:`.lazy_core`).
+:meth:`OnlineIdentifier.process`. What it is built from is here too: the checks of a warm
+start (:mod:`.warm_start`) and the build for the first valid sample's joints
+(:mod:`.lazy_core`), from the joint limits of :mod:`scara_ident_ros.dynamics.joint_limits`.
 """
 from __future__ import annotations
 
@@ -13,8 +13,6 @@ from scara_ident_ros.identification.error_window import PAPER_WINDOW, ErrorStats
 from scara_ident_ros.identification.holdout import Holdout
 from scara_ident_ros.identification.input_stage import (DIFFERENTIATORS, AccelerationEstimate,
                                                         Input, InputStage, make_differentiator)
-from scara_ident_ros.identification.joint_limits import (LIMIT_NAMES, JointLimits, LimitsError,
-                                                         load_joint_limits)
 from scara_ident_ros.identification.joint_map import JointMap
 from scara_ident_ros.identification.lazy_core import CoreSettings, LazyCore, Skipped
 from scara_ident_ros.identification.online_identifier import (Counts, EffortModel,
@@ -31,9 +29,9 @@ from scara_ident_ros.identification.warm_start import (ModelMismatch, check_warm
 __all__ = [
     'AccelerationEstimate', 'BackPropagation', 'Bounds', 'CentredDifferentiator', 'CoreSettings',
     'Counts', 'DEFAULT_MAX_GAP_NS', 'DIFFERENTIATORS', 'Differentiator', 'EffortModel',
-    'ErrorStats', 'ErrorWindow', 'Holdout', 'Input', 'InputStage', 'JointLimits', 'JointMap',
-    'LIMIT_NAMES', 'LazyCore', 'LimitsError', 'METHODS', 'ModelMismatch', 'OnlineIdentifier',
+    'ErrorStats', 'ErrorWindow', 'Holdout', 'Input', 'InputStage', 'JointMap', 'LazyCore',
+    'METHODS', 'ModelMismatch', 'OnlineIdentifier',
     'PAPER_WINDOW', 'Reservoir', 'ReservoirLM', 'Sample', 'SampleCheck', 'SkipReason',
-    'Skipped', 'StepResult', 'TRAINERS', 'Trainer', 'check_warm_start', 'load_joint_limits',
+    'Skipped', 'StepResult', 'TRAINERS', 'Trainer', 'check_warm_start',
     'make_differentiator', 'make_trainer', 'model_joint_names',
 ]

@@ -38,7 +38,7 @@ While it runs: ``learn``, ``learning_rate``, ``momentum``, ``mse_window``, ``mse
 ``checkpoint_period``, ``lm_steps`` and ``lm_interval`` can be set (``ros2 param set``) and
 take effect at once; ``~/save_model`` and ``~/reset`` (``std_srvs/Trigger``) save the model
 now or start again from fresh weights; ``/diagnostics`` says once a second how it does
-(:mod:`scara_ident_ros.identification.health`).
+(:mod:`scara_ident_ros.nodes.health`).
 """
 from __future__ import annotations
 
@@ -64,20 +64,19 @@ from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 from std_srvs.srv import Trigger
 
 from scara_ident_ros.blas_threads import single_blas_thread
+from scara_ident_ros.dynamics.joint_limits import LIMIT_NAMES, JointLimits, load_joint_limits
 from scara_ident_ros.errors import ConfigError
-from scara_ident_ros.identification import (DIFFERENTIATORS, LIMIT_NAMES, TRAINERS, CoreSettings,
-                                            ErrorWindow, LazyCore, OnlineIdentifier, ReservoirLM,
-                                            SkipReason, StepResult, check_warm_start,
-                                            load_joint_limits, make_differentiator)
+from scara_ident_ros.identification import (DIFFERENTIATORS, TRAINERS, CoreSettings, ErrorWindow,
+                                            LazyCore, OnlineIdentifier, ReservoirLM, SkipReason,
+                                            StepResult, check_warm_start, make_differentiator)
 from scara_ident_ros.identification.background_lm import BackgroundLM, prestart
 from scara_ident_ros.identification.contact_detector import ContactDetector
 from scara_ident_ros.identification.error_window import ErrorStats
-from scara_ident_ros.identification.joint_limits import JointLimits
 from scara_ident_ros.identification.lazy_core import ONLINE_METHODS, OnlineModel
 from scara_ident_ros.identification.sample_check import GAP_PERIODS
 from scara_ident_ros.identification.stream_clock import (LagHistogram, PathDelays,
                                                          StreamClock)
-from scara_ident_ros.identification.health import (Deltas, Health, LossCounter,
+from scara_ident_ros.nodes.health import (Deltas, Health, LossCounter,
                                                    identifier_health)
 from scara_ident_ros.dynamics.hybrid_model import HybridModel
 from scara_ident_ros.dynamics.physical_model import PhysicalModel

@@ -41,7 +41,7 @@ from rclpy.signals import SignalHandlerOptions
 
 from scara_ident_ros.errors import ScaraIdentError
 from scara_ident_ros.nodes.parameters import ParamSpec
-from scara_ident_ros.rosenv import ensure_local_dds
+from scara_ident_ros.nodes.rosenv import ensure_local_dds
 
 __all__ = ['ClosingNode', 'DrainingNode', 'PacedNode', 'drain', 'help_text', 'run_node',
            'POLL_PERIOD']
