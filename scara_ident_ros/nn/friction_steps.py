@@ -11,18 +11,17 @@ import itertools
 import math
 import operator
 from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
-import numpy as np
-import numpy.typing as npt
-
-from scara_ident_ros.nn.activations import ActivationConstants
+if TYPE_CHECKING:
+    from scara_ident_ros.nn.network import FeedForwardNet
 
 __all__ = ['set_step_units']
 
 
-def set_step_units(Vt: npt.NDArray[np.float64], constants: ActivationConstants,
-                   inputs: Sequence[int], widths: Sequence[float]) -> None:
-    """Make hidden units steps of single inputs at 0, one per input and width, in place.
+def set_step_units(net: FeedForwardNet, inputs: Sequence[int], widths: Sequence[float]
+                   ) -> None:
+    """Start hidden units of ``net`` as steps of single inputs at 0, one per input and width.
 
     Unit ``u`` (0, 1, … in the order ``widths`` × ``inputs``) gets the net input
     z = 2·x_i / w of scaled input ``x_i`` alone (its other input weights 0, its bias ``b``),
@@ -33,10 +32,7 @@ def set_step_units(Vt: npt.NDArray[np.float64], constants: ActivationConstants,
 
     Parameters
     ----------
-    Vt : ndarray of shape (n_inputs + 1, n_hidden)
-        Input weights and, in the last row, hidden biases (`FeedForwardNet.unpack`).
-    constants : ActivationConstants
-        The network's (k, a, b).
+    net : FeedForwardNet
     inputs : sequence of int
         Input columns (e.g. the joint velocities, n..2n−1 of [q, q', q'']).
     widths : sequence of float
@@ -48,7 +44,8 @@ def set_step_units(Vt: npt.NDArray[np.float64], constants: ActivationConstants,
         If an input is out of range, a width is not positive and finite, or there are
         more steps than hidden units.
     """
-    n_in, n_hid = Vt.shape[0] - 1, Vt.shape[1]
+    n_in, n_hid = net.n_inputs, net.n_hidden
+    Vt = net.unpack(net.theta)[0]
     inputs = [operator.index(i) for i in inputs]
     widths = [float(w) for w in widths]
     if any(not 0 <= i < n_in for i in inputs):
@@ -61,5 +58,5 @@ def set_step_units(Vt: npt.NDArray[np.float64], constants: ActivationConstants,
     units = range(len(inputs) * len(widths))
     for unit, (width, column) in zip(units, itertools.product(widths, inputs)):
         Vt[:, unit] = 0.0
-        Vt[column, unit] = 2.0 * constants.a / width
-        Vt[n_in, unit] = constants.b
+        Vt[column, unit] = 2.0 * net.constants.a / width
+        Vt[n_in, unit] = net.constants.b

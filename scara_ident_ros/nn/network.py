@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import math
 import operator
-from collections.abc import Sequence
 from pathlib import Path
 from typing import Callable
 
@@ -35,7 +34,6 @@ from scara_ident_ros.nn.batch import predict_scaled
 from scara_ident_ros.nn.model_file import read_model, write_model
 from scara_ident_ros.nn.sample_step import HotScaling, build_sample_path
 from scara_ident_ros.nn.scaling import MinMaxScaling
-from scara_ident_ros.nn.training import Callback, FitHistory
 
 __all__ = ['FeedForwardNet']
 
@@ -269,13 +267,8 @@ class FeedForwardNet:
         self._Wt[:, :n_hid] = rng.uniform(-1.0, 1.0, (self._n_out, n_hid)) / math.sqrt(n_hid)
         self._Wt[:, n_hid] = 0.0
 
-    def set_step_units(self, inputs: Sequence[int], widths: Sequence[float]) -> None:
-        """Start hidden units as steps of single inputs at 0, one per input and width.
-
-        See `friction_steps.set_step_units`; inputs are input columns, widths half-widths
-        in scaled units.
-        """
-        friction_steps.set_step_units(self._Vt, self._constants, inputs, widths)
+    #: ``net.set_step_units(inputs, widths)``: hidden units that start as friction steps
+    set_step_units = friction_steps.set_step_units
 
     # ------------------------------------------------------------------------------ scaling
     def set_scaling(self, x_min: npt.ArrayLike, x_max: npt.ArrayLike,
@@ -380,18 +373,11 @@ class FeedForwardNet:
                                                  Callable[[FloatArray, FloatArray], FloatArray]]:
         return build_sample_path(
             self._form, self._constants.a, self._Vt, self._Wt, self._hot, theta=self._theta,
-            velocity=self._velocity, grad=(self._grad, *self.unpack(self._grad)),
+            velocity=self._velocity, grad=self._grad,
             learning_rate=self._learning_rate, momentum=self._momentum)
 
-    def fit(self, X: npt.ArrayLike, Y: npt.ArrayLike, *, algorithm: str = 'lm',
-            iterations: int = 315, goal: float = 0.0,
-            validation: tuple[npt.ArrayLike, npt.ArrayLike] | None = None,
-            max_fail: int = 6, min_iterations: int = 0,
-            callback: Callback | None = None) -> FitHistory:
-        """Train offline on a batch of samples: `fitting.fit` of this network."""
-        return fitting.fit(self, X, Y, algorithm=algorithm, iterations=iterations, goal=goal,
-                           validation=validation, max_fail=max_fail,
-                           min_iterations=min_iterations, callback=callback)
+    #: ``net.fit(X, Y, ...)``: offline training on a batch (`fitting.fit`)
+    fit = fitting.fit
 
     # ---------------------------------------------------------------------------- checking
     def check_inputs(self, x: FloatArray, name: str) -> FloatArray:

@@ -28,11 +28,8 @@ Step = Callable[[FloatArray, FloatArray], FloatArray]
 
 
 class HotScaling(NamedTuple):
-    """Scaling constants of the per-sample path, updated in place by `set_scaling`.
-
-    The inputs' gain and offset are multiplied by the activation's scale 1/(2a), so that
-    [x_scaled, 1]/(2a)·Vt is already the tanh argument's variable part.
-    """
+    """Scaling constants, updated in place by `FeedForwardNet.set_scaling`; the inputs'
+    gain and offset times 1/(2a), so that [x_scaled, 1]/(2a)·Vt is the tanh argument."""
 
     x_gain: FloatArray  # (n_inputs,)
     x_offset: FloatArray  # (n_inputs,)
@@ -43,26 +40,13 @@ class HotScaling(NamedTuple):
 
 def build_sample_path(form: TanhForm, a: float, Vt: FloatArray, Wt: FloatArray,
                       scaling: HotScaling, *, theta: FloatArray, velocity: FloatArray,
-                      grad: tuple[FloatArray, FloatArray, FloatArray], learning_rate: float,
+                      grad: FloatArray, learning_rate: float,
                       momentum: float) -> tuple[Predict, Step]:
     """Return ``predict_one(x)`` and ``step(x, y)`` for single physical samples.
 
-    Parameters
-    ----------
-    form : TanhForm
-        The hidden activation with its constants.
-    a : float
-        The activation constant a.
-    Vt : ndarray of shape (n_inputs + 1, n_hidden)
-        View of the input weights and hidden biases in ``theta``.
-    Wt : ndarray of shape (n_outputs, n_hidden + 1)
-        View of the output weights and biases in ``theta``.
-    scaling : HotScaling
-    theta, velocity : ndarray of shape (n_params,)
-        The packed weights and the momentum, updated in place by ``step``.
-    grad : (ndarray (n_params,), its Vt view, its Wt view)
-        Buffer of the step, packed like θ.
-    learning_rate, momentum : float
+    ``Vt`` (n_inputs + 1, n_hidden) and ``Wt`` (n_outputs, n_hidden + 1) are the views of
+    the packed weights ``theta`` (`FeedForwardNet.unpack`); ``theta``, ``velocity`` (the
+    momentum) and ``grad`` (the step's buffer), all (n_params,), are updated in place.
 
     Returns
     -------
@@ -96,7 +80,7 @@ def build_sample_path(form: TanhForm, a: float, Vt: FloatArray, Wt: FloatArray,
     back = np.empty(n_hid)
     g = np.empty(n_hid)
     dz = np.empty(n_hid)
-    grad_all, grad_V, grad_W = grad
+    grad_V, grad_W = grad[:Vt.size].reshape(Vt.shape), grad[Vt.size:].reshape(Wt.shape)
     lr = learning_rate
     multiply, add, subtract, dot, tanh = np.multiply, np.add, np.subtract, np.dot, np.tanh
     limit = math.inf
@@ -132,10 +116,10 @@ def build_sample_path(form: TanhForm, a: float, Vt: FloatArray, Wt: FloatArray,
             add(g, g_const, out=g)
         multiply(back, g, out=dz)
         multiply(xt_col, dz, out=grad_V)  # lr·[x, 1] ⊗ δ
-        if not dot(grad_all, grad_all) < limit:
+        if not dot(grad, grad) < limit:
             raise ValueError(f'sample gives a non-finite step (x={x}, y={y}); skipped')
         multiply(velocity, momentum, out=velocity)
-        add(velocity, grad_all, out=velocity)
+        add(velocity, grad, out=velocity)
         add(theta, velocity, out=theta)
         return error
 
