@@ -66,17 +66,9 @@ def _contact_settings(settings: Mapping[str, Any]) -> dict[str, Any]:
 
 
 class MethodRun:
-    """One method's model, online core, contact detector and figures in a session.
-
-    Parameters
-    ----------
-    method : str
-        One of ``lazy_core.ONLINE_METHODS``.
-    lazy : LazyCore
-        Its core, built once the joints are known.
-    contact : dict
-        ``sigma``, ``arm_nmse`` and ``min_samples`` of its :class:`ContactDetector`.
-    """
+    """One method (of ``lazy_core.ONLINE_METHODS``) in a session: its ``lazy`` core, a
+    contact detector of the ``contact`` settings (``sigma``, ``arm_nmse``, ``min_samples``),
+    its held-out score and lag figures."""
 
     def __init__(self, method: str, lazy: LazyCore, contact: dict[str, Any]) -> None:
         self.method = method
@@ -199,18 +191,9 @@ class MethodRun:
 class IdentificationSession:
     """The methods of one identifier, their warm starts and cores (module docstring).
 
-    Parameters
-    ----------
-    settings : mapping
-        The node's parameters by name; the session keeps it (parameters changed later are
-        read from it by :meth:`apply`).
-    log : callable, optional
-        ``log(text)`` for what is worth an info line (a warm start from save_path).
-
-    Raises
-    ------
-    ConfigError, LimitsError, UrdfError, ParamError
-        With one line naming the parameter at fault.
+    ``settings`` (the node's parameters by name) is kept: :meth:`apply` reads the values
+    changed later from it. ``log(text)`` takes what is worth an info line. Bad settings
+    raise ConfigError, LimitsError, UrdfError or ParamError, one line naming the parameter.
     """
 
     def __init__(self, settings: Mapping[str, Any], *,
@@ -377,23 +360,10 @@ class IdentificationSession:
                 effort: Any) -> tuple[list[list[StepResult]], list[Input], list[str]]:
         """Check and differentiate a sample once; predict and learn for each method.
 
-        Parameters
-        ----------
-        stamp_ns : int
-            The sample's stamp, ns.
-        names : sequence of str
-            Its joint names.
-        position, velocity, effort : array_like of shape (len(names),)
-            q (rad, m), q' (rad/s, m/s) and efforts (N·m, N); may be empty.
-
-        Returns
-        -------
-        results : list of list of StepResult
-            For each method (in order), the predictions now due.
-        inputs : list of Input
-            The samples the input stage let out (whose predictions these are).
-        warnings : list of str
-            Why the sample was skipped, if it was.
+        The sample: its stamp (ns), joint names, and q (rad, m), q' (rad/s, m/s) and
+        efforts (N·m, N) of shape (len(names),), each may be empty. Returns, for each method
+        in order, the predictions now due; the samples the input stage let out (whose
+        predictions these are); and why the sample was skipped, if it was.
         """
         if self.core is None:
             warnings = self._build_from(stamp_ns, names, position, velocity, effort)
@@ -436,15 +406,9 @@ class IdentificationSession:
         """Start again from fresh weights, the summaries of before (with the ``stream``
         figures of :meth:`summary`) kept in ``previous``.
 
-        Returns
-        -------
-        success : bool
-            False if there is no model yet.
-        message : str
-            What was reset, with each method's figures of before.
-        warning : str
-            '' or why the cores could not be built again (a warm start's joints without
-            limits: the next sample tries again).
+        Return success (False without a model yet), what was reset with each method's
+        figures of before, and '' or why the cores could not be built again (a warm start's
+        joints without limits: the next sample tries again).
         """
         names = self.names if self.core is not None else None
         if names is None and self.network is None:

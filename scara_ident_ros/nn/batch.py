@@ -34,23 +34,8 @@ class Layers(NamedTuple):
 
 def forward_scaled(net: FeedForwardNet, xs: FloatArray, theta: FloatArray | None = None, *,
                    derivative: bool = False) -> Layers:
-    """Batched forward pass in scaled units.
-
-    Parameters
-    ----------
-    net : FeedForwardNet
-    xs : ndarray of shape (n, n_inputs)
-        Scaled inputs.
-    theta : ndarray of shape (n_params,), optional
-        Weights to use instead of the network's.
-    derivative : bool
-        Also return g = dh/dp.
-
-    Returns
-    -------
-    Layers
-        h (n, n_hidden), g (n, n_hidden) or None, y (n, n_outputs).
-    """
+    """The `Layers` of scaled inputs ``xs`` (n, n_inputs); g = dh/dp only if
+    ``derivative``."""
     Vt, Wt = net.unpack(net.theta if theta is None else theta)
     n_in, n_hid = net.n_inputs, net.n_hidden
     p = xs @ Vt[:n_in]
@@ -82,25 +67,9 @@ def mse_scaled(net: FeedForwardNet, xs: FloatArray, ys: FloatArray,
 
 def loss_gradient(net: FeedForwardNet, xs: FloatArray, ys: FloatArray,
                   theta: FloatArray | None = None) -> tuple[float, FloatArray]:
-    """Back-propagation over a batch, in bounded blocks.
-
-    Parameters
-    ----------
-    net : FeedForwardNet
-    xs : ndarray of shape (n, n_inputs)
-        Scaled inputs.
-    ys : ndarray of shape (n, n_outputs)
-        Scaled targets.
-    theta : ndarray of shape (n_params,), optional
-        Weights to use instead of the network's.
-
-    Returns
-    -------
-    sse : float
-        Sum of squared scaled errors over samples and outputs.
-    gradient : ndarray of shape (n_params,)
-        Gradient of L = sse / (2n), the mean over samples of ½·Σ_j e_j².
-    """
+    """Back-propagation over scaled inputs ``xs`` (n, n_inputs) and targets ``ys``
+    (n, n_outputs): the sum of squared errors over samples and outputs, and the gradient
+    (n_params,) of L = sse / (2n), the mean over samples of ½·Σ_j e_j²."""
     theta = net.theta if theta is None else theta
     n_in, n_hid = net.n_inputs, net.n_hidden
     W = net.unpack(theta)[1][:, :n_hid]
@@ -124,20 +93,10 @@ def loss_gradient(net: FeedForwardNet, xs: FloatArray, ys: FloatArray,
 
 
 def jacobian(net: FeedForwardNet, X: npt.ArrayLike) -> FloatArray:
-    """Return the Jacobian of the scaled outputs with respect to the packed weights.
-
-    Parameters
-    ----------
-    net : FeedForwardNet
-    X : array_like of shape (n_samples, n_inputs)
-        Physical inputs.
-
-    Returns
-    -------
-    ndarray of shape (n_samples·n_outputs, n_params)
-        Row ``i·n_outputs + j`` is ∂y_scaled[i, j]/∂θ. Dense: for tests and comparisons;
-        Levenberg–Marquardt never forms it.
-    """
+    """The Jacobian (n_samples·n_outputs, n_params) of the scaled outputs with respect to
+    the packed weights at physical inputs ``X`` (n_samples, n_inputs): row
+    ``i·n_outputs + j`` is ∂y_scaled[i, j]/∂θ. Dense: for tests and comparisons;
+    Levenberg–Marquardt never forms it."""
     xs = net.x_scaling.transform(net.check_inputs(np.asarray(X, float), 'X'))
     n, n_hid, n_out = xs.shape[0], net.n_hidden, net.n_outputs
     n_hidden_params = (net.n_inputs + 1) * n_hid

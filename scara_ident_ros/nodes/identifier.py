@@ -238,17 +238,8 @@ CONTACT_QOS = QoSProfile(depth=1000, history=HistoryPolicy.KEEP_LAST,
 
 
 class Outputs:
-    """One method's publishers, and the messages its predictions are sent in.
-
-    Parameters
-    ----------
-    node : Node
-        The node that publishes.
-    run : MethodRun
-        The method's part of the session.
-    prefix : str
-        Namespace of its outputs, relative to the node's ('' or ``'<method>/'``).
-    """
+    """The publishers of a method (``run``) of ``node``, in namespace ``prefix`` relative to
+    the node's ('' or ``'<method>/'``), and the messages its predictions are sent in."""
 
     def __init__(self, node: Node, run: MethodRun, prefix: str) -> None:
         self.run = run
