@@ -49,7 +49,7 @@ test: $(STAMP)
 # a process; tests marked slow (such as the 40-60 s learning-curve comparison) are left to
 # make test, which runs everything. One BLAS thread by default: on a busy 2-core
 # machine OpenBLAS's thread pool made the LM tests 5-10 times slower (46 s instead of 18 s).
-CORE_TESTS := test/core test/dynamics test/nn test/identification test/sim test/paper \
+CORE_TESTS := test/dynamics test/nn test/identification test/sim test/paper \
 	test/excitation
 CORE_BLAS_THREADS ?= 1
 

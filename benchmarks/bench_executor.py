@@ -65,7 +65,7 @@ def publish(way: str, seconds: float) -> None:
     from sensor_msgs.msg import JointState
 
     from scara_ident_ros.nodes.messages import joint_state
-    from scara_ident_ros.pacer import DeadlinePacer
+    from scara_ident_ros.nodes.pacer import DeadlinePacer
 
     rclpy.init()
     node = rclpy.create_node('bench_executor')

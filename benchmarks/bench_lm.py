@@ -31,6 +31,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from scara_ident_ros.nn import FeedForwardNet  # noqa: E402
+from scara_ident_ros.nn.batch import jacobian, predict_scaled  # noqa: E402
 
 ACTIVATIONS = ('mslog', 'slog', 'sigmoid')
 
@@ -74,7 +75,7 @@ class ScipyRun:
 
     def residuals(self, theta: np.ndarray) -> np.ndarray:
         self.nfev += 1
-        r = (self.net.predict_scaled(self.xs, theta) - self.ys).ravel()
+        r = (predict_scaled(self.net, self.xs, theta) - self.ys).ravel()
         mse = float(r @ r) / r.size
         self.best = min(self.best, mse)
         elapsed = time.perf_counter() - self.start
@@ -88,7 +89,7 @@ class ScipyRun:
     def jacobian(self, theta: np.ndarray) -> np.ndarray:
         self.njev += 1
         self.net.set_params(theta)
-        return self.net.jacobian(self.x)  # the same analytic Jacobian LM uses, dense
+        return jacobian(self.net, self.x)  # the same analytic Jacobian LM uses, dense
 
     def run(self, theta0: np.ndarray) -> None:
         from scipy.optimize import least_squares

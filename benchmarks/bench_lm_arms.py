@@ -30,6 +30,7 @@ from scipy.linalg import cho_solve
 
 from scara_ident_ros.blas_threads import single_blas_thread
 from scara_ident_ros.nn.presets import make_network
+from scara_ident_ros.nn.batch import mse_scaled
 from scara_ident_ros.nn.levenberg_marquardt import normal_blocks
 
 STEPS_PER_S = 10.0  # the node's default: 2 lm steps every 200 samples at 1 kHz
@@ -65,7 +66,7 @@ def step_costs(n_joints: int, samples: int, *, repeats: int,
 
     solve = _median_s(plain, repeats)
     structured = _median_s(lambda: blocks.solve(1e-3), repeats)
-    trial = _median_s(lambda: net.mse_scaled(xs, ys), repeats)
+    trial = _median_s(lambda: mse_scaled(net, xs, ys), repeats)
     return n, assemble, solve, structured, trial
 
 

@@ -15,13 +15,14 @@ byte spans of the three float arrays: several times faster than rosbags'
 unlike rosbags it also accepts the slack bytes ``rclpy.serialization`` leaves at the
 end of a message with empty arrays.
 Big-endian messages (never produced by Fast DDS on x86/ARM) are left to rosbags.
+:func:`header_stamp_ns` reads the stamp of any message that starts with a std_msgs/Header.
 """
 from __future__ import annotations
 
 import struct
 from typing import NamedTuple
 
-__all__ = ['JointStateSpans', 'decode_names', 'split_joint_state']
+__all__ = ['JointStateSpans', 'decode_names', 'header_stamp_ns', 'split_joint_state']
 
 _UINT32 = struct.Struct('<I').unpack_from
 _STAMP = struct.Struct('<iI').unpack_from
@@ -50,6 +51,15 @@ class JointStateSpans(NamedTuple):
     position: tuple[int, int]
     velocity: tuple[int, int]
     effort: tuple[int, int]
+
+
+def header_stamp_ns(data: bytes) -> int | None:
+    """``header.stamp`` in ns of a serialized message that starts with a std_msgs/Header
+    (little-endian CDR, as every ROS 2 middleware writes it); None if too short."""
+    if len(data) < 12 or data[1] != _LITTLE_ENDIAN:
+        return None
+    sec, nanosec = _STAMP(data, _HEADER)
+    return sec * 1_000_000_000 + nanosec
 
 
 def split_joint_state(raw: bytes) -> JointStateSpans:

@@ -57,7 +57,7 @@ def build_parser(only: str | None = None) -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``scara-ident`` console script."""
-    from scara_ident_ros.rosenv import ensure_local_dds
+    from scara_ident_ros.nodes.rosenv import ensure_local_dds
 
     ensure_local_dds()
     argv = sys.argv[1:] if argv is None else list(argv)

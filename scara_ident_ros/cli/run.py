@@ -51,8 +51,9 @@ from scara_ident_ros.cli import CliError
 from scara_ident_ros.identification.trainer import TRAINERS
 from scara_ident_ros.nn.presets import METHODS
 from scara_ident_ros.paths import unwritable_dir
-from scara_ident_ros.process_graph import NodeProcess, ProcessGraph, StopSignals, publishers_on
-from scara_ident_ros.sim.trajectory import SEQUENCE, TRAJECTORIES
+from scara_ident_ros.cli.process_graph import (NodeProcess, ProcessGraph, StopSignals,
+                                           publishers_on)
+from scara_ident_ros.sim.registry import SEQUENCE, TRAJECTORIES
 from scara_ident_ros.topics import IDENTIFIER_OUTPUTS, JOINT_STATES, in_namespace, torque_topic
 
 __all__ = ['add_parser', 'run', 'bag_message_counts']

@@ -5,7 +5,7 @@ which ``robot_state_publisher`` holds as its ``robot_description`` parameter. Th
 reads them with the standard library's XML parser, for every revolute and prismatic joint,
 in document order, as the identifier uses them: per joint name, position range (rad or m),
 velocity limit (rad/s or m/s) and effort limit (N·m or N). URDF has no acceleration limit:
-:meth:`~scara_ident_ros.identification.joint_limits.JointLimits.from_urdf` adds those from
+:meth:`~scara_ident_ros.dynamics.joint_limits.JointLimits.from_urdf` adds those from
 elsewhere (a robot YAML, a parameter).
 
 Continuous joints (no position range) and joints without a ``<limit>`` cannot scale a

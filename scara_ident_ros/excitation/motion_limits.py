@@ -3,7 +3,7 @@
 A real robot's position, velocity and acceleration limits come from its URDF (file or
 ``robot_description``) with acceleration limits as the identifier takes them
 (``acceleration_max`` per joint name, or the robot YAML's; see
-:func:`~scara_ident_ros.identification.joint_limits.load_joint_limits`). The excitation keeps
+:func:`~scara_ident_ros.dynamics.joint_limits.load_joint_limits`). The excitation keeps
 ``position_margin`` of each joint's range clear at both ends and moves at most
 ``velocity_scale`` and ``acceleration_scale`` of the velocity and acceleration limits:
 :meth:`MotionLimits.with_margins`. :meth:`MotionLimits.violations` checks sampled motion
@@ -168,11 +168,11 @@ def load_motion_limits(*, urdf_file: str = '', robot_description: str = '',
         With one line saying what is missing: no URDF, a URDF that does not parse or has no
         limits for a joint (continuous, or no ``<limit>``), no acceleration limit.
     """
-    # imported here: the identification package pulls in the networks, which a dry run of
-    # the excitation does not need until it loads the limits
+    # imported here: the joint limits pull in the networks (their scaling), which a dry run
+    # of the excitation does not need until it loads the limits
+    from scara_ident_ros.dynamics.joint_limits import LimitsError, load_joint_limits
     from scara_ident_ros.dynamics.params import ParamError
     from scara_ident_ros.dynamics.urdf_limits import UrdfError
-    from scara_ident_ros.identification.joint_limits import LimitsError, load_joint_limits
 
     if not urdf_file and not robot_description:
         raise MotionLimitsError('no URDF: give urdf_file or robot_description (the arm\'s '

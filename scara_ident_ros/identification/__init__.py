@@ -1,11 +1,12 @@
 """Online identification core: joint-state samples in, a-priori effort predictions out.
 
 Pure numpy, no rclpy: the ``identifier`` node converts messages and calls
-:meth:`OnlineIdentifier.process`. What it is built from is here too: the joint limits
-(:mod:`.joint_limits`), the checks of a warm start (:mod:`.warm_start`) and the build for the
-first valid sample's joints (:mod:`.lazy_core`). Batch training takes its samples the same
-way: :mod:`.dataset` (samples through the same input stage), :mod:`.recording` (from a bag),
-:mod:`.split` (the validation split); :mod:`.metrics` is the one MSE and NMSE.
+:meth:`OnlineIdentifier.process`. What it is built from is here too: the checks of a warm
+start (:mod:`.warm_start`) and the build for the first valid sample's joints
+(:mod:`.lazy_core`), from the joint limits of :mod:`scara_ident_ros.dynamics.joint_limits`.
+Batch training takes its samples the same way: :mod:`.dataset` (samples through the same
+input stage), :mod:`.recording` (from a bag), :mod:`.split` (the validation split);
+:mod:`.metrics` is the one MSE and NMSE.
 """
 from __future__ import annotations
 
@@ -16,8 +17,6 @@ from scara_ident_ros.identification.differentiator import (DIFFERENTIATOR_WINDOW
 from scara_ident_ros.identification.error_window import PAPER_WINDOW, ErrorWindow
 from scara_ident_ros.identification.holdout import Holdout
 from scara_ident_ros.identification.input_stage import Input, InputStage
-from scara_ident_ros.identification.joint_limits import (LIMIT_NAMES, JointLimits, LimitsError,
-                                                         load_joint_limits)
 from scara_ident_ros.identification.joint_map import JointMap
 from scara_ident_ros.identification.metrics import ErrorStats, effort_errors
 from scara_ident_ros.identification.lazy_core import CoreSettings, LazyCore, Skipped
@@ -35,9 +34,9 @@ from scara_ident_ros.identification.warm_start import (ModelMismatch, check_warm
 __all__ = [
     'AccelerationEstimate', 'BackPropagation', 'Bounds', 'CentredDifferentiator', 'CoreSettings',
     'Counts', 'DEFAULT_MAX_GAP_NS', 'DIFFERENTIATORS', 'DIFFERENTIATOR_WINDOW', 'Differentiator',
-    'EffortModel', 'ErrorStats', 'ErrorWindow', 'Holdout', 'Input', 'InputStage', 'JointLimits',
-    'JointMap',    'LIMIT_NAMES', 'LazyCore', 'LimitsError', 'ModelMismatch', 'OnlineIdentifier',
+    'EffortModel', 'ErrorStats', 'ErrorWindow', 'Holdout', 'Input', 'InputStage', 'JointMap',
+    'LazyCore', 'ModelMismatch', 'OnlineIdentifier',
     'PAPER_WINDOW', 'Reservoir', 'ReservoirLM', 'Sample', 'SampleCheck', 'SkipReason',
     'Skipped', 'StepResult', 'TRAINERS', 'Trainer', 'check_warm_start', 'effort_errors',
-    'load_joint_limits', 'make_differentiator', 'make_trainer', 'model_joint_names',
+    'make_differentiator', 'make_trainer', 'model_joint_names',
 ]

@@ -14,16 +14,16 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from scara_ident_ros.dynamics.hybrid_model import HybridModel, start_at_zero
+from scara_ident_ros.dynamics.joint_limits import JointLimits
 from scara_ident_ros.dynamics.physical_model import PhysicalModel
 from scara_ident_ros.identification.background_lm import BackgroundLM
 from scara_ident_ros.identification.holdout import Holdout
 from scara_ident_ros.identification.hybrid_trainer import HybridTrainer
 from scara_ident_ros.identification.differentiator import AccelerationEstimate
 from scara_ident_ros.identification.input_stage import InputStage
-from scara_ident_ros.identification.joint_limits import JointLimits
 from scara_ident_ros.identification.joint_map import JointMap
 from scara_ident_ros.identification.online_identifier import Counts, OnlineIdentifier
-from scara_ident_ros.identification.sample_check import FloatArrayLike, SampleCheck
+from scara_ident_ros.identification.sample_check import FloatArrayLike, SampleCheck, joint_bounds
 from scara_ident_ros.identification.skip_reason import SkipReason
 from scara_ident_ros.identification.rls_trainer import RecursiveLeastSquaresTrainer
 from scara_ident_ros.identification.trainer import (Trainer, make_trainer,
@@ -156,7 +156,7 @@ class LazyCore:
         network.metadata['joint_names'] = np.array(names)
         network.metadata['method'] = np.array(settings.method)
         bounds = (None if self.limits.missing(names)
-                  else self.limits.select(names).bounds(settings.limit_margin))
+                  else joint_bounds(self.limits.select(names), settings.limit_margin))
         n = len(names)
         holdout = (Holdout(3 * n, n, fraction=settings.validation_fraction,
                            block=settings.validation_block, seed=settings.seed)

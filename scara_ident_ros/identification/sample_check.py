@@ -21,7 +21,7 @@ from __future__ import annotations
 
 from collections import deque
 from collections.abc import Sequence
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -29,8 +29,11 @@ from numpy.typing import NDArray
 from scara_ident_ros.identification.joint_map import JointMap
 from scara_ident_ros.identification.skip_reason import SkipReason
 
+if TYPE_CHECKING:
+    from scara_ident_ros.dynamics.joint_limits import JointLimits
+
 __all__ = ['Bounds', 'FloatArrayLike', 'Sample', 'SampleCheck', 'DEFAULT_MAX_GAP_NS',
-           'GAP_PERIODS', 'PERIOD_SAMPLES', 'RESTART_SAMPLES']
+           'GAP_PERIODS', 'PERIOD_SAMPLES', 'RESTART_SAMPLES', 'joint_bounds']
 
 FloatArrayLike = Sequence[float] | NDArray[np.float64]
 """A message array: a list, an ``array.array('d')`` (what rclpy gives) or an ndarray."""
@@ -98,6 +101,15 @@ class Bounds(NamedTuple):
         eff = np.abs(np.asarray(effort_max, float)) * (1.0 + margin)
         return cls(np.stack([np.asarray(position_min, float) - margin * span, -vel, -eff]),
                    np.stack([np.asarray(position_max, float) + margin * span, vel, eff]))
+
+
+def joint_bounds(limits: JointLimits, margin: float) -> Bounds | None:
+    """The values a sample may have, ``margin`` (a fraction) beyond ``limits``; None (no
+    check) if ``margin`` is negative."""
+    if margin < 0:
+        return None
+    return Bounds.from_limits(limits.position_min, limits.position_max, limits.velocity_max,
+                              limits.effort_max, margin=margin)
 
 
 class SampleCheck:

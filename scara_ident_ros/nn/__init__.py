@@ -7,8 +7,9 @@ from __future__ import annotations
 from scara_ident_ros.nn.activations import (ACTIVATIONS, DEFAULT_CONSTANTS, DERIVATIVES,
                                             ActivationConstants)
 from scara_ident_ros.nn.errors import ModelFormatError
+from scara_ident_ros.nn.fitting import ALGORITHMS, fit
 from scara_ident_ros.nn.model_file import FORMAT_VERSION
-from scara_ident_ros.nn.network import ALGORITHMS, FeedForwardNet
+from scara_ident_ros.nn.network import FeedForwardNet
 from scara_ident_ros.nn.scaling import MinMaxScaling
 from scara_ident_ros.nn.training import FitHistory
 
@@ -23,4 +24,5 @@ __all__ = [
     'FitHistory',
     'MinMaxScaling',
     'ModelFormatError',
+    'fit',
 ]

@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import numpy.typing as npt
 
+from scara_ident_ros.nn.batch import loss_gradient
 from scara_ident_ros.nn.training import STOP_DIVERGED, FitHistory, StopTraining
 
 if TYPE_CHECKING:
@@ -46,7 +47,7 @@ class GradientDescent:
 
     def start(self, history: FitHistory) -> float:
         """Return the training MSE at the current weights (and keep their gradient)."""
-        sse, self._gradient = self._net.loss_gradient(self._xs, self._ys)
+        sse, self._gradient = loss_gradient(self._net, self._xs, self._ys)
         return sse / self._size
 
     def step(self) -> float:
@@ -63,7 +64,7 @@ class GradientDescent:
         self._velocity -= net.learning_rate * self._gradient
         np.copyto(self._previous, theta)
         theta += self._velocity
-        sse, self._gradient = net.loss_gradient(self._xs, self._ys)
+        sse, self._gradient = loss_gradient(net, self._xs, self._ys)
         if not math.isfinite(sse):
             np.copyto(theta, self._previous)
             raise StopTraining(STOP_DIVERGED)

@@ -47,6 +47,7 @@ import numpy as np
 import numpy.typing as npt
 from scipy.linalg import cho_solve, solve_triangular
 
+from scara_ident_ros.nn.batch import forward_scaled, mse_scaled
 from scara_ident_ros.nn.training import STOP_MU_MAX, FitHistory, StopTraining
 
 if TYPE_CHECKING:
@@ -158,7 +159,7 @@ def normal_blocks(net: FeedForwardNet, xs: FloatArray, ys: FloatArray, *,
     for start in range(0, xs.shape[0], chunk):
         x_chunk = xs[start:start + chunk]
         n = x_chunk.shape[0]
-        layers = net.forward_scaled(x_chunk, derivative=True)
+        layers = forward_scaled(net, x_chunk, derivative=True)
         g = layers.g
         assert g is not None
         r = layers.y
@@ -282,7 +283,7 @@ class LevenbergMarquardt:
             Scaled targets.
         """
         self._xs, self._ys = xs, ys
-        self._sse = self._net.mse_scaled(xs, ys) * ys.size
+        self._sse = mse_scaled(self._net, xs, ys) * ys.size
         self._stale = True
         return self._sse / ys.size
 
@@ -308,7 +309,7 @@ class LevenbergMarquardt:
                 self.mu *= self._mu_increase
                 continue
             np.subtract(net.theta, delta, out=self._trial)
-            sse = net.mse_scaled(self._xs, self._ys, self._trial) * self._ys.size
+            sse = mse_scaled(net, self._xs, self._ys, self._trial) * self._ys.size
             if sse < self._sse:
                 np.copyto(net.theta, self._trial)
                 self._sse = sse

@@ -15,13 +15,10 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Callable, Protocol
+from typing import Callable, Protocol
 
 import numpy as np
 import numpy.typing as npt
-
-if TYPE_CHECKING:
-    from scara_ident_ros.nn.network import FeedForwardNet
 
 __all__ = [
     'STOP_CALLBACK',
@@ -34,6 +31,7 @@ __all__ = [
     'FitHistory',
     'StopTraining',
     'TrainingStep',
+    'Weights',
     'run_training',
 ]
 
@@ -100,6 +98,16 @@ class FitHistory:
         return self.mse[self.best_iteration]
 
 
+class Weights(Protocol):
+    """What `run_training` reads of a network: its packed weights, to keep the best."""
+
+    def get_params(self) -> FloatArray:
+        """Return a copy of the packed weights."""
+
+    def set_params(self, theta: npt.ArrayLike) -> None:
+        """Copy packed weights into the network."""
+
+
 class TrainingStep(Protocol):
     """One offline training algorithm, bound to a network and its scaled data."""
 
@@ -117,17 +125,16 @@ class TrainingStep(Protocol):
 Callback = Callable[[FitHistory], 'bool | None']
 
 
-def run_training(net: FeedForwardNet, algorithm: str, step: TrainingStep, *,
-                 iterations: int, goal: float,
-                 validation: tuple[FloatArray, FloatArray] | None,
+def run_training(net: Weights, algorithm: str, step: TrainingStep, *,
+                 iterations: int, goal: float, validation_mse: Callable[[], float] | None,
                  max_fail: int, callback: Callback | None,
                  min_iterations: int = 0) -> FitHistory:
     """Iterate ``step`` under the stop rules of the module docstring.
 
     Parameters
     ----------
-    net : FeedForwardNet
-        The network ``step`` trains; read for validation errors and best-weight restore.
+    net : Weights
+        The network ``step`` trains; its best weights are kept and restored.
     algorithm : str
         Name recorded in the history.
     step : TrainingStep
@@ -136,8 +143,8 @@ def run_training(net: FeedForwardNet, algorithm: str, step: TrainingStep, *,
         Iteration limit (>= 0).
     goal : float
         Stop as soon as the training MSE is <= goal.
-    validation : (X_scaled, Y_scaled) or None
-        Scaled validation inputs (n, n_inputs) and outputs (n, n_outputs).
+    validation_mse : callable or None
+        The network's validation MSE at its current weights, in scaled units.
     max_fail : int
         Consecutive validation failures that stop training.
     callback : callable or None
@@ -155,8 +162,8 @@ def run_training(net: FeedForwardNet, algorithm: str, step: TrainingStep, *,
     best_params: FloatArray | None = None
     best_val = math.inf
     fails = 0
-    if validation is not None:
-        history.val_mse = [net.mse_scaled(*validation)]
+    if validation_mse is not None:
+        history.val_mse = [validation_mse()]
         best_val = history.val_mse[0]
         best_params = net.get_params()
     reason = STOP_GOAL if history.mse[0] <= goal else ''
@@ -172,8 +179,8 @@ def run_training(net: FeedForwardNet, algorithm: str, step: TrainingStep, *,
             break
         history.iterations += 1
         history.mse.append(mse)
-        if validation is not None and history.val_mse is not None:
-            val = net.mse_scaled(*validation)
+        if validation_mse is not None and history.val_mse is not None:
+            val = validation_mse()
             history.val_mse.append(val)
             if val < best_val:
                 best_val, fails = val, 0
@@ -186,7 +193,7 @@ def run_training(net: FeedForwardNet, algorithm: str, step: TrainingStep, *,
         history.time.append(time.perf_counter() - start)
         if mse <= goal:
             reason = STOP_GOAL
-        elif validation is not None and fails >= max_fail:
+        elif validation_mse is not None and fails >= max_fail:
             reason = STOP_VALIDATION
         elif callback is not None and callback(history):
             reason = STOP_CALLBACK

@@ -1,4 +1,4 @@
-"""Publish a node's :class:`~scara_ident_ros.identification.health.Health` on ``/diagnostics``.
+"""Publish a node's :class:`~scara_ident_ros.nodes.health.Health` on ``/diagnostics``.
 
 One ``diagnostic_msgs/DiagnosticArray`` per :data:`PERIOD` with one ``DiagnosticStatus``
 named ``'<node fqn>: <what>'`` (e.g. ``'/ffmw/identifier: identification'``), as
@@ -13,7 +13,7 @@ from collections.abc import Callable
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.node import Node
 
-from scara_ident_ros.identification.health import Health
+from scara_ident_ros.nodes.health import Health
 from scara_ident_ros.topics import DIAGNOSTICS
 
 __all__ = ['PERIOD', 'Diagnostics', 'to_status']

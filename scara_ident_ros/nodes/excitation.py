@@ -38,11 +38,12 @@ from sensor_msgs.msg import JointState
 from std_srvs.srv import Trigger
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
+from scara_ident_ros.errors import ConfigError
 from scara_ident_ros.excitation import (Chunk, ExcitationPlan, MotionLimitsError,
                                         load_motion_limits, make_chunk)
 from scara_ident_ros.nodes.messages import NS_PER_S, ns_to_stamp
 from scara_ident_ros.nodes.parameters import ParamSpec, declare_parameters
-from scara_ident_ros.nodes.runtime import ConfigError, run_node
+from scara_ident_ros.nodes.runtime import run_node
 from scara_ident_ros.topics import JOINT_STATES, JOINT_TRAJECTORY
 
 __all__ = ['ExcitationNode', 'PARAMETERS', 'main']

@@ -11,7 +11,9 @@ paper's per-sample back-propagation). q'' is estimated zero-phase by default
 after its sample (10 ms at 1 kHz). A fraction of the samples (whole blocks) is never learnt:
 the model's error on them is the validation NMSE. All of that is
 :class:`~scara_ident_ros.identification.OnlineIdentifier`; this node converts messages,
-publishes, checkpoints and logs.
+publishes, checkpoints and logs, over an
+:class:`~scara_ident_ros.identification.session.IdentificationSession` (warm starts, the
+methods' cores, reset, summaries).
 
 With ``methods`` (e.g. ``[ffmw, ffw, ffs]``) one node serves several networks from one
 subscription: each sample is checked and differentiated once, each network predicts and
@@ -38,18 +40,16 @@ While it runs: ``learn``, ``learning_rate``, ``momentum``, ``mse_window``, ``mse
 ``checkpoint_period``, ``lm_steps`` and ``lm_interval`` can be set (``ros2 param set``) and
 take effect at once; ``~/save_model`` and ``~/reset`` (``std_srvs/Trigger``) save the model
 now or start again from fresh weights; ``/diagnostics`` says once a second how it does
-(:mod:`scara_ident_ros.identification.health`).
+(:mod:`scara_ident_ros.nodes.health`).
 """
 from __future__ import annotations
 
-import dataclasses
 import json
-import math
 import sys
 import time
+from collections.abc import Callable
 from functools import partial
 from pathlib import Path
-from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -64,34 +64,23 @@ from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 from std_srvs.srv import Trigger
 
 from scara_ident_ros.blas_threads import single_blas_thread
-from scara_ident_ros.identification import (DIFFERENTIATOR_WINDOW, DIFFERENTIATORS, LIMIT_NAMES,
-                                            TRAINERS, CoreSettings, ErrorWindow, LazyCore,
-                                            OnlineIdentifier, ReservoirLM, SkipReason,
-                                            StepResult, check_warm_start, load_joint_limits,
-                                            make_differentiator)
-from scara_ident_ros.identification.background_lm import BackgroundLM, prestart
-from scara_ident_ros.identification.contact_detector import ContactDetector
-from scara_ident_ros.identification.metrics import ErrorStats
-from scara_ident_ros.identification.joint_limits import JointLimits
-from scara_ident_ros.identification.lazy_core import ONLINE_METHODS, OnlineModel
+from scara_ident_ros.errors import ConfigError
+from scara_ident_ros.identification import (DIFFERENTIATOR_WINDOW, DIFFERENTIATORS, TRAINERS,
+                                            StepResult)
+from scara_ident_ros.identification.background_lm import prestart
+from scara_ident_ros.identification.lazy_core import ONLINE_METHODS
 from scara_ident_ros.identification.sample_check import GAP_PERIODS
-from scara_ident_ros.identification.stream_clock import (LagHistogram, PathDelays,
-                                                         StreamClock)
-from scara_ident_ros.identification.health import (Deltas, Health, LossCounter,
-                                                   identifier_health)
-from scara_ident_ros.dynamics.hybrid_model import HybridModel
-from scara_ident_ros.dynamics.physical_model import PhysicalModel
-from scara_ident_ros.dynamics.urdf_limits import UrdfError
-from scara_ident_ros.nn.presets import METHODS
+from scara_ident_ros.identification.session import IdentificationSession, MethodRun
+from scara_ident_ros.identification.stream_clock import PathDelays, StreamClock
 from scara_ident_ros.mse_layout import encode_mse
-from scara_ident_ros.nn import FeedForwardNet, ModelFormatError
 from scara_ident_ros.nodes.diagnostics import Diagnostics
+from scara_ident_ros.nodes.health import Deltas, Health, LossCounter, identifier_health
 from scara_ident_ros.nodes.joint_state_cdr import (JointStateReader, JointStateTemplate,
                                                    RawJointState)
 from scara_ident_ros.nodes.messages import joint_state
 from scara_ident_ros.nodes.parameters import ParamSpec, declare_parameters
 from scara_ident_ros.nodes.publisher_watch import PublisherWatch
-from scara_ident_ros.nodes.runtime import ConfigError, run_node
+from scara_ident_ros.nodes.runtime import run_node
 from scara_ident_ros.paths import unwritable_file
 from scara_ident_ros.topics import CONTACT, EXTERNAL_TORQUE, JOINT_STATES, MSE, TORQUE
 
@@ -245,56 +234,17 @@ PARAMETERS = (
               'every prediction; false: contact detection only (one message less per sample '
               'and method)', read_only=False),
 )
-#: Rejections that mean the message's joints are not the identifier's
-JOINT_SET_REASONS = (SkipReason.UNKNOWN_JOINT, SkipReason.MISSING_JOINT,
-                     SkipReason.DUPLICATE_JOINT, SkipReason.JOINT_COUNT)
-METHOD_FIELD = '{method}'  # stands for each method in a path parameter, with methods
-VALIDATION_PERIOD = 1.0  # s: the held-out score is recomputed at most this often per method
-
-
 #: contact messages are rare: a few seconds of them at 1 kHz
 CONTACT_QOS = QoSProfile(depth=1000, history=HistoryPolicy.KEEP_LAST,
                          reliability=ReliabilityPolicy.RELIABLE)
-CONTACT_PARAMETERS = {'contact_sigma', 'contact_arm_nmse', 'contact_min_samples'}
 
 
-def contact_settings(settings: dict[str, Any]) -> dict[str, Any]:
-    """The :class:`ContactDetector` settings of the node's parameters."""
-    return {'sigma': settings['contact_sigma'], 'arm_nmse': settings['contact_arm_nmse'],
-            'min_samples': settings['contact_min_samples']}
+class Outputs:
+    """The publishers of a method (``run``) of ``node``, in namespace ``prefix`` relative to
+    the node's ('' or ``'<method>/'``), and the messages its predictions are sent in."""
 
-
-def method_path(path: str, method: str) -> str:
-    """``path`` for ``method``: ``{method}`` in it replaced by the method's name."""
-    return path.replace(METHOD_FIELD, method)
-
-
-class Identification:
-    """One method's network, online core and outputs in an identifier node.
-
-    Parameters
-    ----------
-    node : Node
-        The node that publishes.
-    method : str
-        One of :data:`~scara_ident_ros.nn.presets.METHODS`.
-    prefix : str
-        Namespace of its outputs, relative to the node's ('' or ``'<method>/'``).
-    limits : JointLimits
-        Scale a fresh network.
-    network : FeedForwardNet, PhysicalModel or HybridModel, optional
-        A warm start.
-    urdf : (str, str)
-        The robot's URDF and where it comes from, for the physical models ('' without).
-    contact : dict
-        ``sigma``, ``arm_nmse`` and ``min_samples`` of its :class:`ContactDetector`.
-    """
-
-    def __init__(self, node: Node, method: str, prefix: str, limits: JointLimits,
-                 network: OnlineModel | None, urdf: tuple[str, str],
-                 contact: dict[str, Any]) -> None:
-        self.method = method
-        self.lazy = LazyCore(limits, network, urdf=urdf[0], urdf_source=urdf[1])
+    def __init__(self, node: Node, run: MethodRun, prefix: str) -> None:
+        self.run = run
         self.torque_publisher = node.create_publisher(JointState, prefix + TORQUE, STREAM_QOS)
         self.external_publisher = node.create_publisher(JointState, prefix + EXTERNAL_TORQUE,
                                                         STREAM_QOS)
@@ -309,64 +259,8 @@ class Identification:
             self.external_publisher.handle.publish_raw)
         self.template: JointStateTemplate | None = None  # the predictions' message
         self.external_template: JointStateTemplate | None = None  # the external torques'
-        self.contact_settings = dict(contact)
-        self.detector: ContactDetector | None = None  # once the joints are known
-        self.contacts = 0  # contact messages published
         self.send_external = True  # publish external_torque (parameter external_torque)
-        self.max_lag_ns = 0  # ns, since the last statistics line
-        self.worst_lag_ns = 0  # ns, since start
-        self.period_lag_ns = 0  # ns, largest since the last diagnostics report
-        self.lags = LagHistogram()  # every prediction's lag, for percentiles
         self.deltas = Deltas()
-        self.previous: list[dict[str, Any]] = []  # summaries from before each ~/reset
-        self._validation: ErrorStats | None = None
-        self._validated_at = -math.inf  # monotonic s
-
-    @property
-    def core(self) -> OnlineIdentifier | None:
-        """The online core, once the joints are known."""
-        return self.lazy.core
-
-    @property
-    def network(self) -> OnlineModel | None:
-        """The network: a warm start, or built with the core."""
-        return self.lazy.network
-
-    @property
-    def background(self) -> BackgroundLM | None:
-        """The trainer, if it learns beside the stream."""
-        trainer = self.core.trainer if self.core is not None else None
-        return trainer if isinstance(trainer, BackgroundLM) else None
-
-    def built(self, names: list[str]) -> None:
-        """The core is built for ``names``: make the messages predictions and external
-        torques are sent in, and a disarmed contact detector."""
-        self.template = JointStateTemplate(names)
-        self.external_template = JointStateTemplate(names)
-        self.detector = ContactDetector(len(names), **self.contact_settings)
-        self._validation, self._validated_at = None, -math.inf
-
-    def set_contact(self, **settings: Any) -> None:
-        """Change the contact detector's ``sigma``, ``arm_nmse`` or ``min_samples``; the
-        thresholds follow at the next validation."""
-        self.contact_settings.update(settings)
-        if self.detector is not None:
-            self.detector = ContactDetector(self.detector.n_joints, **self.contact_settings)
-            self._validated_at = -math.inf
-
-    def validation(self, *, fresh: bool = False) -> ErrorStats | None:
-        """The held-out score, recomputed at most every :data:`VALIDATION_PERIOD` s once
-        there is one (scoring the whole held-out set at the error topic's rate would load
-        the message path); until then, while there are few held-out samples, each time."""
-        now = time.monotonic()
-        stale = self._validation is None or now - self._validated_at >= VALIDATION_PERIOD
-        if self.core is not None and (fresh or stale):
-            self._validation, self._validated_at = self.core.validation_stats(), now
-            if self.detector is not None:  # thresholds of the current model
-                self.detector.calibrate(
-                    self.core.held_out_residuals(),
-                    None if self._validation is None else self._validation.nmse_total)
-        return self._validation
 
     def publish(self, results: list[StepResult], frame_id: str,
                 clock: StreamClock | None = None) -> None:
@@ -376,68 +270,47 @@ class Identification:
         ``clock``: record how late each prediction is (against the stream's clock); not
         for those let out on shutdown, whose lag is the time since the last sample.
         """
+        if not results:
+            return
         template, external = self.template, self.external_template
-        assert template is not None and external is not None  # built with the core
-        if template.frame_id != frame_id:
-            template = self.template = JointStateTemplate(template.names, frame_id)
-            external = self.external_template = JointStateTemplate(template.names, frame_id)
-        publish = self.send_torque
+        if template is None or template.frame_id != frame_id:
+            names = self.run.lazy.names
+            template = self.template = JointStateTemplate(names, frame_id)
+            external = self.external_template = JointStateTemplate(names, frame_id)
+        assert external is not None
+        publish, run = self.send_torque, self.run
         for result in results:
             if result.effort is None:
                 continue
             publish(template.fill(result.stamp_ns, result.effort))
             if result.measured is not None:
                 self.publish_external(result.stamp_ns, result.measured - result.effort,
-                                      external, send=self.send_external)
-            if clock is None:
-                continue
-            lag_ns = clock.lag_ns(result.stamp_ns, time.time_ns())
-            self.lags.add(lag_ns)
-            if lag_ns > self.period_lag_ns:
-                self.period_lag_ns = lag_ns
-            if lag_ns > self.max_lag_ns:
-                self.max_lag_ns = lag_ns
-                self.worst_lag_ns = max(self.worst_lag_ns, lag_ns)
+                                      external)
+            if clock is not None:
+                run.record_lag(clock.lag_ns(result.stamp_ns, time.time_ns()))
 
     def publish_external(self, stamp_ns: int, torque: NDArray[np.float64],
-                         template: JointStateTemplate, *, send: bool = True) -> None:
-        """Publish a sample's external torque (n,) (if ``send``) and, if some joints are
-        over their threshold, a contact message naming them."""
-        if send:
+                         template: JointStateTemplate) -> None:
+        """Publish a sample's external torque (n,) (unless switched off) and, if some joints
+        are over their threshold, a contact message naming them."""
+        if self.send_external:
             self.send_external_torque(template.fill(stamp_ns, torque))
-        assert self.detector is not None  # built with the core
-        over = self.detector.check(torque)
+        over = self.run.check_contact(torque)
         if over.any():
             names = [name for name, hit in zip(template.names, over) if hit]
             self.contact_publisher.publish(joint_state(stamp_ns, names, effort=torque[over],
                                                        frame_id=template.frame_id))
-            self.contacts += 1
 
-    def contact_health(self) -> tuple[bool, list[float] | None]:
-        """Whether contact detection is armed, and the thresholds (N·m or N) if known."""
-        detector = self.detector
-        if detector is None:
-            return False, None
-        thresholds = detector.thresholds
-        return detector.armed, None if thresholds is None else thresholds.tolist()
-
-    def publish_mse(self, names: list[str]) -> None:
+    def publish_mse(self) -> None:
         """Publish the windowed per-joint and overall MSE and NMSE."""
-        if self.core is None or self.core.errors.count == 0:
+        core = self.run.core
+        if core is None or core.errors.count == 0:
             return
-        dims, data = encode_mse(names, self.core.error_stats(), self.validation())
+        dims, data = encode_mse(self.run.lazy.names, core.error_stats(),
+                                self.run.validation())
         msg = Float64MultiArray(data=data)
         msg.layout.dim = [MultiArrayDimension(**dim._asdict()) for dim in dims]
         self.mse_publisher.publish(msg)
-
-    def learning(self) -> dict[str, Any]:
-        """How learning progresses: updates and their rate for a trainer beside the
-        stream."""
-        background = self.background
-        if background is None:
-            return {}
-        return {'updates': background.updates, 'updates_per_s': background.rate(),
-                'lm_steps_taken': background.steps, 'learn_dropped': background.dropped}
 
 
 class IdentifierNode(Node):
@@ -446,58 +319,23 @@ class IdentifierNode(Node):
     def __init__(self) -> None:
         super().__init__('identifier')
         self.settings = s = declare_parameters(self, PARAMETERS, on_change=self._apply)
-        self.limits = load_joint_limits(
-            joint_names=s['joint_names'], robot_config=s['robot_config'],
-            urdf_file=s['urdf_file'], robot_description=s['robot_description'],
-            explicit={key: s[key] for key in LIMIT_NAMES})
-        methods = list(s['methods']) or [s['method']]
-        self.urdf = self._urdf()
-        if len(set(methods)) != len(methods):
-            raise ConfigError(f'methods names a method twice: {methods}')
-        several = len(s['methods']) > 0
-        for key in ('save_path', 'stats_file', 'model_path'):
-            if several and s[key] and METHOD_FIELD not in s[key]:
-                raise ConfigError(f'{key} {s[key]}: with methods, the path needs '
-                                  f'{METHOD_FIELD} (one file per method)')
-        self.paths = {key: {m: method_path(s[key], m) for m in methods}
-                      for key in ('save_path', 'stats_file', 'model_path')}
+        self.session = session = IdentificationSession(s, log=self.get_logger().info)
         for key in ('save_path', 'stats_file'):
-            for path in self.paths[key].values():
+            for path in session.paths[key].values():
                 problem = unwritable_file(path) if path else ''
                 if problem:
                     raise ConfigError(f'{key} {path}: {problem}')
-        names = list(s['joint_names'])
         self.last_warning = 0.0
-        self.identifications: list[Identification] = []
-        for method in methods:
-            network = self._warm_start(method)
-            if network is not None:
-                source = self._model_source(method)
-                if isinstance(network, FeedForwardNet):
-                    names = check_warm_start(network, names, source=source, method=method)
-                elif names and list(network.joint_names) != names:
-                    raise ConfigError(f'cannot warm-start: {source} models the joints '
-                                      f'{list(network.joint_names)}, not joint_names {names}')
-                else:
-                    names = list(network.joint_names)
-                if source != self.paths['model_path'][method]:
-                    self.get_logger().info(f'{method}: continuing from the model at save_path '
-                                           f'{source}')
-            self.identifications.append(Identification(
-                self, method, f'{method}/' if several else '', self.limits, network,
-                self.urdf, contact_settings(s)))
-            self.identifications[-1].send_external = s['external_torque']
+        self.outputs = [Outputs(self, run, f'{run.method}/' if session.several else '')
+                        for run in session.runs]
+        for out in self.outputs:
+            out.send_external = s['external_torque']
         if s['trainer'] == 'lm' and s['lm_background']:
-            prestart(len(methods))  # their interpreters start now, not with the stream
-        # checked at startup (a bad window ends it in one line), used once the joints are known
-        self.differentiator = make_differentiator(s['differentiator'], window=s['window'],
-                                                  cutoff_hz=s['cutoff_hz'])
-        missing_limits = self._build(names) if names else ''
-        if missing_limits:
-            raise ConfigError(f'joint_names: {missing_limits}')
+            prestart(len(self.outputs))  # their interpreters start now, not with the stream
         self.frame_id = ''  # header.frame_id of the latest sample, given to its predictions
         self.reader = JointStateReader()
         self.subscription: Subscription | None = None
+        self.publisher_watch: PublisherWatch | None = None  # once subscribed
         self.mse_timer = self.create_timer(1.0 / s['mse_rate_hz'], self.publish_mse)
         self.create_timer(STATS_PERIOD, self.log_stats)
         self.checkpoint_timer: Timer | None = None
@@ -509,76 +347,39 @@ class IdentifierNode(Node):
         self.path = PathDelays()  # arrival to publication of each sample's predictions
         self.last_sample: float | None = None  # monotonic s of the latest sample
         self.diagnostics = [
-            Diagnostics(self, f'{ident.method} identification' if several
-                        else 'identification', partial(self.health, ident))
-            for ident in self.identifications]
+            Diagnostics(self, f'{out.run.method} identification' if session.several
+                        else 'identification', partial(self.health, out))
+            for out in self.outputs]
         self.create_service(Trigger, '~/save_model', self.on_save_model)
         self.create_service(Trigger, '~/reset', self.on_reset)
-        self.joints_text = str(names or '(from the first message)')
         if s['wait_for_subscribers'] > 0:
             self.wait_deadline = time.monotonic() + s['wait_timeout']
             self.wait_timer = self.create_timer(WAIT_POLL_PERIOD, self._subscribe_when_heard)
             self.get_logger().info(
                 f"waiting for {s['wait_for_subscribers']} subscriber(s) on " + ', '.join(
-                    f'{i.torque_publisher.topic_name} and {i.mse_publisher.topic_name}'
-                    for i in self.identifications))
+                    f'{o.torque_publisher.topic_name} and {o.mse_publisher.topic_name}'
+                    for o in self.outputs))
         else:
             self._subscribe()
 
-    @property
-    def first(self) -> Identification:
-        """The first (or only) method's identification."""
-        return self.identifications[0]
-
-    @property
-    def network(self) -> OnlineModel | None:
-        """The first method's network: a warm start, or built with the core."""
-        return self.first.network
-
-    @property
-    def core(self) -> OnlineIdentifier | None:
-        """The first method's online core, once the joints are known."""
-        return self.first.core
-
-    @property
-    def names(self) -> list[str]:
-        """The identified joints, once the cores are built."""
-        return self.first.lazy.names
-
-    def _model_source(self, method: str) -> str:
-        """Where ``method``'s warm start comes from: model_path, else a model at save_path
-        (a restart continues from what was learnt instead of replacing it), else ''."""
-        model_path = self.paths['model_path'][method]
-        save_path = self.paths['save_path'][method]
-        if not model_path and save_path and Path(save_path).exists():
-            return save_path
-        return model_path
-
-    def _warm_start(self, method: str) -> OnlineModel | None:
-        source = self._model_source(method)
-        if not source:
-            return None
-        return self._load(source, method)
-
     def _subscribe(self) -> None:
         """Subscribe ``joint_states``: from now on samples are processed."""
-        s = self.settings
         # raw: the message is split in place (joint_state_cdr), not built as objects
         self.subscription = self.create_subscription(
             JointState, JOINT_STATES, self.on_raw_joint_state, INPUT_QOS, raw=True)
         self.publisher_watch = PublisherWatch(self, self.subscription.topic_name)
-        outputs = ', '.join(i.torque_publisher.topic_name for i in self.identifications)
+        outputs = ', '.join(o.torque_publisher.topic_name for o in self.outputs)
         self.get_logger().info(
-            f"{'/'.join(i.method.upper() for i in self.identifications)} identifier on "
-            f'{self.subscription.topic_name} → {outputs}, joints {self.joints_text}, '
-            f"learning {'on' if s['learn'] else 'off'}")
+            f"{'/'.join(o.run.method.upper() for o in self.outputs)} identifier on "
+            f'{self.subscription.topic_name} → {outputs}, joints {self.session.joints_text}, '
+            f"learning {'on' if self.settings['learn'] else 'off'}")
 
     def _subscribe_when_heard(self) -> None:
         """Timer: subscribe once every output has ``wait_for_subscribers`` subscribers."""
         wanted = self.settings['wait_for_subscribers']
-        heard = min(min(i.torque_publisher.get_subscription_count(),
-                        i.mse_publisher.get_subscription_count())
-                    for i in self.identifications)
+        heard = min(min(o.torque_publisher.get_subscription_count(),
+                        o.mse_publisher.get_subscription_count())
+                    for o in self.outputs)
         if heard < wanted and time.monotonic() < self.wait_deadline:
             return
         if heard < wanted:
@@ -594,32 +395,9 @@ class IdentifierNode(Node):
         """Make parameters set while running take effect (they passed their checks)."""
         s = self.settings
         self.get_logger().info('set ' + ', '.join(f'{k} = {v!r}' for k, v in changed.items()))
-        for ident in self.identifications:
-            network, core = ident.network, ident.core
-            if isinstance(network, FeedForwardNet) and ident.method in METHODS:
-                method = METHODS[ident.method]
-                if 'learning_rate' in changed:
-                    network.learning_rate = s['learning_rate'] or method.learning_rate
-                if 'momentum' in changed:
-                    network.momentum = (s['momentum'] if s['momentum'] >= 0
-                                        else method.momentum)
-            if core is None:
-                continue
-            core.learn = s['learn']
-            core.stage.check.need_effort = s['learn']  # predict-only takes any sample
-            if 'mse_window' in changed:
-                core.errors = ErrorWindow(core.n_joints, s['mse_window'])
-            trainer = core.trainer
-            if isinstance(trainer, ReservoirLM):
-                trainer.interval = s['lm_interval']
-                trainer.steps_per_update = s['lm_steps']
-            elif isinstance(trainer, BackgroundLM) and {'lm_interval', 'lm_steps'} & set(changed):
-                trainer.set_schedule(interval=s['lm_interval'], steps=s['lm_steps'])
-        if CONTACT_PARAMETERS & set(changed):
-            for ident in self.identifications:
-                ident.set_contact(**contact_settings(s))
-        for ident in self.identifications:
-            ident.send_external = s['external_torque']
+        self.session.apply(changed)
+        for out in self.outputs:
+            out.send_external = s['external_torque']
         if 'mse_rate_hz' in changed:
             self.destroy_timer(self.mse_timer)
             self.mse_timer = self.create_timer(1.0 / s['mse_rate_hz'], self.publish_mse)
@@ -638,7 +416,7 @@ class IdentifierNode(Node):
     def on_save_model(self, request: Trigger.Request,
                       response: Trigger.Response) -> Trigger.Response:
         """Service ``~/save_model``: save to ``save_path`` now, or say why not."""
-        saved = [self.save_model(ident) for ident in self.identifications]
+        saved = [self.session.save(run) for run in self.session.runs]
         response.success = all(ok for ok, _ in saved)
         response.message = '; '.join(message for _, message in saved)
         self.get_logger().info(f'~/save_model: {response.message}')
@@ -651,105 +429,23 @@ class IdentifierNode(Node):
         The summary of before (counters, errors) is logged and kept in ``previous`` of the
         statistics; the samples whose prediction was pending are dropped.
         """
-        names = self.names if self.core is not None else None
-        if names is None and self.network is None:
-            response.success = False
-            response.message = 'nothing to reset: no model yet (no valid sample so far)'
-            return response
-        befores = []
-        for ident in self.identifications:
-            before = self.summary(ident)
-            before.pop('previous', None)  # each reset's own counters, one entry per reset
-            ident.previous.append(before)
-            befores.append(before)
-            ident.lazy.reset()
-        s = self.settings
-        self.differentiator = make_differentiator(s['differentiator'], window=s['window'],
-                                                  cutoff_hz=s['cutoff_hz'])
-        if names is not None and (why := self._build(names)):
-            self._warn(why)  # a warm start's joints without limits: the next sample tries
-        response.success = True
-        response.message = f"fresh weights (seed {s['seed']}); before the reset: " + '; '.join(
-            f"{before['method']}: processed {before['processed']}, learned "
-            f"{before.get('learned', 0)}, validation NMSE "
-            f"{before.get('validation_nmse_total')}" for before in befores)
-        self.get_logger().info(f'~/reset: {response.message}')
+        response.success, response.message, why = self.session.reset(stream=self.stream())
+        if why:
+            self._warn(why)
+        if response.success:
+            self.get_logger().info(f'~/reset: {response.message}')
         return response
 
-    def health(self, ident: Identification, period_s: float) -> Health:
+    def health(self, out: Outputs, period_s: float) -> Health:
         """A method's health over the last ``period_s`` s, for ``/diagnostics``."""
-        counts = ident.lazy.counts
-        skipped = sum(counts.skipped.values())
-        recent = ident.deltas(processed=counts.processed, skipped=skipped, lost=self.loss.lost)
-        error_finite, validation = True, None
-        core = ident.core
-        if core is not None:
-            if core.errors.count:
-                error_finite = bool(np.isfinite(core.error_stats().mse_total))
-            stats = ident.validation()
-            validation = float(stats.nmse_total) if stats is not None else None
-        lag_ns, ident.period_lag_ns = ident.period_lag_ns, 0
-        background = ident.background
-        armed, thresholds = ident.contact_health()
+        figures = self.session.health_figures(out.run)
+        recent = out.deltas(processed=figures['processed'], skipped=figures['skipped'],
+                            lost=self.loss.lost)
         return identifier_health(
-            period_s=period_s, processed=counts.processed, skipped=skipped,
-            since_sample_s=(None if self.last_sample is None
-                            else time.monotonic() - self.last_sample),
-            lost=self.loss.lost, learnt=counts.learned, recent_processed=int(recent['processed']),
-            recent_skipped=int(recent['skipped']), recent_lost=int(recent['lost']),
-            lag_s=lag_ns / 1e9 if lag_ns else None, error_finite=error_finite,
-            validation_nmse=validation, learning=self.settings['learn'],
-            update_rate=background.rate() if background is not None else None,
-            contact_armed=armed, contact_thresholds=thresholds,
-            contact_arm_nmse=self.settings['contact_arm_nmse'])
-
-    # ------------------------------------------------------------------ configuration
-    def _load(self, path: str, method: str) -> OnlineModel:
-        try:
-            network: OnlineModel = (PhysicalModel.load(path) if method == 'physical'
-                                    else HybridModel.load(path) if method == 'hybrid'
-                                    else FeedForwardNet.load(path))
-        except (ModelFormatError, UrdfError, OSError) as exc:
-            raise ConfigError(f'cannot warm-start: {exc}') from None
-        if not isinstance(network, FeedForwardNet):
-            return network
-        s = self.settings
-        if s['learning_rate'] > 0:
-            network.learning_rate = s['learning_rate']
-        if s['momentum'] >= 0:
-            network.momentum = s['momentum']
-        return network
-
-    def _urdf(self) -> tuple[str, str]:
-        """The robot's URDF (text) and its source, from robot_description or urdf_file."""
-        s = self.settings
-        if s['robot_description']:
-            return s['robot_description'], 'robot_description'
-        if s['urdf_file']:
-            try:
-                return Path(s['urdf_file']).read_text(encoding='utf-8'), s['urdf_file']
-            except (OSError, UnicodeDecodeError) as exc:
-                raise ConfigError(f"urdf_file {s['urdf_file']}: cannot read it: {exc}"
-                                  ) from None
-        return '', ''
-
-    def _core_settings(self, method: str) -> CoreSettings:
-        return dataclasses.replace(CoreSettings.of(self.settings), method=method)
-
-    def _build(self, names: list[str]) -> str:
-        """Build every method's core for ``names``, sharing one input stage (at start and
-        on ~/reset); return '' or why not (a joint without limits)."""
-        stage = None
-        for ident in self.identifications:
-            why = ident.lazy.build(names, self._core_settings(ident.method),
-                                   self.differentiator, stage=stage,
-                                   background=self.settings['lm_background'])
-            if why:
-                return why
-            assert ident.core is not None
-            stage = ident.core.stage
-            ident.built(names)
-        return ''
+            period_s=period_s, since_sample_s=(None if self.last_sample is None
+                                               else time.monotonic() - self.last_sample),
+            lost=self.loss.lost, recent_processed=int(recent['processed']),
+            recent_skipped=int(recent['skipped']), recent_lost=int(recent['lost']), **figures)
 
     # ------------------------------------------------------------------ per sample
     def on_raw_joint_state(self, raw: bytes) -> None:
@@ -766,64 +462,18 @@ class IdentifierNode(Node):
         stamp_ns, now_ns = msg.stamp_ns, time.time_ns()
         self.clock.arrived(stamp_ns, now_ns, restart=self.loss.observe(stamp_ns))
         self.path.arrived(stamp_ns, now_ns)
+        assert self.publisher_watch is not None  # subscribed
         self.publisher_watch.stamps.observe(stamp_ns)
-        core = self.core
-        if core is None:
-            if not self._build_from(msg, stamp_ns):
-                return
-            core = self.core
-            assert core is not None  # built by _build_from
-        self.frame_id = frame_id = msg.frame_id
-        reason, inputs = core.stage.push(stamp_ns, msg.names, msg.position, msg.velocity,
-                                         msg.effort)
-        for ident in self.identifications:
-            assert ident.core is not None
-            ident.publish(ident.core.take(stamp_ns, reason, inputs), frame_id, self.clock)
+        results, inputs, warnings = self.session.process(
+            stamp_ns, msg.names, msg.position, msg.velocity, msg.effort)
+        if self.session.core is not None:
+            self.frame_id = msg.frame_id
+        for out, method_results in zip(self.outputs, results):
+            out.publish(method_results, self.frame_id, self.clock)
         if inputs:
             self.path.out(inputs[0].stamp_ns, inputs[-1].stamp_ns, time.time_ns())
-        if reason is None or reason is SkipReason.WARMING_UP:
-            return
-        if reason in JOINT_SET_REASONS:
-            self._warn(f'skipped a sample ({reason.value}): it names joints '
-                       f'{list(msg.names)}, the identifier identifies {self.names} (set '
-                       'joint_names, or min_joints to wait for a message naming them all)')
-        else:
-            self._warn(f'skipped a sample ({reason.value}); '
-                       f'{sum(core.counts.skipped.values())} so far')
-
-    def _build_from(self, msg: RawJointState, stamp_ns: int) -> bool:
-        """Build for the joints of ``msg`` if it is valid; else count it as skipped."""
-        first = self.first.lazy
-        skipped = first.first(self._core_settings(self.first.method), self.differentiator,
-                              stamp_ns, msg.names, msg.position, msg.velocity, msg.effort,
-                              background=self.settings['lm_background'])
-        if skipped is None:
-            for ident in self.identifications[1:]:
-                ident.lazy.early = dataclasses.replace(first.early,
-                                                       skipped=dict(first.early.skipped))
-            why = self._build_others()
-            if why:
-                self._warn(why)
-                return False
-            self.first.built(self.names)
-            return True
-        if skipped.note:
-            self._warn(skipped.note)
-        self._warn(f'skipped a sample ({skipped.reason.value}) before the first valid one')
-        return False
-
-    def _build_others(self) -> str:
-        """After the first method's core, build the others on its input stage."""
-        core = self.core
-        assert core is not None
-        for ident in self.identifications[1:]:
-            why = ident.lazy.build(self.names, self._core_settings(ident.method),
-                                   self.differentiator, stage=core.stage,
-                                   background=self.settings['lm_background'])
-            if why:
-                return why
-            ident.built(self.names)
-        return ''
+        for text in warnings:
+            self._warn(text)
 
     def _warn(self, text: str) -> None:
         now = time.monotonic()
@@ -834,62 +484,36 @@ class IdentifierNode(Node):
     # ------------------------------------------------------------------ periodic
     def publish_mse(self) -> None:
         """Publish each method's windowed per-joint and overall MSE and NMSE."""
-        for ident in self.identifications:
-            ident.publish_mse(self.names)
+        for out in self.outputs:
+            out.publish_mse()
 
     def handled(self) -> int:
         """Samples taken from ``joint_states`` so far (a stop drains until it stays put)."""
-        return self.first.lazy.counts.processed
+        return self.session.processed()
 
-    def summary(self, ident: Identification | None = None, *,
-                fresh: bool = False) -> dict[str, Any]:
-        """A method's counters and errors so far (the first method's by default), as plain
-        data; ``fresh``: score the held-out samples now."""
-        ident = ident or self.first
-        method = ident.method
-        core = ident.core
-        if core is None:
-            early = ident.lazy.early
-            return {'method': method, 'processed': early.processed,
-                    'skipped': {reason.value: n for reason, n in early.skipped.items()
-                                if n}}
-        counts = core.counts
-        stats = core.error_stats()
-        validation = ident.validation(fresh=fresh)
+    def stream(self) -> dict[str, Any]:
+        """Figures of the ``joint_states`` stream: losses, pauses, delays, publishers."""
+        watch = self.publisher_watch
         return {
-            'method': method, 'trainer': self.settings['trainer'],
-            'joint_names': self.names,
-            'processed': counts.processed, 'predicted': counts.predicted,
-            'learned': counts.learned, 'held_out': counts.held_out, 'refused': counts.refused,
-            'clipped': counts.clipped, 'no_effort': counts.no_effort,
-            'pending': counts.pending,
-            'skipped': {reason.value: n for reason, n in counts.skipped.items() if n},
-            'mse': stats.mse.tolist(), 'nmse': stats.nmse.tolist(),
-            'mse_total': float(stats.mse_total), 'nmse_total': float(stats.nmse_total),
-            'validation_nmse': validation.nmse.tolist() if validation is not None else None,
-            'validation_nmse_total': (float(validation.nmse_total) if validation is not None
-                                      else None),
-            'contacts': ident.contacts, 'contact_thresholds': ident.contact_health()[1],
-            'max_lag_ms': ident.worst_lag_ns / 1e6, 'lag_p50_ms': ident.lags.percentile_ms(50),
-            'lag_p99_ms': ident.lags.percentile_ms(99), 'lost': self.loss.lost,
-            'pauses': self.loss.pauses, 'paused_s': self.loss.paused_s,
+            'lost': self.loss.lost, 'pauses': self.loss.pauses, 'paused_s': self.loss.paused_s,
             'path_delay_p50_ms': self.path.delays.percentile_ms(50),
             'path_delay_p99_ms': self.path.delays.percentile_ms(99),
             'wall_clock_stamps': self.clock.wall,
-            'joint_states_publishers': self.publisher_watch.most_publishers,
-            'stamps_backward': self.publisher_watch.stamps.backward,
-            **ident.learning(),
-            **({'previous': ident.previous} if ident.previous else {}),
-        }
+            'joint_states_publishers': watch.most_publishers if watch else 0,
+            'stamps_backward': watch.stamps.backward if watch else 0}
+
+    def summary(self, run: MethodRun | None = None, *, fresh: bool = False) -> dict[str, Any]:
+        """A method's counters and errors so far (the first method's by default), with the
+        stream's figures; ``fresh``: score the held-out samples now."""
+        return self.session.summary(run, fresh=fresh, stream=self.stream())
 
     def log_stats(self) -> None:
         """Log counters, skipped samples by reason, lag, learning and the windowed error."""
-        several = len(self.identifications) > 1
-        for ident in self.identifications:
-            info = self.summary(ident)
+        for run in self.session.runs:
+            info = self.session.summary(run)
             validation = info.get('validation_nmse_total')
-            who = f'{ident.method}: ' if several else ''
-            if info['processed'] and ident.core is None:
+            who = f'{run.method}: ' if self.session.several else ''
+            if info['processed'] and run.core is None:
                 self.get_logger().info(f"{who}processed {info['processed']}, no valid sample "
                                        f"yet: skipped {info['skipped']}")
             elif info['processed']:
@@ -905,38 +529,18 @@ class IdentifierNode(Node):
                 self.get_logger().info(
                     f"{who}processed {info['processed']}, learned {info['learned']}, held out "
                     f"{info['held_out']}{extra}, skipped {info['skipped'] or 0}, max lag "
-                    f"{ident.max_lag_ns / 1e6:.2f} ms, windowed MSE {info['mse_total']:.4g}, "
+                    f"{run.max_lag_ns / 1e6:.2f} ms, windowed MSE {info['mse_total']:.4g}, "
                     f"NMSE {info['nmse_total']:.4g}, validation NMSE "
-                    f"{math.nan if validation is None else validation:.4g}")
-            ident.max_lag_ns = 0
-
-    def save_model(self, ident: Identification | None = None) -> tuple[bool, str]:
-        """Save a method's model (the first's by default) to its ``save_path`` now
-        (atomically); return success and what happened.
-
-        The save is atomic, so a failed one leaves the previous file intact, and the network
-        in memory keeps learning.
-        """
-        ident = ident or self.first
-        path = self.paths['save_path'][ident.method]
-        if not path:
-            return False, 'no save_path: start the node with -p save_path:=<file>.npz'
-        if ident.network is None or ident.core is None:
-            return False, 'no model yet: no valid sample has fixed the joints'
-        try:
-            Path(path).parent.mkdir(parents=True, exist_ok=True)
-            ident.network.save(path)
-        except OSError as exc:
-            return False, f'saving to {path} failed: {exc}'
-        return True, f'saved to {path} after {ident.core.counts.learned} learned samples'
+                    f"{np.nan if validation is None else validation:.4g}")
+            run.max_lag_ns = 0
 
     def checkpoint(self) -> None:
         """Save each model to its ``save_path``, if there is one; a failure is logged."""
         if not self.settings['save_path']:
             return
-        for ident in self.identifications:
-            if ident.core is not None:
-                saved, message = self.save_model(ident)
+        for run in self.session.runs:
+            if run.core is not None:
+                saved, message = self.session.save(run)
                 if not saved:
                     self.get_logger().error(f'checkpoint: {message}')
 
@@ -948,27 +552,22 @@ class IdentifierNode(Node):
         ends: wait (at most :data:`FLUSH_TIMEOUT`) until the subscribers have acknowledged
         them, as the node is destroyed right after and would take them along.
         """
-        core = self.core
-        if core is not None:
-            inputs = core.stage.flush()
-            for ident in self.identifications:
-                assert ident.core is not None
-                results = ident.core.take(0, None, inputs, pushed=False)
-                ident.publish(results, self.frame_id)
-            if inputs:
-                for ident in self.identifications:
-                    for publisher in (ident.torque_publisher, ident.external_publisher,
-                                      ident.contact_publisher):
-                        publisher.wait_for_all_acked(Duration(seconds=FLUSH_TIMEOUT))
-        for ident in self.identifications:
-            ident.lazy.close()
+        results, inputs = self.session.flush()
+        for out, method_results in zip(self.outputs, results):
+            out.publish(method_results, self.frame_id)
+        if inputs:
+            for out in self.outputs:
+                for publisher in (out.torque_publisher, out.external_publisher,
+                                  out.contact_publisher):
+                    publisher.wait_for_all_acked(Duration(seconds=FLUSH_TIMEOUT))
+        self.session.close()
         self.checkpoint()
         self.log_stats()
-        for ident in self.identifications:
-            stats_file = self.paths['stats_file'][ident.method]
+        for run in self.session.runs:
+            stats_file = self.session.paths['stats_file'][run.method]
             if stats_file:
                 Path(stats_file).parent.mkdir(parents=True, exist_ok=True)
-                Path(stats_file).write_text(json.dumps(self.summary(ident, fresh=True),
+                Path(stats_file).write_text(json.dumps(self.summary(run, fresh=True),
                                                        indent=1))
 
 

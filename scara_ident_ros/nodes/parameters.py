@@ -3,7 +3,7 @@
 Each parameter gets a descriptor (description with its unit, numeric range,
 read-only flag) and is validated when declared (overrides from ``-p`` or a
 ``--params-file``) and whenever it is set later; a bad value raises
-:class:`~scara_ident_ros.nodes.runtime.ConfigError` naming the parameter, and a bad
+:class:`~scara_ident_ros.errors.ConfigError` naming the parameter, and a bad
 ``ros2 param set`` is refused with the same reason. Parameters declared with
 ``read_only=False`` can be set while the node runs: ``on_change`` of
 :func:`declare_parameters` is then called with the new values, to apply them; the
@@ -23,7 +23,7 @@ from rclpy.exceptions import ParameterException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
-from scara_ident_ros.nodes.runtime import ConfigError
+from scara_ident_ros.errors import ConfigError
 
 __all__ = ['ParamSpec', 'declare_parameters']
 

@@ -53,8 +53,9 @@ from scara_ident_ros.bag.playback import Scheduled, Timeline, parse_remaps, sche
 from scara_ident_ros.bag.qos import adapt_to_offers
 from scara_ident_ros.bag.reader import BagSource, open_bag
 from scara_ident_ros.bag.topic_filter import TopicFilter
+from scara_ident_ros.errors import ConfigError
 from scara_ident_ros.nodes.parameters import ParamSpec, declare_parameters
-from scara_ident_ros.nodes.runtime import POLL_PERIOD, ConfigError, run_node
+from scara_ident_ros.nodes.runtime import POLL_PERIOD, run_node
 from scara_ident_ros.resources import config_path
 from scara_ident_ros.topics import CLOCK
 

@@ -6,6 +6,11 @@ or records samples of two robots as one, and nothing said so. A :class:`Publishe
 looks every :data:`CHECK_PERIOD` at the topic's publisher count and at how often its
 stamps went back in time, and warns with one line naming what it found, again every
 :data:`REPEAT_PERIOD` while it lasts.
+
+One publisher's stamps only go forward (a restarted simulator or a looping player goes
+back once). Two publishers on one topic interleave two timelines, and the stream goes back
+in time about every other sample: :class:`StampOrder` counts the backward steps, and
+:data:`INTERLEAVED_STEPS` or more within one look mean a second publisher.
 """
 from __future__ import annotations
 
@@ -14,12 +19,37 @@ import time
 
 from rclpy.node import Node
 
-from scara_ident_ros.identification.stamp_order import INTERLEAVED_STEPS, StampOrder
-
-__all__ = ['CHECK_PERIOD', 'PublisherWatch']
+__all__ = ['CHECK_PERIOD', 'INTERLEAVED_STEPS', 'PublisherWatch', 'StampOrder']
 
 CHECK_PERIOD = 1.0  # s between two looks
 REPEAT_PERIOD = 10.0  # s between two warnings while a second publisher lasts
+INTERLEAVED_STEPS = 3  # backward steps within one look that mean interleaved publishers
+
+
+class StampOrder:
+    """Count the samples whose stamp is earlier than the one before.
+
+    Attributes
+    ----------
+    backward : int
+        Backward steps since the start.
+    """
+
+    def __init__(self) -> None:
+        self.backward = 0
+        self._last: int | None = None
+        self._seen = 0  # backward steps at the last look
+
+    def observe(self, stamp_ns: int) -> None:
+        """Take the stamp of the next sample, in ns."""
+        if self._last is not None and stamp_ns < self._last:
+            self.backward += 1
+        self._last = stamp_ns
+
+    def since_last_look(self) -> int:
+        """Backward steps since the previous call."""
+        steps, self._seen = self.backward - self._seen, self.backward
+        return steps
 
 
 class PublisherWatch:

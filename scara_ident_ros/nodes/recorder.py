@@ -33,7 +33,7 @@ after splits), written by :class:`~scara_ident_ros.bag.BagWriter`.
   current ``.mcap`` file and continues in the next one; ``~/pause`` stops writing (what
   arrives meanwhile is counted as ``paused``, not written) until ``~/resume``.
 - ``/diagnostics`` (1 Hz): write rate, written, received and paused messages; WARN while
-  paused (:mod:`scara_ident_ros.identification.health`).
+  paused (:mod:`scara_ident_ros.nodes.health`).
 """
 from __future__ import annotations
 
@@ -51,18 +51,19 @@ from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from std_srvs.srv import Trigger
 
+from scara_ident_ros.bag.cdr import header_stamp_ns
 from scara_ident_ros.bag.errors import BagError
 from scara_ident_ros.bag.message_class import message_class
 from scara_ident_ros.bag.qos import adapt_to_offers, qos_from_profile
 from scara_ident_ros.bag.topic_filter import TopicFilter
 from scara_ident_ros.bag.writer import BagWriter
-from scara_ident_ros.identification.health import (Deltas, Health, LossCounter,
+from scara_ident_ros.errors import ConfigError
+from scara_ident_ros.nodes.health import (Deltas, Health, LossCounter,
                                                     recorder_health)
-from scara_ident_ros.identification.stamp_order import header_stamp_ns
 from scara_ident_ros.nodes.diagnostics import Diagnostics
 from scara_ident_ros.nodes.parameters import ParamSpec, declare_parameters
 from scara_ident_ros.nodes.publisher_watch import PublisherWatch
-from scara_ident_ros.nodes.runtime import POLL_PERIOD, ConfigError, run_node
+from scara_ident_ros.nodes.runtime import POLL_PERIOD, run_node
 from scara_ident_ros.topics import IDENTIFIER_OUTPUTS, JOINT_STATES, in_namespace
 
 __all__ = ['DEFAULT_TOPICS', 'PARAMETERS', 'RecorderNode', 'default_output', 'main']

@@ -21,8 +21,9 @@ import numpy as np
 
 from scara_ident_ros.dynamics import ParamError
 from scara_ident_ros.dynamics.urdf_limits import UrdfError
+from scara_ident_ros.errors import ConfigError
 from scara_ident_ros.nodes.parameters import ParamSpec
-from scara_ident_ros.nodes.runtime import ConfigError, run_node
+from scara_ident_ros.nodes.runtime import run_node
 from scara_ident_ros.nodes.sim_node import (SIM_PARAMETERS, SimulatorNode, desired_motion,
                                             fixed_at_start, sim_config)
 from scara_ident_ros.sim import Simulator

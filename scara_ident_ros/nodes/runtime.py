@@ -15,9 +15,11 @@ traceback. A stop that takes longer than :data:`STOP_TIMEOUT` (a hang in a drain
 or DDS) ends the process anyway, with exit status 1 and every thread's traceback on
 stderr: a node must not outlive the run that started it (``scara-ident run`` SIGTERMs its
 nodes when it dies), where it would go on publishing into the next graph on the domain.
-A :class:`ConfigError` (or any :class:`~scara_ident_ros.errors.ScaraIdentError`, such as a
-``BagError``) raised while the node is built ends the process with one line naming the
-problem and exit status 2.
+A :class:`~scara_ident_ros.errors.ConfigError` (or any other
+:class:`~scara_ident_ros.errors.ScaraIdentError`, such as a ``BagError``) raised while the
+node is built ends the process with one line naming the problem and exit status 2. The
+optional hooks a node may have are named by the protocols `PacedNode`, `DrainingNode` and
+`ClosingNode`.
 """
 from __future__ import annotations
 
@@ -28,22 +30,21 @@ import threading
 import time
 from collections.abc import Callable, Sequence
 from types import FrameType
-from typing import TYPE_CHECKING, Protocol
+from typing import Protocol, runtime_checkable
 
 import rclpy
 from rclpy.exceptions import ParameterException
-from rclpy.executors import ExternalShutdownException
+from rclpy.executors import Executor, ExternalShutdownException
 from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 
 from scara_ident_ros.errors import ScaraIdentError
-from scara_ident_ros.rosenv import ensure_local_dds
+from scara_ident_ros.nodes.parameters import ParamSpec
+from scara_ident_ros.nodes.rosenv import ensure_local_dds
 
-if TYPE_CHECKING:  # parameters imports ConfigError from here
-    from scara_ident_ros.nodes.parameters import ParamSpec
-
-__all__ = ['ConfigError', 'drain', 'help_text', 'run_node', 'POLL_PERIOD']
+__all__ = ['ClosingNode', 'DrainingNode', 'PacedNode', 'drain', 'help_text', 'run_node',
+           'POLL_PERIOD']
 
 POLL_PERIOD = 0.1  # seconds: the longest a stop request waits to be seen
 DRAIN_TIMEOUT = 10.0  # seconds a stopping node may spend on the messages already queued
@@ -53,8 +54,29 @@ DRAIN_QUIET = 0.05  # seconds without a new message that end the drain
 STOP_TIMEOUT = 45.0
 
 
-class ConfigError(ScaraIdentError):
-    """A bad parameter or configuration file: reported as one line, exit status 2."""
+@runtime_checkable
+class PacedNode(Protocol):
+    """A node that paces itself (scara_sim, player, recorder): `run_node` calls its loop
+    instead of spinning."""
+
+    def loop(self, executor: Executor, stop: threading.Event) -> None:
+        """Spin ``executor`` and do the node's work until ``stop`` is set."""
+
+
+@runtime_checkable
+class DrainingNode(Protocol):
+    """A node whose queued messages are taken on stop (`drain`) before it closes."""
+
+    def handled(self) -> int:
+        """Messages taken so far."""
+
+
+@runtime_checkable
+class ClosingNode(Protocol):
+    """A node with outputs to finish (flush files, save models) before it is destroyed."""
+
+    def close(self) -> None:
+        """Finish the node's outputs; called once, after the drain."""
 
 
 def _install_stop_handlers(stop: threading.Event, timeout: float = STOP_TIMEOUT) -> None:
@@ -115,23 +137,21 @@ def run_node(name: str, factory: Callable[[], Node], args: list[str] | None = No
             return 2
         executor = EventsExecutor()
         executor.add_node(node)
-        if hasattr(node, 'loop'):  # it paces itself (scara_sim, player, recorder)
+        if isinstance(node, PacedNode):
             node.loop(executor, stop)
         else:
             while not stop.is_set():
                 executor.spin_once(timeout_sec=POLL_PERIOD)
-        handled = getattr(node, 'handled', None)
-        if handled is not None:
-            taken = drain(executor, handled)
+        if isinstance(node, DrainingNode):
+            taken = drain(executor, node.handled)
             if taken:
                 node.get_logger().info(f'took the {taken} message(s) still queued on stop')
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:
         if node is not None:
-            close = getattr(node, 'close', None)
-            if close is not None:
-                close()
+            if isinstance(node, ClosingNode):
+                node.close()
             node.destroy_node()
         rclpy.try_shutdown()
     return 0

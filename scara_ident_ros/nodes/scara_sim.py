@@ -6,7 +6,7 @@ deadlines and converts each sample to a ``sensor_msgs/JointState``:
 ``position`` (rad, m), ``velocity`` (rad/s, m/s) and ``effort`` (N·m, N) = the
 torque/force actually applied, ``header.stamp`` = simulated time. Once a second it
 reports on ``/diagnostics`` (hardware_id ``scara_sim``) its rate and its late samples
-(:func:`~scara_ident_ros.identification.health.simulator_health`). All but the robot's
+(:func:`~scara_ident_ros.nodes.health.simulator_health`). All but the robot's
 parameters, and the node's body, are shared with ``robot_sim``
 (:mod:`scara_ident_ros.nodes.sim_node`).
 """
@@ -16,8 +16,9 @@ import sys
 from typing import Any
 
 from scara_ident_ros.dynamics import ParamError, ScaraParams
+from scara_ident_ros.errors import ConfigError
 from scara_ident_ros.nodes.parameters import ParamSpec
-from scara_ident_ros.nodes.runtime import ConfigError, run_node
+from scara_ident_ros.nodes.runtime import run_node
 from scara_ident_ros.nodes.sim_node import (HISTORY, SIM_PARAMETERS, SimulatorNode,
                                             desired_motion, fixed_at_start, history_depth,
                                             sim_config)

@@ -7,7 +7,7 @@ and converts each sample to a ``sensor_msgs/JointState``: ``position`` (rad, m),
 ``velocity`` (rad/s, m/s) and ``effort`` (N·m, N) = the torque/force actually applied,
 ``header.stamp`` = simulated time. Once a second it reports on ``/diagnostics`` (hardware_id
 the node's name) its rate and its late samples
-(:func:`~scara_ident_ros.identification.health.simulator_health`). The parameters every
+(:func:`~scara_ident_ros.nodes.health.simulator_health`). The parameters every
 simulator node has are :data:`SIM_PARAMETERS`.
 
 With ``trajectory:=external`` the robot is an arm under a trajectory controller: it follows
@@ -41,12 +41,12 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectory
 
-from scara_ident_ros.identification.health import Deltas, Health, simulator_health
+from scara_ident_ros.nodes.health import Deltas, Health, simulator_health
 from scara_ident_ros.nodes.diagnostics import Diagnostics
 from scara_ident_ros.nodes.messages import NS_PER_S, joint_state, ns_to_stamp
 from scara_ident_ros.nodes.parameters import ParamSpec, declare_parameters
 from scara_ident_ros.nodes.runtime import POLL_PERIOD
-from scara_ident_ros.pacer import DeadlinePacer
+from scara_ident_ros.nodes.pacer import DeadlinePacer
 from scara_ident_ros.sim import (SEQUENCE, TRAJECTORIES, FourierTrajectory, SequenceTrajectory,
                                  SimConfig, Simulator, make_trajectory)
 from scara_ident_ros.sim.trajectory_follower import TrajectoryFollower
@@ -153,7 +153,7 @@ class SimulatorNode(Node):
     -----
     A subclass implements :meth:`build`, which returns the simulator, the joint names on
     the wire and what is simulated (for the start-up log line); it raises
-    :class:`~scara_ident_ros.nodes.runtime.ConfigError` for bad parameters.
+    :class:`~scara_ident_ros.errors.ConfigError` for bad parameters.
     """
 
     def __init__(self, name: str, parameters: tuple[ParamSpec, ...]) -> None:

@@ -8,8 +8,8 @@ from scara_ident_ros.sim.controller import ComputedTorqueController
 from scara_ident_ros.sim.jitter import StampJitter
 from scara_ident_ros.sim.simulator import SimConfig, SimRecord, SimSample, Simulator
 from scara_ident_ros.sim.sequence import SequenceTrajectory
-from scara_ident_ros.sim.trajectory import (PRESETS, SEQUENCE, TRAJECTORIES, FourierTrajectory,
-                                            make_trajectory)
+from scara_ident_ros.sim.registry import SEQUENCE, TRAJECTORIES, make_trajectory
+from scara_ident_ros.sim.trajectory import PRESETS, FourierTrajectory
 
 __all__ = ['FourierTrajectory', 'SequenceTrajectory', 'PRESETS', 'SEQUENCE', 'TRAJECTORIES',
            'make_trajectory', 'ComputedTorqueController', 'SimConfig', 'SimSample', 'SimRecord',

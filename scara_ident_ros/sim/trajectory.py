@@ -16,7 +16,7 @@ as :class:`~scara_ident_ros.sim.pinocchio_robot.PinocchioRobot`: see :data:`Robo
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Callable
 from typing import TYPE_CHECKING, Any, Union
 
 import numpy as np
@@ -26,10 +26,8 @@ from scara_ident_ros.dynamics.params import ScaraParams
 
 if TYPE_CHECKING:
     from scara_ident_ros.sim.pinocchio_robot import PinocchioRobot
-    from scara_ident_ros.sim.sequence import SequenceTrajectory
 
-__all__ = ['FourierTrajectory', 'PRESETS', 'SEQUENCE', 'TRAJECTORIES', 'make_trajectory',
-           'Robot', 'inverse_dynamics_of']
+__all__ = ['FourierTrajectory', 'PRESETS', 'Robot', 'inverse_dynamics_of']
 
 #: A robot whose limits and dynamics bound an excitation: the SCARA or a URDF robot.
 Robot = Union[ScaraParams, 'PinocchioRobot']
@@ -62,13 +60,6 @@ PRESETS: dict[str, dict[str, Any]] = {
                    'velocity_fraction': 0.9, 'acceleration_fraction': 0.9,
                    'effort_fraction': 0.9},
 }
-
-#: Name of the endless sequence of random ``'standard'``-like excitations joined smoothly
-#: (:class:`scara_ident_ros.sim.sequence.SequenceTrajectory`): persistent excitation.
-SEQUENCE = 'sequence'
-
-#: Every name :func:`make_trajectory` accepts: the presets, then :data:`SEQUENCE`.
-TRAJECTORIES: tuple[str, ...] = (*PRESETS, SEQUENCE)
 
 _GRID_PER_HARMONIC = 200       # samples per period of the highest harmonic when scaling
 
@@ -247,42 +238,3 @@ class FourierTrajectory:
                              base_frequency_hz)
         raise ValueError(f'cannot keep the efforts within {effort_fraction} of effort_max '
                          f'{params.effort_max}: the motion needs {ratio.tolist()} of them')
-
-
-def make_trajectory(preset: str, params: Robot, seed: int,
-                    **overrides: Any) -> FourierTrajectory | SequenceTrajectory:
-    """Build a random excitation by name: a preset of :data:`PRESETS` or :data:`SEQUENCE`.
-
-    Parameters
-    ----------
-    preset : str
-        One of :data:`TRAJECTORIES`.
-    params : ScaraParams or PinocchioRobot
-        Robot whose limits (and dynamics: efforts) bound the motion.
-    seed : int
-        Seed of the random coefficients.
-    **overrides
-        Settings replacing those of the preset, or of each excitation of the sequence
-        (keywords of :meth:`FourierTrajectory.random`).
-
-    Returns
-    -------
-    FourierTrajectory or SequenceTrajectory
-        One periodic excitation for a preset; the endless sequence for :data:`SEQUENCE`.
-
-    Raises
-    ------
-    ValueError
-        If the name is unknown; the message lists the known names.
-    """
-    if not isinstance(preset, str) or preset not in TRAJECTORIES:
-        raise ValueError(f'unknown trajectory {preset!r}; known trajectories are '
-                         f'{", ".join(sorted(TRAJECTORIES))}')
-    if preset == SEQUENCE:
-        # imported here: sequence.py builds on FourierTrajectory from this module
-        from scara_ident_ros.sim.sequence import SEQUENCE_EXCITATION, SequenceTrajectory
-
-        return SequenceTrajectory(params, seed=seed,
-                                  excitation={**SEQUENCE_EXCITATION, **overrides})
-    settings: Mapping[str, Any] = {**PRESETS[preset], **overrides}
-    return FourierTrajectory.random(params, seed=seed, **settings)

@@ -8,7 +8,7 @@ import pytest
 from rclpy.serialization import deserialize_message, serialize_message
 from sensor_msgs.msg import JointState
 
-from scara_ident_ros.bag.cdr import decode_names, split_joint_state
+from scara_ident_ros.bag.cdr import decode_names, header_stamp_ns, split_joint_state
 
 
 def random_message(rng: random.Random) -> JointState:
@@ -56,3 +56,13 @@ def test_truncated_and_big_endian_messages_are_refused() -> None:
         split_joint_state(raw[:30])
     with pytest.raises(ValueError, match='little-endian'):
         split_joint_state(b'\x00\x00' + raw[2:])
+
+
+def test_header_stamp_of_a_serialized_joint_state() -> None:
+    msg = JointState()
+    msg.header.stamp.sec, msg.header.stamp.nanosec = 1_700_000_000, 123_456_789
+    msg.name = ['joint1']
+    data = bytes(serialize_message(msg))
+    assert header_stamp_ns(data) == 1_700_000_000_123_456_789
+    assert header_stamp_ns(data[:8]) is None
+    assert header_stamp_ns(b'\x00\x00' + data[2:]) is None  # big-endian CDR: not read

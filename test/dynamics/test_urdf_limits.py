@@ -9,7 +9,8 @@ import pytest
 
 from scara_ident_ros.dynamics import ScaraParams
 from scara_ident_ros.dynamics.urdf_limits import UrdfError, parse_urdf, read_urdf
-from scara_ident_ros.identification.joint_limits import JointLimits
+from scara_ident_ros.dynamics.joint_limits import JointLimits
+from scara_ident_ros.identification.sample_check import joint_bounds
 
 ROOT = Path(__file__).resolve().parents[2]
 URDF = ROOT / 'urdf' / 'scara.urdf'
@@ -39,7 +40,7 @@ def test_the_shipped_urdf_has_the_yaml_limits_of_the_scara() -> None:
     assert limits.names == YAML.joint_names
     for name in LIMITS:
         np.testing.assert_array_equal(getattr(limits, name), YAML.array(name), err_msg=name)
-    bounds = limits.bounds(0.5)
+    bounds = joint_bounds(limits, 0.5)
     assert bounds is not None
     assert bounds.lo.shape == bounds.hi.shape == (3, 4)
 

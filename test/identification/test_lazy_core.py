@@ -4,8 +4,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from scara_ident_ros.identification import (CoreSettings, JointLimits, LazyCore, SkipReason,
-                                            Skipped, make_differentiator)
+from scara_ident_ros.dynamics.joint_limits import JointLimits
+from scara_ident_ros.identification import (CoreSettings, LazyCore, SkipReason, Skipped,
+                                            make_differentiator)
 from scara_ident_ros.nn.presets import make_network
 
 NAMES = ['a', 'b']

@@ -8,8 +8,8 @@ import pytest
 from scara_ident_ros.dynamics import ScaraParams
 from scara_ident_ros.dynamics.hybrid_model import HybridModel
 from scara_ident_ros.dynamics.physical_model import PhysicalModel
-from scara_ident_ros.identification import (CoreSettings, LazyCore, load_joint_limits,
-                                            make_differentiator)
+from scara_ident_ros.dynamics.joint_limits import load_joint_limits
+from scara_ident_ros.identification import CoreSettings, LazyCore, make_differentiator
 from scara_ident_ros.nodes.identifier import PARAMETERS
 from scara_ident_ros.resources import config_path
 from scara_ident_ros.sim import SimConfig, Simulator, make_trajectory

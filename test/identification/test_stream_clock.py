@@ -1,7 +1,7 @@
 """Lags against the stream's own clock: a replayed bag's stamps are not the wall clock."""
 from __future__ import annotations
 
-from scara_ident_ros.identification.health import LossCounter
+from scara_ident_ros.nodes.health import LossCounter
 from scara_ident_ros.identification.stream_clock import (LAG_BINS, LagHistogram, PathDelays,
                                                          StreamClock)
 

@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 from scara_ident_ros.nn import FeedForwardNet, FitHistory
+from scara_ident_ros.nn.batch import forward_scaled, loss_gradient, mse_scaled
 from scara_ident_ros.nn.gradient_descent import GradientDescent
 from scara_ident_ros.nn.levenberg_marquardt import LevenbergMarquardt
 from scara_ident_ros.nn.training import run_training
@@ -37,7 +38,7 @@ def test_history_records_every_iteration(smooth_data: Data) -> None:
     assert all(b < a for a, b in zip(history.mse, history.mse[1:]))  # LM steps only downhill
     assert all(t > 0 for t in history.time)
     xs, ys = net.x_scaling.transform(x), net.y_scaling.transform(y)
-    assert history.final_mse == pytest.approx(np.mean((net.forward_scaled(xs).y - ys) ** 2))
+    assert history.final_mse == pytest.approx(np.mean((forward_scaled(net, xs).y - ys) ** 2))
 
 
 def test_fit_sets_scaling_from_data_once(smooth_data: Data) -> None:
@@ -82,7 +83,7 @@ def test_validation_stops_and_restores_best_weights() -> None:
     best = int(np.argmin(history.val_mse))
     assert history.best_iteration == best == history.iterations - 4
     xvs, yvs = net.x_scaling.transform(xv), net.y_scaling.transform(yv)
-    assert net.mse_scaled(xvs, yvs) == pytest.approx(history.val_mse[best], rel=1e-12)
+    assert mse_scaled(net, xvs, yvs) == pytest.approx(history.val_mse[best], rel=1e-12)
     assert history.final_mse == history.mse[best]
 
 
@@ -112,7 +113,7 @@ def test_lm_stops_when_mu_exceeds_its_maximum(smooth_data: Data) -> None:
     net.fit(x, y, iterations=0)  # sets the scaling
     xs, ys = net.x_scaling.transform(x), net.y_scaling.transform(y)
     step = LevenbergMarquardt(net, xs, ys, mu=1e3, mu_max=1e3, mu_increase=1e9)
-    history = run_training(net, 'lm', step, iterations=1000, goal=0.0, validation=None,
+    history = run_training(net, 'lm', step, iterations=1000, goal=0.0, validation_mse=None,
                            max_fail=6, callback=None)
     assert history.stop_reason == 'mu_max'
     assert history.iterations < 1000
@@ -124,13 +125,13 @@ def test_gd_step_is_batch_gradient_descent_with_momentum(smooth_data: Data) -> N
     net.fit(x, y, iterations=0)
     xs, ys = net.x_scaling.transform(x), net.y_scaling.transform(y)
     theta0 = net.get_params()
-    _, g0 = net.loss_gradient(xs, ys)
+    _, g0 = loss_gradient(net, xs, ys)
     step = GradientDescent(net, xs, ys)
     step.start(FitHistory('gd'))
     step.step()
     theta1 = net.get_params()
     np.testing.assert_allclose(theta1, theta0 - 0.1 * g0, rtol=1e-12)
-    _, g1 = net.loss_gradient(xs, ys)
+    _, g1 = loss_gradient(net, xs, ys)
     step.step()
     np.testing.assert_allclose(net.get_params(), theta1 + 0.5 * (theta1 - theta0) - 0.1 * g1,
                                rtol=1e-12)
@@ -171,7 +172,7 @@ class _ScriptedNet:
     def set_params(self, theta: np.ndarray) -> None:
         self.theta = np.array(theta)
 
-    def mse_scaled(self, x: np.ndarray, y: np.ndarray) -> float:
+    def validation_mse(self) -> float:
         return self.val_mse[int(self.theta[0])]
 
 
@@ -192,9 +193,9 @@ class _CountingStep:
 def _run_scripted(val_mse: list[float], *, max_fail: int, min_iterations: int,
                   iterations: int = 100) -> tuple[FitHistory, _ScriptedNet]:
     net = _ScriptedNet(val_mse + [val_mse[-1]] * (iterations + 1 - len(val_mse)))
-    history = run_training(net, 'lm', _CountingStep(net), iterations=iterations,  # type: ignore
-                           goal=0.0, validation=(np.zeros((1, 1)), np.zeros((1, 1))),
-                           max_fail=max_fail, callback=None, min_iterations=min_iterations)
+    history = run_training(net, 'lm', _CountingStep(net), iterations=iterations, goal=0.0,
+                           validation_mse=net.validation_mse, max_fail=max_fail,
+                           callback=None, min_iterations=min_iterations)
     return history, net
 
 

@@ -23,6 +23,7 @@ from scara_ident_ros.dynamics import ScaraParams
 from scara_ident_ros.identification import Holdout, InputStage, JointMap
 from scara_ident_ros.nn.presets import limit_scaling, make_network
 from scara_ident_ros.nn import FeedForwardNet
+from scara_ident_ros.nn.batch import forward_scaled
 from scara_ident_ros.nodes.messages import NS_PER_S, ns_to_stamp, stamp_to_ns
 from scara_ident_ros.resources import config_path
 from scara_ident_ros.sim import SimConfig, Simulator, make_trajectory
@@ -58,7 +59,7 @@ def fitted_model(path: Path, X: np.ndarray, Y: np.ndarray) -> FeedForwardNet:
     net = make_network('ffs', 4)
     net.set_scaling(*limit_scaling(*(SCARA.array(name) for name in (
         'position_min', 'position_max', 'velocity_max', 'acceleration_max', 'effort_max'))))
-    hidden = net.forward_scaled(net.x_scaling.transform(X)).h
+    hidden = forward_scaled(net, net.x_scaling.transform(X)).h
     design = np.hstack([hidden, np.ones((len(X), 1))])
     weights, *_ = np.linalg.lstsq(design, net.y_scaling.transform(Y), rcond=None)
     theta = net.get_params()

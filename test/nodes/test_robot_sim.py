@@ -22,7 +22,7 @@ sys.path.insert(0, str(Path(__file__).parent))  # --import-mode=importlib: see r
 from rostest import Listener, NodeProcess  # noqa: E402
 
 from scara_ident_ros.nodes.robot_sim import SUBSTEPS, robot_from_settings  # noqa: E402
-from scara_ident_ros.nodes.runtime import ConfigError  # noqa: E402
+from scara_ident_ros.errors import ConfigError  # noqa: E402
 from scara_ident_ros.sim import SimConfig, Simulator, make_trajectory  # noqa: E402
 from scara_ident_ros.sim.example_robots import example_robot  # noqa: E402
 from scara_ident_ros.sim.pinocchio_robot import PinocchioRobot  # noqa: E402

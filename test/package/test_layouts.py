@@ -99,7 +99,7 @@ def recorded(make_node: Callable[[], Node], ros_args: list[str],
 
                     patch.setattr(publisher, 'publish', capture)
                     # the identifier sends serialized predictions to the handle directly
-                    for ident in getattr(node, 'identifications', ()):
+                    for ident in getattr(node, 'outputs', ()):
                         for name, its in (('send_torque', ident.torque_publisher),
                                           ('send_external_torque', ident.external_publisher)):
                             if its is publisher:

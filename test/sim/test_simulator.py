@@ -9,7 +9,7 @@ import pytest
 from scara_ident_ros.dynamics.model import ScaraModel
 from scara_ident_ros.dynamics.params import ParamError, ScaraParams
 from scara_ident_ros.sim.simulator import SimConfig, SimRecord, SimSample, Simulator
-from scara_ident_ros.sim.trajectory import make_trajectory
+from scara_ident_ros.sim.registry import make_trajectory
 
 PARAMS = ScaraParams()
 TRAJ = make_trajectory('standard', PARAMS, seed=7)

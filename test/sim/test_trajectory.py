@@ -6,8 +6,8 @@ import pytest
 
 from scara_ident_ros.dynamics.model import ScaraModel
 from scara_ident_ros.dynamics.params import ScaraParams
-from scara_ident_ros.sim.trajectory import (PRESETS, TRAJECTORIES, FourierTrajectory,
-                                            make_trajectory)
+from scara_ident_ros.sim.registry import TRAJECTORIES, make_trajectory
+from scara_ident_ros.sim.trajectory import PRESETS, FourierTrajectory
 
 PARAMS = ScaraParams()
 

@@ -1,4 +1,4 @@
-"""The diagnostics levels of :mod:`scara_ident_ros.identification.health` follow the conditions."""
+"""The diagnostics levels of :mod:`scara_ident_ros.nodes.health` follow the conditions."""
 from __future__ import annotations
 
 from typing import Any
@@ -6,7 +6,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from scara_ident_ros.identification.health import (Deltas, Level, LossCounter,
+from scara_ident_ros.nodes.health import (Deltas, Level, LossCounter,
                                                    identifier_health, recorder_health,
                                                    simulator_health)
 from scara_ident_ros.sim.jitter import StampJitter

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import pytest
 
-from scara_ident_ros.pacer import DeadlinePacer
+from scara_ident_ros.nodes.pacer import DeadlinePacer
 
 MS = 1_000_000
 

@@ -9,7 +9,9 @@ import pytest
 
 from scara_ident_ros.dynamics import ParamError, ScaraParams
 from scara_ident_ros.dynamics.urdf_limits import UrdfError
-from scara_ident_ros.identification import LIMIT_NAMES, JointLimits, LimitsError, load_joint_limits
+from scara_ident_ros.dynamics.joint_limits import (LIMIT_NAMES, JointLimits, LimitsError,
+                                                   load_joint_limits)
+from scara_ident_ros.identification.sample_check import joint_bounds
 from scara_ident_ros.nn.presets import limit_scaling
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -77,8 +79,8 @@ def test_scaling_and_bounds() -> None:
     limits = JointLimits.of(['a', 'b'], TWO)
     for ours, theirs in zip(limits.scaling(), limit_scaling(*TWO.values()), strict=True):
         np.testing.assert_array_equal(ours, theirs)
-    assert limits.bounds(-1.0) is None
-    bounds = limits.bounds(0.5)
+    assert joint_bounds(limits, -1.0) is None
+    bounds = joint_bounds(limits, 0.5)
     assert bounds is not None
     np.testing.assert_allclose(bounds.lo[0], [-2.0, -0.25])  # range 2 and 0.5, half beyond
     np.testing.assert_allclose(bounds.hi[2], [30.0, 150.0])  # effort limits x 1.5

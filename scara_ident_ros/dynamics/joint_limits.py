@@ -1,11 +1,12 @@
-"""A robot's joint limits by joint name: what scales the network and bounds the samples.
+"""A robot's joint limits by joint name, read from its files: what scales the network and
+bounds the samples.
 
 :func:`load_joint_limits` takes them, as the identifier's parameters say, from a URDF (file
 or ``robot_description``, with acceleration limits from ``acceleration_max`` or the robot
 YAML), from five explicit lists with their joint names, or from the robot YAML
 (``config/scara.yaml`` unless another is given). :meth:`JointLimits.select` orders them for
-the identifier's joints; :meth:`JointLimits.scaling` and :meth:`JointLimits.bounds` give the
-network's input/output ranges and the values a sample may have.
+the identifier's joints; :meth:`JointLimits.scaling` gives the network's input/output ranges
+(`identification.sample_check.joint_bounds` the values a sample may have).
 """
 from __future__ import annotations
 
@@ -20,7 +21,6 @@ from numpy.typing import NDArray
 from scara_ident_ros.dynamics import ScaraParams
 from scara_ident_ros.dynamics.urdf_limits import UrdfError, UrdfLimits, parse_urdf, read_urdf
 from scara_ident_ros.errors import ScaraIdentError
-from scara_ident_ros.identification.sample_check import Bounds
 from scara_ident_ros.nn.presets import limit_scaling
 from scara_ident_ros.resources import config_path
 
@@ -129,14 +129,6 @@ class JointLimits:
         """The network's ``x_min, x_max`` (3n,) and ``y_min, y_max`` (n,): see
         :func:`~scara_ident_ros.nn.presets.limit_scaling`."""
         return limit_scaling(*(getattr(self, key) for key in LIMIT_NAMES))
-
-    def bounds(self, margin: float) -> Bounds | None:
-        """The values a sample may have, ``margin`` (a fraction) beyond these limits; None
-        (no check) if ``margin`` is negative."""
-        if margin < 0:
-            return None
-        return Bounds.from_limits(self.position_min, self.position_max, self.velocity_max,
-                                  self.effort_max, margin=margin)
 
 
 def load_joint_limits(*, joint_names: Sequence[str] = (), robot_config: str = '',

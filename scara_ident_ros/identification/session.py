@@ -1,0 +1,512 @@
+"""An identification session: one or several methods learning from one joint-state stream.
+
+What the ``identifier`` node does between its messages, without ROS: the joint limits and
+the robot's URDF its parameters name, each method's warm start (``model_path``, else a
+model already at ``save_path``), the cores, built for the joints of ``joint_names`` or of
+the first valid sample and sharing one input stage (each sample is checked and
+differentiated once, then every method predicts and learns it), parameters changed while
+running, ``~/reset`` with the summaries of before kept, saving, and the summary of counters
+and errors a stats file holds. :class:`MethodRun` is one method's part: its core, contact
+detector, held-out score and lag figures.
+
+``settings`` is the mapping of the node's parameters (``nodes.identifier.PARAMETERS``).
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from collections.abc import Callable, Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from scara_ident_ros.dynamics.hybrid_model import HybridModel
+from scara_ident_ros.dynamics.joint_limits import LIMIT_NAMES, load_joint_limits
+from scara_ident_ros.dynamics.physical_model import PhysicalModel
+from scara_ident_ros.dynamics.urdf_limits import UrdfError
+from scara_ident_ros.errors import ConfigError
+from scara_ident_ros.identification.background_lm import BackgroundLM
+from scara_ident_ros.identification.contact_detector import ContactDetector
+from scara_ident_ros.identification.differentiator import (AccelerationEstimate,
+                                                           make_differentiator)
+from scara_ident_ros.identification.error_window import ErrorWindow
+from scara_ident_ros.identification.input_stage import Input
+from scara_ident_ros.identification.lazy_core import CoreSettings, LazyCore, OnlineModel
+from scara_ident_ros.identification.metrics import ErrorStats
+from scara_ident_ros.identification.online_identifier import OnlineIdentifier, StepResult
+from scara_ident_ros.identification.skip_reason import SkipReason
+from scara_ident_ros.identification.stream_clock import LagHistogram
+from scara_ident_ros.identification.trainer import ReservoirLM
+from scara_ident_ros.identification.warm_start import check_warm_start
+from scara_ident_ros.nn import FeedForwardNet, ModelFormatError
+from scara_ident_ros.nn.presets import METHODS
+
+__all__ = ['CONTACT_PARAMETERS', 'JOINT_SET_REASONS', 'METHOD_FIELD', 'PATH_PARAMETERS',
+           'VALIDATION_PERIOD', 'IdentificationSession', 'MethodRun', 'method_path']
+
+METHOD_FIELD = '{method}'  # stands for each method in a path parameter, with methods
+PATH_PARAMETERS = ('save_path', 'stats_file', 'model_path')
+VALIDATION_PERIOD = 1.0  # s: the held-out score is recomputed at most this often per method
+CONTACT_PARAMETERS = {'contact_sigma', 'contact_arm_nmse', 'contact_min_samples'}
+#: Rejections that mean the message's joints are not the identifier's
+JOINT_SET_REASONS = (SkipReason.UNKNOWN_JOINT, SkipReason.MISSING_JOINT,
+                     SkipReason.DUPLICATE_JOINT, SkipReason.JOINT_COUNT)
+
+
+def method_path(path: str, method: str) -> str:
+    """``path`` for ``method``: ``{method}`` in it replaced by the method's name."""
+    return path.replace(METHOD_FIELD, method)
+
+
+def _contact_settings(settings: Mapping[str, Any]) -> dict[str, Any]:
+    """The :class:`ContactDetector` settings of the node's parameters."""
+    return {'sigma': settings['contact_sigma'], 'arm_nmse': settings['contact_arm_nmse'],
+            'min_samples': settings['contact_min_samples']}
+
+
+class MethodRun:
+    """One method (of ``lazy_core.ONLINE_METHODS``) in a session: its ``lazy`` core, a
+    contact detector of the ``contact`` settings (``sigma``, ``arm_nmse``, ``min_samples``),
+    its held-out score and lag figures."""
+
+    def __init__(self, method: str, lazy: LazyCore, contact: dict[str, Any]) -> None:
+        self.method = method
+        self.lazy = lazy
+        self.contact_settings = dict(contact)
+        self.detector: ContactDetector | None = None  # once the joints are known
+        self.contacts = 0  # samples with a joint over its contact threshold
+        self.max_lag_ns = 0  # ns, since the last statistics line
+        self.worst_lag_ns = 0  # ns, since start
+        self.period_lag_ns = 0  # ns, largest since the last diagnostics report
+        self.lags = LagHistogram()  # every prediction's lag, for percentiles
+        self.previous: list[dict[str, Any]] = []  # summaries from before each reset
+        self._validation: ErrorStats | None = None
+        self._validated_at = -math.inf  # monotonic s
+
+    @property
+    def core(self) -> OnlineIdentifier | None:
+        """The online core, once the joints are known."""
+        return self.lazy.core
+
+    @property
+    def network(self) -> OnlineModel | None:
+        """The model: a warm start, or built with the core."""
+        return self.lazy.network
+
+    @property
+    def background(self) -> BackgroundLM | None:
+        """The trainer, if it learns beside the stream."""
+        trainer = self.core.trainer if self.core is not None else None
+        return trainer if isinstance(trainer, BackgroundLM) else None
+
+    def built(self, names: Sequence[str]) -> None:
+        """The core is built for ``names``: a disarmed contact detector, no score yet."""
+        self.detector = ContactDetector(len(names), **self.contact_settings)
+        self._validation, self._validated_at = None, -math.inf
+
+    def set_contact(self, **settings: Any) -> None:
+        """Change the contact detector's ``sigma``, ``arm_nmse`` or ``min_samples``; the
+        thresholds follow at the next validation."""
+        self.contact_settings.update(settings)
+        if self.detector is not None:
+            self.detector = ContactDetector(self.detector.n_joints, **self.contact_settings)
+            self._validated_at = -math.inf
+
+    def validation(self, *, fresh: bool = False) -> ErrorStats | None:
+        """The held-out score, recomputed at most every :data:`VALIDATION_PERIOD` s once
+        there is one (scoring the whole held-out set at the error topic's rate would load
+        the message path); until then, while there are few held-out samples, each time.
+        The contact thresholds follow each new score."""
+        now = time.monotonic()
+        stale = self._validation is None or now - self._validated_at >= VALIDATION_PERIOD
+        if self.core is not None and (fresh or stale):
+            self._validation, self._validated_at = self.core.validation_stats(), now
+            if self.detector is not None:
+                self.detector.calibrate(
+                    self.core.held_out_residuals(),
+                    None if self._validation is None else self._validation.nmse_total)
+        return self._validation
+
+    def record_lag(self, lag_ns: int) -> None:
+        """Take how late (ns) a prediction was published."""
+        self.lags.add(lag_ns)
+        self.period_lag_ns = max(self.period_lag_ns, lag_ns)
+        if lag_ns > self.max_lag_ns:
+            self.max_lag_ns = lag_ns
+            self.worst_lag_ns = max(self.worst_lag_ns, lag_ns)
+
+    def check_contact(self, torque: NDArray[np.float64]) -> NDArray[np.bool_]:
+        """Which joints of a sample's external torque (n,) (N·m or N) are over their
+        contact threshold; a sample with any counts as a contact."""
+        assert self.detector is not None  # built with the core
+        over = self.detector.check(torque)
+        if over.any():
+            self.contacts += 1
+        return over
+
+    def contact_health(self) -> tuple[bool, list[float] | None]:
+        """Whether contact detection is armed, and the thresholds (N·m or N) if known."""
+        detector = self.detector
+        if detector is None:
+            return False, None
+        thresholds = detector.thresholds
+        return detector.armed, None if thresholds is None else thresholds.tolist()
+
+    def learning(self) -> dict[str, Any]:
+        """How learning progresses: updates and their rate for a trainer beside the
+        stream."""
+        background = self.background
+        if background is None:
+            return {}
+        return {'updates': background.updates, 'updates_per_s': background.rate(),
+                'lm_steps_taken': background.steps, 'learn_dropped': background.dropped}
+
+    def apply(self, settings: Mapping[str, Any], changed: Mapping[str, Any]) -> None:
+        """Make parameters set while running take effect."""
+        network, core = self.network, self.core
+        if isinstance(network, FeedForwardNet) and self.method in METHODS:
+            preset = METHODS[self.method]
+            if 'learning_rate' in changed:
+                network.learning_rate = settings['learning_rate'] or preset.learning_rate
+            if 'momentum' in changed:
+                network.momentum = (settings['momentum'] if settings['momentum'] >= 0
+                                    else preset.momentum)
+        if CONTACT_PARAMETERS & set(changed):
+            self.set_contact(**_contact_settings(settings))
+        if core is None:
+            return
+        core.learn = settings['learn']
+        core.stage.check.need_effort = settings['learn']  # predict-only takes any sample
+        if 'mse_window' in changed:
+            core.errors = ErrorWindow(core.n_joints, settings['mse_window'])
+        trainer = core.trainer
+        if isinstance(trainer, ReservoirLM):
+            trainer.interval = settings['lm_interval']
+            trainer.steps_per_update = settings['lm_steps']
+        elif isinstance(trainer, BackgroundLM) and {'lm_interval', 'lm_steps'} & set(changed):
+            trainer.set_schedule(interval=settings['lm_interval'], steps=settings['lm_steps'])
+
+
+class IdentificationSession:
+    """The methods of one identifier, their warm starts and cores (module docstring).
+
+    ``settings`` (the node's parameters by name) is kept: :meth:`apply` reads the values
+    changed later from it. ``log(text)`` takes what is worth an info line. Bad settings
+    raise ConfigError, LimitsError, UrdfError or ParamError, one line naming the parameter.
+    """
+
+    def __init__(self, settings: Mapping[str, Any], *,
+                 log: Callable[[str], None] | None = None) -> None:
+        s = self.settings = settings
+        self.limits = load_joint_limits(
+            joint_names=s['joint_names'], robot_config=s['robot_config'],
+            urdf_file=s['urdf_file'], robot_description=s['robot_description'],
+            explicit={key: s[key] for key in LIMIT_NAMES})
+        methods = list(s['methods']) or [s['method']]
+        self.urdf = self._urdf()
+        if len(set(methods)) != len(methods):
+            raise ConfigError(f'methods names a method twice: {methods}')
+        self.several = len(s['methods']) > 0
+        for key in PATH_PARAMETERS:
+            if self.several and s[key] and METHOD_FIELD not in s[key]:
+                raise ConfigError(f'{key} {s[key]}: with methods, the path needs '
+                                  f'{METHOD_FIELD} (one file per method)')
+        self.paths = {key: {m: method_path(s[key], m) for m in methods}
+                      for key in PATH_PARAMETERS}
+        names = list(s['joint_names'])
+        self.runs: list[MethodRun] = []
+        for method in methods:
+            network, names = self._warm_start(method, names, log)
+            self.runs.append(MethodRun(
+                method, LazyCore(self.limits, network, urdf=self.urdf[0],
+                                 urdf_source=self.urdf[1]),
+                _contact_settings(s)))
+        # checked at start (a bad window ends it in one line), used once the joints are known
+        self.differentiator = self._differentiator()
+        missing_limits = self._build(names) if names else ''
+        if missing_limits:
+            raise ConfigError(f'joint_names: {missing_limits}')
+        self.joints_text = str(names or '(from the first message)')
+
+    # ------------------------------------------------------------------ the first method
+    @property
+    def first(self) -> MethodRun:
+        """The first (or only) method."""
+        return self.runs[0]
+
+    @property
+    def core(self) -> OnlineIdentifier | None:
+        """The first method's online core, once the joints are known."""
+        return self.first.core
+
+    @property
+    def network(self) -> OnlineModel | None:
+        """The first method's model: a warm start, or built with the core."""
+        return self.first.network
+
+    @property
+    def names(self) -> list[str]:
+        """The identified joints, once the cores are built."""
+        return self.first.lazy.names
+
+    def processed(self) -> int:
+        """Samples taken so far."""
+        return self.first.lazy.counts.processed
+
+    # ------------------------------------------------------------------ warm start
+    def model_source(self, method: str) -> str:
+        """Where ``method``'s warm start comes from: model_path, else a model at save_path
+        (a restart continues from what was learnt instead of replacing it), else ''."""
+        model_path = self.paths['model_path'][method]
+        save_path = self.paths['save_path'][method]
+        if not model_path and save_path and Path(save_path).exists():
+            return save_path
+        return model_path
+
+    def _warm_start(self, method: str, names: list[str], log: Callable[[str], None] | None
+                    ) -> tuple[OnlineModel | None, list[str]]:
+        """``method``'s warm start, if any, and the joints it fixes."""
+        source = self.model_source(method)
+        if not source:
+            return None, names
+        network = self._load(source, method)
+        if isinstance(network, FeedForwardNet):
+            names = check_warm_start(network, names, source=source, method=method)
+        elif names and list(network.joint_names) != names:
+            raise ConfigError(f'cannot warm-start: {source} models the joints '
+                              f'{list(network.joint_names)}, not joint_names {names}')
+        else:
+            names = list(network.joint_names)
+        if source != self.paths['model_path'][method] and log is not None:
+            log(f'{method}: continuing from the model at save_path {source}')
+        return network, names
+
+    def _load(self, path: str, method: str) -> OnlineModel:
+        try:
+            network: OnlineModel = (PhysicalModel.load(path) if method == 'physical'
+                                    else HybridModel.load(path) if method == 'hybrid'
+                                    else FeedForwardNet.load(path))
+        except (ModelFormatError, UrdfError, OSError) as exc:
+            raise ConfigError(f'cannot warm-start: {exc}') from None
+        if isinstance(network, FeedForwardNet):
+            if self.settings['learning_rate'] > 0:
+                network.learning_rate = self.settings['learning_rate']
+            if self.settings['momentum'] >= 0:
+                network.momentum = self.settings['momentum']
+        return network
+
+    def _urdf(self) -> tuple[str, str]:
+        """The robot's URDF (text) and its source, from robot_description or urdf_file."""
+        s = self.settings
+        if s['robot_description']:
+            return s['robot_description'], 'robot_description'
+        if s['urdf_file']:
+            try:
+                return Path(s['urdf_file']).read_text(encoding='utf-8'), s['urdf_file']
+            except (OSError, UnicodeDecodeError) as exc:
+                raise ConfigError(f"urdf_file {s['urdf_file']}: cannot read it: {exc}"
+                                  ) from None
+        return '', ''
+
+    # ------------------------------------------------------------------ building
+    def _differentiator(self) -> AccelerationEstimate:
+        s = self.settings
+        return make_differentiator(s['differentiator'], window=s['window'],
+                                   cutoff_hz=s['cutoff_hz'])
+
+    def _core_settings(self, method: str) -> CoreSettings:
+        return dataclasses.replace(CoreSettings.of(self.settings), method=method)
+
+    def _build(self, names: list[str], runs: Sequence[MethodRun] | None = None) -> str:
+        """Build the cores of ``runs`` (all by default) for ``names``, sharing one input
+        stage (the first method's, if built); return '' or why not (a joint without
+        limits)."""
+        stage = self.core.stage if runs is not None and self.core is not None else None
+        for run in self.runs if runs is None else runs:
+            why = run.lazy.build(names, self._core_settings(run.method), self.differentiator,
+                                 stage=stage, background=self.settings['lm_background'])
+            if why:
+                return why
+            assert run.core is not None
+            stage = run.core.stage
+            run.built(names)
+        return ''
+
+    def _build_from(self, stamp_ns: int, names: tuple[str, ...] | list[str], position: Any,
+                    velocity: Any, effort: Any) -> list[str]:
+        """Build for the joints of a sample if it is valid; else count it as skipped.
+        Return the warnings (none when built)."""
+        first = self.first.lazy
+        skipped = first.first(self._core_settings(self.first.method), self.differentiator,
+                              stamp_ns, names, position, velocity, effort,
+                              background=self.settings['lm_background'])
+        if skipped is None:
+            for run in self.runs[1:]:
+                run.lazy.early = dataclasses.replace(first.early,
+                                                     skipped=dict(first.early.skipped))
+            why = self._build(self.names, self.runs[1:])
+            if why:
+                return [why]
+            self.first.built(self.names)
+            return []
+        warnings = [skipped.note] if skipped.note else []
+        return warnings + [f'skipped a sample ({skipped.reason.value}) before the first '
+                           'valid one']
+
+    # ------------------------------------------------------------------ per sample
+    def process(self, stamp_ns: int, names: tuple[str, ...] | list[str], position: Any,
+                velocity: Any,
+                effort: Any) -> tuple[list[list[StepResult]], list[Input], list[str]]:
+        """Check and differentiate a sample once; predict and learn for each method.
+
+        The sample: its stamp (ns), joint names, and q (rad, m), q' (rad/s, m/s) and
+        efforts (N·m, N) of shape (len(names),), each may be empty. Returns, for each method
+        in order, the predictions now due; the samples the input stage let out (whose
+        predictions these are); and why the sample was skipped, if it was.
+        """
+        if self.core is None:
+            warnings = self._build_from(stamp_ns, names, position, velocity, effort)
+            if self.core is None or warnings:
+                return [[] for _ in self.runs], [], warnings
+        core = self.core
+        reason, inputs = core.stage.push(stamp_ns, names, position, velocity, effort)
+        results = []
+        for run in self.runs:
+            assert run.core is not None
+            results.append(run.core.take(stamp_ns, reason, inputs))
+        if reason is None or reason is SkipReason.WARMING_UP:
+            return results, inputs, []
+        if reason in JOINT_SET_REASONS:
+            why = (f'skipped a sample ({reason.value}): it names joints {list(names)}, the '
+                   f'identifier identifies {self.names} (set joint_names, or min_joints to '
+                   'wait for a message naming them all)')
+        else:
+            why = f'skipped a sample ({reason.value}); {sum(core.counts.skipped.values())} so far'
+        return results, inputs, [why]
+
+    def flush(self) -> tuple[list[list[StepResult]], list[Input]]:
+        """On shutdown: the pending samples' predictions for each method, and the samples."""
+        if self.core is None:
+            return [[] for _ in self.runs], []
+        inputs = self.core.stage.flush()
+        results = []
+        for run in self.runs:
+            assert run.core is not None
+            results.append(run.core.take(0, None, inputs, pushed=False))
+        return results, inputs
+
+    # ------------------------------------------------------------------ while running
+    def apply(self, changed: Mapping[str, Any]) -> None:
+        """Make parameters set while running (already in ``settings``) take effect."""
+        for run in self.runs:
+            run.apply(self.settings, changed)
+
+    def reset(self, *, stream: Mapping[str, Any] | None = None) -> tuple[bool, str, str]:
+        """Start again from fresh weights, the summaries of before (with the ``stream``
+        figures of :meth:`summary`) kept in ``previous``.
+
+        Return success (False without a model yet), what was reset with each method's
+        figures of before, and '' or why the cores could not be built again (a warm start's
+        joints without limits: the next sample tries again).
+        """
+        names = self.names if self.core is not None else None
+        if names is None and self.network is None:
+            return False, 'nothing to reset: no model yet (no valid sample so far)', ''
+        befores = []
+        for run in self.runs:
+            before = self.summary(run, stream=stream)
+            before.pop('previous', None)  # each reset's own counters, one entry per reset
+            run.previous.append(before)
+            befores.append(before)
+            run.lazy.reset()
+        self.differentiator = self._differentiator()
+        why = self._build(names) if names is not None else ''
+        message = f"fresh weights (seed {self.settings['seed']}); before the reset: " + '; '.join(
+            f"{before['method']}: processed {before['processed']}, learned "
+            f"{before.get('learned', 0)}, validation NMSE "
+            f"{before.get('validation_nmse_total')}" for before in befores)
+        return True, message, why
+
+    def close(self) -> None:
+        """Take the learners' last weights and stop them."""
+        for run in self.runs:
+            run.lazy.close()
+
+    # ------------------------------------------------------------------ reporting
+    def summary(self, run: MethodRun | None = None, *, fresh: bool = False,
+                stream: Mapping[str, Any] | None = None) -> dict[str, Any]:
+        """A method's counters and errors so far (the first method's by default), as plain
+        data; ``fresh``: score the held-out samples now; ``stream``: figures of the stream
+        (losses, delays) to include."""
+        run = run or self.first
+        core = run.core
+        if core is None:
+            early = run.lazy.early
+            return {'method': run.method, 'processed': early.processed,
+                    'skipped': {reason.value: n for reason, n in early.skipped.items()
+                                if n}}
+        counts = core.counts
+        stats = core.error_stats()
+        validation = run.validation(fresh=fresh)
+        return {
+            'method': run.method, 'trainer': self.settings['trainer'],
+            'joint_names': self.names,
+            'processed': counts.processed, 'predicted': counts.predicted,
+            'learned': counts.learned, 'held_out': counts.held_out, 'refused': counts.refused,
+            'clipped': counts.clipped, 'no_effort': counts.no_effort,
+            'pending': counts.pending,
+            'skipped': {reason.value: n for reason, n in counts.skipped.items() if n},
+            'mse': stats.mse.tolist(), 'nmse': stats.nmse.tolist(),
+            'mse_total': float(stats.mse_total), 'nmse_total': float(stats.nmse_total),
+            'validation_nmse': validation.nmse.tolist() if validation is not None else None,
+            'validation_nmse_total': (float(validation.nmse_total) if validation is not None
+                                      else None),
+            'contacts': run.contacts, 'contact_thresholds': run.contact_health()[1],
+            'max_lag_ms': run.worst_lag_ns / 1e6, 'lag_p50_ms': run.lags.percentile_ms(50),
+            'lag_p99_ms': run.lags.percentile_ms(99),
+            **(stream or {}),
+            **run.learning(),
+            **({'previous': run.previous} if run.previous else {}),
+        }
+
+    def health_figures(self, run: MethodRun) -> dict[str, Any]:
+        """A method's figures for ``nodes.health.identifier_health`` (the stream's apart);
+        the lag is the largest since the last call."""
+        counts = run.lazy.counts
+        error_finite, validation = True, None
+        core = run.core
+        if core is not None:
+            if core.errors.count:
+                error_finite = bool(np.isfinite(core.error_stats().mse_total))
+            stats = run.validation()
+            validation = float(stats.nmse_total) if stats is not None else None
+        lag_ns, run.period_lag_ns = run.period_lag_ns, 0
+        background = run.background
+        armed, thresholds = run.contact_health()
+        return {'processed': counts.processed, 'skipped': sum(counts.skipped.values()),
+                'learnt': counts.learned, 'lag_s': lag_ns / 1e9 if lag_ns else None,
+                'error_finite': error_finite, 'validation_nmse': validation,
+                'learning': self.settings['learn'],
+                'update_rate': background.rate() if background is not None else None,
+                'contact_armed': armed, 'contact_thresholds': thresholds,
+                'contact_arm_nmse': self.settings['contact_arm_nmse']}
+
+    def save(self, run: MethodRun | None = None) -> tuple[bool, str]:
+        """Save a method's model (the first's by default) to its ``save_path`` now
+        (atomically: a failed save leaves the previous file intact); return success and
+        what happened."""
+        run = run or self.first
+        path = self.paths['save_path'][run.method]
+        if not path:
+            return False, 'no save_path: start the node with -p save_path:=<file>.npz'
+        if run.network is None or run.core is None:
+            return False, 'no model yet: no valid sample has fixed the joints'
+        try:
+            Path(path).parent.mkdir(parents=True, exist_ok=True)
+            run.network.save(path)
+        except OSError as exc:
+            return False, f'saving to {path} failed: {exc}'
+        return True, f'saved to {path} after {run.core.counts.learned} learned samples'

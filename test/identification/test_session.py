@@ -1,0 +1,202 @@
+"""The identifier's session without ROS: warm starts, methods on one input stage, reset,
+parameters changed while running, lags and the summary."""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+import yaml
+
+from scara_ident_ros.dynamics import ScaraParams
+from scara_ident_ros.dynamics.joint_limits import LimitsError
+from scara_ident_ros.errors import ConfigError
+from scara_ident_ros.identification.session import IdentificationSession
+from scara_ident_ros.identification.trainer import ReservoirLM
+from scara_ident_ros.identification.warm_start import ModelMismatch
+from scara_ident_ros.nn.presets import limit_scaling, make_network
+from scara_ident_ros.nn import FeedForwardNet
+from scara_ident_ros.resources import config_path
+from scara_ident_ros.sim import SimConfig, SimRecord, Simulator, make_trajectory
+
+SCARA = ScaraParams.from_yaml(config_path('scara.yaml'))
+NAMES = list(SCARA.joint_names)
+DEFAULTS: dict[str, Any] = yaml.safe_load(
+    Path(config_path('identifier.yaml')).read_text())['/**']['ros__parameters']
+MS = 1_000_000  # ns
+T0 = 1_000 * 1_000_000_000  # ns
+LAG = DEFAULTS['window'] // 2  # samples the centred q'' estimate holds back
+
+
+def settings(**changes: Any) -> dict[str, Any]:
+    """The node's defaults with ``changes``; learning in the message path (no process)."""
+    return {**DEFAULTS, 'lm_background': False, **changes}
+
+
+def simulated(n: int) -> SimRecord:
+    simulator = Simulator(SCARA, make_trajectory('standard', SCARA, seed=0), SimConfig(seed=0))
+    return simulator.simulate(n)
+
+
+def feed(session: IdentificationSession, record: SimRecord, n: int,
+         start: int = 0) -> list[list[Any]]:
+    """Process samples start..n-1; return each method's predictions."""
+    out: list[list[Any]] = [[] for _ in session.runs]
+    for i in range(start, n):
+        results, _, warnings = session.process(T0 + i * MS, NAMES, record.q[i], record.qd[i],
+                                               record.effort[i])
+        assert warnings == []
+        for mine, theirs in zip(out, results):
+            mine.extend(theirs)
+    return out
+
+
+def saved_model(path: Path, names: list[str]) -> Path:
+    network = make_network('ffs', len(names))
+    index = [NAMES.index(name) for name in names]
+    network.set_scaling(*limit_scaling(*(SCARA.array(key)[index] for key in (
+        'position_min', 'position_max', 'velocity_max', 'acceleration_max', 'effort_max'))))
+    network.metadata['joint_names'] = np.array(names)
+    network.save(path)
+    return path
+
+
+def test_the_joints_come_from_the_first_valid_sample() -> None:
+    session = IdentificationSession(settings())
+    assert session.core is None and session.joints_text == '(from the first message)'
+    record = simulated(50)
+    _, _, warnings = session.process(T0, NAMES[:2], record.q[0, :2], [], [])
+    assert warnings and 'before the first valid one' in warnings[-1]
+    assert session.core is None and session.processed() == 1
+    predictions, = feed(session, record, 50, start=1)
+    assert session.names == NAMES and len(predictions) == 49 - LAG
+    assert session.summary()['skipped'] == {'no_velocity': 1}
+
+
+def test_several_methods_share_one_input_stage() -> None:
+    session = IdentificationSession(settings(methods=['ffmw', 'ffs'], joint_names=NAMES))
+    ffmw, ffs = session.runs
+    assert ffmw.core is not None and ffs.core is not None
+    assert ffmw.core.stage is ffs.core.stage  # each sample checked and differentiated once
+    a, b = feed(session, simulated(100), 100)
+    assert [r.stamp_ns for r in a] == [r.stamp_ns for r in b] == [
+        T0 + i * MS for i in range(100 - LAG)]
+    assert not np.allclose([r.effort for r in a], [r.effort for r in b])  # two networks
+    assert session.summary(ffs)['method'] == 'ffs' and session.processed() == 100
+
+
+def test_a_joint_set_mismatch_says_how_to_fix_it() -> None:
+    session = IdentificationSession(settings(joint_names=NAMES))
+    record = simulated(1)
+    _, _, warnings = session.process(T0, NAMES[:3], record.q[0, :3], record.qd[0, :3],
+                                     record.effort[0, :3])
+    assert 'set joint_names, or min_joints' in warnings[0]
+
+
+@pytest.mark.parametrize('changes, error, message', [
+    ({'methods': ['ffs', 'ffs']}, ConfigError, 'names a method twice'),
+    ({'methods': ['ffmw', 'ffs'], 'save_path': 'model.npz'}, ConfigError,
+     'the path needs {method}'),
+    ({'joint_names': ['a', 'b']}, ConfigError, 'joint_names: no joint limits for'),
+    ({'joint_names': ['a'], 'effort_max': [1.0]}, LimitsError, 'must all be given'),
+])
+def test_bad_settings_are_one_line(changes: dict[str, Any], error: type[Exception],
+                                   message: str) -> None:
+    with pytest.raises(error, match=message):
+        IdentificationSession(settings(**changes))
+
+
+def test_a_model_at_save_path_is_continued(tmp_path: Path) -> None:
+    path = saved_model(tmp_path / 'model.npz', NAMES)
+    logged: list[str] = []
+    session = IdentificationSession(settings(save_path=str(path)), log=logged.append)
+    assert session.model_source('ffs') == str(path)
+    assert any('continuing from the model at save_path' in line for line in logged)
+    assert session.names == NAMES  # the model's joints: built at start
+    assert isinstance(session.network, FeedForwardNet)
+    np.testing.assert_array_equal(session.network.get_params(),
+                                  FeedForwardNet.load(path).get_params())
+    # model_path wins over save_path
+    other = saved_model(tmp_path / 'other.npz', NAMES)
+    both = IdentificationSession(settings(save_path=str(path), model_path=str(other)))
+    assert both.model_source('ffs') == str(other)
+
+
+def test_a_warm_start_for_another_joint_order_is_refused(tmp_path: Path) -> None:
+    path = saved_model(tmp_path / 'model.npz', NAMES)
+    with pytest.raises(ModelMismatch, match='in that order'):
+        IdentificationSession(settings(model_path=str(path), joint_names=NAMES[::-1]))
+    with pytest.raises(ConfigError, match='cannot warm-start'):
+        IdentificationSession(settings(model_path=str(tmp_path / 'none.npz')))
+
+
+def test_reset_keeps_the_summaries_of_before(tmp_path: Path) -> None:
+    session = IdentificationSession(settings(trainer='bp'))
+    assert session.reset() == (False, 'nothing to reset: no model yet (no valid sample so '
+                                      'far)', '')
+    record = simulated(300)
+    feed(session, record, 200)
+    trained = session.network
+    assert trained is not None
+    weights = trained.get_params()
+    ok, message, warning = session.reset(stream={'lost': 3})
+    assert ok and warning == '' and 'ffs: processed 200, learned' in message
+    assert session.network is not None
+    assert not np.array_equal(session.network.get_params(), weights)  # fresh weights
+    feed(session, record, 300, start=200)
+    info = session.summary()
+    previous, = info['previous']
+    assert previous['processed'] == 200 and previous['predicted'] == 200 - LAG
+    assert previous['lost'] == 3 and 'previous' not in previous
+    assert info['processed'] == 100 and info['predicted'] == 100 - LAG
+
+
+def test_parameters_set_while_running_reach_core_and_trainer() -> None:
+    s = settings(joint_names=NAMES)
+    session = IdentificationSession(s)
+    core = session.core
+    assert core is not None and isinstance(core.trainer, ReservoirLM)
+    s.update(learn=False, lm_interval=400, lm_steps=1, mse_window=500)
+    session.apply({'learn': False, 'lm_interval': 400, 'lm_steps': 1, 'mse_window': 500})
+    assert core.learn is False and core.stage.check.need_effort is False
+    assert core.trainer.interval == 400 and core.trainer.steps_per_update == 1
+    assert core.errors.window == 500
+    bp = settings(joint_names=NAMES, trainer='bp')
+    session = IdentificationSession(bp)
+    network = session.network
+    assert isinstance(network, FeedForwardNet)
+    bp.update(learning_rate=0.125, momentum=0.25)
+    session.apply({'learning_rate': 0.125, 'momentum': 0.25})
+    assert (network.learning_rate, network.momentum) == (0.125, 0.25)
+    bp.update(contact_sigma=3.0)
+    session.apply({'contact_sigma': 3.0})
+    assert session.first.contact_settings['sigma'] == 3.0
+
+
+def test_lags_are_kept_per_method_and_reported_once_per_period() -> None:
+    session = IdentificationSession(settings(joint_names=NAMES))
+    run = session.first
+    for lag_ms in (2, 9, 4):
+        run.record_lag(lag_ms * MS)
+    assert (run.max_lag_ns, run.worst_lag_ns) == (9 * MS, 9 * MS)
+    assert session.health_figures(run)['lag_s'] == pytest.approx(0.009)
+    assert session.health_figures(run)['lag_s'] is None  # reported, the period starts anew
+    run.max_lag_ns = 0  # as a statistics line does
+    run.record_lag(1 * MS)
+    info = session.summary(stream={'lost': 0})
+    assert info['max_lag_ms'] == 9.0 and info['lost'] == 0
+    assert info['lag_p99_ms'] >= info['lag_p50_ms'] > 0
+
+
+def test_save_says_why_not_and_writes_atomically(tmp_path: Path) -> None:
+    session = IdentificationSession(settings())
+    assert session.save() == (False, 'no save_path: start the node with -p '
+                                     'save_path:=<file>.npz')
+    path = tmp_path / 'models' / 'model.npz'
+    session = IdentificationSession(settings(save_path=str(path)))
+    ok, message = session.save()
+    assert not ok and 'no model yet' in message
+    feed(session, simulated(30), 30)
+    ok, message = session.save()
+    assert ok and str(path) in message and path.is_file()

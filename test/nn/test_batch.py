@@ -1,0 +1,50 @@
+"""Batch computations: the gradient and the Jacobian against central differences."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from scara_ident_ros.nn import FeedForwardNet
+from scara_ident_ros.nn.batch import forward_scaled, jacobian, loss_gradient, mse_scaled
+
+NAMES = ('sigmoid', 'slog', 'mslog')
+
+
+@pytest.mark.parametrize('name', NAMES)
+def test_loss_gradient_matches_central_differences(name: str) -> None:
+    net = FeedForwardNet(12, 40, 4, name, seed=1)
+    rng = np.random.default_rng(1)
+    xs, ys = rng.uniform(-1, 1, (20, 12)), rng.uniform(-1, 1, (20, 4))
+    theta = net.get_params()
+    sse, grad = loss_gradient(net, xs, ys)
+    assert sse == pytest.approx(mse_scaled(net, xs, ys) * ys.size, rel=1e-12)
+
+    def loss(t: np.ndarray) -> float:
+        return mse_scaled(net, xs, ys, t) * ys.size / (2 * len(xs))
+
+    step = 1e-6
+    numeric = np.empty_like(theta)
+    for i in range(theta.size):
+        plus, minus = theta.copy(), theta.copy()
+        plus[i] += step
+        minus[i] -= step
+        numeric[i] = (loss(plus) - loss(minus)) / (2 * step)
+    np.testing.assert_allclose(grad, numeric, rtol=1e-5, atol=1e-9)
+
+
+@pytest.mark.parametrize('name', NAMES)
+def test_jacobian_matches_central_differences(name: str) -> None:
+    net = FeedForwardNet(4, 6, 3, name, seed=2)
+    x = np.random.default_rng(2).uniform(-1, 1, (5, 4))
+    jac = jacobian(net, x)
+    assert jac.shape == (5 * 3, net.n_params)
+    theta = net.get_params()
+    step = 1e-6
+    numeric = np.empty_like(jac)
+    for i in range(theta.size):
+        plus, minus = theta.copy(), theta.copy()
+        plus[i] += step
+        minus[i] -= step
+        numeric[:, i] = ((forward_scaled(net, x, plus).y - forward_scaled(net, x, minus).y)
+                         / (2 * step)).ravel()
+    np.testing.assert_allclose(jac, numeric, rtol=1e-6, atol=1e-9)

@@ -1,0 +1,62 @@
+"""Levenberg–Marquardt: the structured normal equations and step against dense ones."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from scara_ident_ros.nn import FeedForwardNet
+from scara_ident_ros.nn.batch import forward_scaled, jacobian
+from scara_ident_ros.nn.levenberg_marquardt import (LevenbergMarquardt, normal_blocks,
+                                                    normal_equations)
+
+NAMES = ('sigmoid', 'slog', 'mslog')
+
+
+@pytest.mark.parametrize('name', NAMES)
+def test_structured_normal_equations_equal_dense_ones(name: str) -> None:
+    net = FeedForwardNet(5, 8, 3, name, seed=3)
+    rng = np.random.default_rng(3)
+    x, y = rng.uniform(-1, 1, (23, 5)), rng.uniform(-1, 1, (23, 3))
+    jac = jacobian(net, x)
+    r = (forward_scaled(net, x).y - y).ravel()
+    jtj, jtr, sse = normal_equations(net, x, y, chunk_size=7)  # several uneven chunks
+    np.testing.assert_allclose(jtj, jac.T @ jac, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(jtr, jac.T @ r, rtol=1e-12, atol=1e-12)
+    assert sse == pytest.approx(r @ r, rel=1e-12)
+
+
+@pytest.mark.parametrize('single', [False, True])
+@pytest.mark.parametrize('mu', [1e-6, 1e-3, 10.0])
+def test_block_solve_equals_the_plain_normal_equations_step(mu: float, single: bool) -> None:
+    """The Schur complement on the hidden weights gives the plain (JᵀJ + μI)⁻¹Jᵀr."""
+    net = FeedForwardNet(9, 12, 3, 'mslog', seed=5)
+    rng = np.random.default_rng(5)
+    x, y = rng.uniform(-1, 1, (300, 9)), rng.uniform(-1, 1, (300, 3))
+    blocks = normal_blocks(net, x, y, chunk_size=128, single=single)
+    jtj, jtr, sse = normal_equations(net, x, y, chunk_size=128, single=single)
+    np.testing.assert_array_equal(blocks.matrix(), jtj)
+    np.testing.assert_array_equal(blocks.jtr, jtr)
+    assert blocks.sse == sse
+    damped = jtj + mu * np.eye(net.n_params)
+    plain = np.linalg.solve(damped, jtr)
+    step = blocks.solve(mu)
+    # to rounding: the error a solve of this conditioning may make
+    tolerance = 1e-13 * np.linalg.cond(damped) * np.abs(plain).max()
+    np.testing.assert_allclose(step, plain, rtol=0, atol=tolerance)
+    assert not np.allclose(step, 0.0)
+
+
+def test_structured_and_plain_lm_take_the_same_steps() -> None:
+    rng = np.random.default_rng(6)
+    x = rng.uniform(-1, 1, (400, 6))
+    y = np.stack([np.sin(2 * x[:, 0]) + x[:, 3], x[:, 1] * x[:, 2]], axis=1)
+    nets = [FeedForwardNet(6, 10, 2, 'mslog', seed=6) for _ in range(2)]
+    steps = [LevenbergMarquardt(net, x, y, structured=structured)
+             for net, structured in zip(nets, (True, False))]
+    for step in steps:
+        step.set_data(x, y)
+    for _ in range(5):
+        mses = [step.step() for step in steps]
+        assert mses[0] == pytest.approx(mses[1], rel=1e-8)
+        assert steps[0].mu == steps[1].mu  # the same accepted and rejected trials
+    np.testing.assert_allclose(nets[0].theta, nets[1].theta, rtol=1e-6, atol=1e-9)
