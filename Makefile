@@ -44,19 +44,17 @@ test: $(STAMP)
 	  $(PY) -m pytest test; status=$$?; fi; \
 	exit $$status
 
-# The pure-numpy tests: dynamics, networks, training, the identification core, the
-# simulator, the paper's comparison and figures. Nothing here imports rclpy, joins DDS or starts
-# a process; tests marked slow (such as the 40-60 s learning-curve comparison) are left to
-# make test, which runs everything. One BLAS thread by default: on a busy 2-core
-# machine OpenBLAS's thread pool made the LM tests 5-10 times slower (46 s instead of 18 s).
-CORE_TESTS := test/dynamics test/nn test/identification test/sim test/paper \
-	test/excitation
+# The pure-numpy tests: every test not marked ros (a module that imports rclpy, joins DDS or
+# starts ROS processes says so with pytestmark = pytest.mark.ros; test/test_core_selection.py
+# checks that no other module brings rclpy in) and not slow (make test runs everything).
+# One BLAS thread by default: on a busy 2-core machine OpenBLAS's thread pool made the LM
+# tests 5-10 times slower (46 s instead of 18 s).
 CORE_BLAS_THREADS ?= 1
 
 test-core: $(STAMP)
 	OPENBLAS_NUM_THREADS=$(CORE_BLAS_THREADS) OMP_NUM_THREADS=$(CORE_BLAS_THREADS) \
 	MKL_NUM_THREADS=$(CORE_BLAS_THREADS) \
-	$(PY) -m pytest -m 'not slow' $(CORE_TESTS)
+	$(PY) -m pytest -m 'not ros and not slow' test
 
 # ruff (ruff.toml) and mypy (mypy.ini), as .ci/run runs them before the tests.
 lint: $(STAMP)

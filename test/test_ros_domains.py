@@ -6,9 +6,13 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from ros_domains import claim_domain  # noqa: E402  (test/ is no package)
+
+pytestmark = pytest.mark.ros
 
 
 def test_two_claims_never_get_the_same_domain(tmp_path: Path) -> None:

@@ -10,6 +10,8 @@ from sensor_msgs.msg import JointState
 
 from scara_ident_ros.bag.cdr import decode_names, header_stamp_ns, split_joint_state
 
+pytestmark = pytest.mark.ros
+
 
 def random_message(rng: random.Random) -> JointState:
     msg = JointState()

@@ -7,6 +7,8 @@ from pathlib import Path
 
 import pytest
 
+pytestmark = pytest.mark.ros
+
 BENCHMARKS = Path(__file__).resolve().parents[2] / 'benchmarks'
 TIMEOUT = 300.0  # s: a few seconds of graph, plus start-up and stop on a loaded machine
 

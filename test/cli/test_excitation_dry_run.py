@@ -12,6 +12,8 @@ import pytest
 from scara_ident_ros.cli import main
 from scara_ident_ros.excitation import load_motion_limits
 
+pytestmark = pytest.mark.ros
+
 ROOT = Path(__file__).resolve().parents[2]
 URDF = ROOT / 'urdf' / 'scara.urdf'
 

@@ -33,7 +33,7 @@ from scara_ident_ros.paper.online_results import (OnlinePredictions, read_identi
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from ros_domains import claim_domain  # noqa: E402  (test/ is no package)
 
-pytestmark = pytest.mark.slow
+pytestmark = [pytest.mark.ros, pytest.mark.slow]
 
 DURATION = 6.0  # s of simulated samples
 RATE_HZ = 1000  # the simulator's default rate

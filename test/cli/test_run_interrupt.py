@@ -27,7 +27,7 @@ from scara_ident_ros.paper.online_results import torque_topic
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from ros_domains import claim_domain  # noqa: E402  (test/ is no package)
 
-pytestmark = pytest.mark.slow
+pytestmark = [pytest.mark.ros, pytest.mark.slow]
 
 PERIOD_NS = 1_000_000  # the simulator's 1 kHz
 START_TIMEOUT = 90.0  # s for the graph to start and the first chunk to reach the bag

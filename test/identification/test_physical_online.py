@@ -4,13 +4,13 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
+import yaml
 
 from scara_ident_ros.dynamics import ScaraParams
 from scara_ident_ros.dynamics.hybrid_model import HybridModel
 from scara_ident_ros.dynamics.physical_model import PhysicalModel
 from scara_ident_ros.dynamics.joint_limits import load_joint_limits
 from scara_ident_ros.identification import CoreSettings, LazyCore, make_differentiator
-from scara_ident_ros.nodes.identifier import PARAMETERS
 from scara_ident_ros.resources import config_path
 from scara_ident_ros.sim import SimConfig, Simulator, make_trajectory
 
@@ -19,7 +19,8 @@ NAMES = ['joint1', 'joint2', 'joint3', 'joint4']
 
 
 def core_for(method: str, urdf: str) -> LazyCore:
-    values = {spec.name: spec.default for spec in PARAMETERS}
+    # the node's defaults, as config/identifier.yaml holds them (test/nodes checks it does)
+    values = yaml.safe_load(config_path('identifier.yaml').read_text())['/**']['ros__parameters']
     values.update(method=method, validation_block=200)
     lazy = LazyCore(load_joint_limits(joint_names=NAMES), urdf=urdf, urdf_source=str(URDF))
     why = lazy.build(NAMES, CoreSettings.of(values), make_differentiator('centred'))
@@ -53,7 +54,8 @@ def test_a_physical_model_identifies_online(method: str, kind: type) -> None:
 
 
 def test_a_physical_model_without_a_urdf_says_what_it_needs() -> None:
-    values = {spec.name: spec.default for spec in PARAMETERS}
+    # the node's defaults, as config/identifier.yaml holds them (test/nodes checks it does)
+    values = yaml.safe_load(config_path('identifier.yaml').read_text())['/**']['ros__parameters']
     values.update(method='physical')
     lazy = LazyCore(load_joint_limits(joint_names=NAMES))
     why = lazy.build(NAMES, CoreSettings.of(values), make_differentiator('centred'))

@@ -19,6 +19,8 @@ import yaml
 import scara_ident_ros.nodes
 from scara_ident_ros.nodes.parameters import ParamSpec
 
+pytestmark = pytest.mark.ros
+
 CONFIG_DIR = Path(__file__).resolve().parents[2] / 'config'
 
 

@@ -6,7 +6,11 @@ import subprocess
 import sys
 import time
 
+import pytest
+
 from scara_ident_ros.nodes.runtime import drain
+
+pytestmark = pytest.mark.ros
 
 
 class QueueExecutor:

@@ -32,6 +32,8 @@ from smoothness import assert_consistent  # noqa: E402
 from scara_ident_ros.excitation import (ExcitationPlan, MotionLimits,  # noqa: E402
                                         load_motion_limits)
 
+pytestmark = pytest.mark.ros
+
 MODULE = 'scara_ident_ros.nodes.excitation'
 SIM = 'scara_ident_ros.nodes.scara_sim'
 TOPIC = '/joint_trajectory_controller/joint_trajectory'

@@ -8,6 +8,8 @@ from pathlib import Path
 
 import pytest
 
+pytestmark = pytest.mark.ros
+
 NODES = ('identifier', 'scara_sim', 'robot_sim', 'recorder', 'player', 'excitation')
 
 

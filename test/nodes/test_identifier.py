@@ -44,6 +44,8 @@ from scara_ident_ros.sim.simulator import SimRecord
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import rostest  # noqa: E402  (test/nodes is not a package: see rostest's docstring)
 
+pytestmark = pytest.mark.ros
+
 IDENTIFIER = 'scara_ident_ros.nodes.identifier'
 SCARA_SIM = 'scara_ident_ros.nodes.scara_sim'
 JOINT_STATES_TOPIC = '/joint_states'

@@ -31,6 +31,8 @@ from scara_ident_ros.sim import SimConfig, Simulator, make_trajectory
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import rostest  # noqa: E402  (test/nodes is not a package: see rostest's docstring)
 
+pytestmark = pytest.mark.ros
+
 IDENTIFIER = 'scara_ident_ros.nodes.identifier'
 NAMES = ('joint1', 'joint2', 'joint3', 'joint4')
 PERIOD_NS = 1_000_000  # 1 kHz

@@ -25,6 +25,8 @@ from scara_ident_ros.nodes.messages import NS_PER_S, stamp_to_ns
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import rostest  # noqa: E402  (test/nodes is not a package: see rostest's docstring)
 
+pytestmark = pytest.mark.ros
+
 IDENTIFIER = 'scara_ident_ros.nodes.identifier'
 SCARA_SIM = 'scara_ident_ros.nodes.scara_sim'
 URDF = Path(__file__).resolve().parents[2] / 'urdf' / 'scara.urdf'

@@ -32,6 +32,8 @@ from test_identifier import (DEPTH, DISCOVERY_TIMEOUT, IDENTIFIER,  # noqa: E402
                              JOINT_STATES_TOPIC, LAG, MSE_TOPIC, PERIOD_NS, SETTLE, T0_NS,
                              TORQUE_TOPIC, held_out_indices, sample_msg, simulated)
 
+pytestmark = pytest.mark.ros
+
 NODE = '/identifier'
 DIAGNOSTICS_TOPIC = '/diagnostics'
 STATUS_NAME = '/identifier: identification'

@@ -24,7 +24,7 @@ sys.path.insert(0, str(HERE))
 
 from rostest import Listener, NodeProcess  # noqa: E402
 
-pytestmark = pytest.mark.slow
+pytestmark = [pytest.mark.ros, pytest.mark.slow]
 
 BAG = HERE.parents[1] / 'bags' / 'demo_run'
 SAMPLES = 10_000  # /joint_states in BAG

@@ -15,6 +15,8 @@ import pytest
 from scara_ident_ros.nodes import parameter_reference
 from scara_ident_ros.nodes.parameter_reference import NODES, node_section, render
 
+pytestmark = pytest.mark.ros
+
 ROOT = Path(__file__).resolve().parents[2]
 REFERENCE = ROOT / 'docs' / 'parameters.md'
 

@@ -40,7 +40,7 @@ import pytest
 
 from scara_ident_ros.nodes.scara_sim import HISTORY
 
-pytestmark = [
+pytestmark = [pytest.mark.ros,
     pytest.mark.slow,
     pytest.mark.skipif(os.geteuid() != 0,
                        reason='network namespaces (ip netns add) need root; CI runs as root'),

@@ -13,6 +13,10 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
+pytestmark = pytest.mark.ros
+
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))

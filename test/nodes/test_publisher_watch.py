@@ -1,7 +1,11 @@
 """Backward stamps: the trace of interleaved publishers that `PublisherWatch` reports."""
 from __future__ import annotations
 
+import pytest
+
 from scara_ident_ros.nodes.publisher_watch import INTERLEAVED_STEPS, StampOrder
+
+pytestmark = pytest.mark.ros
 
 MS = 1_000_000  # ns
 

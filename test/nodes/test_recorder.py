@@ -22,6 +22,8 @@ from typing import Any
 
 import pytest
 
+pytestmark = pytest.mark.ros
+
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 

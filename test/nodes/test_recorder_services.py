@@ -26,6 +26,8 @@ from scara_ident_ros.bag import open_bag
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import rostest  # noqa: E402  (test/nodes is not a package: see rostest's docstring)
 
+pytestmark = pytest.mark.ros
+
 RECORDER = 'scara_ident_ros.nodes.recorder'
 NODE = '/recorder'
 JOINT_STATES = '/joint_states'

@@ -27,6 +27,8 @@ from scara_ident_ros.sim import SimConfig, Simulator, make_trajectory  # noqa: E
 from scara_ident_ros.sim.example_robots import example_robot  # noqa: E402
 from scara_ident_ros.sim.pinocchio_robot import PinocchioRobot  # noqa: E402
 
+pytestmark = pytest.mark.ros
+
 MODULE = 'scara_ident_ros.nodes.robot_sim'
 JOINT_STATES_TOPIC = '/joint_states'
 MS = 1_000_000  # ns

@@ -25,6 +25,8 @@ from rostest import Listener, NodeProcess  # noqa: E402
 from scara_ident_ros.dynamics import ScaraParams  # noqa: E402
 from scara_ident_ros.sim import SimConfig, Simulator, make_trajectory  # noqa: E402
 
+pytestmark = pytest.mark.ros
+
 MODULE = 'scara_ident_ros.nodes.scara_sim'
 JOINT_STATES_TOPIC = '/joint_states'
 CLOCK_TOPIC = '/clock'

@@ -26,7 +26,7 @@ sys.path.insert(0, str(HERE.parent))
 from ros_domains import claim_domain  # noqa: E402  (test/ is no package)
 from rostest import NodeProcess  # noqa: E402
 
-pytestmark = pytest.mark.slow
+pytestmark = [pytest.mark.ros, pytest.mark.slow]
 
 SIM = 'scara_ident_ros.nodes.scara_sim'
 START_TIMEOUT = 60.0  # s for the nodes to start and discover each other (shared machine)

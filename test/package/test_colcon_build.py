@@ -16,6 +16,8 @@ from pathlib import Path
 
 import pytest
 
+pytestmark = pytest.mark.ros
+
 REPO = Path(__file__).resolve().parents[2]
 PACKAGE = 'scara_ident_ros'
 NODES = ('scara_sim', 'robot_sim', 'identifier', 'recorder', 'player', 'excitation')

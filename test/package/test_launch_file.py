@@ -17,6 +17,8 @@ import pytest
 
 from scara_ident_ros.nodes.runtime import STOP_TIMEOUT
 
+pytestmark = pytest.mark.ros
+
 LAUNCH_FILE = Path(__file__).resolve().parents[2] / 'launch' / 'identification.launch.py'
 STAND_INS = {
     'launch': ['LaunchDescription'],

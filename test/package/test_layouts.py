@@ -41,6 +41,8 @@ from scara_ident_ros.nn.presets import METHODS
 from scara_ident_ros.nodes.identifier import IdentifierNode
 from scara_ident_ros.nodes.scara_sim import ScaraSimNode
 
+pytestmark = pytest.mark.ros
+
 REPO = Path(__file__).resolve().parents[2]
 FOXGLOVE = REPO / 'config' / 'foxglove_layout.json'
 PLOTJUGGLER = REPO / 'config' / 'plotjuggler_layout.xml'
