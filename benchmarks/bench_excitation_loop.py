@@ -34,7 +34,7 @@ d. ``--in-process``: the same target measured on the motion, not on the machine 
    time at rest, and the loops' tracking error. ``--seeds`` seeds in ``--workers`` processes.
 
     .venv/bin/python benchmarks/bench_excitation_loop.py [--seconds 10] [--identify]
-        [--velocity-scale 0.5] [--acceleration-scale 0.5]
+        [--position-margin 0.1] [--velocity-scale 0.5] [--acceleration-scale 0.5]
     .venv/bin/python benchmarks/bench_excitation_loop.py --in-process [--seconds 120]
         [--seeds 5] [--workers 2] [--settings 0.1:0.5:0.5 0.1:1:1 0:1:1]
 
@@ -69,13 +69,14 @@ START_TIMEOUT = 60.0  # s, the machine is shared
 S = 1_000_000_000  # ns
 
 
-def plan_check(seconds: float, velocity_scale: float, acceleration_scale: float) -> None:
+def plan_check(seconds: float, position_margin: float, velocity_scale: float,
+               acceleration_scale: float) -> None:
     """Part a: every point of every chunk, and stops every 0.1 s."""
     from scara_ident_ros.excitation import (ExcitationPlan, load_motion_limits, make_chunk,
                                             plan_stop)
 
     limits = load_motion_limits(urdf_file=str(URDF))
-    margined = limits.with_margins(0.1, velocity_scale, acceleration_scale)
+    margined = limits.with_margins(position_margin, velocity_scale, acceleration_scale)
     start = np.array([0.5, -0.5, 0.05, 2.0])
     plan = ExcitationPlan(margined, start, seed=0)
     end = plan.approach_duration + seconds
@@ -94,7 +95,7 @@ def plan_check(seconds: float, velocity_scale: float, acceleration_scale: float)
         stop_peak = np.maximum(stop_peak, np.abs(a).max(axis=0))
     durations = [stop.duration for stop in stops]
     print(f'### a. Plan check: {len(chunks)} chunks, {len(q)} points, approach '
-          f'{plan.approach_duration:g} s + {seconds:g} s (margins 0.1, scales '
+          f'{plan.approach_duration:g} s + {seconds:g} s (margins {position_margin:g}, scales '
           f'{velocity_scale:g}/{acceleration_scale:g})\n')
     print('| joint | peak \\|q\'\\| / limit | peak \\|q\'\'\\| / limit | closest to a position '
           'limit (of range) | stop peak \\|q\'\'\\| / limit |')
@@ -180,8 +181,9 @@ class Graph:
         self.context.try_shutdown()
 
 
-def loop(seconds: float, velocity_scale: float, acceleration_scale: float, env: dict[str, str],
-         logs: Path, identify: bool) -> Path | None:
+def loop(seconds: float, position_margin: float, velocity_scale: float,
+         acceleration_scale: float, env: dict[str, str], logs: Path, identify: bool
+         ) -> Path | None:
     """Part b (and the loop's half of part c): returns the identifier's model, if any."""
     from scara_ident_ros.excitation import ExcitationPlan, load_motion_limits
 
@@ -198,7 +200,8 @@ def loop(seconds: float, velocity_scale: float, acceleration_scale: float, env: 
             graph.spin(START_TIMEOUT, lambda: graph.torques > 0)
         excitation = graph.start(
             'excitation', 'scara_ident_ros.nodes.excitation', f'urdf_file:={URDF}',
-            f'velocity_scale:={velocity_scale}', f'acceleration_scale:={acceleration_scale}',
+            f'position_margin:={position_margin}', f'velocity_scale:={velocity_scale}',
+            f'acceleration_scale:={acceleration_scale}',
             f'stats_file:={stats}', 'wait_timeout:=60.0')
         graph.spin(START_TIMEOUT, lambda: len(graph.commands) > 0)
         graph.spin(seconds + 2.0)  # the approach (1-2 s), then --seconds of sequence
@@ -440,6 +443,7 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
     parser.add_argument('--seconds', type=float, default=10.0,
                         help='seconds of sequence after the approach (default 10)')
+    parser.add_argument('--position-margin', type=float, default=0.1)
     parser.add_argument('--velocity-scale', type=float, default=0.5)
     parser.add_argument('--acceleration-scale', type=float, default=0.5)
     parser.add_argument('--identify', action='store_true',
@@ -463,16 +467,19 @@ def main() -> int:
         in_process(args.seconds, args.seeds, args.settings, args.workers,
                    tuple(args.held_out))
         return 0
-    plan_check(args.seconds, args.velocity_scale, args.acceleration_scale)
+    plan_check(args.seconds, args.position_margin, args.velocity_scale,
+               args.acceleration_scale)
     env = ros_env()
     with tempfile.TemporaryDirectory() as scratch:
         logs = args.logs or Path(scratch)
         logs.mkdir(parents=True, exist_ok=True)
-        model = loop(args.seconds, args.velocity_scale, args.acceleration_scale, env, logs,
+        model = loop(args.seconds, args.position_margin, args.velocity_scale,
+                     args.acceleration_scale, env, logs,
                      args.identify)
         if model is not None:
             reference = sequence_model(args.seconds, env, logs)
-            score({f'loop ({args.seconds:g} s, scales {args.velocity_scale:g}/'
+            score({f'loop ({args.seconds:g} s, margin {args.position_margin:g}, scales '
+                   f'{args.velocity_scale:g}/'
                    f'{args.acceleration_scale:g})': (model, logs / 'loop_identifier.json'),
                    f'scara_sim sequence ({args.seconds:g} s)':
                        (reference, logs / 'sequence_identifier.json')})
