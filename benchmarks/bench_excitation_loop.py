@@ -278,12 +278,14 @@ def score(models: dict[str, tuple[Path, Path]]) -> None:
     held_out = held_out_set(params)
     print(f'### c. Held-out NMSE of the identifier\'s saved model ({held_out.X.shape[0]} '
           'samples never streamed)\n')
-    print('| stream | samples learnt | ' + ' | '.join(params.joint_names) + ' | worst |')
-    print('|---|---:|' + '---:|' * (len(params.joint_names) + 1))
+    print('| stream | samples learnt | LM updates | ' + ' | '.join(params.joint_names)
+          + ' | worst |')
+    print('|---|---:|---:|' + '---:|' * (len(params.joint_names) + 1))
     for label, (path, stats) in models.items():
         nmse = evaluate(load_model(path), held_out.X, held_out.Y).nmse
-        learnt = json.loads(stats.read_text()).get('learned', '?')
-        print(f'| {label} | {learnt} | ' + ' | '.join(f'{x:.2e}' for x in nmse)
+        run = json.loads(stats.read_text())
+        print(f'| {label} | {run.get("learned", "?")} | {run.get("updates", "?")} | '
+              + ' | '.join(f'{x:.2e}' for x in nmse)
               + f' | {np.max(nmse):.2e} |')
     print()
 
@@ -392,6 +394,13 @@ def in_process(seconds: float, seeds: int, settings: list[Setting], workers: int
           f'{os.getloadavg()[0]:.1f}, {time.monotonic() - started:.0f} s, {workers} '
           'workers)\n')
     print(curves_markdown([curve for curve, _ in results]))
+    worst: dict[str, list[str]] = {}
+    for curve, _ in results:
+        worst.setdefault(curve.label, []).append(f'{curve.nmse[-1].max():.2e}')
+    print(f'\nWorst joint at {seconds:g} s, seed by seed (0, 1, ...):\n')
+    print('| stream | per seed |\n|---|---|')
+    for label, values in worst.items():
+        print(f'| {label} | {", ".join(values)} |')
     print(f'\nAmplitude: RMS of q − centre / half-range, of q\' and q\'\' / limit, per joint '
           f'({", ".join(params.joint_names)}), median over seeds; held-out samples outside '
           'the stream\'s per-joint ranges of q, q\', q\'\'; share of the stream at rest '
