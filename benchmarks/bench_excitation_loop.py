@@ -232,7 +232,7 @@ def loop(seconds: float, position_margin: float, velocity_scale: float,
     measured = np.abs(np.gradient(qd[stopping], t[stopping], axis=0)).max(axis=0)
     print(f'### b. Loop: excitation -> scara_sim -> /joint_states, {t[moving].size} samples '
           f'over {t[moving].size / 1000:.1f} s of motion, {len(graph.commands)} chunks, '
-          f'stop at plan time {run["stop_time"]:.2f} s (load average '
+          f'stop ({run["stop_reason"]}) at plan time {run["stop_time"]:.2f} s (load average '
           f'{os.getloadavg()[0]:.1f})\n')
     print('| joint | tracking max \\|e\\| | tracking RMS | stop: commanded peak \\|q\'\'\\| / '
           'limit | stop: measured peak \\|q\'\'\\| / limit |')
@@ -244,6 +244,11 @@ def loop(seconds: float, position_margin: float, velocity_scale: float,
               f'{measured[j] / limits.acceleration_max[j]:.3f} |')
     print('\n(e in rad, joint3 in m; limits: the URDF\'s, acceleration from config/scara.yaml; '
           f'the stop keeps to {run["acceleration_scale"]:g} of them.)\n')
+    if run['stop_reason'] != '~/stop called':
+        print(f'**The excitation stopped early ({run["stop_reason"]}, exit status '
+              f'{run["exit_status"]}) at plan time {run["stop_time"]:.2f} s of '
+              f'{run["approach_duration"] + seconds:.2f}: the arm then rested; an identifier '
+              'learnt rest until the end. Not a measurement of the target.**\n')
     return model if identify else None
 
 
