@@ -31,7 +31,8 @@ d. ``--in-process``: the same target measured on the motion, not on the machine 
    ``position_margin:velocity_scale:acceleration_scale``. Also per stream: its amplitude
    against the held-out motions' (RMS of q − centre, q', q'' as fractions of the half-range
    and limits), the share of held-out samples outside the stream's per-joint ranges, the
-   time at rest, and the loops' tracking error. ``--seeds`` seeds in ``--workers`` processes.
+   time at rest, the loops' tracking error, and each seed's worst joint at the end.
+   ``--seeds`` seeds in ``--workers`` processes (one BLAS thread each).
 
     .venv/bin/python benchmarks/bench_excitation_loop.py [--seconds 10] [--identify]
         [--position-margin 0.1] [--velocity-scale 0.5] [--acceleration-scale 0.5]
