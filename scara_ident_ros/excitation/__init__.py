@@ -4,6 +4,8 @@
 simulator's sequence for any joints), :class:`ExcitationPlan` (approach, then sequence),
 :func:`plan_stop` (to rest along the path), :func:`make_chunk` (what is sent). No rclpy:
 the ``excitation`` node and ``scara-ident excitation --dry-run`` share this core.
+:mod:`~scara_ident_ros.excitation.simulated_loop` (imported by name only: it pulls in the
+simulator) runs the whole loop with a simulated arm in one process, for benchmarks.
 """
 from __future__ import annotations
 
