@@ -109,6 +109,7 @@ from scara_ident_ros.dynamics import ScaraParams  # noqa: E402
 from scara_ident_ros.paper import learning_curves as lc  # noqa: E402
 from scara_ident_ros.identification.dataset import Dataset  # noqa: E402
 from scara_ident_ros.paper.datasets import simulate_record  # noqa: E402
+from scara_ident_ros.identification import reservoir_lm  # noqa: E402
 from scara_ident_ros.identification import trainer as tr  # noqa: E402
 from scara_ident_ros.identification.metrics import effort_errors  # noqa: E402
 from scara_ident_ros.nn import fit  # noqa: E402
@@ -151,8 +152,9 @@ def _patch(variant: str, params: ScaraParams) -> tuple[int, Any]:
             out[..., 4:8] = v_max * np.arcsinh(out[..., 4:8] / c) / np.arcsinh(v_max / c)
             return out
 
-        learn = tr.ReservoirLM.learn
-        tr.ReservoirLM.learn = lambda self, x, y: learn(self, stretch(x), y)  # type: ignore
+        lm = reservoir_lm.ReservoirLM
+        learn = lm.learn
+        lm.learn = lambda self, x, y: learn(self, stretch(x), y)  # type: ignore
         return 200, stretch
     if variant == 'interval-600':  # what `scara-ident run` gives its three identifiers
         return 600, None
