@@ -30,8 +30,9 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from scara_ident_ros.nn import FeedForwardNet  # noqa: E402
-from scara_ident_ros.nn.batch import jacobian, predict_scaled  # noqa: E402
+from scara_ident_ros.nn import FeedForwardNet, fit  # noqa: E402
+from scara_ident_ros.nn.batch import jacobian  # noqa: E402
+from scara_ident_ros.nn.network import predict_scaled  # noqa: E402
 
 ACTIVATIONS = ('mslog', 'slog', 'sigmoid')
 
@@ -122,19 +123,19 @@ def main() -> None:
     rows = []
     with blas_single_thread():
         load_before = os.getloadavg()[0]
-        FeedForwardNet(12, 40, 4).fit(x, y, iterations=2)  # warm caches and allocators
+        fit(FeedForwardNet(12, 40, 4), x, y, iterations=2)  # warm caches and allocators
         for activation in ACTIVATIONS:
             times, mse = [], []
             for _ in range(args.repeats):
                 net = FeedForwardNet(12, 40, 4, activation, seed=0)
                 start = time.perf_counter()
-                history = net.fit(x, y, iterations=args.iterations)
+                history = fit(net, x, y, iterations=args.iterations)
                 times.append(time.perf_counter() - start)
                 mse.append(history.mse[-1])
             assert len(set(mse)) == 1, 'our LM is deterministic'
             target = mse[0]
             net = FeedForwardNet(12, 40, 4, activation, seed=0)
-            net.fit(x, y, iterations=0)  # the same scaling ours used, weights untouched
+            fit(net, x, y, iterations=0)  # the same scaling ours used, weights untouched
             scipy_run = ScipyRun(net, x, y, target, args.limit)
             scipy_run.run(net.get_params())
             rows.append((activation, history, statistics.median(times), min(times),

@@ -1,7 +1,7 @@
 """Cost of one Levenberg–Marquardt step of the identifier's ``lm`` trainer against the number
 of joints (4: the SCARA, 6: a UR5, 7: a Panda) and the reservoir's size.
 
-One step is what :class:`~scara_ident_ros.identification.trainer.ReservoirLM` does per LM
+One step is what :class:`~scara_ident_ros.identification.reservoir_lm.ReservoirLM` does per LM
 step: the normal equations' blocks on the reservoir (float32 hidden-layer blocks, the
 default), one solve of the damped system, and the trial step's error on the reservoir. The
 solve is timed both ways: ``structured`` (:meth:`NormalBlocks.solve`, the output weights

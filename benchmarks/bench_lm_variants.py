@@ -38,7 +38,7 @@ Variants (``--variant``, repeatable; default: all):
 ``--diagnose`` instead prints, for ``random-init``: the reservoir's own NMSE against the
 held-out NMSE (underfitting or overfitting), the share of joint 4's held-out squared error
 at ``|q'4| < 0.2 rad/s``, and the held-out NMSE after 400 more float64 LM iterations on the
-frozen reservoir (``FeedForwardNet.fit``) and after 400 more of the trainer's own steps.
+frozen reservoir (``nn.fit``) and after 400 more of the trainer's own steps.
 
 Measured 2026-12-02 (2 shared cores; ``learning_curves.md``). Friction steps (five widths,
 the default) and all-random weights, worst joint at 120 s, median [range]::
@@ -109,8 +109,10 @@ from scara_ident_ros.dynamics import ScaraParams  # noqa: E402
 from scara_ident_ros.paper import learning_curves as lc  # noqa: E402
 from scara_ident_ros.identification.dataset import Dataset  # noqa: E402
 from scara_ident_ros.paper.datasets import simulate_record  # noqa: E402
+from scara_ident_ros.identification import reservoir_lm  # noqa: E402
 from scara_ident_ros.identification import trainer as tr  # noqa: E402
 from scara_ident_ros.identification.metrics import effort_errors  # noqa: E402
+from scara_ident_ros.nn import fit  # noqa: E402
 from scara_ident_ros.sim import SimConfig  # noqa: E402
 
 VARIANTS = ('default', 'random-init', 'interval-600', 'float64', 'float64-300', 'asinh',
@@ -150,8 +152,9 @@ def _patch(variant: str, params: ScaraParams) -> tuple[int, Any]:
             out[..., 4:8] = v_max * np.arcsinh(out[..., 4:8] / c) / np.arcsinh(v_max / c)
             return out
 
-        learn = tr.ReservoirLM.learn
-        tr.ReservoirLM.learn = lambda self, x, y: learn(self, stretch(x), y)  # type: ignore
+        lm = reservoir_lm.ReservoirLM
+        learn = lm.learn
+        lm.learn = lambda self, x, y: learn(self, stretch(x), y)  # type: ignore
         return 200, stretch
     if variant == 'interval-600':  # what `scara-ident run` gives its three identifiers
         return 600, None
@@ -201,7 +204,7 @@ def _run(variant: str, seed: int, diagnose: bool, coulomb_eps: float | None) -> 
             trainer.step()  # 2 steps each: 400 of the trainer's own
         own = _nmse(held_out.Y, net.predict(held_out.X))
         net.theta[:] = theta
-        net.fit(res_x, res_y, iterations=400)
+        fit(net, res_x, res_y, iterations=400)
         fitted = _nmse(held_out.Y, net.predict(held_out.X))
         fmt = lambda a: ', '.join(f'{v:.2g}' for v in a)  # noqa: E731
         return (f'{row}\n  at 120 s: reservoir NMSE {fmt(reservoir_nmse)}, '

@@ -67,6 +67,7 @@ from scara_ident_ros.dynamics.hybrid_model import fit_hybrid  # noqa: E402
 from scara_ident_ros.dynamics.physical_model import PhysicalModel  # noqa: E402
 from scara_ident_ros.identification.dataset import Dataset, make_dataset  # noqa: E402
 from scara_ident_ros.paper.datasets import dataset_from_record, simulate_record  # noqa: E402
+from scara_ident_ros.nn import fit  # noqa: E402
 from scara_ident_ros.nn.presets import make_network  # noqa: E402
 from scara_ident_ros.identification.split import block_split  # noqa: E402
 
@@ -187,10 +188,10 @@ def run_robot(robot: str, urdf: Path, train_all: Dataset, held_out: Dataset,
     network = make_network('ffs', len(names), seed=0, friction_steps=True)
     fitted = train.subsample(args.samples, seed=0) if args.samples < len(train) else train
     with single_blas_thread():
-        history = network.fit(fitted.X, fitted.Y, iterations=args.iterations,
-                              validation=(validation.X, validation.Y),
-                              max_fail=train_cli.MAX_FAIL,
-                              min_iterations=train_cli.MIN_ITERATIONS)
+        history = fit(network, fitted.X, fitted.Y, iterations=args.iterations,
+                      validation=(validation.X, validation.Y),
+                      max_fail=train_cli.MAX_FAIL,
+                      min_iterations=train_cli.MIN_ITERATIONS)
     rows.append(row(robot, 'FFS', nmse(network.predict, held_out),
                     time.perf_counter() - started,
                     f'{history.best_iteration} of {history.iterations} iterations, '

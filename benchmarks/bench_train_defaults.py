@@ -138,7 +138,7 @@ from scara_ident_ros.dynamics import ScaraParams  # noqa: E402
 from scara_ident_ros.identification.dataset import Dataset  # noqa: E402
 from scara_ident_ros.paper.datasets import simulate_dataset, simulate_record  # noqa: E402
 from scara_ident_ros.nn.presets import make_network  # noqa: E402
-from scara_ident_ros.nn import FeedForwardNet  # noqa: E402
+from scara_ident_ros.nn import FeedForwardNet, fit  # noqa: E402
 from scara_ident_ros.blas_threads import single_blas_thread  # noqa: E402
 from scara_ident_ros.cli.evaluation import evaluate  # noqa: E402
 from scara_ident_ros.identification.recording import load_recording  # noqa: E402
@@ -247,10 +247,10 @@ def train_once(data: Dataset, setting: Setting, seed: int
                            friction_steps=bool(setting.friction_steps))
     started = time.perf_counter()
     with single_blas_thread():
-        history = network.fit(train.X, train.Y, iterations=setting.iterations,
-                              validation=(val.X, val.Y) if len(val) else None,
-                              max_fail=setting.max_fail,
-                              min_iterations=setting.min_iterations)
+        history = fit(network, train.X, train.Y, iterations=setting.iterations,
+                      validation=(val.X, val.Y) if len(val) else None,
+                      max_fail=setting.max_fail,
+                      min_iterations=setting.min_iterations)
     return network, {'iterations': history.iterations, 'best': history.best_iteration,
                      'stop': history.stop_reason, 'seconds': time.perf_counter() - started}
 

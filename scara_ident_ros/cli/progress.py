@@ -1,4 +1,4 @@
-"""A plain-text progress bar for offline training, as a ``FeedForwardNet.fit`` callback.
+"""A plain-text progress bar for offline training, as a ``nn.fit`` callback.
 
 On a terminal the bar is redrawn in place (carriage return), at most every
 ``min_interval_s``; on anything else (a log file, a pipe) one line is written per tenth of

@@ -65,7 +65,7 @@ from scara_ident_ros.dynamics.physical_model import COULOMB_EPS, COULOMB_MODES
 from scara_ident_ros.identification import DIFFERENTIATOR_WINDOW
 from scara_ident_ros.identification.split import VALIDATION_BLOCK_S, VALIDATION_FRACTION
 from scara_ident_ros.nn.presets import METHODS, make_network
-from scara_ident_ros.nn import ALGORITHMS
+from scara_ident_ros.nn import ALGORITHMS, fit
 from scara_ident_ros.paths import unwritable_file
 
 if TYPE_CHECKING:
@@ -227,8 +227,8 @@ def run(args: argparse.Namespace) -> int:
     progress = TrainingProgress(args.iterations, label=f'{args.method.upper()} {args.algorithm}')
     started = time.perf_counter()
     with single_blas_thread():
-        history = network.fit(
-            train.X, train.Y, algorithm=args.algorithm, iterations=args.iterations,
+        history = fit(
+            network, train.X, train.Y, algorithm=args.algorithm, iterations=args.iterations,
             goal=args.goal,
             validation=(validation.X, validation.Y) if len(validation) else None,
             max_fail=args.max_fail, min_iterations=args.min_iterations, callback=progress)

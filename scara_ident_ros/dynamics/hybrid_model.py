@@ -30,7 +30,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from scara_ident_ros.dynamics.physical_model import PhysicalModel
-from scara_ident_ros.nn import FeedForwardNet, FitHistory, ModelFormatError
+from scara_ident_ros.nn import FeedForwardNet, FitHistory, ModelFormatError, fit
 from scara_ident_ros.nn.model_file import NETWORK_PREFIX, read_model_file, write_model
 from scara_ident_ros.nn.training import Callback
 
@@ -167,9 +167,9 @@ def fit_hybrid(physical: PhysicalModel, network: FeedForwardNet,
     seed : int
         Seed of that draw.
     iterations, max_fail, min_iterations : int
-        Levenberg–Marquardt's limits (``FeedForwardNet.fit``).
+        Levenberg–Marquardt's limits (``nn.fit``).
     callback : callable, optional
-        ``FeedForwardNet.fit``'s progress callback.
+        ``nn.fit``'s progress callback.
 
     Returns
     -------
@@ -194,7 +194,7 @@ def fit_hybrid(physical: PhysicalModel, network: FeedForwardNet,
         xv = np.asarray(validation[0], dtype=np.float64)
         if xv.shape[0]:
             val = (xv, np.asarray(validation[1], dtype=np.float64) - physical.predict(xv))
-    history = network.fit(x, residual, algorithm='lm', iterations=iterations,
-                          validation=val, max_fail=max_fail, min_iterations=min_iterations,
-                          callback=callback)
+    history = fit(network, x, residual, algorithm='lm', iterations=iterations,
+                  validation=val, max_fail=max_fail, min_iterations=min_iterations,
+                  callback=callback)
     return HybridModel(physical, network), history

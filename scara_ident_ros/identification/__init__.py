@@ -25,9 +25,10 @@ from scara_ident_ros.identification.online_identifier import (Counts, EffortMode
 from scara_ident_ros.identification.sample_check import (DEFAULT_MAX_GAP_NS, Bounds, Sample,
                                                          SampleCheck)
 from scara_ident_ros.identification.reservoir import Reservoir
+from scara_ident_ros.identification.reservoir_lm import ReservoirLM
 from scara_ident_ros.identification.skip_reason import SkipReason
-from scara_ident_ros.identification.trainer import (TRAINERS, BackPropagation, ReservoirLM,
-                                                    Trainer, make_trainer)
+from scara_ident_ros.identification.trainer import (TRAINERS, BackPropagation, Trainer,
+                                                    make_trainer)
 from scara_ident_ros.identification.warm_start import (ModelMismatch, check_warm_start,
                                                        model_joint_names)
 

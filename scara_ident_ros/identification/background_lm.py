@@ -5,7 +5,7 @@ does; an LM step on a reservoir of thousands of samples costs tens of millisecon
 :class:`BackgroundLM` keeps only the prediction in the caller's process: each sample is
 predicted with the weights of the moment (a priori, before it is learnt) and put in a small
 batch; full batches go down a pipe to a learner process (:func:`_learner`), which keeps the
-:class:`~scara_ident_ros.identification.trainer.ReservoirLM` (reservoir, slow reservoir, LM
+:class:`~scara_ident_ros.identification.reservoir_lm.ReservoirLM` (reservoir, slow reservoir, LM
 state), takes ``steps`` LM steps whenever at least ``interval`` new samples have come, and
 sends the new weights back. The caller takes them between two samples
 (:meth:`BackgroundLM.poll`), so a prediction never sees half an update.
@@ -45,6 +45,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from scara_ident_ros.identification.reservoir_lm import ReservoirLM
 from scara_ident_ros.nn import FeedForwardNet
 
 __all__ = ['BackgroundLM', 'LearnerSettings', 'prestart']
@@ -268,7 +269,6 @@ def _learner(inbox: Connection, outbox: Connection, model: FeedForwardNet,
              settings: LearnerSettings) -> None:
     """The learner process: keep the reservoir, step, send weights, until told to stop."""
     from scara_ident_ros.blas_threads import single_blas_thread
-    from scara_ident_ros.identification.trainer import ReservoirLM
 
     try:
         os.nice(settings.nice)

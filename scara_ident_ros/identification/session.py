@@ -39,7 +39,7 @@ from scara_ident_ros.identification.metrics import ErrorStats
 from scara_ident_ros.identification.online_identifier import OnlineIdentifier, StepResult
 from scara_ident_ros.identification.skip_reason import SkipReason
 from scara_ident_ros.identification.stream_clock import LagHistogram
-from scara_ident_ros.identification.trainer import ReservoirLM
+from scara_ident_ros.identification.reservoir_lm import ReservoirLM
 from scara_ident_ros.identification.warm_start import check_warm_start
 from scara_ident_ros.nn import FeedForwardNet, ModelFormatError
 from scara_ident_ros.nn.presets import METHODS

@@ -13,54 +13,32 @@
     holds a too large one: docs/results.md, "The learning guard". The identifier clips
     predictions beyond the effort limits.
 
-``'lm'`` (:class:`ReservoirLM`, the default)
-    Every sample goes into a :class:`Reservoir`, a uniform random sample of the whole stream
-    so far (``capacity`` samples); every ``interval`` samples the network takes ``steps``
-    Levenberg–Marquardt steps on the reservoir (the offline algorithm of Table 2, whose steps
-    only lower the reservoir's error, so a step can never make the error explode). The
-    network is fitted to all the motion seen, as offline training would fit it. JᵀJ is
-    assembled in float32 (``normal_equations(single=True)``, faster than float64 and
-    accurate enough for the step), the rest in float64, and the damped system is solved on
-    its blocks (``NormalBlocks.solve``). A step's cost grows with the joints and the
-    reservoir (benchmarks/lm_arms.md, benchmarks/bench_learning_curves.py).
-    The identifier's network for this trainer starts with friction steps
-    (``make_network(friction_steps=True)``, the node's ``lm_friction_steps``): without
-    them, joint 4, whose effort is mostly Coulomb friction (a step in q'4), stays
-    underfitted after 120 s (benchmarks/learning_curves.md).
-    Two options, off by default, were the earlier attempt at joint 4 on all-random weights
-    (benchmarks/bench_lm_variants.py): ``float64`` assembles JᵀJ in float64, and
-    ``slow_share`` keeps that share of the reservoir for samples where some joint moves
-    slower than 1 % of its velocity input's half-range (:data:`SLOW_FRACTION`): the samples
-    around q' = 0, where the Coulomb step is, a small share of a stream.
+``'lm'`` (:class:`~.reservoir_lm.ReservoirLM`, the default)
+    Levenberg–Marquardt steps on a uniform reservoir of the whole stream so far: the network
+    is fitted to all the motion seen, as offline training would fit it, and a step can never
+    make the error explode (:mod:`.reservoir_lm`). With ``background``, the reservoir and its
+    steps live in a learner process beside the stream (:mod:`.background_lm`).
 
 Both give the a-priori prediction of each sample, made before the sample is learnt.
 """
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
+from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import NDArray
 
-from scara_ident_ros.identification.reservoir import Reservoir
+from scara_ident_ros.identification.background_lm import BackgroundLM, LearnerSettings
+from scara_ident_ros.identification.reservoir_lm import ReservoirLM
 from scara_ident_ros.nn import FeedForwardNet
 from scara_ident_ros.nn.scaling import MinMaxScaling
-from scara_ident_ros.nn.levenberg_marquardt import LevenbergMarquardt
-from scara_ident_ros.nn.training import StopTraining
 
-if TYPE_CHECKING:  # background_lm's learner process imports this module
-    from scara_ident_ros.identification.background_lm import BackgroundLM
-
-__all__ = ['Trainer', 'BackPropagation', 'ReservoirLM', 'TRAINERS', 'make_trainer',
+__all__ = ['Trainer', 'BackPropagation', 'TRAINERS', 'make_trainer',
            'starts_with_friction_steps']
 
 #: Names of the online trainers; ``'lm'`` is the default.
 TRAINERS = ('lm', 'bp')
 
-LM_MU = 1e-3  # initial (and restart) damping of the reservoir LM
-#: A sample is slow (``ReservoirLM``'s ``slow_share``) when some joint's |q'| is below this
-#: fraction of the half-range of the network's velocity input (of v_max with limit scaling).
-SLOW_FRACTION = 0.01
 #: BP's step guard: a step is undone if, on its own sample, the squared scaled error after
 #: it exceeds GROWTH times the one before it plus GUARD_FLOOR per output (scaled units: the
 #: outputs' range is [-1, 1], so the floor is an error of 5 % of an effort range).
@@ -180,107 +158,6 @@ class BackPropagation:
         return y - prior
 
 
-class ReservoirLM:
-    """Levenberg–Marquardt steps on a uniform reservoir of the stream (module docstring).
-
-    Parameters
-    ----------
-    model : FeedForwardNet
-        The network, with its scaling set (the robot's limits).
-    capacity : int
-        Samples kept in the reservoir.
-    interval : int
-        Samples between two updates.
-    steps : int
-        LM steps per update, each on the whole reservoir.
-    seed : int
-        Seed of the reservoir's draws.
-    float64 : bool
-        Assemble JᵀJ in float64 (more CPU) instead of float32.
-    slow_share : float
-        Share of ``capacity`` in [0, 0.5] kept for slow samples (some joint below
-        :data:`SLOW_FRACTION` of its velocity input's half-range), in a reservoir of their
-        own; 0: one uniform reservoir. The inputs are (q, q', q'') of n joints each.
-    """
-
-    name = 'lm'
-
-    def __init__(self, model: FeedForwardNet, *, capacity: int = 4000, interval: int = 200,
-                 steps: int = 2, seed: int = 0, float64: bool = False,
-                 slow_share: float = 0.0) -> None:
-        if interval < 1 or steps < 1:
-            raise ValueError(f'need interval >= 1 and steps >= 1, got {interval}, {steps}')
-        if not 0.0 <= slow_share <= 0.5:
-            raise ValueError(f'slow_share must be in [0, 0.5], got {slow_share}')
-        self.model = model
-        self.interval = int(interval)
-        self.steps_per_update = int(steps)
-        self.float64 = bool(float64)
-        n_slow = round(capacity * slow_share)
-        self.reservoir = Reservoir(capacity - n_slow, model.n_inputs, model.n_outputs,
-                                   seed=seed)
-        self.slow: Reservoir | None = None
-        if n_slow:
-            self.slow = Reservoir(n_slow, model.n_inputs, model.n_outputs, seed=seed + 1)
-            n = model.n_inputs // 3
-            self._velocities = slice(n, 2 * n)
-            scaling = model.x_scaling
-            half = (scaling.hi[self._velocities] - scaling.lo[self._velocities]) / 2.0
-            self._slow_below = SLOW_FRACTION * np.abs(half)  # (n,) physical speeds
-        self.steps = 0  # LM steps taken
-        self._since = 0  # samples since the last step
-        self._lm: LevenbergMarquardt | None = None
-
-    def learn(self, x: NDArray[np.float64], y: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Predict, keep the sample in the reservoir, and step every ``interval`` samples."""
-        predicted = self.model.predict(x)
-        self.add(x, y)
-        self._since += 1
-        if self._since >= self.interval:
-            self._since = 0
-            self.step()
-        return predicted
-
-    def add(self, x: NDArray[np.float64], y: NDArray[np.float64]) -> None:
-        """Offer one sample, x (3n,) and y (n,), to the reservoir (or to the slow one)."""
-        if self.slow is not None and bool(
-                np.any(np.abs(x[self._velocities]) < self._slow_below)):
-            self.slow.add(x, y)
-        else:
-            self.reservoir.add(x, y)
-
-    def samples(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """The samples the LM steps fit: the reservoir's, then the slow ones, (m, ·)."""
-        if self.slow is None or len(self.slow) == 0:
-            return self.reservoir.X, self.reservoir.Y
-        return (np.vstack([self.reservoir.X, self.slow.X]),
-                np.vstack([self.reservoir.Y, self.slow.Y]))
-
-    def step(self) -> bool:
-        """Take ``steps`` LM steps on the reservoir now; return whether the weights changed."""
-        return self.step_on(*self.samples())
-
-    def step_on(self, X: NDArray[np.float64], Y: NDArray[np.float64]) -> bool:
-        """Take ``steps`` LM steps on the samples X (m, 3n), Y (m, n) (physical units, e.g.
-        a copy of :meth:`samples`); return whether the weights changed."""
-        if len(X) < 2:
-            return False
-        model = self.model
-        xs = model.x_scaling.transform(X)
-        ys = model.y_scaling.transform(Y)
-        if self._lm is None:
-            self._lm = LevenbergMarquardt(model, xs, ys, mu=LM_MU, single=not self.float64)
-        self._lm.set_data(xs, ys)
-        try:
-            for _ in range(self.steps_per_update):
-                self._lm.step()
-                self.steps += 1
-        except StopTraining:  # no damping lowers the error: at a minimum of these samples
-            self._lm.mu = LM_MU
-            return False
-        return True
-
-
 def make_trainer(name: str, model: FeedForwardNet, *, capacity: int = 4000,
                  interval: int = 200, steps: int = 2, seed: int = 0, float64: bool = False,
                  slow_share: float = 0.0, background: bool = False, label: str = 'lm'
@@ -296,7 +173,6 @@ def make_trainer(name: str, model: FeedForwardNet, *, capacity: int = 4000,
     if name == 'bp':
         return BackPropagation(model)
     if name == 'lm' and background:
-        from scara_ident_ros.identification.background_lm import BackgroundLM, LearnerSettings
         return BackgroundLM(model, LearnerSettings(
             capacity=capacity, interval=interval, steps=steps, seed=seed, float64=float64,
             slow_share=slow_share, label=label))

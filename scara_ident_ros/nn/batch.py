@@ -1,60 +1,20 @@
 """Batch computations of a `FeedForwardNet` in scaled units: what the training algorithms use.
 
-Forward pass, prediction, mean squared error, back-propagated gradient and the dense
-Jacobian of n samples at once, in blocks of `CHUNK` samples (bounded memory). Each takes an
-optional packed weight vector θ to evaluate instead of the network's own (a trial step).
+Mean squared error, back-propagated gradient and the dense Jacobian of n samples at once,
+over the network's forward pass (`network.forward_scaled`), in blocks of `CHUNK` samples
+(bounded memory). Each takes an optional packed weight vector θ to evaluate instead of the
+network's own (a trial step).
 """
 from __future__ import annotations
-
-from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 import numpy.typing as npt
 
-from scara_ident_ros.nn.activations import hidden_layer
+from scara_ident_ros.nn.network import CHUNK, FeedForwardNet, forward_scaled, predict_scaled
 
-if TYPE_CHECKING:
-    from scara_ident_ros.nn.network import FeedForwardNet
-
-__all__ = ['CHUNK', 'Layers', 'forward_scaled', 'jacobian', 'loss_gradient', 'mse_scaled',
-           'predict_scaled']
+__all__ = ['jacobian', 'loss_gradient', 'mse_scaled']
 
 FloatArray = npt.NDArray[np.float64]
-
-CHUNK = 1024  # samples per block in batched computations (bounds memory)
-
-
-class Layers(NamedTuple):
-    """Batched forward pass in scaled units, for n samples (`forward_scaled`)."""
-
-    h: FloatArray  # (n, n_hidden) hidden outputs
-    g: FloatArray | None  # (n, n_hidden) dh/d(x·v + c) = k·f'(z)/a, if asked for
-    y: FloatArray  # (n, n_outputs) scaled outputs
-
-
-def forward_scaled(net: FeedForwardNet, xs: FloatArray, theta: FloatArray | None = None, *,
-                   derivative: bool = False) -> Layers:
-    """The `Layers` of scaled inputs ``xs`` (n, n_inputs); g = dh/dp only if
-    ``derivative``."""
-    Vt, Wt = net.unpack(net.theta if theta is None else theta)
-    n_in, n_hid = net.n_inputs, net.n_hidden
-    p = xs @ Vt[:n_in]
-    p += Vt[n_in]
-    h, g = hidden_layer(p, net.form, derivative=derivative)
-    y = h @ Wt[:, :n_hid].T
-    y += Wt[:, n_hid]
-    return Layers(h, g, y)
-
-
-def predict_scaled(net: FeedForwardNet, xs: FloatArray,
-                   theta: FloatArray | None = None) -> FloatArray:
-    """Scaled outputs (n, n_outputs) of scaled inputs (n, n_inputs), in bounded blocks."""
-    if xs.shape[0] <= CHUNK:
-        return forward_scaled(net, xs, theta).y
-    out = np.empty((xs.shape[0], net.n_outputs))
-    for start in range(0, xs.shape[0], CHUNK):
-        out[start:start + CHUNK] = forward_scaled(net, xs[start:start + CHUNK], theta).y
-    return out
 
 
 def mse_scaled(net: FeedForwardNet, xs: FloatArray, ys: FloatArray,

@@ -41,17 +41,13 @@ O(N·n²) operation in numpy's BLAS avoids that; scipy only does the O(n²) tria
 """
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import numpy as np
 import numpy.typing as npt
 from scipy.linalg import cho_solve, solve_triangular
 
-from scara_ident_ros.nn.batch import forward_scaled, mse_scaled
+from scara_ident_ros.nn.batch import mse_scaled
+from scara_ident_ros.nn.network import FeedForwardNet, forward_scaled
 from scara_ident_ros.nn.training import STOP_MU_MAX, FitHistory, StopTraining
-
-if TYPE_CHECKING:
-    from scara_ident_ros.nn.network import FeedForwardNet
 
 __all__ = ['LevenbergMarquardt', 'NormalBlocks', 'normal_blocks', 'normal_equations']
 

@@ -14,30 +14,34 @@ vector ``θ = [Vt.ravel(), Wt.ravel()]`` with Vt = [V; c] of shape (n_inputs + 1
 Wt = [W, d] of shape (n_outputs, n_hidden + 1); `FeedForwardNet.unpack` returns views.
 
 Public methods take and return physical units; training minimises errors of scaled outputs.
-The batch computations in scaled units are in `batch`, the per-sample path of `predict` and
-`partial_fit` in `sample_step`, offline training in `fitting`.
+The batch forward pass in scaled units (`forward_scaled`, `predict_scaled`) is here, with the
+model; what training needs of a batch (MSE, gradient, Jacobian) is in `batch`, the
+per-sample path of `predict` and `partial_fit` in `sample_step`, offline training in
+`fitting` (``fit(net, X, Y)``), friction-step initialisation in `friction_steps`. None of
+them is imported here: they build on the model.
 """
 from __future__ import annotations
 
 import math
 import operator
 from pathlib import Path
-from typing import Callable
+from typing import Callable, NamedTuple
 
 import numpy as np
 import numpy.typing as npt
 
-from scara_ident_ros.nn import fitting, friction_steps
 from scara_ident_ros.nn.activations import (ACTIVATIONS, DEFAULT_CONSTANTS,
-                                            ActivationConstants, TanhForm, tanh_form)
-from scara_ident_ros.nn.batch import predict_scaled
+                                            ActivationConstants, TanhForm, hidden_layer,
+                                            tanh_form)
 from scara_ident_ros.nn.model_file import read_model, write_model
 from scara_ident_ros.nn.sample_step import HotScaling, build_sample_path
 from scara_ident_ros.nn.scaling import MinMaxScaling
 
-__all__ = ['FeedForwardNet']
+__all__ = ['CHUNK', 'FeedForwardNet', 'Layers', 'forward_scaled', 'predict_scaled']
 
 FloatArray = npt.NDArray[np.float64]
+
+CHUNK = 1024  # samples per block in batched computations (bounds memory)
 
 
 class FeedForwardNet:
@@ -66,7 +70,7 @@ class FeedForwardNet:
 
     Notes
     -----
-    Before `set_scaling` or `fit`, inputs and outputs are taken as already scaled
+    Before `set_scaling` or ``fit(net, ...)``, inputs and outputs are taken as already scaled
     (identity scaling), `predict` works, and `partial_fit` refuses to learn.
 
     Not thread-safe: single-sample `predict` and `partial_fit` share preallocated buffers.
@@ -267,9 +271,6 @@ class FeedForwardNet:
         self._Wt[:, :n_hid] = rng.uniform(-1.0, 1.0, (self._n_out, n_hid)) / math.sqrt(n_hid)
         self._Wt[:, n_hid] = 0.0
 
-    #: ``net.set_step_units(inputs, widths)``: hidden units that start as friction steps
-    set_step_units = friction_steps.set_step_units
-
     # ------------------------------------------------------------------------------ scaling
     def set_scaling(self, x_min: npt.ArrayLike, x_max: npt.ArrayLike,
                     y_min: npt.ArrayLike, y_max: npt.ArrayLike) -> None:
@@ -367,7 +368,7 @@ class FeedForwardNet:
     def _step_unscaled(self, x: FloatArray, y: FloatArray) -> FloatArray:
         raise RuntimeError('partial_fit needs the input and output scaling: call '
                            'set_scaling(x_min, x_max, y_min, y_max) with the physical '
-                           'ranges (e.g. the robot limits) or fit(...) first')
+                           'ranges (e.g. the robot limits) or fit(net, ...) first')
 
     def _build_single_sample_path(self) -> tuple[Callable[[FloatArray], FloatArray],
                                                  Callable[[FloatArray, FloatArray], FloatArray]]:
@@ -375,9 +376,6 @@ class FeedForwardNet:
             self._form, self._constants.a, self._Vt, self._Wt, self._hot, theta=self._theta,
             velocity=self._velocity, grad=self._grad,
             learning_rate=self._learning_rate, momentum=self._momentum)
-
-    #: ``net.fit(X, Y, ...)``: offline training on a batch (`fitting.fit`)
-    fit = fitting.fit
 
     # ---------------------------------------------------------------------------- checking
     def check_inputs(self, x: FloatArray, name: str) -> FloatArray:
@@ -474,6 +472,41 @@ class FeedForwardNet:
         k, a, b = self._constants
         return (f'FeedForwardNet({self._n_in}, {self._n_hid}, {self._n_out}, '
                 f'{self._activation!r}, k={k:g}, a={a:g}, b={b:g}, seed={self._seed})')
+
+
+class Layers(NamedTuple):
+    """Batched forward pass in scaled units, for n samples (`forward_scaled`)."""
+
+    h: FloatArray  # (n, n_hidden) hidden outputs
+    g: FloatArray | None  # (n, n_hidden) dh/d(x·v + c) = k·f'(z)/a, if asked for
+    y: FloatArray  # (n, n_outputs) scaled outputs
+
+
+def forward_scaled(net: FeedForwardNet, xs: FloatArray, theta: FloatArray | None = None, *,
+                   derivative: bool = False) -> Layers:
+    """The `Layers` of scaled inputs ``xs`` (n, n_inputs) at the network's weights, or at
+    packed weights ``theta`` (n_params,) instead (a trial step); g = dh/dp only if
+    ``derivative``."""
+    Vt, Wt = net.unpack(net.theta if theta is None else theta)
+    n_in, n_hid = net.n_inputs, net.n_hidden
+    p = xs @ Vt[:n_in]
+    p += Vt[n_in]
+    h, g = hidden_layer(p, net.form, derivative=derivative)
+    y = h @ Wt[:, :n_hid].T
+    y += Wt[:, n_hid]
+    return Layers(h, g, y)
+
+
+def predict_scaled(net: FeedForwardNet, xs: FloatArray,
+                   theta: FloatArray | None = None) -> FloatArray:
+    """Scaled outputs (n, n_outputs) of scaled inputs (n, n_inputs), in blocks of `CHUNK`
+    samples (bounded memory)."""
+    if xs.shape[0] <= CHUNK:
+        return forward_scaled(net, xs, theta).y
+    out = np.empty((xs.shape[0], net.n_outputs))
+    for start in range(0, xs.shape[0], CHUNK):
+        out[start:start + CHUNK] = forward_scaled(net, xs[start:start + CHUNK], theta).y
+    return out
 
 
 def _check_rate(name: str, value: float) -> float:

@@ -11,6 +11,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from scara_ident_ros.nn import FeedForwardNet
+from scara_ident_ros.nn.friction_steps import set_step_units
 
 __all__ = ['Method', 'METHODS', 'FRICTION_STEP_WIDTHS', 'method', 'make_network',
            'limit_scaling']
@@ -93,7 +94,7 @@ def make_network(name: str, n_joints: int, *, n_hidden: int = 40, seed: int = 0,
 
     With ``friction_steps``, the first hidden units start as steps of each joint's speed
     q' at 0, one per joint and width of :data:`FRICTION_STEP_WIDTHS`
-    (:meth:`FeedForwardNet.set_step_units`; with limit scaling a width is a fraction of
+    (`friction_steps.set_step_units`; with limit scaling a width is a fraction of
     the velocity limit): the shape of Coulomb friction, which Levenberg–Marquardt from
     random weights fits too slowly online. Steps take at most half the hidden units (all
     five widths for 4 joints and 40 units; for more joints fewer widths, widest first),
@@ -107,7 +108,7 @@ def make_network(name: str, n_joints: int, *, n_hidden: int = 40, seed: int = 0,
         momentum=spec.momentum if momentum is None else momentum)
     if friction_steps:
         widths = FRICTION_STEP_WIDTHS[:n_hidden // 2 // n_joints]
-        network.set_step_units(range(n_joints, 2 * n_joints), widths)
+        set_step_units(network, range(n_joints, 2 * n_joints), widths)
     return network
 
 

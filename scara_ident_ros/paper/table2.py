@@ -9,7 +9,7 @@ training history: the first iteration whose training MSE, in the network's scale
 iterations and how fast the goal is reached, come from one run.
 
 Scaling: with ``scaling=None`` each network maps inputs and outputs to [-1, 1] from the
-training data's minima and maxima (``FeedForwardNet.fit``'s default, like MATLAB's
+training data's minima and maxima (``nn.fit``'s default, like MATLAB's
 ``mapminmax``), so the goal is relative to the training data's ranges.
 
 Public API (plain arrays; X (N, 3n) = [q, q', q''], Y (N, n) efforts)::
@@ -44,6 +44,7 @@ from scara_ident_ros.paper.rows import ResultRow
 from scara_ident_ros.paper.tables import PAPER_ITERATIONS
 from scara_ident_ros.nn.presets import METHODS, make_network
 from scara_ident_ros.nn.presets import method as method_spec
+from scara_ident_ros import nn
 from scara_ident_ros.nn import FeedForwardNet, FitHistory
 
 __all__ = ['DEFAULT_GOAL', 'OfflineFit', 'OfflineRuns', 'fit_offline', 'goal_iteration',
@@ -115,7 +116,7 @@ def fit_offline(method: str, X: npt.ArrayLike, Y: npt.ArrayLike, *, seed: int = 
     if scaling is not None:
         net.set_scaling(*scaling)
     wall, cpu = time.perf_counter(), time.process_time()
-    history = net.fit(x, y, algorithm='lm', iterations=iterations, goal=0.0)
+    history = nn.fit(net, x, y, algorithm='lm', iterations=iterations, goal=0.0)
     return OfflineFit(method, seed, net, history, time.perf_counter() - wall,
                       time.process_time() - cpu, int(x.shape[0]))
 

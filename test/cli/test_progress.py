@@ -5,6 +5,7 @@ import io
 
 import numpy as np
 
+from scara_ident_ros.nn import fit
 from scara_ident_ros.nn.presets import make_network
 from scara_ident_ros.cli.progress import TrainingProgress
 
@@ -19,8 +20,8 @@ def _train(progress: TrainingProgress, iterations: int) -> None:
     x = rng.uniform(-1, 1, (50, 6))
     y = np.stack([np.sin(x[:, 0]), x[:, 1] * x[:, 4]], axis=1)
     net = make_network('ffs', 2, n_hidden=5)
-    net.fit(x, y, algorithm='gd', iterations=iterations, callback=progress,
-            validation=(x[:10], y[:10]), max_fail=1000)
+    fit(net, x, y, algorithm='gd', iterations=iterations, callback=progress,
+        validation=(x[:10], y[:10]), max_fail=1000)
     progress.close()
 
 

@@ -13,7 +13,7 @@ from scara_ident_ros.dynamics import ScaraParams
 from scara_ident_ros.dynamics.joint_limits import LimitsError
 from scara_ident_ros.errors import ConfigError
 from scara_ident_ros.identification.session import IdentificationSession
-from scara_ident_ros.identification.trainer import ReservoirLM
+from scara_ident_ros.identification.reservoir_lm import ReservoirLM
 from scara_ident_ros.identification.warm_start import ModelMismatch
 from scara_ident_ros.nn.presets import limit_scaling, make_network
 from scara_ident_ros.nn import FeedForwardNet

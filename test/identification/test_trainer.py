@@ -7,6 +7,7 @@ from scara_ident_ros.dynamics import ScaraParams
 from scara_ident_ros.paper.datasets import simulate_dataset
 import pytest
 
+from scara_ident_ros.identification import reservoir_lm
 from scara_ident_ros.identification import trainer as trainer_module
 from scara_ident_ros.identification.metrics import effort_errors
 from scara_ident_ros.identification import (BackPropagation, Bounds, Holdout, OnlineIdentifier,
@@ -135,13 +136,13 @@ def test_float64_assembles_the_normal_equations_in_float64(float64: bool,
                                                            monkeypatch: pytest.MonkeyPatch
                                                            ) -> None:
     made: list[bool] = []
-    real = trainer_module.LevenbergMarquardt
+    real = reservoir_lm.LevenbergMarquardt
 
     def spy(*args: object, single: bool, **kwargs: object) -> object:
         made.append(single)
         return real(*args, single=single, **kwargs)  # type: ignore[arg-type]
 
-    monkeypatch.setattr(trainer_module, 'LevenbergMarquardt', spy)
+    monkeypatch.setattr(reservoir_lm, 'LevenbergMarquardt', spy)
     data = simulate_dataset(PARAMS, seconds=0.2, seed=2)
     trainer = ReservoirLM(network(), capacity=100, interval=50, float64=float64)
     for x, y in zip(data.X, data.Y):

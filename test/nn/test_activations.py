@@ -8,7 +8,7 @@ import pytest
 
 from scara_ident_ros.nn import ACTIVATIONS, DEFAULT_CONSTANTS, DERIVATIVES, FeedForwardNet
 from scara_ident_ros.nn.activations import logistic, logistic_derivative
-from scara_ident_ros.nn.batch import forward_scaled
+from scara_ident_ros.nn.network import forward_scaled
 
 NAMES = ('sigmoid', 'slog', 'mslog')
 

@@ -5,7 +5,8 @@ import numpy as np
 import pytest
 
 from scara_ident_ros.nn import FeedForwardNet
-from scara_ident_ros.nn.batch import forward_scaled, jacobian, loss_gradient, mse_scaled
+from scara_ident_ros.nn.batch import jacobian, loss_gradient, mse_scaled
+from scara_ident_ros.nn.network import forward_scaled
 
 NAMES = ('sigmoid', 'slog', 'mslog')
 

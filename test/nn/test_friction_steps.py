@@ -5,7 +5,8 @@ import numpy as np
 import pytest
 
 from scara_ident_ros.nn import FeedForwardNet
-from scara_ident_ros.nn.batch import forward_scaled
+from scara_ident_ros.nn.friction_steps import set_step_units
+from scara_ident_ros.nn.network import forward_scaled
 
 
 def test_step_units_are_steps_of_one_input_at_zero() -> None:
@@ -13,7 +14,7 @@ def test_step_units_are_steps_of_one_input_at_zero() -> None:
     output layer keep their weights."""
     net = FeedForwardNet(6, 10, 2, 'sigmoid', seed=1)
     before = net.get_params()
-    net.set_step_units([2, 3], [0.1, 0.01])
+    set_step_units(net, [2, 3], [0.1, 0.01])
     xs = np.random.default_rng(0).uniform(-1, 1, (200, 6))
     h = forward_scaled(net, xs).h
     k = net.constants.k
@@ -34,5 +35,5 @@ def test_step_units_refuse_what_they_cannot_build(inputs: list[int], widths: lis
     net = FeedForwardNet(6, 10, 2, 'sigmoid')
     before = net.get_params()
     with pytest.raises(ValueError, match=match):
-        net.set_step_units(inputs, widths)
+        set_step_units(net, inputs, widths)
     np.testing.assert_array_equal(net.theta, before)

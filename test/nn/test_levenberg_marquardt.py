@@ -5,7 +5,8 @@ import numpy as np
 import pytest
 
 from scara_ident_ros.nn import FeedForwardNet
-from scara_ident_ros.nn.batch import forward_scaled, jacobian
+from scara_ident_ros.nn.batch import jacobian
+from scara_ident_ros.nn.network import forward_scaled
 from scara_ident_ros.nn.levenberg_marquardt import (LevenbergMarquardt, normal_blocks,
                                                     normal_equations)
 

@@ -18,7 +18,7 @@ from onnx import numpy_helper
 
 from scara_ident_ros.dynamics import ScaraParams
 from scara_ident_ros.nn.presets import METHODS, limit_scaling, make_network
-from scara_ident_ros.nn import FeedForwardNet
+from scara_ident_ros.nn import FeedForwardNet, fit
 from scara_ident_ros.nn.onnx_export import (INPUT_NAME, IR_VERSION, OPSET, OUTPUT_NAME,
                                             network_to_onnx, onnx_agreement,
                                             relative_difference, save_onnx)
@@ -44,7 +44,7 @@ def trained_network(method: str) -> FeedForwardNet:
     X = within_limits(400, seed=0)
     q, qd, qdd = X[:, :4], X[:, 4:8], X[:, 8:]
     Y = 3.0 * qdd + 0.5 * np.sin(q) * qd + 2.0 * np.tanh(qd / 0.05) + [0.0, 0.0, -20.0, 0.0]
-    network.fit(X, Y, iterations=3)
+    fit(network, X, Y, iterations=3)
     return network
 
 

@@ -4,8 +4,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from scara_ident_ros.nn import FeedForwardNet, FitHistory
-from scara_ident_ros.nn.batch import forward_scaled, loss_gradient, mse_scaled
+from scara_ident_ros.nn import FeedForwardNet, FitHistory, fit
+from scara_ident_ros.nn.batch import loss_gradient, mse_scaled
+from scara_ident_ros.nn.network import forward_scaled
 from scara_ident_ros.nn.gradient_descent import GradientDescent
 from scara_ident_ros.nn.levenberg_marquardt import LevenbergMarquardt
 from scara_ident_ros.nn.training import run_training
@@ -17,10 +18,10 @@ Data = tuple[np.ndarray, np.ndarray]
 @pytest.mark.parametrize('name', NAMES)
 def test_lm_reaches_a_tight_goal_fast_and_beats_gd(name: str, smooth_data: Data) -> None:
     x, y = smooth_data
-    lm = FeedForwardNet(12, 20, 4, name).fit(x, y, iterations=100, goal=1e-4)
+    lm = fit(FeedForwardNet(12, 20, 4, name), x, y, iterations=100, goal=1e-4)
     assert lm.stop_reason == 'goal', lm.mse[-1]
     assert lm.mse[-1] <= 1e-4
-    gd = FeedForwardNet(12, 20, 4, name).fit(x, y, algorithm='gd', iterations=100, goal=1e-4)
+    gd = fit(FeedForwardNet(12, 20, 4, name), x, y, algorithm='gd', iterations=100, goal=1e-4)
     assert gd.stop_reason == 'iterations'
     assert gd.mse[-1] > 10 * lm.mse[-1]
     assert gd.mse[-1] < gd.mse[0]  # gradient descent does learn, slowly
@@ -29,7 +30,7 @@ def test_lm_reaches_a_tight_goal_fast_and_beats_gd(name: str, smooth_data: Data)
 def test_history_records_every_iteration(smooth_data: Data) -> None:
     x, y = smooth_data
     net = FeedForwardNet(12, 8, 4)
-    history = net.fit(x, y, iterations=5)
+    history = fit(net, x, y, iterations=5)
     assert isinstance(history, FitHistory)
     assert history.algorithm == 'lm' and history.stop_reason == 'iterations'
     assert history.iterations == history.best_iteration == 5
@@ -45,11 +46,11 @@ def test_fit_sets_scaling_from_data_once(smooth_data: Data) -> None:
     x, y = smooth_data
     net = FeedForwardNet(12, 8, 4)
     assert not net.scaling_set
-    net.fit(x, y, iterations=1)
+    fit(net, x, y, iterations=1)
     assert net.scaling_set
     np.testing.assert_array_equal(net.y_scaling.lo, y.min(axis=0))
     np.testing.assert_array_equal(net.x_scaling.hi, x.max(axis=0))
-    net.fit(2 * x, y, iterations=1)  # keeps the scaling it has
+    fit(net, 2 * x, y, iterations=1)  # keeps the scaling it has
     np.testing.assert_array_equal(net.x_scaling.hi, x.max(axis=0))
 
 
@@ -57,7 +58,7 @@ def test_fit_keeps_scaling_that_was_set(smooth_data: Data) -> None:
     x, y = smooth_data
     net = FeedForwardNet(12, 8, 4)
     net.set_scaling(-2 * np.ones(12), 2 * np.ones(12), -20 * np.ones(4), 20 * np.ones(4))
-    net.fit(x, y, iterations=1)
+    fit(net, x, y, iterations=1)
     np.testing.assert_array_equal(net.x_scaling.lo, -2.0)
 
 
@@ -65,7 +66,7 @@ def test_goal_already_met_does_nothing(smooth_data: Data) -> None:
     x, y = smooth_data
     net = FeedForwardNet(12, 8, 4)
     theta = net.get_params()
-    history = net.fit(x, y, goal=1e3)
+    history = fit(net, x, y, goal=1e3)
     assert history.stop_reason == 'goal' and history.iterations == 0
     np.testing.assert_array_equal(net.get_params(), theta)
 
@@ -77,7 +78,7 @@ def test_validation_stops_and_restores_best_weights() -> None:
     xv = rng.uniform(-1, 1, (200, 3))
     yv = np.sin(3 * xv[:, :1])
     net = FeedForwardNet(3, 30, 1, 'sigmoid')
-    history = net.fit(x, y, iterations=300, validation=(xv, yv), max_fail=4)
+    history = fit(net, x, y, iterations=300, validation=(xv, yv), max_fail=4)
     assert history.stop_reason == 'validation'
     assert history.val_mse is not None and len(history.val_mse) == history.iterations + 1
     best = int(np.argmin(history.val_mse))
@@ -95,14 +96,14 @@ def test_callback_can_stop_training(smooth_data: Data) -> None:
         seen.append(history.iterations)
         return history.iterations == 3
 
-    history = FeedForwardNet(12, 8, 4).fit(x, y, algorithm='gd', callback=callback)
+    history = fit(FeedForwardNet(12, 8, 4), x, y, algorithm='gd', callback=callback)
     assert seen == [1, 2, 3] and history.stop_reason == 'callback'
 
 
 def test_gd_divergence_stops_with_finite_weights(smooth_data: Data) -> None:
     x, y = smooth_data
     net = FeedForwardNet(12, 8, 4, 'sigmoid', learning_rate=1e6, momentum=0.0)
-    history = net.fit(x, y, algorithm='gd', iterations=50)
+    history = fit(net, x, y, algorithm='gd', iterations=50)
     assert history.stop_reason in ('diverged', 'iterations')
     assert np.all(np.isfinite(net.get_params()))
 
@@ -110,7 +111,7 @@ def test_gd_divergence_stops_with_finite_weights(smooth_data: Data) -> None:
 def test_lm_stops_when_mu_exceeds_its_maximum(smooth_data: Data) -> None:
     x, y = smooth_data
     net = FeedForwardNet(12, 8, 4)
-    net.fit(x, y, iterations=0)  # sets the scaling
+    fit(net, x, y, iterations=0)  # sets the scaling
     xs, ys = net.x_scaling.transform(x), net.y_scaling.transform(y)
     step = LevenbergMarquardt(net, xs, ys, mu=1e3, mu_max=1e3, mu_increase=1e9)
     history = run_training(net, 'lm', step, iterations=1000, goal=0.0, validation_mse=None,
@@ -122,7 +123,7 @@ def test_lm_stops_when_mu_exceeds_its_maximum(smooth_data: Data) -> None:
 def test_gd_step_is_batch_gradient_descent_with_momentum(smooth_data: Data) -> None:
     x, y = smooth_data
     net = FeedForwardNet(12, 8, 4, learning_rate=0.1, momentum=0.5)
-    net.fit(x, y, iterations=0)
+    fit(net, x, y, iterations=0)
     xs, ys = net.x_scaling.transform(x), net.y_scaling.transform(y)
     theta0 = net.get_params()
     _, g0 = loss_gradient(net, xs, ys)
@@ -141,20 +142,20 @@ def test_fit_rejects_bad_arguments(smooth_data: Data) -> None:
     x, y = smooth_data
     net = FeedForwardNet(12, 8, 4)
     with pytest.raises(ValueError, match='algorithm'):
-        net.fit(x, y, algorithm='adam')
+        fit(net, x, y, algorithm='adam')
     with pytest.raises(ValueError, match='shape'):
-        net.fit(x, y[:10])
+        fit(net, x, y[:10])
     with pytest.raises(ValueError, match='finite'):
-        net.fit(np.where(x > 0.99, np.nan, x), y)
+        fit(net, np.where(x > 0.99, np.nan, x), y)
 
 
 def test_fit_resets_online_momentum(smooth_data: Data) -> None:
     x, y = smooth_data
     net = FeedForwardNet(12, 8, 4)
-    net.fit(x, y, iterations=1)
+    fit(net, x, y, iterations=1)
     net.partial_fit(x[:5], y[:5])
     assert np.any(net._velocity != 0)
-    net.fit(x, y, iterations=1)
+    fit(net, x, y, iterations=1)
     assert np.all(net._velocity == 0)
 
 
@@ -233,7 +234,7 @@ def test_fit_takes_min_iterations(smooth_data: Data) -> None:
     xv = rng.uniform(-1, 1, (50, 12))
     yv = rng.normal(size=(50, 4)) * 10  # unrelated to x: validation cannot improve for long
     net = FeedForwardNet(12, 8, 4)
-    history = net.fit(x, y, iterations=60, validation=(xv, yv), max_fail=2, min_iterations=30)
+    history = fit(net, x, y, iterations=60, validation=(xv, yv), max_fail=2, min_iterations=30)
     assert history.iterations >= 32
     with pytest.raises(ValueError, match='min_iterations'):
-        net.fit(x, y, min_iterations=-1)
+        fit(net, x, y, min_iterations=-1)

@@ -23,7 +23,7 @@ from scara_ident_ros.dynamics import ScaraParams
 from scara_ident_ros.identification import Holdout, InputStage, JointMap
 from scara_ident_ros.nn.presets import limit_scaling, make_network
 from scara_ident_ros.nn import FeedForwardNet
-from scara_ident_ros.nn.batch import forward_scaled
+from scara_ident_ros.nn.network import forward_scaled
 from scara_ident_ros.nodes.messages import NS_PER_S, ns_to_stamp, stamp_to_ns
 from scara_ident_ros.resources import config_path
 from scara_ident_ros.sim import SimConfig, Simulator, make_trajectory
