@@ -128,7 +128,7 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
-sys.path.insert(0, str(ROOT / 'test' / 'offline'))  # fake_bags: the tests' bag writer
+sys.path.insert(0, str(ROOT / 'test' / 'bag'))  # fake_bags: the tests' bag writer
 
 from fake_bags import States, write_rosbag  # noqa: E402
 
