@@ -2,16 +2,6 @@
 
 A model file holds a network, a physical model or a hybrid (its ``kind``,
 :mod:`scara_ident_ros.nn.model_file`); all three predict efforts from X = [q, q', q''].
-
-Public API::
-
-    ModelMismatch                                   one-line error (ValueError)
-    SavedModel                                      FeedForwardNet | PhysicalModel | HybridModel
-    load_model(path) -> SavedModel                  a model file of ours, for inverse dynamics
-    model_joint_names(model) -> tuple | None        ``metadata['joint_names']``, checked
-    model_method(model) -> str                      method key from metadata or activation
-    evaluate(model, X, Y) -> ErrorStats             per-joint MSE and NMSE
-    errors_markdown(names, results) -> str          joints as rows, data sets as columns
 """
 from __future__ import annotations
 

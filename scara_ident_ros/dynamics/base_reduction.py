@@ -17,11 +17,6 @@ and express the rest through them, W_dep = W_ind β with β = R₁₁⁻¹ R₁�
 so the base regressor is W_ind and each base parameter is its independent parameter plus
 the listed multiples of dependent ones (:meth:`BaseReduction.definitions`). Columns that are
 zero on every state are dependent with β = 0 (unidentifiable, their values drop out).
-
-Public API::
-
-    BaseReduction                       independent, dependent, beta, names
-    reduce_columns(stacked, names, *, tol=1e-8) -> BaseReduction
 """
 from __future__ import annotations
 

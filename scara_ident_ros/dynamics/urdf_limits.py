@@ -10,14 +10,6 @@ elsewhere (a robot YAML, a parameter).
 
 Continuous joints (no position range) and joints without a ``<limit>`` cannot scale a
 network's inputs: they are listed in :attr:`UrdfLimits.unlimited`, not in the limits.
-
-Public API::
-
-    UrdfError                                   a file that is not a URDF, or bad limits
-    UrdfLimits                                  names, position_min/max, velocity_max,
-                                                effort_max (n,), unlimited, source
-    parse_urdf(text, *, source='robot_description') -> UrdfLimits
-    read_urdf(path) -> UrdfLimits
 """
 from __future__ import annotations
 

@@ -12,14 +12,6 @@ order, through the identifier's :class:`InputStage` (the sample checks, a restar
 gaps, and by default the zero-phase centred estimate of q''); the samples of histories too
 short for an estimate are dropped. A network trained on these samples therefore sees the
 same inputs offline as it does online.
-
-Public API::
-
-    Dataset(stamp_ns, X, Y, acceleration='true', name='')   .take, .head, .subsample
-    make_dataset(stamp_ns, q, qd, effort, *, qdd=None, differentiator=None, name='')
-        -> Dataset
-    dataset_from_joint_states(series, *, differentiator=None, max_gap_ns=..., name='')
-        -> RecordedDataset
 """
 from __future__ import annotations
 

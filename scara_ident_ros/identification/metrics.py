@@ -12,14 +12,6 @@ NMSE = 1 is no better than predicting the mean effort; it is comparable across j
 robots and data scalings, the raw MSE is not. NMSE_j is defined where the effort's variance
 exceeds :data:`VARIANCE_RESOLUTION` times the squared effort scale its rounding error is
 relative to (less is rounding, not motion).
-
-Public API::
-
-    ErrorStats                                  mse, nmse, mse_total, nmse_total, count
-    normalised_mse(mse, var, scale) -> (nmse, nmse_total)
-    error_stats(mse, var, scale, count) -> ErrorStats
-    no_error_stats(n_joints) -> ErrorStats
-    effort_errors(Y, Y_hat) -> ErrorStats       over all samples, vectorised
 """
 from __future__ import annotations
 

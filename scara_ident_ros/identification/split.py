@@ -16,12 +16,6 @@ would never see overfitting. Why not the last part of the recording: a
 recording of several excitations ends with another motion than the rest, so its validation
 error measures an extrapolation the training cannot improve, and early stopping fires
 while Levenberg–Marquardt is still adapting its damping.
-
-Public API::
-
-    block_index(stamp_ns, *, block_s, start_ns=None) -> ndarray (N,) of int64
-    block_split(data, validation_fraction, *, block_s=VALIDATION_BLOCK_S, seed=0)
-        -> (train, validation)
 """
 from __future__ import annotations
 

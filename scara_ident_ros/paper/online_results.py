@@ -7,15 +7,6 @@ windowed errors on ``/<method>/identification_mse``. Pairing each prediction wit
 ``/joint_states`` message of the same stamp gives the measured and predicted efforts from
 which the Table 3 analog and Figures 6–13 and 15 are made, independently of the numbers the
 identifier computed itself.
-
-Public API::
-
-    OnlinePredictions                              method, names, stamp_ns, measured, predicted
-    pair_by_stamp(stamp_ns, effort, pred_stamp_ns, predicted) -> (i_meas, i_pred)
-    rolling_errors(measured, predicted, window) -> (mse (N,), nmse (N,))
-    prediction_rows(predictions) -> list[ResultRow]    the Table 3 analog's rows
-    read_online_predictions(bag, method, measured) -> OnlinePredictions | None
-    read_identifier_mse(bag, method) -> (log_time_ns (M,), data (M, k)) | None
 """
 from __future__ import annotations
 

@@ -13,16 +13,6 @@ sets.
 
 It is the SCARA's model, so it is added only for the SCARA, not for any 4-joint robot:
 :func:`is_scara` says whether joint names and positions can be the SCARA's.
-
-Public API (plain arrays; X (N, 12) = [q, q', q''] of the 4 joints, Y (N, 4) efforts)::
-
-    is_scara(names, X, params=None) -> bool                      the reference applies
-    fit_reference(X, Y, *, coulomb_eps=None) -> ReferenceFit     identifier, seconds
-    predict_reference(identifier, X) -> ndarray (N, 4)
-    reference_rows(X, Y, evaluations=None, *, coulomb_eps=None) -> list[ResultRow]
-        offline rows: 'train' then each evaluation
-    online_reference_rows(X, Y, evaluations=None, *, window=5000, paper_window=100,
-                          coulomb_eps=None) -> list[ResultRow]
 """
 from __future__ import annotations
 

@@ -14,12 +14,6 @@ reference (LS) is added.
 Seeds are run in rounds, so that a time budget can stop between rounds and every method
 still has the same seeds. Training holds the BLAS
 to one thread (:mod:`~scara_ident_ros.blas_threads`).
-
-Public API::
-
-    Retraining                                     rows, fits, evaluations, seeds, ...
-    retrain(train_part, validation, held_out, *, methods, seeds, iterations, n_samples,
-            goal, time_budget_s=None, progress=None, reference=False) -> Retraining
 """
 from __future__ import annotations
 

@@ -3,17 +3,6 @@
 One `ResultRow` is one trained model (a method and a seed, or the least-squares reference)
 evaluated on one data set; it is what the CSV files hold, one line each. `summarise` groups
 rows by (table, method, data) and gives the median and the min–max spread over seeds.
-
-Public API::
-
-    ResultRow(table, method, seed, data, n_samples, mse, nmse, mse_mean, nmse_mean,
-              iterations=None, goal=None, goal_iteration=None, train_time_s=None,
-              cpu_time_s=None, diverged=False, note='')
-    ResultRow.from_stats(stats: ErrorStats, *, table, method, seed, data, **extra)
-    ResultRow.to_dict(joint_names=None) -> dict[str, object]    flat, for CSV
-    Spread.of(values) -> Spread                                  median, min, max, count
-    Summary                                                      one (table, method, data)
-    summarise(rows) -> list[Summary]                             in order of appearance
 """
 from __future__ import annotations
 

@@ -17,17 +17,6 @@ other data sets
 A stream whose step becomes non-finite stops learning there ("diverged"); its predictions
 from then on are NaN, and so are its metrics.
 
-Public API (plain arrays; X (N, 3n) = [q, q', q''] in time order, Y (N, n) efforts)::
-
-    OnlineTrace                                 network, predicted, learned, diverged_at, ...
-    learn_online(network, X, Y, *, chunk=1000) -> OnlineTrace
-    online_rows(method, seed, trace, Y, evaluations, *, window=5000, paper_window=100)
-        -> list[ResultRow]
-    run_online(X, Y, evaluations=None, *, scaling, methods=('ffmw', 'ffw', 'ffs'),
-               seeds=range(5), hyperparameters=None, window=5000, paper_window=100,
-               progress=None) -> list[ResultRow]
-    hold_rows(Y, *, window=5000, paper_window=100) -> list[ResultRow]
-
 The baseline of `hold_rows` predicts each sample's effort as the previous sample's: no model
 at all. At 1 kHz the effort barely changes between samples, so its a-priori error is small;
 a network's online error means little unless it beats this.

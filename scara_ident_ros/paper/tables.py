@@ -7,19 +7,6 @@ The paper's figures (Tables 2 and 3) are printed beside ours. The paper does not
 data were scaled nor in which units its MSE is, so its raw numbers cannot be compared with
 ours; the normalised MSE (MSE / variance of each joint's effort) is the comparable figure,
 and the *ranking* of the methods is what can be checked.
-
-Public API::
-
-    PAPER_TABLE2, PAPER_TABLE3, PAPER_ITERATIONS, PAPER_SAMPLES, PAPER_NOTE
-    format_value(value) -> str;  format_spread(spread) -> str
-    offline_markdown(summaries, *, train='train', test='held-out', paper=True) -> str
-    online_markdown(summaries, *, short, long, test='held-out', paper=True) -> str
-    joint_markdown(summaries, *, table, data, joint_names=None, quantity='nmse') -> str
-    ranking(summaries, *, table, data, key='nmse_mean', methods=None) -> list[str]
-    paper_ranking(table) -> list[str]
-    ranking_text(summaries, table, criteria, labels) -> str
-    write_csv(path, rows, *, joint_names=None) -> None
-    read_csv(path) -> list[dict[str, str]]
 """
 from __future__ import annotations
 
