@@ -106,19 +106,8 @@ def reduce_columns(stacked: ArrayLike, names: Sequence[str], *,
                    tol: float = RANK_TOLERANCE) -> BaseReduction:
     """Find the independent columns of a stacked regressor (module docstring).
 
-    Parameters
-    ----------
-    stacked : array_like of shape (K·n, P)
-        The full regressor at K states (random, exciting every parameter that any motion
-        excites), rows stacked.
-    names : sequence of str of length P
-        Column names.
-    tol : float
-        Rank tolerance relative to the largest diagonal entry of R.
-
-    Returns
-    -------
-    BaseReduction
+    ``stacked`` (K·n, P) is the full regressor at K random states, ``names`` its P column
+    names, ``tol`` the rank tolerance relative to the largest diagonal entry of R.
     """
     w = np.asarray(stacked, dtype=np.float64)
     if w.ndim != 2 or w.shape[1] != len(names):

@@ -96,18 +96,10 @@ def fit_least_squares(model: LinearInParameters, q: ArrayLike, qd: ArrayLike, qd
 
     Parameters
     ----------
-    model : LinearInParameters
-        The regressor.
     q, qd, qdd : array_like of shape (N, n)
         Joint positions, velocities and accelerations (SI).
     tau : array_like of shape (N, n)
         Measured efforts (N·m, N).
-    block : int
-        Samples per block.
-
-    Returns
-    -------
-    LeastSquaresFit
 
     Raises
     ------
