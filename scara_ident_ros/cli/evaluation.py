@@ -100,15 +100,8 @@ def evaluate(model: SavedModel, X: npt.ArrayLike, Y: npt.ArrayLike) -> ErrorStat
 
 
 def errors_markdown(names: Sequence[str], results: Mapping[str, ErrorStats]) -> str:
-    """A Markdown table: one row per joint (and their mean), MSE and NMSE per data set.
-
-    Parameters
-    ----------
-    names : sequence of str of length n
-        Joint names, in the order of the statistics.
-    results : mapping of str to ErrorStats
-        Data set name (e.g. ``'train'``) to its statistics.
-    """
+    """A Markdown table: one row per joint of ``names`` (and their mean), MSE and NMSE per
+    data set of ``results`` (name → statistics)."""
     header = ['joint']
     for data, stats in results.items():
         header += [f'{data} MSE', f'{data} NMSE']

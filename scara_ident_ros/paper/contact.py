@@ -57,21 +57,8 @@ class Pulse:
 
 @dataclass(frozen=True)
 class ContactRun:
-    """What one detector found.
-
-    Attributes
-    ----------
-    detected : int
-        Pulses flagged on their joint within the pulse or its tail.
-    pulses : int
-        Pulses sent.
-    delays_s : ndarray of shape (detected,)
-        From each detected pulse's start to the stamp of its first flagged sample (s).
-    false_alarms : int
-        Rising edges of "some joint flagged" on the clean run.
-    clean_s : float
-        Seconds of clean run.
-    """
+    """What one detector found (module docstring): ``detected`` of ``pulses``, their
+    ``delays_s`` (detected,) in s, and ``false_alarms`` in ``clean_s`` seconds."""
 
     detected: int
     pulses: int
