@@ -538,8 +538,7 @@ class IdentifierNode(Node):
 def main(args: list[str] | None = None) -> None:
     """Console script ``identifier``."""
     # One BLAS thread: the lm trainer's steps (684 unknowns) gain nothing from a second one,
-    # and competing BLAS pools on a busy machine made them 5-10 times slower (2 cores, 3
-    # identifiers: 300-500 ms a step instead of 70 ms, the node fell seconds behind).
+    # and competing BLAS pools slow them down on a busy machine (docs/results.md).
     with single_blas_thread():
         status = run_node('identifier', IdentifierNode, args, description=__doc__ or '',
                           parameters=PARAMETERS)
