@@ -65,14 +65,7 @@ def header_stamp_ns(data: bytes) -> int | None:
 def split_joint_state(raw: bytes) -> JointStateSpans:
     """Locate the stamp, names and arrays of a serialized little-endian JointState.
 
-    Parameters
-    ----------
-    raw : bytes
-        The CDR message as recorded (encapsulation header included).
-
-    Returns
-    -------
-    JointStateSpans
+    ``raw`` is the CDR message as recorded (encapsulation header included).
 
     Raises
     ------

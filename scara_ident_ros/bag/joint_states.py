@@ -112,21 +112,7 @@ def read_joint_states(path: str | Path, topic: str | None = None,
                       min_samples: int = 2) -> JointStateSeries:
     """Read the JointState messages of a bag into arrays with a fixed joint order.
 
-    Parameters
-    ----------
-    path : str or Path
-        Bag directory, ``.mcap`` or ``.db3`` file (see :func:`open_bag`).
-    topic : str, optional
-        The JointState topic; auto-detected when None (see :func:`find_joint_state_topic`).
-    joints : sequence of str, optional
-        Joint names, in the column order wanted; the names of the first message with
-        names when None.
-    min_samples : int
-        Fewest messages accepted.
-
-    Returns
-    -------
-    JointStateSeries
+    ``topic`` and ``joints`` default as the module docstring says.
 
     Raises
     ------

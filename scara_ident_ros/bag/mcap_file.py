@@ -17,11 +17,8 @@ when it is killed needs:
 - Schema and channel ids are the caller's (the same in every file of a split bag),
   checked against those the library gives (1, 2, ...).
 
-The library's writer costs more per message than the hand-written one it replaced (commit
-b587b15), but in the recorder node, whose CPU per message is mostly rclpy's, the difference
-is within the run-to-run spread and a kill leaves the same messages unwritten, so no
-hand-written part is kept (``benchmarks/bench_recorder.py --compare``, figures in
-``benchmarks/results.md`` and docs/results.md).
+In the recorder node the library's per-message cost is within the run-to-run spread
+(docs/results.md).
 """
 from __future__ import annotations
 
@@ -55,16 +52,14 @@ class McapFileWriter:
 
     Parameters
     ----------
-    path : Path
-        The file to create; it must not exist.
     compression : {'none', 'zstd', 'lz4'}
         Chunk compression (MCAP-level, transparent to every MCAP reader).
     chunk_size : int
-        Close a chunk once it holds this many bytes (uncompressed), bytes.
+        Close a chunk once it holds this many bytes (uncompressed).
     chunk_duration_ns : int
-        Close a chunk once its first message is this old (wall clock), ns; 0 = no limit.
+        Close a chunk once its first message is this old (wall clock, ns); 0: no limit.
     clock : callable, optional
-        Monotonic clock in ns for ``chunk_duration_ns`` (tests pass a fake one).
+        Monotonic clock (ns) for ``chunk_duration_ns``.
     """
 
     def __init__(self, path: Path, *, compression: str = 'none', chunk_size: int = 1 << 20,

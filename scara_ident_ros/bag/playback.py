@@ -145,16 +145,8 @@ def schedule(open_messages: Callable[[], Iterable[BagMessage]], *, timeline: Tim
              loop: bool = False, max_passes: int | None = None) -> Iterator[Scheduled]:
     """Yield every message with its due time, pass after pass when looping.
 
-    Parameters
-    ----------
-    open_messages : callable
-        Returns a fresh iterable of the messages in log-time order (called once per pass).
-    timeline : Timeline
-        The rate.
-    loop : bool
-        Start over after the last message, until the consumer stops (or ``max_passes``).
-    max_passes : int, optional
-        Stop after this many passes (tests); None = forever when looping.
+    ``open_messages()`` returns a fresh iterable of the messages in log-time order (once
+    per pass); ``max_passes`` (None: forever) bounds the passes when looping.
     """
     offset = 0  # recorded ns taken by the previous passes
     start_log = 0  # log time of the very first message

@@ -159,15 +159,7 @@ class BagSource:
 def open_bag(path: str | Path) -> BagSource:
     """Open a bag directory or a bare ``.mcap``/``.db3`` file for reading.
 
-    Parameters
-    ----------
-    path : str or Path
-        The bag directory (with ``metadata.yaml``) or storage file.
-
-    Returns
-    -------
-    BagSource
-        Open; use it in a ``with`` block.
+    Use the returned :class:`BagSource` in a ``with`` block.
 
     Raises
     ------

@@ -1,33 +1,17 @@
 """Make a bag whose recorder was killed (SIGKILL, power cut, crash) readable again.
 
-A recorder that is stopped normally closes its last MCAP file (summary and footer) and
-writes ``metadata.yaml``. Killed, it leaves a bag directory without ``metadata.yaml``
-whose last ``.mcap`` file ends in the middle of a chunk. Everything up to the last
-complete chunk is on disk: :class:`~scara_ident_ros.bag.mcap_file.McapFileWriter`
-flushes every chunk (at most ~1 MiB or ~1 s of messages by default) as soon as it is
-complete, with a CRC of its content, and writes each schema and channel record in the
-chunk of the first message that uses it (older files of this package have them before
-that chunk; both are read).
+Killed, a recorder leaves a bag directory without ``metadata.yaml`` whose last ``.mcap``
+file ends in the middle of a chunk; everything up to the last complete chunk is on disk
+(:class:`~scara_ident_ros.bag.mcap_file.McapFileWriter` says why).
 
-How to recover, from Python (no ROS needed)::
-
-    from scara_ident_ros.bag import recover_bag
-    report = recover_bag('rosbag2_2026_01_01-12_00_00')
-    print(report.summary())
-
-:func:`recover_bag` reads each ``.mcap`` file of the bag: a complete one (valid footer
-and summary) is kept as it is; a damaged one is read record by record from the start with
-``mcap``'s ``StreamReader`` (CRCs checked), stopping at the first record that is cut off or
-a chunk whose CRC, compression or content does not check out, and everything before that
-point is copied, in the same pass, into a new complete file under the same name (the
-damaged original is kept next to it as ``<name>.mcap.damaged`` unless
-``keep_damaged=False``). Finally ``metadata.yaml`` is
-written from what the files hold (topics, types, message counts, offered QoS and type
-hashes from the channel metadata), so every rosbag2 reader opens the bag again. A bare
-``.mcap`` file can be recovered the same way (no ``metadata.yaml`` then). Running it on
-an intact bag changes nothing but ``metadata.yaml``, which is rewritten identically.
-Run it only once the recorder process is gone: the file of a live recording also ends
-in an incomplete chunk, and would be rewritten under the recorder's feet.
+:func:`recover_bag` keeps each complete ``.mcap`` file as it is and reads a damaged one
+record by record (``mcap``'s ``StreamReader``, CRCs checked) up to the first record cut
+off or chunk that does not check out, copying what comes before into a new complete file
+under the same name (the original kept as ``<name>.mcap.damaged`` unless
+``keep_damaged=False``). Then it writes ``metadata.yaml`` from what the files hold, so
+every rosbag2 reader opens the bag again; on an intact bag that file comes out identical.
+Run it only once the recorder process is gone: a live recording's file also ends in an
+incomplete chunk.
 """
 from __future__ import annotations
 
@@ -54,10 +38,8 @@ class FileRecovery:
     ----------
     name : str
         File name inside the bag.
-    message_count : int
-        Messages the file holds now.
     rewritten : bool
-        True if it was damaged and rewritten from its readable part.
+        It was damaged and rewritten from its readable part.
     lost_bytes : int
         Bytes at the end of the damaged file that could not be used.
     reason : str
@@ -123,17 +105,6 @@ class _Damaged(Exception):
 
 def recover_bag(path: str | Path, *, keep_damaged: bool = True) -> RecoveryReport:
     """Rebuild a bag (or a bare ``.mcap`` file) left behind by a killed recorder.
-
-    Parameters
-    ----------
-    path : str or Path
-        The bag directory, or one ``.mcap`` file.
-    keep_damaged : bool
-        Keep each damaged original as ``<name>.mcap.damaged``.
-
-    Returns
-    -------
-    RecoveryReport
 
     Raises
     ------

@@ -7,20 +7,13 @@ Layout, as ``ros2 bag record -s mcap`` makes it::
       <bag>_0.mcap         the first storage file
       <bag>_1.mcap         the next one, after a split (max_file_size / max_file_duration_ns)
 
-Why not ``rosbags.rosbag2.Writer`` (version 9, ``StoragePlugin.MCAP``)? It was the
-first choice and its API was checked: it writes exactly one ``<bag>.mcap`` (no
-splitting), closes a chunk only at 1 MiB without a time limit and never flushes the
-file before ``close()`` (a recorder killed at 1 kHz would lose seconds), and its
-compression is either MCAP chunk compression with zstd (``CompressionMode.STORAGE``),
-per-message zstd (``MESSAGE``; MCAP readers other than rosbags then see compressed
-payloads) or whole-file zstd after closing (``FILE``; nothing readable before the end).
-:class:`BagWriter` keeps its format (metadata version 9, ``ros2msg`` schemas with the
-RIHS01 hashes rosbags computes, offered QoS in the channel metadata) and adds splits,
-chunks bounded in size *and* time, a flush after every chunk, and ``lz4`` as a cheaper
-chunk compression; each storage file is written by the ``mcap`` library's ``Writer``
-(:class:`~scara_ident_ros.bag.mcap_file.McapFileWriter`). Bags it writes read back with
-rosbags (``Reader``, ``AnyReader``), with ``mcap`` + ``mcap_ros2``, and with
-:func:`~scara_ident_ros.bag.open_bag`.
+Why not ``rosbags.rosbag2.Writer``: it writes one file (no splitting), closes a chunk only
+at 1 MiB and never flushes before ``close()`` (a recorder killed at 1 kHz would lose
+seconds). :class:`BagWriter` keeps its format (metadata version 9, ``ros2msg`` schemas
+with rosbags' RIHS01 hashes, offered QoS in the channel metadata) and adds splits, chunks
+bounded in size *and* time, a flush after every chunk, and ``lz4``; each storage file is
+a :class:`~scara_ident_ros.bag.mcap_file.McapFileWriter`. Its bags read back with rosbags,
+``mcap`` + ``mcap_ros2`` and :func:`~scara_ident_ros.bag.open_bag`.
 
 Timestamps are integer nanoseconds; a message's log time is written as its publish
 time too.
@@ -76,18 +69,11 @@ class BagWriter:
     ----------
     path : str or Path
         The bag directory; must not exist (it is never overwritten).
-    compression : {'none', 'zstd', 'lz4'}
-        MCAP chunk compression.
-    max_file_size : int
-        Start a new storage file once one holds this many bytes; 0 = never, bytes.
-    max_file_duration_ns : int
-        Start a new storage file once one spans this much log time; 0 = never, ns.
-    chunk_size : int
-        Largest chunk (uncompressed) before it is written, bytes.
-    chunk_duration_ns : int
-        Longest a chunk stays in memory, ns (wall clock); 0 = no limit.
-    clock : callable
-        Monotonic clock in ns for the chunk duration.
+    max_file_size, max_file_duration_ns : int
+        Start a new storage file once one holds this many bytes or spans this much log
+        time (ns); 0: never.
+    compression, chunk_size, chunk_duration_ns, clock
+        As in :class:`~scara_ident_ros.bag.mcap_file.McapFileWriter`.
 
     Raises
     ------

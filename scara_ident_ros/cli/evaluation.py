@@ -2,16 +2,6 @@
 
 A model file holds a network, a physical model or a hybrid (its ``kind``,
 :mod:`scara_ident_ros.nn.model_file`); all three predict efforts from X = [q, q', q''].
-
-Public API::
-
-    ModelMismatch                                   one-line error (ValueError)
-    SavedModel                                      FeedForwardNet | PhysicalModel | HybridModel
-    load_model(path) -> SavedModel                  a model file of ours, for inverse dynamics
-    model_joint_names(model) -> tuple | None        ``metadata['joint_names']``, checked
-    model_method(model) -> str                      method key from metadata or activation
-    evaluate(model, X, Y) -> ErrorStats             per-joint MSE and NMSE
-    errors_markdown(names, results) -> str          joints as rows, data sets as columns
 """
 from __future__ import annotations
 
@@ -110,15 +100,8 @@ def evaluate(model: SavedModel, X: npt.ArrayLike, Y: npt.ArrayLike) -> ErrorStat
 
 
 def errors_markdown(names: Sequence[str], results: Mapping[str, ErrorStats]) -> str:
-    """A Markdown table: one row per joint (and their mean), MSE and NMSE per data set.
-
-    Parameters
-    ----------
-    names : sequence of str of length n
-        Joint names, in the order of the statistics.
-    results : mapping of str to ErrorStats
-        Data set name (e.g. ``'train'``) to its statistics.
-    """
+    """A Markdown table: one row per joint of ``names`` (and their mean), MSE and NMSE per
+    data set of ``results`` (name → statistics)."""
     header = ['joint']
     for data, stats in results.items():
         header += [f'{data} MSE', f'{data} NMSE']

@@ -6,13 +6,11 @@ its own process, its output goes to a log file, and stopping sends SIGINT in the
 given order (escalating to SIGTERM, then SIGKILL, after a grace period) so that
 every node closes its files and saves its models.
 
-Each node runs in a session of its own, so a Ctrl-C in the terminal reaches only the
-program that started the graph (:class:`StopSignals` turns it into a flag), which then
-stops the nodes in order, each with exactly one SIGINT. In the terminal's process group
-the nodes would get the terminal's SIGINT all at once, in no order (the recorder could
-close before the last samples reached it), and a second one from :meth:`ProcessGraph.stop`.
-Should the program itself die, the kernel sends each node SIGTERM
-(``PR_SET_PDEATHSIG``): no node outlives it.
+Each node runs in a session of its own, so a Ctrl-C reaches only the program that started
+the graph (:class:`StopSignals`), which stops the nodes in order, each with one SIGINT (in
+the terminal's process group they would all get it at once, the recorder possibly before
+the last samples). Should the program die, the kernel SIGTERMs each node
+(``PR_SET_PDEATHSIG``).
 
 :func:`publishers_on` looks, before a graph starts, for another graph already
 publishing its topics on the same ROS domain (whose samples would mix with its own).
@@ -157,17 +155,8 @@ def _terminate_with_parent() -> None:
 
 
 class StopSignals:
-    """Within ``with``: SIGINT and SIGTERM set :attr:`received` instead of interrupting.
-
-    The program polls :attr:`received` and stops its graph in order; the previous
-    handlers are restored on the way out, so a Ctrl-C after the graph (e.g. during a
-    report) interrupts as usual.
-
-    Attributes
-    ----------
-    received : int or None
-        The first stop signal received (``signal.SIGINT`` ...), None while there is none.
-    """
+    """Within ``with``: SIGINT and SIGTERM set :attr:`received` (the first signal, else
+    None) instead of interrupting; the previous handlers come back on the way out."""
 
     SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
@@ -197,8 +186,7 @@ def publishers_on(topics: Sequence[str], *, wait: float = PROBE_TIME) -> dict[st
     graph for up to ``wait`` seconds (discovery takes a moment); once one of ``topics`` has
     a publisher, it goes on looking until no count has grown for ``PROBE_SETTLE`` seconds,
     so that the rest of that graph is discovered too, and gives each topic's largest count.
-    The counts are what discovery found in that time: on a loaded machine a publisher
-    discovered later is missing from them (seen with 1 s: "1 publisher" where two ran).
+    On a loaded machine a publisher discovered later is missing from the counts.
     """
     import rclpy
     from rclpy.context import Context

@@ -18,24 +18,10 @@ __all__ = ['TrainingProgress']
 class TrainingProgress:
     """Show training progress: iteration, training and validation MSE, elapsed time.
 
-    Parameters
-    ----------
-    total : int
-        Iteration limit (the bar is full there; training may stop earlier).
-    label : str
-        Text before the bar, e.g. ``'FFMW lm'``.
-    stream : text stream, optional
-        Where to write; default ``sys.stderr``.
-    width : int
-        Characters of the bar.
-    min_interval_s : float
-        Least time between two redraws on a terminal, s.
-
-    Notes
-    -----
-    Use the instance as ``callback`` of ``fit`` and call :meth:`close` afterwards (it ends
-    the line and reports why training stopped). The errors shown are ``fit``'s: MSE of the
-    outputs scaled to [-1, 1].
+    ``total`` is the iteration limit (the bar is full there), ``min_interval_s`` the least
+    time (s) between two redraws on a terminal. Use the instance as ``callback`` of ``fit``
+    and call :meth:`close` afterwards (it reports why training stopped); the errors shown
+    are ``fit``'s scaled MSE.
     """
 
     def __init__(self, total: int, *, label: str = '', stream: TextIO | None = None,

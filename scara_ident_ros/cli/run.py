@@ -1,32 +1,19 @@
 """``scara-ident run``: the whole identification graph in one command.
 
-Starts, as separate processes, the MCAP recorder, one identifier serving the three
-networks side by side (FFMW, FFW, FFS publishing under ``/ffmw``, ``/ffw``, ``/ffs``,
-all fed by one subscription to ``/joint_states``, each learning in a process of its own
-beside the stream) and the simulated SCARA; the identifier subscribes once the
-recorder records its outputs, the simulator waits until the identifier and the
-recorder are subscribed, then publishes ``--duration`` seconds of
-samples at 1 kHz and stops; the others then drain their queues and are stopped
-with SIGINT, the identifier first (it predicts its last samples, whose zero-phase
-q'' waited for samples that never came, publishes them while the recorder still records,
-and saves the models), then the recorder (it closes the bag). A summary accounts for
-every published sample per method (predicted, skipped by reason, lost before the
-identifier, not drained when it stopped), flags any shortfall, and gives each method's
-windowed and validation NMSE and how often it learnt (weight updates). Unless
-``--no-report``, the run's tables and figures are then produced from the bag
-(``scara-ident tables``).
+Starts, as separate processes, the MCAP recorder, one identifier serving FFMW, FFW and FFS
+(under ``/ffmw``, ``/ffw``, ``/ffs``, one subscription to ``/joint_states``) and the
+simulated SCARA. Each waits for its subscribers; the simulator publishes ``--duration``
+seconds at 1 kHz and stops; then the identifier (it publishes its last, pending
+predictions and saves the models) and the recorder are stopped with SIGINT, in that
+order. A summary accounts for every published sample per method (predicted, skipped,
+lost, not drained) and gives each method's errors; unless ``--no-report`` the tables and
+figures follow (``scara-ident tables``).
 
-Before anything starts, the run looks for another graph on the ROS domain (a second
-``scara-ident run``, a simulator, a player): if one already publishes ``/joint_states``
-or the identifiers' topics, whose samples would mix with this run's, it refuses to
-start (one line, exit 2) unless ``--allow-other-graph``.
-
-Ctrl-C (SIGINT) or SIGTERM stops the graph the same way, early: the nodes run in
-sessions of their own, so only this command gets the terminal's SIGINT, and it sends
-each node exactly one, in the order above. The bag then holds every sample the
-simulator published, the summary says what was recorded, the report is made from it
-(a second Ctrl-C skips the report), and the exit status is 130 (0 after a run that
-ended by itself, 1 if a node failed).
+It refuses to start (exit 2) if another graph already publishes ``/joint_states`` or the
+identifiers' topics, unless ``--allow-other-graph``. Ctrl-C or SIGTERM stops the graph
+the same way, early (the nodes run in sessions of their own, so only this command gets
+the terminal's SIGINT); a second Ctrl-C skips the report. Exit status: 0, 130 after a
+signal, 1 if a node failed.
 
 Output directory layout (``--out DIR``)::
 
@@ -279,13 +266,9 @@ def _summary(methods: list[str], stats: Path, bag: Path, out: Path,
 
 
 def stream_use(published: int | None, info: dict[str, Any]) -> dict[str, Any]:
-    """How a method used the published samples, from its identifier's statistics.
-
-    Every sample published is predicted, skipped (by reason: refused, or pending when the
-    stream ended and dropped), lost before the identifier (missing stamps), or was still
-    queued when it stopped (not drained): ``predicted + skipped + lost + not_drained =
-    published``. ``shortfall`` counts the samples published and not predicted.
-    """
+    """How a method used the published samples, from its identifier's statistics:
+    ``predicted + skipped + lost + not_drained = published``; ``shortfall`` counts those
+    published and not predicted."""
     processed = info.get('processed')
     predicted = info.get('predicted')
     skipped = info.get('skipped') or {}
@@ -344,13 +327,9 @@ def _print_summary(summary: dict[str, Any]) -> None:
 # -- --robot: an example-robot-data arm simulated by robot_sim instead of the SCARA --------
 
 def _simulator(robot: str | None) -> tuple[str, list[str], list[str]]:
-    """The simulator node, its extra arguments and the identifiers' extra arguments.
-
-    None: ``scara_sim`` and no extra argument. A robot name: ``robot_sim`` with
-    ``robot:=NAME``; each identifier gets the robot's URDF, its simulated joints and the
-    acceleration limits robot_sim derives (URDF has none). Its final counters still go to
-    ``stats/scara_sim.json``, which the summary reads.
-    """
+    """The simulator node, its extra arguments and the identifiers' extra arguments: for a
+    robot name, ``robot_sim`` with ``robot:=NAME`` and the identifiers get its URDF, joints
+    and derived acceleration limits; its counters still go to ``stats/scara_sim.json``."""
     if robot is None:
         return 'scara_sim', [], []
     # imported here: pinocchio is loaded for --robot runs only

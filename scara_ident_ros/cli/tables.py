@@ -7,11 +7,9 @@ held-out runs (other excitations) evaluated by the offline models.
 
 Table 2 analog (offline): each method's 3n-40-n network retrained from --seeds seeds with
 Levenberg-Marquardt for --iterations iterations on --samples random samples of BAG's
-training blocks: as in scara-ident train, BAG is cut into blocks of --validation-block
-seconds (1 s) and 20 % of them (--validation-fraction), one drawn from each stretch of 5
-blocks, validate. MSE and normalised MSE (MSE / variance of each joint's effort) on the
-training samples, on the validation blocks (never trained on) and on MORE_BAGS,
-iterations to the goal, training time: median [min-max] over seeds.
+training blocks (the validation blocks of scara-ident train). MSE and normalised MSE (MSE /
+variance of each joint's effort) on the training samples, the validation blocks and
+MORE_BAGS, iterations to the goal, training time: median [min-max] over seeds.
 Table 3 analog (online): what the identifiers published during the run, paired by stamp
 with /joint_states: error over the last 100 samples (the paper's figure), over the last
 5000, and over the whole run. Figures: measured vs identified effort per joint and method
@@ -20,10 +18,8 @@ error against time (Fig. 15). All written to DIR: report.md, table2_offline.csv,
 table3_online.csv and PNG files. The paper's numbers are printed beside ours; it does not
 state its data scaling, so compare the normalised MSE and the ranking.
 
-Time: for a 60 s run at 1 kHz the defaults (3 methods x 5 seeds x 315 iterations, 500
-samples) take a couple of minutes on one core, most of it LM training (docs/results.md).
---time-budget stops starting new rounds of seeds (one seed for every method) once the next
-would exceed it; scara-ident run uses 40 s.
+Time: a couple of minutes for a 60 s run, most of it LM training (docs/results.md);
+--time-budget stops starting rounds of seeds once the next would exceed it.
 """
 from __future__ import annotations
 

@@ -1,37 +1,22 @@
 """``scara-ident train``: train a network or a physical model offline from a bag's joint states.
 
-Reads sensor_msgs/JointState messages from any rosbag2 bag (MCAP or sqlite3, recorded by
-this project or not) or a bare .mcap file, turns them into network samples exactly as the
-online identifier does (its input stage: the same sample checks; q'' from q' by the
-zero-phase centred estimate, a quadratic fitted to the 21 velocities around each sample at
-their stamps), and trains the method's 3n-40-n network with
-Levenberg-Marquardt (or batch gradient descent). The input and output scaling is fitted to
-the training data's ranges.
+Reads sensor_msgs/JointState messages from any rosbag2 bag (MCAP or sqlite3) or a bare
+.mcap file, turns them into network samples exactly as the online identifier does (its
+input stage: the same sample checks and zero-phase q'' estimate), and trains the method's
+3n-40-n network with Levenberg-Marquardt (or batch gradient descent), scaled to the
+training data's ranges.
 
-Validation: the recording is cut into blocks of --validation-block seconds (1 s) and 20 %
-of them (--validation-fraction), one drawn from each stretch of 5 blocks, validate: spread
-over the whole recording, they see every excitation it holds. Whole blocks, not single
-samples: neighbouring samples at 1 kHz are nearly identical, a random split would validate
-on the training data. Training uses 8000 samples (--samples) drawn at random from the
-other blocks and runs at most 500 iterations (--iterations); it stops early when the
-validation error has not reached a new best for 50 iterations in a row (--max-fail),
-counted from iteration 50 on (--min-iterations), and keeps the weights of the best
-validation error. Levenberg-Marquardt often raises the validation error for tens of
-iterations before lowering it by orders of magnitude; a short patience (MATLAB's 6) stops
-it there.
-
-The network starts with friction steps (--friction-steps, as the identifier's lm trainer:
-up to 5 hidden units per joint, at most half the hidden units, begin as steps of its
-speed at 0, the shape of Coulomb friction).
-
-The defaults were chosen with benchmarks/bench_train_defaults.py (how well they predict
-other motions, and how long they take: docs/results.md). The model predicts the motion it
-was trained on: record varied motion, as wide as the motion it is to predict.
-
-Time: an LM iteration's cost grows with the training samples (BLAS is held to one thread):
-the defaults take up to about a minute; all the samples of a long bag (--samples 0), much
-longer per iteration.
-A progress bar goes to stderr, the errors on the training and validation data to stdout.
+Validation: the recording is cut into blocks of --validation-block seconds and a
+--validation-fraction of them, one drawn from each stretch, validate: spread over the whole
+recording, they see every excitation it holds (whole blocks, since neighbouring samples at
+1 kHz are nearly identical). Training uses --samples random samples of the other blocks
+for at most --iterations; it stops once the validation error has not reached a new best
+for --max-fail iterations (counted from --min-iterations) and keeps the best weights: LM
+often raises the validation error for tens of iterations before lowering it by orders of
+magnitude. The network starts with friction steps (--friction-steps, as the identifier's
+lm trainer). The defaults come from benchmarks/bench_train_defaults.py (docs/results.md).
+The model predicts the motion it was trained on: record varied motion, as wide as the
+motion it is to predict. A progress bar goes to stderr, the errors to stdout.
 
 --method physical: the robot's physical model from its URDF (--urdf, required): base
 parameters of the rigid bodies and rotor inertias, viscous and Coulomb friction per joint

@@ -17,11 +17,6 @@ and express the rest through them, W_dep = W_ind β with β = R₁₁⁻¹ R₁�
 so the base regressor is W_ind and each base parameter is its independent parameter plus
 the listed multiples of dependent ones (:meth:`BaseReduction.definitions`). Columns that are
 zero on every state are dependent with β = 0 (unidentifiable, their values drop out).
-
-Public API::
-
-    BaseReduction                       independent, dependent, beta, names
-    reduce_columns(stacked, names, *, tol=1e-8) -> BaseReduction
 """
 from __future__ import annotations
 
@@ -111,19 +106,8 @@ def reduce_columns(stacked: ArrayLike, names: Sequence[str], *,
                    tol: float = RANK_TOLERANCE) -> BaseReduction:
     """Find the independent columns of a stacked regressor (module docstring).
 
-    Parameters
-    ----------
-    stacked : array_like of shape (K·n, P)
-        The full regressor at K states (random, exciting every parameter that any motion
-        excites), rows stacked.
-    names : sequence of str of length P
-        Column names.
-    tol : float
-        Rank tolerance relative to the largest diagonal entry of R.
-
-    Returns
-    -------
-    BaseReduction
+    ``stacked`` (K·n, P) is the full regressor at K random states, ``names`` its P column
+    names, ``tol`` the rank tolerance relative to the largest diagonal entry of R.
     """
     w = np.asarray(stacked, dtype=np.float64)
     if w.ndim != 2 or w.shape[1] != len(names):

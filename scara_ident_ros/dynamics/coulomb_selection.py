@@ -8,12 +8,6 @@ is far worse than the best on the other (benchmarks/physical.md). No single shap
 for every robot, so the fit tries each of :data:`CANDIDATES` by least squares on the
 training samples and keeps the one of lowest mean validation NMSE: a few more linear
 fits.
-
-Public API::
-
-    CANDIDATES                            (coulomb, ε) pairs tried
-    CoulombChoice                         coulomb, eps, scores
-    select_coulomb(build, train, validation) -> (PhysicalModel, CoulombChoice)
 """
 from __future__ import annotations
 

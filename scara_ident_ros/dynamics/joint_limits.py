@@ -71,27 +71,13 @@ class JointLimits:
     @classmethod
     def from_urdf(cls, urdf: UrdfLimits, acceleration_max: Mapping[str, float], *,
                   required: Sequence[str] = ()) -> JointLimits:
-        """A URDF's limits, with acceleration limits by joint name (URDF has none).
-
-        Parameters
-        ----------
-        urdf : UrdfLimits
-            Position, velocity and effort limits.
-        acceleration_max : mapping of str to float
-            |q''| limit per joint name (rad/s² or m/s²).
-        required : sequence of str
-            Joints that must have every limit (the identifier's ``joint_names``).
-
-        Returns
-        -------
-        JointLimits
-            For the URDF's joints that have an acceleration limit, in the URDF's order.
+        """A URDF's limits for its joints that have an acceleration limit (rad/s² or m/s²,
+        by joint name: URDF has none), in the URDF's order.
 
         Raises
         ------
         UrdfError
-            Naming the ``required`` joints that the URDF has no limits for, or that have
-            no acceleration limit.
+            Naming the ``required`` joints without limits or acceleration limit.
         """
         urdf.select(required)
         lacking = [name for name in required if name not in acceleration_max]

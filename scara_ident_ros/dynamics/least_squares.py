@@ -10,13 +10,6 @@ The stacked system (N·n × p) is never formed whole: it is reduced block by blo
 block's rows [Y | τ] stacked under the triangular factor so far and factored again by QR
 (``R`` of [R; rows]), so memory is bounded by the block, and the normal equations (whose
 conditioning is the square of the regressor's) are never formed.
-
-Public API::
-
-    LinearInParameters                    n_parameters, regressor(q, qd, qdd)
-    LeastSquaresFit                       theta, residual_rms
-    BlockLeastSquares(p)                  add(rows, values), solve() -> theta
-    fit_least_squares(model, q, qd, qdd, tau, *, block=2048) -> LeastSquaresFit
 """
 from __future__ import annotations
 
@@ -103,18 +96,10 @@ def fit_least_squares(model: LinearInParameters, q: ArrayLike, qd: ArrayLike, qd
 
     Parameters
     ----------
-    model : LinearInParameters
-        The regressor.
     q, qd, qdd : array_like of shape (N, n)
         Joint positions, velocities and accelerations (SI).
     tau : array_like of shape (N, n)
         Measured efforts (N·m, N).
-    block : int
-        Samples per block.
-
-    Returns
-    -------
-    LeastSquaresFit
 
     Raises
     ------

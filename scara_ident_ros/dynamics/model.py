@@ -51,7 +51,9 @@ and the equation of motion (eq. 6 of the paper)
     F(q') = viscous ∘ q' + coulomb ∘ tanh(q' / coulomb_eps).
 
 Every public method takes one state (arrays of shape (4,)) or a batch (shape (N, 4)) and
-answers in kind; the ``*_single`` methods are the fast unbatched path for the simulator.
+answers in kind, q in (rad, rad, m, rad), q' and q'' per second and per second squared,
+efforts in (N·m, N·m, N, N·m); the ``*_single`` methods are the fast unbatched path for the
+simulator.
 """
 from __future__ import annotations
 
@@ -80,18 +82,7 @@ def _as_states(*arrays: ArrayLike) -> tuple[list[np.ndarray], bool]:
 
 
 class ScaraModel:
-    """Kinematics and dynamics of the SCARA for one parameter set.
-
-    Parameters
-    ----------
-    params : ScaraParams
-        Physical parameters (SI).
-
-    Attributes
-    ----------
-    params : ScaraParams
-        The parameters the model was built from.
-    """
+    """Kinematics and dynamics of the SCARA for one parameter set (``params``, SI)."""
 
     def __init__(self, params: ScaraParams) -> None:
         self.params = params
@@ -199,21 +190,8 @@ class ScaraModel:
 
     def coriolis(self, q: np.ndarray | Sequence[float],
                  qd: np.ndarray | Sequence[float]) -> np.ndarray:
-        """Coriolis and centrifugal efforts C(q, q') q'.
-
-        ``(−c sin θ2 (2 θ1' θ2' + θ2'²), c sin θ2 θ1'², 0, 0)`` with
-        ``c = l1 (m2 lc2 + (m3 + m4) l2)``: links 1 and 2 only.
-
-        Parameters
-        ----------
-        q, qd : array_like of shape (4,) or (N, 4)
-            Joint positions and velocities (SI).
-
-        Returns
-        -------
-        ndarray of shape (4,) or (N, 4)
-            Efforts (N·m, N·m, N, N·m).
-        """
+        """Coriolis and centrifugal efforts C(q, q') q' (module docstring's units):
+        ``(−c sin θ2 (2 θ1' θ2' + θ2'²), c sin θ2 θ1'², 0, 0)``, links 1 and 2 only."""
         (q, qd), single = _as_states(q, qd)
         cs2 = self._c * np.sin(q[:, 1])
         out = np.zeros_like(q)
@@ -225,18 +203,8 @@ class ScaraModel:
         """Gravity efforts G(q) = ∂V/∂q = (0, 0, −(m3 + m4) g, 0).
 
         Gravity acts along −z and the quill's positive direction is down, so the static
-        force joint 3 must apply is negative (upward); the revolute axes are vertical and
-        carry no gravity torque.
-
-        Parameters
-        ----------
-        q : array_like of shape (4,) or (N, 4)
-            Joint positions (SI); only its shape matters.
-
-        Returns
-        -------
-        ndarray of shape (4,) or (N, 4)
-            Efforts (N·m, N·m, N, N·m).
+        force joint 3 must apply is negative (upward); the revolute axes carry no gravity
+        torque. Only the shape of ``q`` matters.
         """
         (q,), single = _as_states(q)
         out = np.zeros_like(q)
@@ -244,18 +212,8 @@ class ScaraModel:
         return out[0] if single else out
 
     def friction(self, qd: np.ndarray | Sequence[float]) -> np.ndarray:
-        """Joint friction F(q') = viscous ∘ q' + coulomb ∘ tanh(q' / coulomb_eps).
-
-        Parameters
-        ----------
-        qd : array_like of shape (4,) or (N, 4)
-            Joint velocities (rad/s, rad/s, m/s, rad/s).
-
-        Returns
-        -------
-        ndarray of shape (4,) or (N, 4)
-            Friction efforts opposing the motion (N·m, N·m, N, N·m).
-        """
+        """Joint friction F(q') = viscous ∘ q' + coulomb ∘ tanh(q' / coulomb_eps), opposing
+        the motion."""
         (qd,), single = _as_states(qd)
         out = self._viscous * qd + self._coulomb * np.tanh(qd / self._eps)
         return out[0] if single else out
@@ -265,18 +223,7 @@ class ScaraModel:
     def inverse_dynamics(self, q: np.ndarray | Sequence[float],
                          qd: np.ndarray | Sequence[float],
                          qdd: np.ndarray | Sequence[float]) -> np.ndarray:
-        """Joint efforts τ = M(q) q'' + C(q, q') q' + F(q') + G(q) (no disturbance).
-
-        Parameters
-        ----------
-        q, qd, qdd : array_like of shape (4,) or (N, 4)
-            Joint positions, velocities and accelerations (SI).
-
-        Returns
-        -------
-        ndarray of shape (4,) or (N, 4)
-            Efforts (N·m, N·m, N, N·m).
-        """
+        """Joint efforts τ = M(q) q'' + C(q, q') q' + F(q') + G(q) (no disturbance)."""
         (q, qd, qdd), single = _as_states(q, qd, qdd)
         mass = self.mass_matrix(q)
         out = (np.einsum('nij,nj->ni', mass, qdd) + self.coriolis(q, qd) + self.gravity(q)
@@ -317,35 +264,14 @@ class ScaraModel:
 
     def kinetic_energy(self, q: np.ndarray | Sequence[float],
                        qd: np.ndarray | Sequence[float]) -> float | np.ndarray:
-        """Kinetic energy ½ q'ᵀ M(q) q' of the four bodies.
-
-        Parameters
-        ----------
-        q, qd : array_like of shape (4,) or (N, 4)
-            Joint positions and velocities (SI).
-
-        Returns
-        -------
-        float or ndarray of shape (N,)
-            Energy (J).
-        """
+        """Kinetic energy ½ q'ᵀ M(q) q' of the four bodies (J): a float, or (N,)."""
         (q, qd), single = _as_states(q, qd)
         out = 0.5 * np.einsum('ni,nij,nj->n', qd, self.mass_matrix(q), qd)
         return float(out[0]) if single else out
 
     def potential_energy(self, q: np.ndarray | Sequence[float]) -> float | np.ndarray:
-        """Gravitational potential energy V = −(m3 + m4) g d3, zero at d3 = 0.
-
-        Parameters
-        ----------
-        q : array_like of shape (4,) or (N, 4)
-            Joint positions (rad, rad, m, rad).
-
-        Returns
-        -------
-        float or ndarray of shape (N,)
-            Energy (J).
-        """
+        """Gravitational potential energy V = −(m3 + m4) g d3 (J), zero at d3 = 0: a float,
+        or (N,)."""
         (q,), single = _as_states(q)
         out = -self._weight * q[:, 2]
         return float(out[0]) if single else out
@@ -356,18 +282,8 @@ class ScaraModel:
                                 qdd: Sequence[float]) -> tuple[float, float, float, float]:
         """Same as :meth:`inverse_dynamics` for one state, in plain Python floats.
 
-        About ten times faster than the batch path on one state; for simulators and
-        controllers running at kHz rates.
-
-        Parameters
-        ----------
-        q, qd, qdd : sequence of 4 float
-            Joint positions, velocities and accelerations (SI).
-
-        Returns
-        -------
-        tuple of 4 float
-            Efforts (N·m, N·m, N, N·m).
+        For simulators and controllers running at kHz rates, where array overheads would
+        dominate.
         """
         th2 = q[1]
         v1, v2, v3, v4 = qd
@@ -392,18 +308,6 @@ class ScaraModel:
         Uses the structure of M: joint 4's row gives q4'' = q1'' + q2'' + r4 / izz4, which
         leaves a 2×2 system for joints 1 and 2 solved in closed form, and joint 3 is
         decoupled. ``tau`` is the net applied effort (subtract any disturbance T_d first).
-
-        Parameters
-        ----------
-        q, qd : sequence of 4 float
-            Joint positions and velocities (SI).
-        tau : sequence of 4 float
-            Applied efforts (N·m, N·m, N, N·m).
-
-        Returns
-        -------
-        tuple of 4 float
-            Accelerations (rad/s², rad/s², m/s², rad/s²).
         """
         th2 = q[1]
         v1, v2, v3, v4 = qd

@@ -282,16 +282,9 @@ class ScaraParams:
     def perturbed(self, relative: float, *, seed: int) -> ScaraParams:
         """Return a copy with masses, inertias, centre-of-mass distances and friction scaled.
 
-        Each such parameter is multiplied by ``1 + relative * u`` with ``u`` drawn uniformly
-        in [-1, 1] (seeded); geometry, gravity and limits are unchanged. Used to give a
+        Each is multiplied by ``1 + relative * u``, ``u`` uniform in [-1, 1] (seeded),
+        ``0 <= relative < 1``; geometry, gravity and limits are unchanged. It gives a
         controller a model mismatch.
-
-        Parameters
-        ----------
-        relative : float
-            Relative error bound, ``0 <= relative < 1``.
-        seed : int
-            Seed of the random generator.
         """
         relative = _scalar('relative', relative, minimum=0.0, strict=False)
         if relative >= 1.0:

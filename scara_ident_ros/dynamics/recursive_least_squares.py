@@ -68,15 +68,7 @@ class RecursiveLeastSquares:
         return int(self.theta.shape[0])
 
     def update(self, q: ArrayLike, qd: ArrayLike, qdd: ArrayLike, tau: ArrayLike) -> None:
-        """Take a block of samples.
-
-        Parameters
-        ----------
-        q, qd, qdd : array_like of shape (k, n)
-            Joint positions, velocities and accelerations (SI).
-        tau : array_like of shape (k, n)
-            Measured efforts (N·m, N).
-        """
+        """Take a block of samples: q, qd, qdd (k, n) in SI and efforts ``tau`` (k, n)."""
         h = self.model.regressor(np.atleast_2d(q), np.atleast_2d(qd), np.atleast_2d(qdd))
         self.update_rows(h.reshape(-1, self.n_parameters), tau,
                          samples=int(np.atleast_2d(q).shape[0]))
@@ -84,14 +76,7 @@ class RecursiveLeastSquares:
     def update_rows(self, h: ArrayLike, y: ArrayLike, *, samples: int = 1) -> None:
         """Take regressor rows directly: ``h`` (m, p) and efforts ``y`` (m,).
 
-        Parameters
-        ----------
-        h : array_like of shape (m, p)
-            Stacked regressor rows.
-        y : array_like of shape (m,) or any shape of m values
-            Their efforts.
-        samples : int
-            Samples these rows are, for :attr:`count`.
+        ``samples`` is how many samples the rows are, for :attr:`count`.
 
         Raises
         ------

@@ -84,18 +84,8 @@ def regressor(q: ArrayLike, qd: ArrayLike, qdd: ArrayLike, *,
 
 
 def base_parameters(params: ScaraParams) -> np.ndarray:
-    """Base parameters θ of a physical parameter set, in the order of :data:`PARAMETER_NAMES`.
-
-    Parameters
-    ----------
-    params : ScaraParams
-        Physical parameters (SI).
-
-    Returns
-    -------
-    ndarray of shape (14,)
-        θ (kg·m², kg·m², kg·m², kg, kg·m², N, then friction in SI).
-    """
+    """Base parameters θ (14,) of a physical parameter set, in the order and units of
+    :data:`PARAMETER_NAMES`."""
     p = params
     m34 = p.m3 + p.m4
     inertial = [p.izz1 + p.m1 * p.lc1 ** 2 + (p.m2 + m34) * p.l1 ** 2,
@@ -150,37 +140,15 @@ class LeastSquaresIdentifier:
 
     def fit(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
             tau: np.ndarray) -> LeastSquaresIdentifier:
-        """Estimate θ minimising Σ ||Y θ − τ||² over the samples.
-
-        Parameters
-        ----------
-        q, qd, qdd : array_like of shape (N, 4)
-            Joint positions, velocities and accelerations (SI).
-        tau : array_like of shape (N, 4)
-            Measured joint efforts (N·m, N).
-
-        Returns
-        -------
-        LeastSquaresIdentifier
-            ``self``.
-        """
+        """Estimate θ minimising Σ ||Y θ − τ||² over the samples: q, qd, qdd (N, 4) in SI
+        and measured efforts ``tau`` (N, 4) (N·m, N); return ``self``."""
         fit = fit_least_squares(ScaraRegressor(coulomb_eps=self.coulomb_eps), q, qd, qdd, tau)
         self.theta_, self.residual_rms_ = fit
         return self
 
     def predict(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
-        """Predicted efforts Y θ.
-
-        Parameters
-        ----------
-        q, qd, qdd : array_like of shape (4,) or (N, 4)
-            Joint positions, velocities and accelerations (SI).
-
-        Returns
-        -------
-        ndarray of shape (4,) or (N, 4)
-            Efforts (N·m, N·m, N, N·m).
-        """
+        """Predicted efforts Y θ (N·m, N·m, N, N·m) for q, qd, qdd of shape (4,) or (N, 4)
+        (SI), in the same shape."""
         if self.theta_ is None:
             raise RuntimeError('LeastSquaresIdentifier.predict called before fit')
         return regressor(q, qd, qdd, coulomb_eps=self.coulomb_eps) @ self.theta_

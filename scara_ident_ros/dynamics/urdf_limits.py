@@ -1,23 +1,12 @@
 """Joint limits from a URDF: a file, or the ``robot_description`` string a robot publishes.
 
-A real robot's limits are in its URDF (``<joint><limit lower upper velocity effort/>``),
-which ``robot_state_publisher`` holds as its ``robot_description`` parameter. This module
-reads them with the standard library's XML parser, for every revolute and prismatic joint,
-in document order, as the identifier uses them: per joint name, position range (rad or m),
-velocity limit (rad/s or m/s) and effort limit (N·m or N). URDF has no acceleration limit:
-:meth:`~scara_ident_ros.dynamics.joint_limits.JointLimits.from_urdf` adds those from
-elsewhere (a robot YAML, a parameter).
+Reads ``<joint><limit lower upper velocity effort/>`` of every revolute and prismatic
+joint, in document order, with the standard library's XML parser. URDF has no
+acceleration limit: :meth:`~scara_ident_ros.dynamics.joint_limits.JointLimits.from_urdf`
+adds those from elsewhere.
 
 Continuous joints (no position range) and joints without a ``<limit>`` cannot scale a
 network's inputs: they are listed in :attr:`UrdfLimits.unlimited`, not in the limits.
-
-Public API::
-
-    UrdfError                                   a file that is not a URDF, or bad limits
-    UrdfLimits                                  names, position_min/max, velocity_max,
-                                                effort_max (n,), unlimited, source
-    parse_urdf(text, *, source='robot_description') -> UrdfLimits
-    read_urdf(path) -> UrdfLimits
 """
 from __future__ import annotations
 
@@ -101,12 +90,7 @@ def read_urdf(path: str | Path) -> UrdfLimits:
 def parse_urdf(text: str, *, source: str = 'robot_description') -> UrdfLimits:
     """Read the joint limits of a URDF document.
 
-    Parameters
-    ----------
-    text : str
-        The URDF (XML, root ``<robot>``).
-    source : str
-        Where it came from, the prefix of every error message.
+    ``source`` (where it came from) prefixes every error message.
 
     Raises
     ------

@@ -57,18 +57,8 @@ def make_chunk(plan: ExcitationPlan, first: float, stop_time: float, step: float
                limits: MotionLimits) -> Chunk:
     """The plan from ``first`` to ``stop_time``, then a stop to rest, every ``step`` s.
 
-    Parameters
-    ----------
-    plan : ExcitationPlan
-        The planned motion.
-    first : float
-        Plan time (s) the chunk starts at or before (rounded down to the grid, >= 0).
-    stop_time : float
-        Plan time (s) its stop begins (rounded up to the grid), >= ``first``.
-    step : float
-        Point period (s).
-    limits : MotionLimits
-        The limits the stop keeps to.
+    ``first`` is rounded down and ``stop_time`` up to the grid of ``step`` (s); the stop
+    keeps to ``limits``.
     """
     k_first = max(0, math.floor(round(first / step, 6)))
     k_stop = max(k_first, math.ceil(round(stop_time / step, 6)))

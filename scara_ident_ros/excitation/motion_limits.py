@@ -80,15 +80,8 @@ class MotionLimits:
 
     def with_margins(self, position_margin: float, velocity_scale: float,
                      acceleration_scale: float) -> MotionLimits:
-        """These limits less the safety margins.
-
-        Parameters
-        ----------
-        position_margin : float
-            Fraction in [0, 0.5) of each joint's range kept clear at each end.
-        velocity_scale, acceleration_scale : float
-            Fractions in (0, 1] of the velocity and acceleration limits.
-        """
+        """These limits less ``position_margin`` (in [0, 0.5)) of each range at each end and
+        scaled by ``velocity_scale`` and ``acceleration_scale`` (in (0, 1])."""
         if not 0.0 <= position_margin < 0.5:
             raise MotionLimitsError(f'position_margin must be in [0, 0.5), got '
                                     f'{position_margin!r}')
@@ -113,18 +106,10 @@ class MotionLimits:
                    position_hull: NDArray[np.float64] | None = None) -> list[str]:
         """What sampled motion breaks of these limits, one text per kind and joint.
 
-        Parameters
-        ----------
-        q, qd, qdd : ndarray of shape (N, n)
-            Positions (rad, m), velocities and accelerations at N samples.
-        position_hull : ndarray of shape (n,), optional
-            A position also allowed, with every position between it and the range (the
-            start of an approach that begins outside the range with margins).
-
-        Returns
-        -------
-        list of str
-            Empty when every sample is within the limits (up to :data:`TOLERANCE`).
+        ``q``, ``qd``, ``qdd`` are (N, n) (rad or m, /s, /s²); ``position_hull`` (n,) is a
+        position also allowed, with every position between it and the range (an approach's
+        start in the margins). Empty when all is within the limits (up to
+        :data:`TOLERANCE`).
         """
         low, high = self.position_min, self.position_max
         if position_hull is not None:
@@ -149,18 +134,8 @@ def load_motion_limits(*, urdf_file: str = '', robot_description: str = '',
     """A URDF's limits of ``joint_names`` (all its limited joints when empty), with
     acceleration limits as the identifier takes them.
 
-    Parameters
-    ----------
-    urdf_file, robot_description : str
-        The URDF, as a file or as text; exactly one.
-    joint_names : sequence of str
-        The joints to move, in this order; empty: every joint the URDF limits and an
-        acceleration limit is known for, in the URDF's order.
-    robot_config : str
-        Robot YAML whose ``joint_names`` and ``acceleration_max`` give the acceleration
-        limits when ``acceleration_max`` is empty; empty: the installed ``config/scara.yaml``.
-    acceleration_max : sequence of float
-        |q''| limit of each joint of ``joint_names`` (rad/s², m/s²).
+    The arguments are the identifier's parameters of the same names
+    (:func:`~scara_ident_ros.dynamics.joint_limits.load_joint_limits`); exactly one URDF.
 
     Raises
     ------

@@ -77,16 +77,8 @@ def plan_stop(plan: ExcitationPlan, start: float, limits: MotionLimits,
     It is checked on a grid five times finer than the points it is sent as, so that the
     controller's interpolation between the points keeps to the limits too.
 
-    Parameters
-    ----------
-    plan : ExcitationPlan
-        The planned motion.
-    start : float
-        Plan time at which the stop begins (s).
-    limits : MotionLimits
-        Its ``acceleration_max`` bounds the stop.
-    step : float
-        Period of the points the stop is sent as (s); the duration is a multiple of it.
+    ``step`` (s) is the period of the points the stop is sent as; the duration is a multiple
+    of it.
 
     Raises
     ------

@@ -48,16 +48,7 @@ def robust_spread(residuals: NDArray[np.float64]) -> NDArray[np.float64]:
 class ContactDetector:
     """Per-joint thresholds from held-out residuals, the arming rule, and the check.
 
-    Parameters
-    ----------
-    n_joints : int
-        Number of joints n.
-    sigma : float
-        Threshold in robust standard deviations of the held-out residuals, > 0.
-    arm_nmse : float
-        Detection is armed while the validation NMSE is below this, > 0.
-    min_samples : int
-        Consecutive samples over the threshold before a joint is reported, >= 1.
+    ``sigma``, ``arm_nmse`` and ``min_samples`` are as in the module docstring.
 
     Attributes
     ----------

@@ -6,20 +6,9 @@ A data set is plain arrays, whatever made them (a recorded bag, the simulator)::
     X        : (N, 3n) float64   [q_1..q_n, q'_1..q'_n, q''_1..q''_n] (rad, m, /s, /s²)
     Y        : (N, n) float64    joint efforts (N·m, N)
 
-q'' is either a true acceleration (``acceleration='true'``, from the simulator) or estimated
-exactly as the online identifier estimates it (``'estimated'``): every message goes, in stamp
-order, through the identifier's :class:`InputStage` (the sample checks, a restart at clock
-gaps, and by default the zero-phase centred estimate of q''); the samples of histories too
-short for an estimate are dropped. A network trained on these samples therefore sees the
-same inputs offline as it does online.
-
-Public API::
-
-    Dataset(stamp_ns, X, Y, acceleration='true', name='')   .take, .head, .subsample
-    make_dataset(stamp_ns, q, qd, effort, *, qdd=None, differentiator=None, name='')
-        -> Dataset
-    dataset_from_joint_states(series, *, differentiator=None, max_gap_ns=..., name='')
-        -> RecordedDataset
+q'' is either the simulator's true acceleration (``acceleration='true'``) or estimated
+(``'estimated'``) by the identifier's own :class:`InputStage`, in stamp order, so that a
+network sees the same inputs offline as online.
 """
 from __future__ import annotations
 
@@ -45,21 +34,8 @@ ACCELERATIONS = ('true', 'estimated')
 
 @dataclass(frozen=True)
 class Dataset:
-    """Samples for identification: inputs, efforts and their times.
-
-    Attributes
-    ----------
-    stamp_ns : ndarray of shape (N,), int64
-        Sample times (ns).
-    X : ndarray of shape (N, 3n)
-        Inputs [q, q', q''] of the n joints (rad or m, /s, /s²).
-    Y : ndarray of shape (N, n)
-        Joint efforts (N·m or N).
-    acceleration : {'true', 'estimated'}
-        Where the q'' columns come from.
-    name : str
-        Free label, e.g. ``'train'``.
-    """
+    """Samples for identification, with the shapes of the module docstring; ``acceleration``
+    says where q'' comes from, ``name`` is a free label (``'train'``)."""
 
     stamp_ns: npt.NDArray[np.int64]
     X: FloatArray
@@ -104,18 +80,8 @@ class Dataset:
         return self.take(slice(0, int(np.searchsorted(self.stamp_ns, end))), name)
 
     def subsample(self, n_samples: int, *, seed: int = 0, name: str | None = None) -> Dataset:
-        """Return ``n_samples`` samples drawn without replacement, in time order.
-
-        Random rather than evenly spaced: an even step that divides the excitation's period
-        would keep only a few distinct states of a periodic motion.
-
-        Parameters
-        ----------
-        n_samples : int
-            Samples to keep; all of them if ``n_samples >= len(self)``.
-        seed : int
-            Seed of the draw.
-        """
+        """Return ``n_samples`` samples (all if more) drawn without replacement, in time
+        order: random, since an even step dividing an excitation's period keeps few states."""
         if n_samples >= len(self):
             return self if name is None else self.take(slice(None), name)
         rng = np.random.default_rng(seed)
@@ -134,12 +100,8 @@ def make_dataset(stamp_ns: npt.ArrayLike, q: npt.ArrayLike, qd: npt.ArrayLike,
     q, qd, effort : array_like of shape (N, n)
         Positions (rad, m), velocities (rad/s, m/s) and efforts (N·m, N).
     qdd : array_like of shape (N, n), optional
-        True accelerations; if None, the samples go through the identifier's
-        :class:`InputStage` (q'' estimated, samples without an estimate dropped).
-    differentiator : Differentiator or CentredDifferentiator, optional
-        The stage's estimate when ``qdd`` is None (default: the identifier's).
-    name : str
-        Label of the data set.
+        True accelerations; if None, q'' is estimated by an :class:`InputStage` with
+        ``differentiator`` (default the identifier's) and samples without one are dropped.
     """
     stamps = np.asarray(stamp_ns, dtype=np.int64)
     q = np.asarray(q, dtype=np.float64)
@@ -161,12 +123,12 @@ class JointStateArrays(Protocol):
     Attributes
     ----------
     stamp_ns : ndarray of shape (N,) of int64
-        ``header.stamp`` of each message, integer nanoseconds.
+        ``header.stamp`` of each message (ns).
     names : tuple of str of length n
-        The joints, in the column order of the arrays.
+        The joints, in column order.
     position, velocity, effort : ndarray of shape (N, n)
-        q (rad or m), q' (rad/s or m/s) and the measured effort (N·m or N); NaN where a
-        message lacks a value. ``effort`` may also have 0 columns (no effort recorded).
+        q (rad or m), q' (rad/s or m/s), effort (N·m or N); NaN where a message lacks a
+        value. ``effort`` may have 0 columns (none recorded).
     """
 
     @property
@@ -186,19 +148,9 @@ class JointStateArrays(Protocol):
 
 
 class RecordedDataset(NamedTuple):
-    """Samples for the network from a recording, with the joints and what was dropped.
-
-    Attributes
-    ----------
-    names : tuple of str of length n
-        Joint names: the order of the columns of ``data.Y`` and of each third of
-        ``data.X``.
-    data : Dataset
-        Stamps (N,), inputs X (N, 3n) = [q, q', q''] and measured efforts Y (N, n), in time
-        order, with ``acceleration='estimated'``.
-    skipped : dict of str to int
-        Messages that gave no sample, per :class:`SkipReason` value (e.g. ``'warming_up'``).
-    """
+    """Samples from a recording: the joint ``names`` (column order of ``data.Y`` and of each
+    third of ``data.X``), the estimated-q'' ``data``, and the messages ``skipped`` per
+    :class:`SkipReason` value."""
 
     names: tuple[str, ...]
     data: Dataset
@@ -214,21 +166,16 @@ def dataset_from_joint_states(series: JointStateArrays, *,
     Parameters
     ----------
     series : JointStateArrays
-        The recording; rows are taken in stamp order (stable for equal stamps, which the
-        sample check then rejects as repeated).
-    differentiator : Differentiator or CentredDifferentiator, optional
-        Estimator of q''; by default the identifier's, a centred quadratic fit
-        (:class:`CentredDifferentiator`).
+        The recording, taken in stamp order.
+    differentiator : AccelerationEstimate, optional
+        Estimator of q''; by default the identifier's.
     max_gap_ns : int
         A clock jump larger than this (ns) restarts the estimate, as online.
-    name : str
-        Label of the data set.
 
     Returns
     -------
     RecordedDataset
-        One sample per message with a valid position, velocity and effort and an
-        acceleration estimate.
+        One sample per valid message with a q'' estimate.
     """
     names = tuple(str(joint) for joint in series.names)
     n = len(names)

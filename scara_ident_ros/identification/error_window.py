@@ -1,12 +1,8 @@
 """Prediction error statistics over a sliding window of the latest samples.
 
-Per joint: the mean squared error (MSE) of the a-priori predictions over the last ``W``
-samples, and the normalised MSE (NMSE): the MSE divided by the variance of that joint's
-measured effort over the same samples. The NMSE is free of units and of the effort's scale,
-so joints (N·m and N) and robots can be compared; NMSE = 1 is no better than predicting the
-window's mean effort; the definitions are :mod:`~scara_ident_ros.identification.metrics`.
-
-The paper's online figure, "the error over the last 100 samples", is ``recent(100).mse``.
+MSE and NMSE per joint over the last ``W`` a-priori predictions, as defined in
+:mod:`~scara_ident_ros.identification.metrics`. The paper's online figure, "the error over
+the last 100 samples", is ``recent(100).mse``.
 """
 from __future__ import annotations
 
@@ -25,12 +21,7 @@ PAPER_WINDOW = 100  # samples: the paper's "error over the last 100 samples"
 class ErrorWindow:
     """Sliding-window MSE and NMSE per joint, updated in O(n_joints) per sample.
 
-    Parameters
-    ----------
-    n_joints : int
-        Number of joints n.
-    window : int
-        Number of latest samples W the running statistics cover.
+    ``window`` is the number W of latest samples the running statistics cover.
 
     Notes
     -----
@@ -66,15 +57,7 @@ class ErrorWindow:
         self._head = 0  # ring slot the next sample goes to
 
     def update(self, effort: ArrayLike, predicted: ArrayLike) -> None:
-        """Add one sample.
-
-        Parameters
-        ----------
-        effort : array_like of shape (n_joints,)
-            Measured joint effort, N·m or N.
-        predicted : array_like of shape (n_joints,)
-            The prediction of that effort, same units.
-        """
+        """Add one sample: measured ``effort`` (n_joints,) (N·m or N) and its prediction."""
         y = np.asarray(effort, dtype=np.float64)
         if self._ref is None:
             self._ref = y.copy()
@@ -103,11 +86,7 @@ class ErrorWindow:
     def recent(self, k: int = PAPER_WINDOW) -> ErrorStats:
         """Return the statistics over the last ``k`` samples, computed exactly, O(k n).
 
-        Parameters
-        ----------
-        k : int
-            Number of latest samples, at most ``window``; fewer are used while the window
-            holds fewer.
+        Fewer than ``k`` are used while the window holds fewer.
 
         Raises
         ------
@@ -137,16 +116,8 @@ def recent_errors(Y: npt.ArrayLike, Y_hat: npt.ArrayLike,
                   k: int = PAPER_WINDOW) -> ErrorStats:
     """MSE and NMSE over the last ``k`` samples, as the online identifier reports them.
 
-    Feeds the last ``k`` samples to an :class:`ErrorWindow` and returns its
-    ``recent(k)``; ``recent_errors(Y, Y_hat, 100).mse_total`` is the paper's "error over
-    the last 100 samples".
-
-    Parameters
-    ----------
-    Y, Y_hat : array_like of shape (N, n)
-        Measured and predicted efforts (N·m, N).
-    k : int
-        Window length in samples, >= 1; fewer if N < k.
+    ``Y``, ``Y_hat`` (N, n) are measured and predicted efforts (N·m, N); ``k`` >= 1 (fewer
+    if N < k).
     """
     y, y_hat = check_pair(Y, Y_hat)
     if k < 1:

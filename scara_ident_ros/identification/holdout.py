@@ -26,18 +26,8 @@ MIN_VALIDATION_SAMPLES = 100  # held-out samples before a validation NMSE is giv
 class Holdout:
     """Choose held-out blocks and score a model on a reservoir of their samples.
 
-    Parameters
-    ----------
-    n_inputs, n_outputs : int
-        Sizes of x and y.
-    fraction : float
-        Fraction in [0, 1) of the blocks held out; 0 holds out nothing.
-    block : int
-        Samples per block.
-    capacity : int
-        Held-out samples kept to score on.
-    seed : int
-        Seed of the choice of blocks and of the reservoir.
+    ``fraction`` (in [0, 1)) of the blocks of ``block`` samples are held out; ``capacity``
+    of their samples are kept to score on; ``seed`` draws the blocks and the reservoir.
     """
 
     def __init__(self, n_inputs: int, n_outputs: int, *, fraction: float = 0.1,

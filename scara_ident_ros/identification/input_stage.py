@@ -2,16 +2,13 @@
 
 Every sample goes through :class:`SampleCheck` (rejections, joint order, clock gaps), then
 q'' is estimated from q' and the sample comes out as an :class:`Input`, ``x = [q, q', q'']``
-with its measured effort. The identifier node, ``scara-ident train``/``evaluate``/``tables``
-and the simulated experiments all use this stage, so a network sees the same inputs
-whichever way it is trained.
+with its measured effort. The identifier node, the CLI and the simulated experiments all
+use this stage, so a network sees the same inputs whichever way it is trained.
 
-The default estimate is :class:`CentredDifferentiator` (zero-phase, exact on quadratic
-velocities): a sample comes out ``lag`` samples after it went in (10 ms at 1 kHz), once the
-samples after it have arrived. A clock gap or the end of the stream (:meth:`InputStage.flush`)
-lets the last samples of a history out with an off-centre fit. The causal estimates of
-:class:`Differentiator` (``'lowpass'`` etc.) have ``lag`` 0: each sample comes out at once,
-with the filter's delay in its q''.
+With the default :class:`CentredDifferentiator` (zero-phase) a sample comes out ``lag``
+samples after it went in; a clock gap or :meth:`InputStage.flush` lets the last samples of
+a history out with an off-centre fit. The causal :class:`Differentiator` estimates have
+``lag`` 0, with the filter's delay in q''.
 
 Counting: every sample pushed is, at any time, either rejected or dropped (``skipped``, per
 :class:`SkipReason`), out (``emitted``) or still ``pending``.
@@ -38,7 +35,7 @@ class Input(NamedTuple):
     Attributes
     ----------
     stamp_ns : int
-        The sample's stamp, integer nanoseconds.
+        The sample's stamp (ns).
     x : ndarray of shape (3n,)
         ``[q_1..q_n, q'_1..q'_n, q''_1..q''_n]`` in joint order (rad or m, /s, /s²).
     effort : ndarray of shape (n,) or None
@@ -59,14 +56,11 @@ class InputStage:
         The joint order (adopted from the first valid sample if it has none).
     need_effort : bool
         Reject samples without effort (see :class:`SampleCheck`).
-    max_gap_ns : int
-        A larger clock jump (ns), if also longer than
-        :data:`~scara_ident_ros.identification.sample_check.GAP_PERIODS` observed sample
-        periods, ends the history: its last samples are let out and the estimate restarts.
-    differentiator : Differentiator or CentredDifferentiator, optional
+    max_gap_ns, bounds
+        As in :class:`SampleCheck`; a gap lets the history's last samples out and restarts
+        the estimate.
+    differentiator : AccelerationEstimate, optional
         The q'' estimate; default ``CentredDifferentiator(21, 2)``.
-    bounds : Bounds, optional
-        Values beyond them are rejected (``OUT_OF_LIMITS``) before they reach the estimate.
     """
 
     def __init__(self, joint_map: JointMap, *, need_effort: bool = True,
@@ -105,25 +99,16 @@ class InputStage:
              ) -> tuple[SkipReason | None, list[Input]]:
         """Take one sample; return why it was rejected (or None) and the inputs now ready.
 
-        Parameters
-        ----------
-        stamp_ns : int
-            Time of the sample, integer nanoseconds.
-        names : sequence of str of length m
-            Joint names in message order.
-        position, velocity, effort : array_like of shape (m,)
-            q, q', effort in message order (effort may be empty).
+        The sample is as in :meth:`SampleCheck.check`.
 
         Returns
         -------
         reason : SkipReason or None
             Why this sample was rejected (it then changed nothing), or, with a causal
-            estimate, why it gave no input (``GAP``, ``WARMING_UP``: the first sample of a
-            history); None otherwise.
+            estimate, why it gave no input (``GAP``, ``WARMING_UP``).
         inputs : list of Input
-            Samples whose input is now complete, oldest first: with a centred estimate,
-            the sample ``lag`` before this one (and, at a gap, the rest of the previous
-            history; when the first window fills, its first half too).
+            Samples whose input is now complete, oldest first (with a centred estimate the
+            sample ``lag`` before this one, plus a history's rest at a gap).
         """
         sample = self.check.check(stamp_ns, names, position, velocity, effort)
         if isinstance(sample, SkipReason):
@@ -167,12 +152,11 @@ class InputStage:
         Parameters
         ----------
         stamp_ns : ndarray of shape (N,) of int64
-            Stamps, integer nanoseconds, in any order (taken sorted, stable for equal stamps,
-            which the sample check then rejects as repeated).
+            Stamps (ns) in any order (taken sorted, stable).
         names : tuple of str of length n
             The joints of the columns.
         position, velocity : ndarray of shape (N, n)
-            q and q' (NaN where a message lacked a value: the sample is rejected).
+            q and q' (a NaN rejects the sample).
         effort : ndarray of shape (N, n), optional
             Measured efforts; None (or 0 columns) if not recorded.
 

@@ -12,14 +12,6 @@ NMSE = 1 is no better than predicting the mean effort; it is comparable across j
 robots and data scalings, the raw MSE is not. NMSE_j is defined where the effort's variance
 exceeds :data:`VARIANCE_RESOLUTION` times the squared effort scale its rounding error is
 relative to (less is rounding, not motion).
-
-Public API::
-
-    ErrorStats                                  mse, nmse, mse_total, nmse_total, count
-    normalised_mse(mse, var, scale) -> (nmse, nmse_total)
-    error_stats(mse, var, scale, count) -> ErrorStats
-    no_error_stats(n_joints) -> ErrorStats
-    effort_errors(Y, Y_hat) -> ErrorStats       over all samples, vectorised
 """
 from __future__ import annotations
 
@@ -42,15 +34,10 @@ class ErrorStats:
 
     Attributes
     ----------
-    mse : ndarray of shape (n_joints,)
-        Mean squared prediction error per joint, (N·m)² or N²; NaN when ``count`` is 0.
-    nmse : ndarray of shape (n_joints,)
-        ``mse`` divided by the (population) variance of the joint's measured effort over the
-        same samples; NaN where that variance is nil (see :func:`normalised_mse`).
-    mse_total : float
-        Mean of ``mse`` over the joints (mixing units, as the paper's figures do).
-    nmse_total : float
-        Mean of ``nmse`` over the joints where it is defined; NaN if it is nowhere.
+    mse, nmse : ndarray of shape (n_joints,)
+        Per joint, as defined in the module docstring; NaN where undefined.
+    mse_total, nmse_total : float
+        Their means over the joints (module docstring).
     count : int
         Number of samples the statistics cover.
     """
@@ -119,18 +106,8 @@ def check_pair(Y: npt.ArrayLike, Y_hat: npt.ArrayLike) -> tuple[np.ndarray, np.n
 def effort_errors(Y: npt.ArrayLike, Y_hat: npt.ArrayLike) -> ErrorStats:
     """MSE and NMSE per joint over all samples (module docstring).
 
-    Parameters
-    ----------
-    Y : array_like of shape (N, n)
-        Measured efforts (N·m, N).
-    Y_hat : array_like of shape (N, n)
-        Their predictions, same units.
-
-    Returns
-    -------
-    ErrorStats
-        ``mse`` and ``nmse`` of shape (n,); NaN where undefined (no samples, zero variance)
-        and wherever a prediction is NaN.
+    ``Y``, ``Y_hat`` (N, n) are measured and predicted efforts (N·m, N); the result is NaN
+    where undefined (no samples, zero variance) and wherever a prediction is NaN.
     """
     y, y_hat = check_pair(Y, Y_hat)
     if y.shape[0] == 0:

@@ -1,15 +1,9 @@
 """Online identification of the inverse dynamics, one joint-state sample at a time.
 
-Per sample: the :class:`InputStage` validates it and estimates q'' (by default zero-phase,
-so the sample's input is complete ``lag`` samples later, 10 ms at 1 kHz) → the model
-predicts the effort from x = [q, q', q''] → the prediction error is recorded (if effort was
-measured) → the trainer learns from the sample, unless it is in a held-out validation block
-(:class:`Holdout`), which is never learnt and scores the model. The prediction is made
-*before* the model learns from the sample, so it is an honest a-priori prediction and the
-recorded error is a true one-step generalisation error, not a training error.
-
-This module is pure numpy; the ROS node only converts ``sensor_msgs/JointState`` to the
-arguments of :meth:`OnlineIdentifier.process`.
+Per sample: the :class:`InputStage` validates it and estimates q'' → the model predicts the
+effort from x = [q, q', q''] → the error is recorded → the trainer learns from the sample,
+unless a :class:`Holdout` keeps it for validation. The prediction precedes learning, so the
+recorded error is an a-priori (one-step generalisation) error, not a training error.
 """
 from __future__ import annotations
 
@@ -35,10 +29,7 @@ __all__ = ['EffortModel', 'StepResult', 'Counts', 'OnlineIdentifier']
 
 
 class EffortModel(Protocol):
-    """What the identifier needs of a network: predict efforts from (q, q', q'') and learn.
-
-    The input layout is ``x = [q_1..q_n, qd_1..qd_n, qdd_1..qdd_n]``, in physical units.
-    """
+    """A network: efforts from x = [q, q', q''] (physical units), and learning."""
 
     @property
     def n_inputs(self) -> int:
@@ -51,21 +42,14 @@ class EffortModel(Protocol):
         ...
 
     def predict(self, X: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Return efforts of shape (N, n) for X of shape (N, 3n), or (n,) for (3n,).
-
-        The result must be a new array (the identifier hands it out unchanged).
-        """
+        """Efforts (N, n) for X (N, 3n), or (n,) for (3n,), in a new array."""
         ...
 
     def partial_fit(self, X: NDArray[np.float64],
                     Y: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Take one learning step per row of X (N, 3n) towards Y (N, n), in order.
-
-        Returns the a-priori errors ``Y − predict(X)`` (N, n), each computed with the
-        weights from before its own step, so that the identifier gets its a-priori
-        prediction from the same forward pass as the learning step. Raises ValueError,
-        leaving the weights unchanged, if a step would not be finite.
-        """
+        """One learning step per row of X (N, 3n) towards Y (N, n); return the a-priori
+        errors ``Y − predict(X)`` (N, n) from the forward pass of each step. Raises
+        ValueError, weights unchanged, if a step would not be finite."""
         ...
 
 
@@ -76,18 +60,16 @@ class StepResult:
     Attributes
     ----------
     stamp_ns : int
-        The sample's stamp, integer nanoseconds.
+        The sample's stamp (ns).
     effort : ndarray of shape (n_joints,) or None
-        The a-priori predicted effort (N·m or N) in the configured joint order, or None if
-        the sample was rejected.
+        A-priori predicted effort (N·m or N) in joint order; None if rejected.
     reason : SkipReason or None
-        Why the sample was rejected, or None if a prediction was made.
+        Why the sample was rejected.
     held_out : bool
-        The sample is a validation sample: predicted, never learnt.
+        A validation sample: predicted, never learnt.
     measured : ndarray of shape (n_joints,) or None
-        The sample's measured effort (N·m or N) in joint order, None if it had none or was
-        rejected: ``measured − effort`` is the effort the model does not explain (a
-        contact's, for a model that identifies).
+        Measured effort (N·m or N) in joint order, if any: ``measured − effort`` is what
+        the model does not explain (a contact's).
     """
 
     stamp_ns: int
@@ -106,27 +88,19 @@ class Counts:
 
     Attributes
     ----------
-    processed : int
-        Samples passed to :meth:`OnlineIdentifier.process`.
-    predicted : int
-        Samples for which an effort was predicted.
-    learned : int
-        Samples the model learnt from.
-    held_out : int
-        Samples predicted and kept for validation, never learnt from.
+    processed, predicted, learned, held_out : int
+        Samples passed in, predicted, learnt from, kept for validation.
     refused : int
-        Samples predicted but not learnt from, because the step was refused (it would not
-        have been finite, or it overshot: see ``trainer``); the weights were left unchanged.
+        Predicted, not learnt: the trainer refused the step (weights unchanged).
     no_effort : int
-        Samples predicted without a measured effort (an empty effort array, or NaN for some
-        joint, as a joint_state_broadcaster reports a joint without an effort interface):
-        neither learnt nor scored.
+        Predicted without a measured effort (empty, or NaN for some joint): neither learnt
+        nor scored.
     clipped : int
-        Predictions beyond the effort bounds, clipped to them before being handed out.
+        Predictions clipped to the effort bounds.
     skipped : dict of SkipReason to int
-        Samples without a prediction, per reason (every reason present, from 0).
+        Samples without a prediction, per reason (every reason present).
     pending : int
-        Samples accepted whose input is not complete yet (the centred estimate's lag).
+        Accepted samples whose input is not complete yet (the estimate's lag).
     """
 
     processed: int = 0
@@ -149,36 +123,26 @@ class OnlineIdentifier:
     model : EffortModel
         The network; ``model.n_inputs`` must be ``3 * model.n_outputs``.
     joint_names : sequence of str, optional
-        The joint order of the model's inputs and outputs; by default that of the first valid
-        sample. Messages are always mapped to it by name.
-    differentiator : Differentiator or CentredDifferentiator, optional
-        The q'' estimate of the :class:`InputStage`; by default the zero-phase
-        ``CentredDifferentiator(21, 2)``. It is owned by the identifier from then on.
+        Joint order of the model's inputs and outputs; by default the first valid sample's.
+    differentiator : AccelerationEstimate, optional
+        The q'' estimate (owned from then on); by default the stage's zero-phase default.
     trainer : Trainer, optional
-        How samples are learnt; by default the paper's per-sample back-propagation
-        (:class:`BackPropagation`), the node's default is the reservoir LM.
+        How samples are learnt; by default per-sample :class:`BackPropagation`.
     holdout : Holdout, optional
-        Validation blocks never learnt; by default none.
+        Validation blocks, never learnt.
     mse_window : int
-        Number of latest predictions the error statistics cover, at least 100 (the paper's
-        figure is over the last 100).
+        Latest predictions the error statistics cover, at least 100.
     learn : bool
-        Learn from each sample that has a measured effort. Without learning the model only
-        predicts. Either way samples without effort (empty, or NaN for some joint) are
-        predicted but neither learnt nor scored (``Counts.no_effort``).
+        Learn from samples with a measured effort; False only predicts.
     max_gap_ns : int
-        A clock jump of more than this (ns) and than 5 observed sample periods between
-        accepted samples restarts the acceleration estimate (see :class:`SampleCheck`).
+        Clock jump (ns) that restarts the q'' estimate (see :class:`SampleCheck`).
     bounds : Bounds, optional
-        Samples with values beyond them (in joint order) are refused as ``OUT_OF_LIMITS``:
-        never predicted, never learnt; predictions beyond their effort bounds are clipped
-        to them (counted in ``clipped``), so that no absurd effort is ever handed out.
+        Samples beyond them are refused as ``OUT_OF_LIMITS``; predictions beyond the effort
+        bounds are clipped to them.
     stage : InputStage, optional
-        An input stage shared with other identifiers (several models learning from one
-        stream, checked and differentiated once): the caller then pushes each sample into
-        it and hands the outcome to :meth:`take` of each. It replaces ``joint_names``,
-        ``differentiator``, ``max_gap_ns`` and the sample bounds (its own); the effort
-        bounds still clip this model's predictions.
+        A stage shared by several identifiers of one stream (the caller pushes each sample
+        and hands the outcome to :meth:`take`); replaces ``joint_names``,
+        ``differentiator``, ``max_gap_ns`` and the sample bounds.
 
     Raises
     ------
@@ -250,10 +214,8 @@ class OnlineIdentifier:
         Returns
         -------
         list of StepResult
-            A rejection of this sample (``effort`` None, with its reason: it changed nothing
-            but its counter), and/or the predictions of the samples whose input is now
-            complete, oldest first, each stamped with its own sample's stamp (with the
-            zero-phase estimate, the sample ``lag`` before this one).
+            A rejection of this sample (it changed only its counter), and/or the predictions
+            of the samples whose input is now complete, oldest first, each with its own stamp.
         """
         reason, inputs = self.stage.push(stamp_ns, tuple(names), position, velocity, effort)
         return self.take(stamp_ns, reason, inputs)
@@ -332,20 +294,14 @@ class OnlineIdentifier:
         return np.asarray(reservoir.Y - self.model.predict(reservoir.X))
 
     def validation_stats(self) -> ErrorStats | None:
-        """Score the current model on the held-out samples kept so far.
-
-        Returns None without a holdout or with too few held-out samples yet.
-        """
+        """Score the current model on the held-out samples; None without any."""
         if self.holdout is None or len(self.holdout.reservoir) == 0:
             return None
         return self.holdout.score(self.model.predict(self.holdout.reservoir.X))
 
     def reset(self) -> None:
-        """Restart the stream: forget the last stamp, the derivative history and the errors.
-
-        The model, the joint order and the counters are kept; pending samples are dropped
-        (counted as skipped ``warming_up``).
-        """
+        """Forget the last stamp, the q'' history and the errors; keep the model, the joint
+        order and the counters (pending samples count as skipped ``warming_up``)."""
         self.stage.reset()
         self.counts.pending = self.stage.pending
         self.errors.reset()

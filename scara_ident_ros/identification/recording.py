@@ -32,16 +32,7 @@ class RecordingError(ScaraIdentError, ValueError):
 class Recording(NamedTuple):
     """Joint states of a bag and the network samples made from them.
 
-    Attributes
-    ----------
-    path : Path
-        The bag.
-    topic : str
-        The JointState topic read.
-    series : JointStateArrays
-        The messages as arrays, joints mapped by name.
-    samples : RecordedDataset
-        Network samples (X, Y), joint names and skipped messages per reason.
+    ``series`` holds the messages of ``topic`` as arrays, ``samples`` the network samples.
     """
 
     path: Path
@@ -55,22 +46,8 @@ def load_recording(path: Path, *, topic: str | None = None,
                    minimum: int = MIN_SAMPLES) -> Recording:
     """Read joint states from a bag and turn them into network samples.
 
-    Parameters
-    ----------
-    path : Path
-        A rosbag2 bag directory (MCAP or sqlite3), its metadata-less storage file, or a bare
-        ``.mcap``.
-    topic : str, optional
-        JointState topic; default the one the reader detects (``/joint_states`` if there
-        are several).
-    joints : sequence of str, optional
-        Joints to keep, in this order; default all those of the messages.
-    minimum : int
-        Fewest usable samples accepted.
-
-    Returns
-    -------
-    Recording
+    ``topic`` and ``joints`` default as :func:`~scara_ident_ros.bag.read_joint_states` says;
+    ``minimum`` is the fewest usable samples accepted.
 
     Raises
     ------

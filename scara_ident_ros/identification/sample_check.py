@@ -52,18 +52,14 @@ class Sample(NamedTuple):
     Attributes
     ----------
     stamp_ns : int
-        Time of the sample, integer nanoseconds.
-    position : ndarray of shape (n_joints,)
-        q, rad or m.
-    velocity : ndarray of shape (n_joints,)
-        q', rad/s or m/s.
+        Time of the sample (ns).
+    position, velocity : ndarray of shape (n_joints,)
+        q (rad or m) and q' (rad/s or m/s).
     effort : ndarray of shape (n_joints,) or None
-        Measured joint effort, N·m or N; None if the message carried none, or NaN for
-        some joint (not measured).
+        Measured effort (N·m or N); None if missing or NaN for some joint.
     gap : bool
-        The clock jumped by more than the maximum gap (see :class:`SampleCheck`) since the
-        previous accepted sample: the sample is good but starts a new history (derivatives
-        must restart).
+        The clock jumped by more than the maximum gap since the previous accepted sample:
+        the sample starts a new history (derivatives restart).
     """
 
     stamp_ns: int
@@ -120,10 +116,8 @@ class SampleCheck:
     joint_map : JointMap
         The joint order; if it has none yet, the first valid sample's names are adopted.
     need_effort : bool
-        Reject samples without effort, an empty effort or NaN for some joint
-        (``NO_EFFORT``): for offline training, where every sample is learnt. Without it
-        such a sample is accepted with ``Sample.effort`` None; a non-empty effort must
-        still have the right length, and an infinite one is ``NON_FINITE``.
+        Reject samples without effort (empty, or NaN for some joint) as ``NO_EFFORT``, for
+        offline training; otherwise they are accepted with ``Sample.effort`` None.
     max_gap_ns : int
         A clock jump (ns) forwards larger than this and than :data:`GAP_PERIODS` observed
         periods (:attr:`period_ns`) marks a sample as ``gap``. A step backwards is rejected
@@ -186,24 +180,9 @@ class SampleCheck:
 
     def check(self, stamp_ns: int, names: Sequence[str], position: FloatArrayLike,
               velocity: FloatArrayLike, effort: FloatArrayLike = ()) -> Sample | SkipReason:
-        """Validate one sample.
-
-        Parameters
-        ----------
-        stamp_ns : int
-            Time of the sample, integer nanoseconds.
-        names : sequence of str of length m
-            Joint names, in message order.
-        position, velocity : array_like of shape (m,)
-            q (rad or m) and q' (rad/s or m/s) in message order.
-        effort : array_like of shape (m,) or (0,)
-            Joint effort (N·m or N) in message order; empty if not measured.
-
-        Returns
-        -------
-        Sample or SkipReason
-            The sample in joint order, or why it was rejected (and then nothing changed).
-        """
+        """Validate one sample: its stamp (ns), joint names, q (rad or m), q' (rad/s or
+        m/s) and effort (N·m or N, may be empty), each (m,) in message order. Return the
+        sample in joint order, or why it was rejected (then nothing changed)."""
         gap = False
         last = self._last_stamp
         dt = 0

@@ -5,23 +5,12 @@ The one validation split of batch training: ``scara-ident train`` early-stops on
 same defaults. The online identifier holds out blocks of its stream as they come
 (:class:`~scara_ident_ros.identification.holdout.Holdout`).
 
-`block_split` cuts the recording into blocks of ``block_s`` seconds and validates on a
-seeded ``validation_fraction`` of them, one drawn from each stratum of about
-``1 / validation_fraction`` consecutive blocks, so the validation data visit every part of
-the recording, hence every excitation it holds.
-
 Why blocks and not single samples: neighbouring samples at 1 kHz are nearly identical, so a
 random per-sample split would validate on copies of the training data and early stopping
 would never see overfitting. Why not the last part of the recording: a
 recording of several excitations ends with another motion than the rest, so its validation
 error measures an extrapolation the training cannot improve, and early stopping fires
 while Levenberg–Marquardt is still adapting its damping.
-
-Public API::
-
-    block_index(stamp_ns, *, block_s, start_ns=None) -> ndarray (N,) of int64
-    block_split(data, validation_fraction, *, block_s=VALIDATION_BLOCK_S, seed=0)
-        -> (train, validation)
 """
 from __future__ import annotations
 
@@ -47,19 +36,8 @@ def block_index(stamp_ns: npt.ArrayLike, *, block_s: float,
                 start_ns: int | None = None) -> npt.NDArray[np.int64]:
     """The time block of each sample: ``(stamp − start) // block``.
 
-    Parameters
-    ----------
-    stamp_ns : array_like of shape (N,)
-        Sample times (ns), not before ``start_ns``.
-    block_s : float
-        Block length (s), > 0; rounded to whole nanoseconds.
-    start_ns : int, optional
-        Start of block 0 (ns); default the first stamp.
-
-    Returns
-    -------
-    ndarray of shape (N,) of int64
-        Block numbers, 0 for the first ``block_s`` seconds.
+    ``stamp_ns`` (N,) are not before ``start_ns`` (default the first stamp); ``block_s``
+    is rounded to whole nanoseconds. Returns block numbers (N,) of int64.
     """
     stamps = np.asarray(stamp_ns, dtype=np.int64)
     block_ns = round(block_s * 1e9)
@@ -82,23 +60,11 @@ def block_split(data: Dataset, validation_fraction: float, *,
     the recording has a validation block, and the split depends on nothing but the stamps,
     the fraction, ``block_s`` and ``seed``.
 
-    Parameters
-    ----------
-    data : Dataset
-        Samples with increasing stamps.
-    validation_fraction : float
-        Fraction in [0, 1) of the blocks kept for validation; 0 gives no validation.
-    block_s : float
-        Block length (s), > 0.
-    seed : int
-        Seed of the draw of a block in each stratum.
-
     Returns
     -------
     train, validation : Dataset
-        The samples of the training and of the validation blocks, each in time order, named
-        ``'train'`` and ``'validation'``; every sample is in exactly one of them.
-        ``validation`` is empty when the fraction is 0.
+        The samples of the training and of the validation blocks, in time order, named
+        ``'train'`` and ``'validation'``; ``validation`` is empty when the fraction is 0.
 
     Raises
     ------

@@ -1,13 +1,9 @@
 """How late a prediction is, against the stream's own clock when that is not the wall clock.
 
-A live robot stamps its samples with the wall clock: a prediction's lag is then the wall
-time of its publication minus its sample's stamp. A replayed bag (``scara-ident play``)
-or simulated time stamps them with another clock, whose offset from the wall clock is
-arbitrary (the bag's recording day: lag figures of 1.8e12 ms). There, the lag is measured
-against the stream's own clock: the offset is the smallest ``arrival − stamp`` seen (the
-sample that came with the least delay is taken as on time), and a prediction's lag is
-``publication − stamp − offset``. A pause in the stream (a gap between recordings, a
-restarted clock) starts the offset anew.
+With wall-clock stamps a prediction's lag is its publication time minus its sample's stamp.
+A replayed bag or simulated time has an arbitrary offset from the wall clock; there the
+offset is the smallest ``arrival − stamp`` seen (the least-delayed sample counts as on
+time), and the lag is ``publication − stamp − offset``. A pause starts the offset anew.
 """
 from __future__ import annotations
 
@@ -81,11 +77,8 @@ class PathDelays:
     publication, whatever the stream's clock (it includes the q'' estimate's wait for the
     samples after it).
 
-    Parameters
-    ----------
-    keep : int
-        Arrivals kept until their prediction is out (samples refused and never predicted
-        fall out of the oldest end).
+    ``keep`` arrivals are kept until their prediction is out (refused samples fall out of
+    the oldest end).
     """
 
     def __init__(self, keep: int = 1000) -> None:

@@ -34,22 +34,9 @@ def check_warm_start(network: FeedForwardNet, names: Sequence[str] = (), *, sour
                      method: str | None = None) -> list[str]:
     """Check that ``network`` maps [q, q', q''] to the efforts of ``names``; return the joints.
 
-    Parameters
-    ----------
-    network : FeedForwardNet
-        The saved network.
-    names : sequence of str
-        The joints wanted, in order; empty: any (those the network recorded, if any).
-    source : str
-        Where the network comes from (its path), for messages.
-    method : str, optional
-        The method it must be a network of (its hidden activation).
-
-    Returns
-    -------
-    list of str
-        ``names``, or the network's recorded joints if ``names`` is empty (empty if it
-        recorded none).
+    ``names`` empty accepts any joints and returns those the network recorded (maybe
+    none); ``method`` is checked against its hidden activation; ``source`` names it in
+    messages.
 
     Raises
     ------

@@ -1,27 +1,9 @@
 """Is a node doing its job? Levels, messages and figures for ``/diagnostics``, without ROS.
 
-Each node of the graph reports once a second (``diagnostic_msgs/DiagnosticStatus``,
-converted in :mod:`scara_ident_ros.nodes.diagnostics`) a :class:`Health`: a level, one
-line saying what is wrong and what to do about it, and its figures as key/values. The
-rules, with the thresholds stated in the messages:
-
-identifier
-    ERROR when the windowed prediction error is not finite (the model diverged: call
-    ``~/reset``) or when samples were lost in the last period (stamp gaps of more than
-    1.5 sample periods: the publisher or the network dropped them, or the node fell so far
-    behind that its queue overflowed); WARN when no sample arrived for more than
-    :data:`STALE_AFTER` s, when more than :data:`SKIPPED_WARN` of the last period's
-    samples were skipped, or when the validation NMSE exceeds :data:`NMSE_WARN` (the model
-    predicts the held-out samples worse than their mean would).
-simulator
-    WARN when more than :data:`LATE_WARN` of the last period's samples were late (the
-    machine cannot keep real time), ERROR when it published less than
-    :data:`RATE_ERROR` of its nominal rate.
-recorder
-    WARN while paused (messages are not written); OK otherwise: losses before the recorder
-    are not visible to it (module docstring of :mod:`scara_ident_ros.nodes.recorder`).
-
-Everything here is plain Python: the nodes pass counters and times in, unit tests too.
+Each node reports once a second (converted in :mod:`scara_ident_ros.nodes.diagnostics`) a
+:class:`Health`: a level, one line saying what is wrong and what to do, and its figures.
+The rules and their thresholds are in the functions below and in the messages they write;
+the nodes (and the tests) pass counters and times in.
 """
 from __future__ import annotations
 
@@ -57,17 +39,8 @@ class Level(IntEnum):
 
 @dataclass(frozen=True)
 class Health:
-    """One node's state: level, what is wrong (or what it does), figures by name.
-
-    Attributes
-    ----------
-    level : Level
-        The worst of the problems found, OK if none.
-    message : str
-        The problems, '; '-separated, each with its threshold; or a one-line summary.
-    values : dict of str to str
-        The figures, formatted, in a stable order.
-    """
+    """One node's state: the worst level found, the problems ('; '-separated, each with its
+    threshold) or a one-line summary, and the formatted figures by name."""
 
     level: Level
     message: str
@@ -75,11 +48,8 @@ class Health:
 
 
 class Deltas:
-    """How much cumulative counters grew since the previous call (the first: since 0).
-
-    A counter smaller than at the previous call was restarted from 0 (``~/reset``): its
-    growth is its value.
-    """
+    """How much cumulative counters grew since the previous call; a counter that went down
+    was restarted (``~/reset``) and its growth is its value."""
 
     def __init__(self) -> None:
         self._last: dict[str, float] = {}
@@ -96,24 +66,14 @@ class Deltas:
 class LossCounter:
     """Samples missing from a periodic stream, estimated from its stamps.
 
-    The period is the median of the latest :data:`PERIOD_SAMPLES` stamp differences
-    (robust to jitter and to the odd loss), renewed every :data:`PERIOD_SAMPLES` samples,
-    and their jitter is ``JITTER_MADS`` scaled median absolute deviations of them; a
-    difference ``dt`` longer than ``LOST_GAP`` periods and than one period plus that
-    jitter, and at most ``LOST_SPAN`` s, counts ``round(dt / period) - 1`` lost samples.
-    Larger jumps are pauses (a gap between two recordings of a replayed bag, a simulator
-    restarting): counted in ``pauses`` and ``paused_s``, not as lost samples. Stamps
-    repeated or going backwards count nothing.
-
-    The jitter term keeps jitter from being counted as loss, at the price of missing some
-    real single losses in a stream jittered by 10 % of its period or more
-    (docs/results.md).
-
-    ``span_s`` replaces ``LOST_SPAN``: a recorder, which must report what a network
-    partition cost, counts jumps of up to a minute as lost samples; an identifier, whose
-    q'' estimate restarts after ``max_gap``, counts longer jumps as pauses. With
-    ``pause_periods``, a jump is a pause only if it is also longer than that many periods
-    (``max_gap`` is 20 samples at 1 kHz, fewer than 3 at 125 Hz).
+    The period is the median of the latest :data:`PERIOD_SAMPLES` stamp differences, the
+    jitter ``JITTER_MADS`` scaled median absolute deviations of them; a difference ``dt``
+    longer than ``LOST_GAP`` periods and than one period plus the jitter (so that jitter is
+    not loss), and at most ``span_s``, counts ``round(dt / period) - 1`` lost samples.
+    Longer jumps (a replayed bag's gap, a simulator restart) count as ``pauses``, and only
+    if also longer than ``pause_periods`` periods. Stamps repeated or going back count
+    nothing. A recorder passes a long ``span_s`` (a network partition is loss); an
+    identifier passes its ``max_gap`` (its q'' estimate restarts there).
     """
 
     def __init__(self, *, span_s: float = LOST_SPAN, pause_periods: float = 0.0) -> None:
@@ -182,31 +142,17 @@ def identifier_health(*, period_s: float, since_sample_s: float | None, processe
     period_s : float
         Seconds since the previous report, > 0.
     since_sample_s : float or None
-        Seconds since the latest sample arrived; None if none has.
+        Seconds since the latest sample; None if none yet.
     processed, skipped, lost, learnt : int
-        Counters since start (learnt: samples the model learnt from).
-    recent_processed, recent_skipped, recent_lost : int
-        The same counters' growth over the period.
+        Counters since start; ``recent_*`` their growth over the period.
     lag_s : float or None
-        Largest delay from a sample's stamp to its prediction in the period (s); None if
-        nothing was predicted.
-    error_finite : bool
-        Whether the windowed prediction error is finite (True before any).
-    validation_nmse : float or None
-        The model's NMSE over the held-out samples; None or NaN until there are enough.
-    learning : bool
-        Whether the node learns (parameter ``learn``).
+        Largest delay from a sample's stamp to its prediction in the period (s).
     update_rate : float or None
-        Weight updates per second of a trainer that learns beside the stream; None for one
-        that learns in the message path. It falls when the CPU is short.
+        Weight updates/s of a trainer beside the stream; None for one in the message path.
     contact_armed : bool or None
-        Whether contact detection is armed (the validation NMSE is below
-        ``contact_arm_nmse``); None: no contact detection, nothing reported about it.
+        Whether contact detection is armed; None: no contact detection.
     contact_thresholds : sequence of float or None
-        The per-joint contact thresholds on |measured − predicted| (N·m or N), None until
-        there are enough held-out samples.
-    contact_arm_nmse : float or None
-        The validation NMSE below which detection is armed.
+        Per-joint thresholds on |measured − predicted| (N·m or N), None until known.
     """
     rate = recent_processed / period_s
     problems: list[tuple[Level, str]] = []
@@ -262,15 +208,11 @@ def simulator_health(*, period_s: float, nominal_hz: float, published: int, late
 
     Parameters
     ----------
-    period_s : float
-        Seconds since the previous report, > 0.
     nominal_hz : float
-        The rate it should publish at (``rate_hz`` times the real-time factor); 0: as fast
-        as possible, no rate check.
+        Rate it should publish at (``rate_hz`` × real-time factor); 0: no rate check.
     published, late : int
-        Samples published and samples late by more than one period, since start.
-    recent_published, recent_late : int
-        Their growth over the period.
+        Samples published and late by more than one period, since start; ``recent_*``
+        their growth over the period.
     waiting : bool
         Still waiting for subscribers, nothing published yet on purpose.
     """
@@ -299,14 +241,8 @@ def recorder_health(*, period_s: float, written: int, received: int, paused: int
 
     Parameters
     ----------
-    period_s : float
-        Seconds since the previous report, > 0.
     written, received, paused : int
-        Messages written, received, and received while paused (not written), since start.
-    recent_written : int
-        Growth of ``written`` over the period.
-    is_paused : bool
-        Whether it is paused now.
+        Messages written, received, and received while paused, since start.
     files, topics : int
         Storage files of the bag so far, topics recorded.
     """

@@ -1,46 +1,25 @@
 """``identifier``: learns a robot's inverse dynamics online from ``joint_states``.
 
 For every ``sensor_msgs/JointState`` it predicts the joint efforts from (q, q', q'')
-*before* learning from that sample (an honest a-priori prediction), publishes the
-prediction on ``identified_torque`` (same joint names, ``effort`` = predicted
-torque/force, ``header.stamp`` = the stamp of the sample it predicts), then learns from it
-(``trainer``: ``lm``, Levenberg–Marquardt steps on a reservoir of the whole stream, taken
-in a learner process beside the stream so that no sample waits for a step, or ``bp``, the
-paper's per-sample back-propagation). q'' is estimated zero-phase by default
-(``differentiator: centred``), so each prediction is published ``window // 2`` samples
-after its sample (10 ms at 1 kHz). A fraction of the samples (whole blocks) is never learnt:
-the model's error on them is the validation NMSE. All of that is
-:class:`~scara_ident_ros.identification.OnlineIdentifier`; this node converts messages,
-publishes, checkpoints and logs, over an
-:class:`~scara_ident_ros.identification.session.IdentificationSession` (warm starts, the
-methods' cores, reset, summaries).
+*before* learning from the sample, publishes the prediction on ``identified_torque``
+(stamped with the sample it predicts, ``window // 2`` samples late with the zero-phase q''
+estimate), then learns from it (``trainer``). Blocks of samples are never learnt: the
+model's error on them is the validation NMSE. The per-sample logic is
+:class:`~scara_ident_ros.identification.OnlineIdentifier` under an
+:class:`~scara_ident_ros.identification.session.IdentificationSession`; this node converts
+messages, publishes, checkpoints and logs.
 
-With ``methods`` (e.g. ``[ffmw, ffw, ffs]``) one node serves several networks from one
-subscription: each sample is checked and differentiated once, each network predicts and
-learns it and publishes under ``<method>/`` (``ffs/identified_torque``, ...), as separate
-nodes in namespaces would, for a third of their CPU.
+With ``methods`` (e.g. ``[ffmw, ffw, ffs]``) one subscription serves several networks: each
+sample is checked and differentiated once, and each network publishes under ``<method>/``.
 
-``external_torque`` (``sensor_msgs/JointState``, same stamps and joints as
-``identified_torque``) carries ``effort`` = measured − predicted: what the model does not
-explain, a contact's effort once it identifies. Once the validation NMSE is below
-``contact_arm_nmse`` (never before), a sample whose external torque exceeds a joint's
-threshold (``contact_sigma`` robust standard deviations of the held-out residuals) is
-reported on ``contact``: the joints over their threshold, ``effort`` = their external torque,
-the sample's stamp (:mod:`scara_ident_ros.identification.contact_detector`).
+``external_torque`` carries measured − predicted effort; once the validation NMSE is below
+``contact_arm_nmse``, joints over their threshold are reported on ``contact``
+(:mod:`scara_ident_ros.identification.contact_detector`). ``identification_mse`` carries
+the windowed and validation errors (layout: :mod:`scara_ident_ros.mse_layout`).
 
-``identification_mse`` (``std_msgs/Float64MultiArray``) carries the errors,
-``data = [mse_1 .. mse_n, mse_total, nmse_1 .. nmse_n, nmse_total,
-vnmse_1 .. vnmse_n, vnmse_total]`` with ``layout.dim[0]`` labelled
-``metric:mse,nmse,validation_nmse`` (size 3) and ``layout.dim[1]`` labelled
-``joint:<name_1>,...,<name_n>,total`` (size n + 1). MSE is in (N·m)² or N²; NMSE is MSE
-divided by the variance of that joint's effort over the same window; the validation NMSE
-is the current model's over the held-out samples kept so far (NaN until there are 100).
-
-While it runs: ``learn``, ``learning_rate``, ``momentum``, ``mse_window``, ``mse_rate_hz``,
-``checkpoint_period``, ``lm_steps`` and ``lm_interval`` can be set (``ros2 param set``) and
-take effect at once; ``~/save_model`` and ``~/reset`` (``std_srvs/Trigger``) save the model
-now or start again from fresh weights; ``/diagnostics`` says once a second how it does
-(:mod:`scara_ident_ros.nodes.health`).
+Parameters that are not read-only take effect at once (``ros2 param set``); ``~/save_model``
+and ``~/reset`` (``std_srvs/Trigger``) save now or start again from fresh weights;
+``/diagnostics`` reports once a second (:mod:`scara_ident_ros.nodes.health`).
 """
 from __future__ import annotations
 
@@ -89,11 +68,9 @@ __all__ = ['IdentifierNode', 'main']
 QOS_DEPTH = 5000  # messages: 5 s at 1 kHz may queue before any is dropped
 STREAM_QOS = QoSProfile(depth=QOS_DEPTH, history=HistoryPolicy.KEEP_LAST,
                         reliability=ReliabilityPolicy.RELIABLE)  # torques
-#: joint_states: reliable, keep all. Fast DDS then holds a bounded number of unread samples
-#: and stops acknowledging new ones while that is full, so a publisher that paces itself to
-#: acknowledgements (the player at rate max) loses nothing however slow the identifier;
-#: keep-last acknowledged every sample and dropped the oldest unread ones (7,091 of 10,000
-#: processed at rate max).
+#: joint_states: reliable, keep all. Fast DDS then stops acknowledging while its unread
+#: samples are full, so a publisher pacing itself to acknowledgements (the player at rate
+#: max) loses nothing however slow the identifier; keep-last drops the oldest unread ones.
 INPUT_QOS = QoSProfile(depth=QOS_DEPTH, history=HistoryPolicy.KEEP_ALL,
                        reliability=ReliabilityPolicy.RELIABLE)
 STATS_PERIOD = 10.0  # s between statistics log lines
@@ -151,9 +128,7 @@ PARAMETERS = (
               'path every lm_interval samples (reproducible, for experiments)',
               fixed='the trainer is built once'),
     ParamSpec('lm_float64', False, 'lm trainer: assemble its normal equations in float64 '
-              '(more CPU; an earlier remedy for Coulomb friction on all-random weights, '
-              'before lm_friction_steps, docs/results.md)',
-              fixed='the trainer is built once'),
+              '(more CPU)', fixed='the trainer is built once'),
     ParamSpec('lm_slow_share', 0.0, 'lm trainer: share of reservoir_size kept for samples '
               'where some joint moves slower than 1 % of its velocity limit (the friction '
               'step at zero speed); 0: one uniform reservoir', min=0.0, max=0.5,
@@ -265,11 +240,7 @@ class Outputs:
     def publish(self, results: list[StepResult], frame_id: str,
                 clock: StreamClock | None = None) -> None:
         """Publish each prediction, its external torque and any contact, stamped with its
-        sample.
-
-        ``clock``: record how late each prediction is (against the stream's clock); not
-        for those let out on shutdown, whose lag is the time since the last sample.
-        """
+        sample; ``clock`` records the lags (not given on shutdown)."""
         if not results:
             return
         template, external = self.template, self.external_template
@@ -424,11 +395,8 @@ class IdentifierNode(Node):
 
     def on_reset(self, request: Trigger.Request, response: Trigger.Response
                  ) -> Trigger.Response:
-        """Service ``~/reset``: start again from fresh weights, counters kept apart.
-
-        The summary of before (counters, errors) is logged and kept in ``previous`` of the
-        statistics; the samples whose prediction was pending are dropped.
-        """
+        """Service ``~/reset``: start again from fresh weights (see
+        :meth:`IdentificationSession.reset`)."""
         response.success, response.message, why = self.session.reset(stream=self.stream())
         if why:
             self._warn(why)
@@ -545,13 +513,9 @@ class IdentifierNode(Node):
                     self.get_logger().error(f'checkpoint: {message}')
 
     def close(self) -> None:
-        """On shutdown: predict and learn the pending samples, take the learners' last
-        weights, checkpoint, final statistics.
-
-        The last ``window // 2`` predictions are published here, just before the process
-        ends: wait (at most :data:`FLUSH_TIMEOUT`) until the subscribers have acknowledged
-        them, as the node is destroyed right after and would take them along.
-        """
+        """On shutdown: predict and learn the pending samples, wait (at most
+        :data:`FLUSH_TIMEOUT`) until subscribers acknowledge them, take the learners' last
+        weights, checkpoint and log the final statistics."""
         results, inputs = self.session.flush()
         for out, method_results in zip(self.outputs, results):
             out.publish(method_results, self.frame_id)
@@ -574,8 +538,7 @@ class IdentifierNode(Node):
 def main(args: list[str] | None = None) -> None:
     """Console script ``identifier``."""
     # One BLAS thread: the lm trainer's steps (684 unknowns) gain nothing from a second one,
-    # and competing BLAS pools on a busy machine made them 5-10 times slower (2 cores, 3
-    # identifiers: 300-500 ms a step instead of 70 ms, the node fell seconds behind).
+    # and competing BLAS pools slow them down on a busy machine (docs/results.md).
     with single_blas_thread():
         status = run_node('identifier', IdentifierNode, args, description=__doc__ or '',
                           parameters=PARAMETERS)

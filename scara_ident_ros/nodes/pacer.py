@@ -20,13 +20,10 @@ class DeadlinePacer:
     period_ns : int
         Sample period in (simulated) nanoseconds, > 0.
     real_time_factor : float
-        Simulated seconds per wall-clock second; 0 means as fast as possible.
-    clock : callable returning int, optional
-        Monotonic clock in nanoseconds (tests pass a fake one).
-    sleep : callable taking float seconds, optional
-        Sleep function (tests pass a fake one).
-    burst : int
-        Samples issued per call when running as fast as possible.
+        Simulated seconds per wall-clock second; 0: as fast as possible, ``burst`` samples
+        per call.
+    clock, sleep : callable, optional
+        Monotonic clock (ns) and sleep (s).
     """
 
     def __init__(self, period_ns: int, *, real_time_factor: float = 1.0,
@@ -55,14 +52,8 @@ class DeadlinePacer:
         return self._t0 + round(k * self._wall_period)
 
     def wait(self, max_wait_s: float) -> int:
-        """Sleep until the next deadline (at most ``max_wait_s``); return the samples due.
-
-        Returns
-        -------
-        int
-            How many samples are due now (0 if ``max_wait_s`` ran out first, more
-            than 1 while catching up). They count as issued.
-        """
+        """Sleep until the next deadline (at most ``max_wait_s``); return how many samples
+        are due now (0 if the wait ran out, more than 1 while catching up), now issued."""
         if self._wall_period == 0:
             self.issued += self._burst
             return self._burst

@@ -14,18 +14,13 @@
   transient-local when every recorded publisher was; each needs the message package of
   its type (topics without one are skipped with a warning).
 - Nothing is lost to a slow subscriber: after every ``qos_depth`` messages the player
-  waits until every subscriber has acknowledged them (``wait_for_all_acked``), so its
-  history never overwrites a message not yet delivered. A subscriber that keeps all it
-  has not read (the identifier, the recorder) acknowledges only what it has room for, so
-  ``rate`` 0 goes as fast as the slowest subscriber takes the messages; a keep-last
-  subscriber acknowledges everything and drops unread messages itself. The timing of
-  rate > 0 slips while it waits (and catches up afterwards). A message the transport
-  dropped is only sent again after the writer's next heartbeat: the player's writers
-  beat every 20 ms (``config/player_fastdds.xml``, unless a Fast DDS profile file is
-  set) instead of Fast DDS's 3 s, which stalled a window for up to 3 s.
-- Before the first message the player waits, at most ``wait_timeout`` seconds,
-  until every topic it plays has a subscriber, so subscribers started just before it
-  miss nothing.
+  waits until every subscriber has acknowledged them, so ``rate`` 0 goes as fast as the
+  slowest keep-all subscriber reads (a keep-last one drops unread messages itself); the
+  timing of rate > 0 slips while it waits and catches up. Its writers send heartbeats
+  every 20 ms (``config/player_fastdds.xml``) instead of Fast DDS's 3 s, so a dropped
+  message is resent at once.
+- Before the first message it waits (at most ``wait_timeout``) until every topic it
+  plays has a subscriber.
 - With ``clock`` it publishes ``/clock`` (rosgraph_msgs/Clock) at ``clock_rate`` with the
   recorded time, for nodes that run with ``use_sim_time``.
 - When the bag is done (never with ``loop``) it waits for the subscribers to acknowledge

@@ -11,24 +11,16 @@ after splits), written by :class:`~scara_ident_ros.bag.BagWriter`.
   publisher; its publishers' offered QoS profiles are recorded, and the subscription
   adapts to them as rosbag2 does (reliable unless one is best effort, transient-local if
   all are), with a history of ``qos_depth`` (0 = keep all).
-- Subscriptions are raw: rclpy hands the callback the serialized bytes, which are
-  stamped with the reception time (``time.time_ns()``, as rosbag2 records the reception
-  time) and appended to a list, which the loop hands to the writer in batches (nothing
-  is deserialized; the per-message Python is one append, and the writer's own work).
+- Subscriptions are raw: the serialized bytes are stamped with the reception time (as
+  rosbag2 does) and handed to the writer in batches, never deserialized.
 - Chunks are written and flushed at ``max_chunk_size`` bytes or ``max_chunk_duration``
-  seconds, so a SIGKILL loses at most that; :func:`~scara_ident_ros.bag.recover_bag`
-  makes such a bag readable again. On SIGINT/SIGTERM the bag is closed properly
-  (``metadata.yaml`` with counts and offered QoS).
-- Received and written messages are logged every ``report_period`` and on shutdown,
-  and saved to ``stats_file`` as JSON. (DDS's own count of lost messages is not
-  used: with the EventsExecutor of these wheels, a subscription with a
-  ``message_lost`` event callback hung inside ``spin_once`` once messages were lost, and
-  one whose callback takes the message info, to see gaps in the publication sequence
-  numbers, raises ``SystemError``.) Samples of a ``sensor_msgs/JointState`` topic lost
-  before the recorder (a network partition longer than the publisher's history) are
-  counted from the gaps in their stamps (``lost`` per topic in the counters, and a
-  warning on shutdown); so is a second publisher on such a topic, which makes the stamps
-  go back in time (``publishers``, and a warning while it lasts).
+  seconds, so a SIGKILL loses at most that (:func:`~scara_ident_ros.bag.recover_bag`).
+  On SIGINT/SIGTERM the bag is closed properly.
+- Counters are logged every ``report_period`` and on shutdown, and saved to
+  ``stats_file``. DDS's own lost-message count is not used (with these wheels'
+  EventsExecutor a ``message_lost`` callback hangs ``spin_once``); samples of a
+  ``sensor_msgs/JointState`` topic lost before the recorder are counted from the gaps in
+  their stamps (``lost``), and a second publisher from stamps going back (``publishers``).
 - Services (``std_srvs/Trigger``), as rosbag2's recorder has them: ``~/split`` closes the
   current ``.mcap`` file and continues in the next one; ``~/pause`` stops writing (what
   arrives meanwhile is counted as ``paused``, not written) until ``~/resume``.
@@ -248,13 +240,9 @@ class RecorderNode(Node):
     def loop(self, executor: Executor, stop: threading.Event) -> None:
         """Spin, handing what arrived to the writer in batches, until ``stop`` is set.
 
-        Sparse traffic (the 1 kHz topics of a run) would wake this thread once per
-        message: while fewer than ``SPARSE_RATE`` messages/s arrive, it sleeps
-        ``GATHER_PERIOD`` after the first message of a quiet spell and then takes
-        everything that queued up meanwhile, which cut the recorder's CPU at 4 x 1 kHz
-        by a quarter. Faster traffic is taken without sleeping (sleeping cost a quarter
-        of the messages at 50 kHz). Batches go to the writer in one call: writing after
-        every ``spin_once`` cost the main thread 2.5x more per message at 50 kHz.
+        Below ``SPARSE_RATE`` messages/s it sleeps ``GATHER_PERIOD`` after the first
+        message of a quiet spell and takes what queued meanwhile, instead of waking per
+        message; faster traffic is taken without sleeping (docs/results.md).
         """
         pending = self._pending
         spin_once = executor.spin_once

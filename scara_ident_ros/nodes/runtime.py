@@ -5,21 +5,15 @@ driven by ``spin_once`` in a loop: in the Jazzy wheels it costs a fraction of th
 of the default executor at 1 kHz, while its ``spin()`` does not fire a 1 ms timer
 reliably and ignores Ctrl-C (``benchmarks/bench_executor.py``).
 
-SIGINT and SIGTERM set a stop flag that the loop checks at least every
-:data:`POLL_PERIOD`. A node with a ``handled()`` count (messages taken so far) then
-drains: the messages already queued in its subscriptions are still taken, until none
-comes for :data:`DRAIN_QUIET` (at most :data:`DRAIN_TIMEOUT`), so a sample that a
-publisher saw acknowledged is not dropped. The node is then closed (``close()`` if it
-has one: flush files, save models), destroyed, and the process exits 0 with no
-traceback. A stop that takes longer than :data:`STOP_TIMEOUT` (a hang in a drain, a close
-or DDS) ends the process anyway, with exit status 1 and every thread's traceback on
-stderr: a node must not outlive the run that started it (``scara-ident run`` SIGTERMs its
-nodes when it dies), where it would go on publishing into the next graph on the domain.
-A :class:`~scara_ident_ros.errors.ConfigError` (or any other
-:class:`~scara_ident_ros.errors.ScaraIdentError`, such as a ``BagError``) raised while the
-node is built ends the process with one line naming the problem and exit status 2. The
-optional hooks a node may have are named by the protocols `PacedNode`, `DrainingNode` and
-`ClosingNode`.
+SIGINT and SIGTERM set a stop flag, checked at least every :data:`POLL_PERIOD`. A node
+with ``handled()`` then drains what is queued (until nothing comes for
+:data:`DRAIN_QUIET`, at most :data:`DRAIN_TIMEOUT`), so no acknowledged sample is dropped;
+it is then closed (``close()``), destroyed, and the process exits 0. A stop longer than
+:data:`STOP_TIMEOUT` ends the process with exit 1 and every thread's traceback: a node
+must not outlive its run and publish into the next graph. A
+:class:`~scara_ident_ros.errors.ScaraIdentError` (e.g. ``ConfigError``) raised while the
+node is built ends it with one line and exit 2. The optional hooks are the protocols
+`PacedNode`, `DrainingNode` and `ClosingNode`.
 """
 from __future__ import annotations
 
@@ -95,24 +89,9 @@ def run_node(name: str, factory: Callable[[], Node], args: list[str] | None = No
              description: str = '', parameters: Sequence[ParamSpec] = ()) -> int:
     """Build the node with ``factory`` and spin it until SIGINT/SIGTERM.
 
-    Parameters
-    ----------
-    name : str
-        Executable name, used to prefix error lines.
-    factory : callable
-        Builds the node; called after ``rclpy.init``.
-    args : list of str, optional
-        Command-line arguments (``--ros-args ...``); ``sys.argv`` when None.
-    description : str
-        What the node does (its module docstring: ``--help`` shows the first paragraph).
-    parameters : sequence of ParamSpec
-        The node's parameters, listed by ``--help``.
-
-    Returns
-    -------
-    int
-        The process exit status: 0 after a clean stop or ``--help``, 2 for a configuration
-        error.
+    ``factory`` is called after ``rclpy.init``; ``args`` default to ``sys.argv``;
+    ``--help`` shows the first paragraph of ``description`` (the module docstring) and the
+    ``parameters``. Return the exit status (module docstring).
     """
     argv = sys.argv if args is None else args
     user = argv[:argv.index('--ros-args')] if '--ros-args' in argv else argv
@@ -168,20 +147,8 @@ def drain(executor: Spinner, handled: Callable[[], int], *,
           timeout: float = DRAIN_TIMEOUT, quiet: float = DRAIN_QUIET) -> int:
     """Take what is queued: ``spin_once`` with zero timeout until nothing comes.
 
-    Parameters
-    ----------
-    executor : Spinner
-        The node's executor.
-    handled : callable returning int
-        The node's count of messages taken; the drain ends once it has not grown for
-        ``quiet`` seconds (messages still in flight get that long to arrive).
-    timeout : float
-        Longest drain, in seconds: a publisher that goes on is not waited for.
-
-    Returns
-    -------
-    int
-        How many messages the drain took.
+    The drain ends once ``handled()`` has not grown for ``quiet`` seconds, or after
+    ``timeout`` seconds; return how many messages it took.
     """
     start = handled()
     last = start

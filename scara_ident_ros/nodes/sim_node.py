@@ -55,12 +55,10 @@ from scara_ident_ros.topics import CLOCK, EXTERNAL_EFFORT, JOINT_STATES, JOINT_T
 __all__ = ['SimulatorNode', 'SIM_PARAMETERS', 'HISTORY', 'EXTERNAL', 'history_depth',
            'fixed_at_start', 'sim_config', 'desired_motion']
 
-#: s of samples the publisher keeps for reliable subscribers (history depth = rate_hz x this):
-#: a subscriber cut off for up to 5 s (a network partition, a stalled process) gets every
-#: sample once it is back, with as much again for the samples not yet acknowledged when the
-#: link went down and for the reconnection. A partition longer than the history loses the
-#: oldest samples (as many as it outlasts it); the recorder and the identifiers count them
-#: as lost.
+#: s of samples the publisher keeps for reliable subscribers (depth = rate_hz × this): a
+#: subscriber cut off for up to 5 s gets every sample back, with as much again for the
+#: unacknowledged ones and the reconnection; a longer partition loses the oldest samples,
+#: which the recorder and the identifiers count as lost.
 HISTORY = 10.0
 STATS_PERIOD = 10.0  # seconds between statistics log lines
 SPIN_PERIOD = 0.01  # seconds between two executor.spin_once calls while publishing

@@ -27,10 +27,9 @@ Writes to ``--out DIR``: ``tables.md`` (what is printed), ``table2.csv`` and ``t
 ``fig_learning_curves.png`` and ``conditions.json`` (sizes, seeds, settings, timings,
 versions).
 
-BLAS runs on one thread (:mod:`~scara_ident_ros.blas_threads`): the LM systems
-(684 × 684) gain nothing from more, and on a shared 2-core machine two BLAS threads made single
-LM trainings take 10× longer at random. Wall time of the default run: see
-``scara_ident_ros.cli.compare.DEFAULT_WALL_TIME``; ``--quick`` runs in seconds (for tests).
+BLAS runs on one thread (:mod:`~scara_ident_ros.blas_threads`): the 684 × 684 LM systems
+gain nothing from more, and two threads slow trainings down on a shared machine
+(docs/results.md). ``--quick`` runs in seconds (for tests).
 """
 from __future__ import annotations
 

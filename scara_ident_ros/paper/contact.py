@@ -17,15 +17,6 @@ from the held-out residuals. On motions the model never learnt (other seeds):
 The baseline flags a joint when its raw measured ``|effort|`` exceeds a fixed threshold
 ``c · max|effort_j|`` of the clean run, ``c`` the smallest that gives no more false alarms on
 the clean run than the model's detector: the same false-alarm rate, compared on detection.
-
-Public API::
-
-    ContactRun                         what one detector found (rates, delays)
-    train_model(params, *, seconds, seed, config) -> (net, residuals, nmse, lag)
-    pulse_record(params, *, seconds, seed, config, amplitude, pulse_s, spacing_s)
-        -> (record, pulses)            a simulated run with pulses (start index, joint, effort)
-    residuals_of(net, record, names) -> (index (K,), residual (K, n))
-    evaluate(flags_clean, flags_pulses, ...) -> ContactRun
 """
 from __future__ import annotations
 
@@ -66,21 +57,8 @@ class Pulse:
 
 @dataclass(frozen=True)
 class ContactRun:
-    """What one detector found.
-
-    Attributes
-    ----------
-    detected : int
-        Pulses flagged on their joint within the pulse or its tail.
-    pulses : int
-        Pulses sent.
-    delays_s : ndarray of shape (detected,)
-        From each detected pulse's start to the stamp of its first flagged sample (s).
-    false_alarms : int
-        Rising edges of "some joint flagged" on the clean run.
-    clean_s : float
-        Seconds of clean run.
-    """
+    """What one detector found (module docstring): ``detected`` of ``pulses``, their
+    ``delays_s`` (detected,) in s, and ``false_alarms`` in ``clean_s`` seconds."""
 
     detected: int
     pulses: int

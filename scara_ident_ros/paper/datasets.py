@@ -6,13 +6,6 @@ The simulator's record gives q'' either as the simulator's true acceleration
 the same samples through :mod:`scara_ident_ros.identification.recording`.
 ``Evaluations`` (name -> (X, Y)) is how the comparison's functions take the data sets to
 evaluate on.
-
-Public functions::
-
-    simulate_record(params, *, seconds, seed, preset='standard', config=None) -> SimRecord
-    simulate_dataset(params, *, seconds, seed, preset='standard', acceleration='true',
-                     config=None, name='') -> Dataset
-    dataset_from_record(record, *, acceleration='true', name='') -> Dataset
 """
 from __future__ import annotations
 
@@ -34,19 +27,9 @@ def simulate_record(params: Robot, *, seconds: float, seed: int,
                     preset: str = 'standard', config: SimConfig | None = None) -> SimRecord:
     """Simulate the robot tracking a random excitation.
 
-    Parameters
-    ----------
-    params : ScaraParams or PinocchioRobot
-        The robot.
-    seconds : float
-        Duration (s); ``round(seconds / dt)`` samples.
-    seed : int
-        Seed of the excitation (`make_trajectory`); another seed is another excitation.
-    preset : str
-        Excitation preset of :data:`scara_ident_ros.sim.PRESETS`.
-    config : SimConfig, optional
-        Simulation settings; default ``SimConfig()`` for the robot's joints (1 kHz, no
-        noise, no disturbance).
+    ``seconds`` gives ``round(seconds / dt)`` samples; ``seed`` and ``preset`` choose the
+    excitation (`make_trajectory`); ``config`` defaults to ``SimConfig()`` for the robot's
+    joints (1 kHz, no noise, no disturbance).
     """
     cfg = SimConfig(n_joints=len(params.joint_names)) if config is None else config
     sim = Simulator(params, make_trajectory(preset, params, seed), cfg)

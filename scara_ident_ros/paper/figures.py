@@ -101,23 +101,8 @@ def torque_figure(time_s: NDArray[np.float64], measured: NDArray[np.float64],
                   predicted_label: str = 'identified') -> Figure:
     """Measured against identified effort, one panel per joint (Figs 6–13 of the paper).
 
-    Parameters
-    ----------
-    time_s : ndarray of shape (N,)
-        Time of each sample, s.
-    measured, predicted : ndarray of shape (N, n)
-        Measured and identified efforts (N·m or N).
-    names : sequence of str of length n
-        Joint names, used as panel titles.
-    title : str
-        Figure title.
-    predicted_label : str
-        Legend entry of the prediction.
-
-    Returns
-    -------
-    Figure
-        One axes per joint: the measured line (black), then the prediction (red, dashed).
+    ``time_s`` (N,) in s, ``measured`` and ``predicted`` (N, n) in N·m or N, ``names`` the
+    panel titles. The measured line is black, the prediction red and dashed.
     """
     plt = _pyplot()
     n = len(names)
@@ -148,21 +133,8 @@ def training_mse_figure(curves: Mapping[str, Sequence[Sequence[float]]], *, titl
                         goal: float | None = None) -> Figure:
     """Training MSE against iteration for each method, log scale (Fig. 14 of the paper).
 
-    Parameters
-    ----------
-    curves : mapping of str to sequences of sequences of float
-        Method label (``'FFMW'``) to one MSE curve per seed (``FitHistory.mse``: before
-        training, then after each iteration), in the networks' scaled output units. The
-        median over seeds is drawn bold, each seed thin.
-    title : str
-        Figure title.
-    goal : float, optional
-        Training goal, drawn as a horizontal line.
-
-    Returns
-    -------
-    Figure
-        One axes: per method its seeds (thin), then their median (bold, in the legend).
+    ``curves`` maps a method label to one ``FitHistory.mse`` curve per seed (scaled
+    units), drawn thin, with their median bold; ``goal`` is drawn as a horizontal line.
     """
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=(WIDTH_IN, _height_in('training', 0)), layout='constrained')
@@ -204,23 +176,9 @@ def online_error_figure(curves: Mapping[str, tuple[NDArray[np.float64], NDArray[
                         units: str = '(N·m)² and N²') -> Figure:
     """Online error against time for each method, log scale (Fig. 15 of the paper).
 
-    Parameters
-    ----------
-    curves : mapping of str to (time_s (N,), mse (N,), nmse (N,))
-        Method label to the time (s) and the windowed MSE (mean over joints) and NMSE of
-        its a-priori predictions (see :func:`~scara_ident_ros.paper.online_results.
-        rolling_errors`).
-    title : str
-        Figure title.
-    mse_window, nmse_window : int
-        Windows (samples) of the two curves, for the axis labels.
-    units : str
-        Unit of the MSE axis.
-
-    Returns
-    -------
-    Figure
-        Two axes, MSE above and NMSE below, one line per method in each.
+    ``curves`` maps a method label to time (s), windowed MSE and NMSE (N,) each
+    (:func:`~scara_ident_ros.paper.online_results.rolling_errors`); MSE is drawn above,
+    NMSE below, the windows (samples) named in the axis labels.
     """
     plt = _pyplot()
     fig, (top, bottom) = plt.subplots(2, 1, figsize=(WIDTH_IN, _height_in('online', 0)),

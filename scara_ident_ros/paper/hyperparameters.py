@@ -11,31 +11,16 @@ predicts the rest (the *frozen* error); the network itself goes on predicting ea
 sample before learning it (the *a-priori* error). Each error is the joint-mean NMSE over the
 rest of the segment; a run whose step becomes non-finite has +inf.
 
-* Score: the a-priori error, worst of the seeds. It is what the online identifier optimises
-  and reports and what the Table 3 analog measures; the worst seed counts because large
-  steps sit next to instability, where one seed can be lucky and the next blow up.
-* Stability margin: the chosen values become the defaults of a live node, so a point is
-  eligible only if, for every seed, it and the next larger learning rate of the grid (same
-  momentum and weight scale) did better than predicting the mean (a-priori NMSE < 1; a
-  divergence counts as worse); the largest rate is never eligible. The lowest eligible
-  score wins (ties: the earlier point); if none is eligible, the lowest finite score.
-* The frozen error is reported beside the score, not used to choose: on the default data no
-  grid point learns a function that predicts even the same excitation's next samples better
-  than their mean (frozen NMSE about 2 or more, where a constant gives 1 to 2), because
-  sample-by-sample learning of a slowly varying 1 kHz stream follows the latest samples
-  instead of fitting the whole motion. Choosing by it would pick noise among failures.
+* Score: the a-priori error, worst of the seeds: what the online identifier reports; the
+  worst seed counts because large steps sit next to instability.
+* Stability margin: the values become a live node's defaults, so a point is eligible only
+  if, for every seed, it and the next larger learning rate (same momentum and weight scale)
+  beat the mean (a-priori NMSE < 1); the largest rate is never eligible. The lowest eligible
+  score wins (ties: the earlier point), else the lowest finite score.
+* The frozen error is reported, not used to choose: per-sample learning follows the latest
+  samples, so no point's frozen network beats the mean (docs/results.md).
 
 No held-out data is used.
-
-Public API::
-
-    Hyperparameters(learning_rate, momentum, weight_scale)
-    Hyperparameters.defaults(method) -> Hyperparameters      the METHODS values
-    Grid(learning_rate=..., momentum=..., weight_scale=...)  .points() -> list, .size
-    DEFAULT_GRID, QUICK_GRID
-    search(method, X, Y, *, scaling, grid=DEFAULT_GRID, seeds=(0, 1), score_fraction=0.5)
-        -> SearchResult                                      .best, .trials
-    best_of(results) -> dict[str, Hyperparameters]           method key -> choice
 """
 from __future__ import annotations
 
@@ -68,10 +53,8 @@ class Hyperparameters:
 
     Attributes
     ----------
-    learning_rate : float
-        Step size of ``partial_fit`` (scaled units).
-    momentum : float
-        Momentum of ``partial_fit``, in [0, 1).
+    learning_rate, momentum : float
+        Step size (scaled units) and momentum in [0, 1) of ``partial_fit``.
     weight_scale : float
         Initial spread of the hidden units' net input.
     """
@@ -110,12 +93,8 @@ class Grid:
         return len(self.learning_rate) * len(self.momentum) * len(self.weight_scale)
 
 
-#: The grid of ``scara-ident compare``: 30 points per method. How the ranges were set, on the
-#: default training stream: a first search over learning rates 0.01–0.3 found 0.01 the worst
-#: rate for every method and chose the top rate for FFMW and FFW; with rates up to 1.0, FFW
-#: chose the top again (SLOG's small output swing needs larger steps). The rates now run from
-#: 0.03 to 3.0, where every method diverges or fails for some setting; weight scales 2 and 4
-#: scored alike, so 2 was dropped.
+#: The grid of ``scara-ident compare``, 30 points per method: rates wide enough that every
+#: method diverges or fails for some setting (how they were set: docs/results.md).
 DEFAULT_GRID = Grid()
 #: A 3-point grid for ``--quick`` runs and tests.
 QUICK_GRID = Grid(learning_rate=(0.03, 0.1, 0.3), momentum=(0.5,), weight_scale=(2.0,))
@@ -127,17 +106,10 @@ class Trial:
 
     Attributes
     ----------
-    hyperparameters : Hyperparameters
-    score : float
-        The worst of ``scores``: what the search minimises.
-    scores : tuple of float
-        Per seed: joint-mean NMSE of the a-priori predictions of the scored samples, made
-        while learning; +inf if a step became non-finite.
-    frozen : float
-        The worst of ``frozen_scores``.
-    frozen_scores : tuple of float
-        Per seed: joint-mean NMSE of the network frozen at the split, predicting the scored
-        samples.
+    score, scores : float, tuple of float
+        Worst and per-seed joint-mean a-priori NMSE of the scored samples (+inf: diverged).
+    frozen, frozen_scores : float, tuple of float
+        The same for the network frozen at the split.
     eligible : bool
         Passes the stability margin (module docstring).
     seconds : float
@@ -164,19 +136,14 @@ class SearchResult:
 
     Attributes
     ----------
-    method : str
-        Method key (``'ffmw'``).
     trials : tuple of Trial
         In grid order.
     best : Hyperparameters
-        The lowest-scoring eligible point (module docstring); the METHODS defaults if every
-        point diverged.
-    n_samples : int
-        Samples in the search segment.
-    n_scored : int
-        Samples the score covers (the segment's last ones).
+        The chosen point; the METHODS defaults if every point diverged.
+    n_samples, n_scored : int
+        Samples in the search segment, and at its end in the score.
     seeds : tuple of int
-        Seeds of the networks' initial weights.
+        Seeds of the initial weights.
     """
 
     method: str
@@ -256,8 +223,6 @@ def search(method: str, X: npt.ArrayLike, Y: npt.ArrayLike, *, scaling: Scaling,
 
     Parameters
     ----------
-    method : str
-        Method key (``'ffmw'``, ``'ffw'``, ``'ffs'``).
     X : array_like of shape (N, 3n)
         Inputs [q, q', q''] of the search segment, in time order (q'' as online: estimated);
         the first part is learnt, the last ``score_fraction`` predicted.
@@ -265,17 +230,10 @@ def search(method: str, X: npt.ArrayLike, Y: npt.ArrayLike, *, scaling: Scaling,
         Efforts (N·m, N).
     scaling : (x_min, x_max, y_min, y_max)
         Physical ranges of the networks' scaling (the robot limits, as online).
-    grid : Grid
-        Values to try; with a single learning rate no point passes the stability margin and
-        the lowest finite score wins.
     seeds : sequence of int
         Seeds of the initial weights tried at every grid point; the worst counts.
     score_fraction : float
         Fraction in (0, 1) of the segment, at its end, that the score covers.
-
-    Returns
-    -------
-    SearchResult
     """
     x = np.asarray(X, dtype=np.float64)
     y = np.asarray(Y, dtype=np.float64)

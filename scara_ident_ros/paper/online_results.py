@@ -7,15 +7,6 @@ windowed errors on ``/<method>/identification_mse``. Pairing each prediction wit
 ``/joint_states`` message of the same stamp gives the measured and predicted efforts from
 which the Table 3 analog and Figures 6–13 and 15 are made, independently of the numbers the
 identifier computed itself.
-
-Public API::
-
-    OnlinePredictions                              method, names, stamp_ns, measured, predicted
-    pair_by_stamp(stamp_ns, effort, pred_stamp_ns, predicted) -> (i_meas, i_pred)
-    rolling_errors(measured, predicted, window) -> (mse (N,), nmse (N,))
-    prediction_rows(predictions) -> list[ResultRow]    the Table 3 analog's rows
-    read_online_predictions(bag, method, measured) -> OnlinePredictions | None
-    read_identifier_mse(bag, method) -> (log_time_ns (M,), data (M, k)) | None
 """
 from __future__ import annotations
 
@@ -51,19 +42,14 @@ class OnlinePredictions:
 
     Attributes
     ----------
-    method : str
-        Method key (``'ffmw'``).
     names : tuple of str of length n
-        Joints, in the column order of the arrays.
+        Joints, in column order.
     stamp_ns : ndarray of shape (K,) of int64
-        Stamps of the paired samples, increasing, integer nanoseconds.
+        Stamps of the paired samples (ns), increasing.
     measured, predicted : ndarray of shape (K, n)
-        Measured effort (``/joint_states``) and the identifier's a-priori prediction
-        (N·m or N).
-    n_published : int
-        Predictions in the bag.
-    n_unmatched : int
-        Predictions without a ``/joint_states`` message of the same stamp (not paired).
+        Measured effort and a-priori prediction (N·m or N).
+    n_published, n_unmatched : int
+        Predictions in the bag, and those without a ``/joint_states`` of the same stamp.
     """
 
     method: str
@@ -86,18 +72,9 @@ def pair_by_stamp(stamp_ns: NDArray[np.int64], pred_stamp_ns: NDArray[np.int64]
                   ) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
     """Match predictions to measurements of the same stamp.
 
-    Parameters
-    ----------
-    stamp_ns : ndarray of shape (N,) of int64
-        Stamps of the measurements, in any order; for a repeated stamp the first is used.
-    pred_stamp_ns : ndarray of shape (M,) of int64
-        Stamps of the predictions, in any order; for a repeated stamp the first is used.
-
-    Returns
-    -------
-    i_meas, i_pred : ndarray of shape (K,) of intp
-        Indices into the measurements and the predictions of the K matched pairs, in
-        increasing stamp order.
+    ``stamp_ns`` (N,) and ``pred_stamp_ns`` (M,) are in any order (for a repeated stamp the
+    first counts); return the indices ``i_meas``, ``i_pred`` (K,) of the matched pairs in
+    increasing stamp order.
     """
     meas = np.asarray(stamp_ns, dtype=np.int64)
     pred = np.asarray(pred_stamp_ns, dtype=np.int64)
@@ -182,20 +159,8 @@ def read_online_predictions(bag: Path, method: str,
                             measured: JointStateArrays) -> OnlinePredictions | None:
     """Read ``method``'s predictions from a run bag and pair them with ``measured``.
 
-    Parameters
-    ----------
-    bag : Path
-        The run's bag.
-    method : str
-        Method key; the predictions are read from :func:`torque_topic`.
-    measured : JointStateArrays
-        The bag's ``/joint_states``, already read; the predictions are mapped to its joints
-        by name.
-
-    Returns
-    -------
-    OnlinePredictions or None
-        None if the bag has no such topic.
+    The predictions come from :func:`torque_topic` and are mapped to the joints of
+    ``measured`` (the bag's ``/joint_states``) by name; None if the bag has no such topic.
     """
     from scara_ident_ros.bag import open_bag, read_joint_states
 

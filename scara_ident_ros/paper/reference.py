@@ -13,16 +13,6 @@ sets.
 
 It is the SCARA's model, so it is added only for the SCARA, not for any 4-joint robot:
 :func:`is_scara` says whether joint names and positions can be the SCARA's.
-
-Public API (plain arrays; X (N, 12) = [q, q', q''] of the 4 joints, Y (N, 4) efforts)::
-
-    is_scara(names, X, params=None) -> bool                      the reference applies
-    fit_reference(X, Y, *, coulomb_eps=None) -> ReferenceFit     identifier, seconds
-    predict_reference(identifier, X) -> ndarray (N, 4)
-    reference_rows(X, Y, evaluations=None, *, coulomb_eps=None) -> list[ResultRow]
-        offline rows: 'train' then each evaluation
-    online_reference_rows(X, Y, evaluations=None, *, window=5000, paper_window=100,
-                          coulomb_eps=None) -> list[ResultRow]
 """
 from __future__ import annotations
 
@@ -67,11 +57,7 @@ def is_scara(names: Sequence[str], X: npt.ArrayLike, params: ScaraParams | None 
     X : array_like of shape (N, 3n)
         Samples [q, q', q''] (rad or m, /s, /s²); only q is used.
     params : ScaraParams, optional
-        The SCARA; default :class:`~scara_ident_ros.dynamics.ScaraParams` (config/scara.yaml).
-
-    Returns
-    -------
-    bool
+        The SCARA; default config/scara.yaml's.
     """
     params = params or ScaraParams()
     x = np.asarray(X, dtype=np.float64)
@@ -85,17 +71,8 @@ def is_scara(names: Sequence[str], X: npt.ArrayLike, params: ScaraParams | None 
 
 @dataclass(frozen=True)
 class ReferenceFit:
-    """A fitted least-squares model.
-
-    Attributes
-    ----------
-    identifier : LeastSquaresIdentifier
-        With ``theta_`` set.
-    seconds, cpu_seconds : float
-        Wall and CPU time of the fit (s).
-    n_samples : int
-        Samples fitted.
-    """
+    """A fitted least-squares model; ``seconds``, ``cpu_seconds``: wall and CPU time of the
+    fit (s)."""
 
     identifier: LeastSquaresIdentifier
     seconds: float
@@ -141,16 +118,8 @@ def predict_reference(identifier: LeastSquaresIdentifier, X: npt.ArrayLike) -> F
 
 def reference_rows(X: npt.ArrayLike, Y: npt.ArrayLike, evaluations: Evaluations | None = None,
                    *, coulomb_eps: float | None = None) -> list[ResultRow]:
-    """Offline reference rows: fit on (X, Y), evaluate on ``'train'`` and each evaluation.
-
-    Parameters
-    ----------
-    X : array_like of shape (N, 12)
-    Y : array_like of shape (N, 4)
-    evaluations : mapping of str to (X, Y), optional
-    coulomb_eps : float, optional
-        See `fit_reference`.
-    """
+    """Offline reference rows: fit on X (N, 12), Y (N, 4) as `fit_reference` does, evaluate
+    on ``'train'`` and each evaluation."""
     fit = fit_reference(X, Y, coulomb_eps=coulomb_eps)
     data: dict[str, tuple[npt.ArrayLike, npt.ArrayLike]] = {'train': (X, Y)}
     data.update(evaluations or {})
@@ -168,20 +137,9 @@ def online_reference_rows(X: npt.ArrayLike, Y: npt.ArrayLike,
     """Online-table reference rows, named like those of
     :func:`~scara_ident_ros.paper.table3.online_rows`.
 
-    Fitted on the stream's samples before its last ``max(window, paper_window)`` (at least
-    half of the stream), evaluated on the last ``paper_window`` and ``window`` samples and on
-    each evaluation data set.
-
-    Parameters
-    ----------
-    X : array_like of shape (N, 12)
-        The stream's inputs (q'' as online: estimated).
-    Y : array_like of shape (N, 4)
-    evaluations : mapping of str to (X, Y), optional
-    window, paper_window : int
-        Window lengths (samples).
-    coulomb_eps : float, optional
-        See `fit_reference`.
+    Fitted on the stream X (N, 12), Y (N, 4) before its last ``max(window, paper_window)``
+    samples (at least half of it), evaluated on the last ``paper_window`` and ``window``
+    samples and on each evaluation data set.
     """
     x = np.asarray(X, dtype=np.float64)
     y = np.asarray(Y, dtype=np.float64)

@@ -16,12 +16,8 @@ Online (Table 3 analog, Figures 6–13 online and 15)
 Files written to ``out_dir``: ``report.md``, ``table2_offline.csv`` and
 ``table3_online.csv`` (every row, every seed), ``fig_torque_online_<m>.png``,
 ``fig_torque_offline_<m>.png``, ``fig14_training_mse.png``, ``fig15_online_error.png``.
-
-Time: reading a 60 s run and drawing the figures take about 10 s; each LM iteration about
-17 ms at 500 samples on one core (25 ms at 1000, 40 ms at 2000), so 3 methods × 5 seeds ×
-315 iterations at 500 samples take about 80 s. ``make_report``'s default time budget stops
-starting new rounds of seeds after about :data:`DEFAULT_TIME_BUDGET_S` of training, so that
-``make demo`` stays within its 3 minutes; the report says which seeds were done.
+The default time budget (:data:`DEFAULT_TIME_BUDGET_S`) stops starting rounds of seeds so
+that ``make demo`` stays within its 3 minutes (timings: docs/results.md).
 """
 from __future__ import annotations
 
@@ -132,33 +128,22 @@ def make_report(bags: Sequence[Path], out_dir: Path, *,
         The run to analyse, then any held-out runs.
     out_dir : Path
         Output directory (created; files in it are overwritten).
-    methods : sequence of str
-        Method keys, e.g. ``('ffmw', 'ffw', 'ffs')``.
     seeds : int or iterable of int
-        Seeds of the initial weights per method: a count (seeds 0 .. count−1) or the seeds.
-    iterations : int
-        Levenberg–Marquardt iterations (the paper's 315).
+        A count (seeds 0 .. count−1) or the seeds of the initial weights.
     samples : int
-        Training samples drawn at random from the run's training part (0: all of them).
-    validation_fraction : float
-        Fraction in [0, 1) of the first run's time blocks kept out of training
-        (:func:`~scara_ident_ros.identification.split.block_split`, seed 0).
-    validation_block_s : float
-        Length of those blocks (s).
+        Training samples drawn from the run's training part (0: all).
+    validation_fraction, validation_block_s : float
+        Fraction in [0, 1) of the run's time blocks of ``validation_block_s`` seconds kept
+        out of training (:func:`~scara_ident_ros.identification.split.block_split`).
     goal : float
         Training MSE goal (outputs scaled to [-1, 1]) for "iterations to the goal".
-    topic : str, optional
-        JointState topic of the measurements; default the reader's choice (``/joint_states``).
     time_budget_s : float or None
-        Offline training time after which no new round of seeds starts (see
-        :func:`~scara_ident_ros.paper.retraining.retrain`); None: all seeds.
+        See :func:`~scara_ident_ros.paper.retraining.retrain`; None: all seeds.
     progress : callable, optional
         Called with one line per step; default print to stderr; None: silent.
     reference : bool, optional
-        Add the SCARA's least-squares reference (LS) to Table 2. Default: when the run's
-        joints are the SCARA's by name and joint limits
-        (:func:`~scara_ident_ros.paper.reference.is_scara`); a caller that knows the
-        robot can say so.
+        Add the SCARA's least-squares reference (LS) to Table 2; by default when
+        :func:`~scara_ident_ros.paper.reference.is_scara` says the joints are the SCARA's.
 
     Returns
     -------

@@ -1,25 +1,11 @@
 """The Table 2 analog from a recorded run: each method retrained offline from several seeds.
 
-The run's samples (made as the identifier makes them) come split as ``scara-ident train``
-splits them (:func:`~scara_ident_ros.identification.split.block_split`): a fraction of its
-time blocks, spread over the run, validate; the other blocks are the training part, of which
-``samples`` random samples (the same for every method and seed) train each method's network
-with Levenberg–Marquardt for ``iterations`` iterations
-(:func:`scara_ident_ros.paper.table2.train_offline`, scaling from the training samples);
-the validation blocks (never trained on) and any held-out runs are evaluated. With
-``reference=True`` (the caller knows the run is the SCARA's, e.g.
-:func:`scara_ident_ros.paper.reference.is_scara`) the SCARA's model-based least-squares
-reference (LS) is added.
-
-Seeds are run in rounds, so that a time budget can stop between rounds and every method
-still has the same seeds. Training holds the BLAS
-to one thread (:mod:`~scara_ident_ros.blas_threads`).
-
-Public API::
-
-    Retraining                                     rows, fits, evaluations, seeds, ...
-    retrain(train_part, validation, held_out, *, methods, seeds, iterations, n_samples,
-            goal, time_budget_s=None, progress=None, reference=False) -> Retraining
+The run's samples come split as ``scara-ident train`` splits them
+(:func:`~scara_ident_ros.identification.split.block_split`); ``samples`` random samples of
+the training part (the same for every method and seed) train each network
+(:func:`scara_ident_ros.paper.table2.train_offline`, rounds of seeds, BLAS on one thread),
+and the validation blocks and any held-out runs are evaluated. With ``reference=True`` the
+SCARA's least-squares reference (LS) is added.
 """
 from __future__ import annotations
 
@@ -43,17 +29,10 @@ class Retraining:
 
     Attributes
     ----------
-    rows : list of ResultRow
-        Table ``'offline'``: per method, seed and data set; then the LS reference, if any.
-    fits : dict of str to list of OfflineFit
-        Method key to its trained networks and histories, one per seed.
+    rows, fits, seeds, seeds_skipped
+        As in :class:`~scara_ident_ros.paper.table2.OfflineRuns`, plus the LS rows.
     evaluations : dict of str to Dataset
-        ``'train'`` (the samples trained on), ``'validation'`` (the run's validation blocks, if
-        any), ``'held-out'``, ``'held-out-2'``, ... (further runs).
-    seeds : list of int
-        Seeds done for every method.
-    seeds_skipped : list of int
-        Seeds asked for but left out because of the time budget.
+        ``'train'``, ``'validation'`` (if any), ``'held-out'``, ``'held-out-2'``, ...
     n_train_part : int
         Samples in the run's training part (before subsampling).
     seconds : float
@@ -85,35 +64,10 @@ def retrain(train_part: Dataset, validation: Dataset, held_out: Sequence[Dataset
             reference: bool = False) -> Retraining:
     """Retrain every method from every seed on a run and evaluate (module docstring).
 
-    Parameters
-    ----------
-    train_part, validation : Dataset
-        The run's samples, X (N, 3n) and Y (N, n), in time order, split into its training
-        and validation blocks; ``validation`` may be empty.
-    held_out : sequence of Dataset
-        Further runs of the same joints, evaluated only.
-    methods : sequence of str
-        Method keys.
-    seeds : sequence of int
-        Seeds of the initial weights, at least one.
-    iterations : int
-        Levenberg–Marquardt iterations.
-    n_samples : int
-        Samples drawn at random from the training part (0: all).
-    goal : float
-        Training goal (MSE of the scaled outputs) for the iterations-to-goal column.
-    time_budget_s : float, optional
-        Wall time after which no new round of seeds is started: a round is skipped when
-        the time so far plus the mean time of the rounds done would exceed it. The first
-        round always runs.
-    progress : callable, optional
-        Called with one line per trained network.
-    reference : bool
-        Add the rows of the SCARA's least-squares reference (only for the SCARA's joints).
-
-    Returns
-    -------
-    Retraining
+    ``train_part`` and ``validation`` (may be empty) are the run's blocks, ``held_out``
+    further runs of the same joints, evaluated only; ``n_samples`` (0: all) are drawn from
+    the training part; the other options are those of
+    :func:`~scara_ident_ros.paper.table2.train_offline`.
     """
     if not seeds:
         raise ValueError('need at least one seed')

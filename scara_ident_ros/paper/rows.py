@@ -3,17 +3,6 @@
 One `ResultRow` is one trained model (a method and a seed, or the least-squares reference)
 evaluated on one data set; it is what the CSV files hold, one line each. `summarise` groups
 rows by (table, method, data) and gives the median and the min–max spread over seeds.
-
-Public API::
-
-    ResultRow(table, method, seed, data, n_samples, mse, nmse, mse_mean, nmse_mean,
-              iterations=None, goal=None, goal_iteration=None, train_time_s=None,
-              cpu_time_s=None, diverged=False, note='')
-    ResultRow.from_stats(stats: ErrorStats, *, table, method, seed, data, **extra)
-    ResultRow.to_dict(joint_names=None) -> dict[str, object]    flat, for CSV
-    Spread.of(values) -> Spread                                  median, min, max, count
-    Summary                                                      one (table, method, data)
-    summarise(rows) -> list[Summary]                             in order of appearance
 """
 from __future__ import annotations
 
@@ -45,11 +34,9 @@ class ResultRow:
     method : str
         ``'FFMW'``, ``'FFW'``, ``'FFS'``, :data:`REFERENCE` or :data:`HOLD`.
     seed : int or None
-        Seed of the network's initial weights; None for the reference.
+        None for the reference.
     data : str
         What was evaluated, e.g. ``'train'``, ``'held-out'``, ``'stream-last-100'``.
-    n_samples : int
-        Samples evaluated.
     mse, nmse : tuple of float, length n_joints
         Per-joint MSE ((N·m)², N²) and NMSE (MSE / effort variance), see
         :mod:`scara_ident_ros.identification.metrics`.
@@ -57,16 +44,12 @@ class ResultRow:
         Their means over the joints.
     iterations : int or None
         Offline: training iterations done; online: samples learned.
-    goal : float or None
-        Offline training goal (scaled training MSE), if any.
-    goal_iteration : int or None
-        First iteration whose training MSE was <= goal; None if never.
+    goal, goal_iteration : float or None, int or None
+        Offline training goal (scaled MSE) and the first iteration that reached it.
     train_time_s, cpu_time_s : float or None
         Wall and CPU time of training (s).
     diverged : bool
         Training stopped on a non-finite step; the metrics are then NaN.
-    note : str
-        Anything a reader needs to know about this row.
     """
 
     table: str
@@ -144,15 +127,8 @@ def _joint_names(n: int, joint_names: Sequence[str] | None) -> list[str]:
 
 @dataclass(frozen=True)
 class Spread:
-    """Median and range of a quantity over runs (NaN values ignored).
-
-    Attributes
-    ----------
-    median, low, high : float
-        Median, minimum and maximum; NaN when no value is finite.
-    count : int
-        Finite values summarised.
-    """
+    """Median, minimum and maximum of a quantity over runs, and the ``count`` of finite
+    values summarised (NaN ignored; all NaN when none is finite)."""
 
     median: float
     low: float
@@ -171,29 +147,10 @@ class Spread:
 
 @dataclass(frozen=True)
 class Summary:
-    """The rows of one (table, method, data) summarised over seeds.
-
-    Attributes
-    ----------
-    table, method, data : str
-        As in `ResultRow`.
-    n_runs : int
-        Rows summarised (seeds).
-    n_samples : int
-        Samples evaluated per row (the first row's).
-    mse_mean, nmse_mean : Spread
-        Of the rows' joint-mean MSE and NMSE.
-    mse, nmse : tuple of Spread, length n_joints
-        Per joint.
-    iterations, goal_iteration, train_time_s, cpu_time_s : Spread
-        Of the optional fields (count 0 if absent).
-    goal : float or None
-        The training goal (the first row's).
-    goal_reached : int
-        Rows that reached the goal.
-    diverged : int
-        Rows whose training diverged.
-    """
+    """The rows of one (table, method, data) summarised over seeds: a `Spread` of each
+    `ResultRow` figure (per joint for ``mse``, ``nmse``; count 0 for absent optional
+    fields), ``n_samples`` and ``goal`` of the first row, and how many rows reached the
+    goal and diverged."""
 
     table: str
     method: str
@@ -214,16 +171,7 @@ class Summary:
 
 
 def summarise(rows: Iterable[ResultRow]) -> list[Summary]:
-    """Group rows by (table, method, data), in order of first appearance, and summarise.
-
-    Parameters
-    ----------
-    rows : iterable of ResultRow
-
-    Returns
-    -------
-    list of Summary
-    """
+    """Group rows by (table, method, data), in order of first appearance, and summarise."""
     groups: dict[tuple[str, str, str], list[ResultRow]] = {}
     for row in rows:
         groups.setdefault((row.table, row.method, row.data), []).append(row)

@@ -1,31 +1,11 @@
 """Table 2 analog: offline (batch) training of FFMW, FFW, FFS with Levenberg–Marquardt.
 
-Each method is trained from several seeds of its initial weights on the same training
-samples for a fixed number of iterations (the paper's 315), then evaluated on the training
-samples and on any other data sets (e.g. a held-out run on another excitation). Training
-always runs to the iteration limit; the *iterations to the goal* are read afterwards from the
-training history: the first iteration whose training MSE, in the network's scaled units
-(outputs mapped to [-1, 1]), is <= ``goal``. Thus both the paper's figures, the MSE after 315
-iterations and how fast the goal is reached, come from one run.
-
-Scaling: with ``scaling=None`` each network maps inputs and outputs to [-1, 1] from the
-training data's minima and maxima (``nn.fit``'s default, like MATLAB's
-``mapminmax``), so the goal is relative to the training data's ranges.
-
-Public API (plain arrays; X (N, 3n) = [q, q', q''], Y (N, n) efforts)::
-
-    OfflineFit                                  network, history, seconds, cpu_seconds
-    fit_offline(method, X, Y, *, seed=0, hyperparameters=None, iterations=315,
-                scaling=None, n_hidden=40) -> OfflineFit
-    goal_iteration(history, goal) -> int | None
-    offline_rows(fit, evaluations, *, goal=None) -> list[ResultRow]
-    train_offline(X, Y, evaluations=None, *, methods=('ffmw', 'ffw', 'ffs'), seeds=range(5),
-                  iterations=315, goal=1e-5, hyperparameters=None, scaling=None,
-                  time_budget_s=None, progress=None) -> OfflineRuns
-    run_offline(X, Y, evaluations=None, **options) -> list[ResultRow]  (train_offline's rows)
-
-``evaluations`` maps a data name to (X, Y), e.g. ``{'held-out': (X_test, Y_test)}``;
-`train_offline` always adds ``'train'`` (the fitted samples) first.
+Each method is trained from several seeds on the same samples for the paper's 315
+iterations, then evaluated on the training samples (``'train'``) and on each of
+``evaluations`` (name → (X (N, 3n), Y (N, n))). The *iterations to the goal* are read from
+the training history (first iteration whose scaled MSE is <= ``goal``), so both of the
+paper's figures come from one run. With ``scaling=None`` the network scales from the
+training data's ranges (like MATLAB's ``mapminmax``), so the goal is relative to them.
 """
 from __future__ import annotations
 
@@ -57,23 +37,8 @@ DEFAULT_GOAL = 1e-5  # training MSE of outputs scaled to [-1, 1]: about 0.3 % RM
 
 @dataclass(frozen=True)
 class OfflineFit:
-    """A network trained offline.
-
-    Attributes
-    ----------
-    method : str
-        Method key (``'ffmw'``).
-    seed : int
-        Seed of the initial weights.
-    network : FeedForwardNet
-        The trained network.
-    history : FitHistory
-        Its training history (scaled MSE per iteration).
-    seconds, cpu_seconds : float
-        Wall and process CPU time of ``fit`` (s).
-    n_samples : int
-        Training samples.
-    """
+    """A network trained offline: ``seconds``, ``cpu_seconds`` are the wall and process CPU
+    time of ``fit`` (s), ``history`` its scaled MSE per iteration."""
 
     method: str
     seed: int
@@ -92,22 +57,16 @@ def fit_offline(method: str, X: npt.ArrayLike, Y: npt.ArrayLike, *, seed: int = 
 
     Parameters
     ----------
-    method : str
-        Method key.
     X : array_like of shape (N, 3n)
         Inputs [q, q', q''].
     Y : array_like of shape (N, n)
         Efforts (N·m, N).
-    seed : int
-        Seed of the initial weights.
     hyperparameters : Hyperparameters, optional
         Only ``weight_scale`` matters to LM; default the METHODS values.
     iterations : int
-        Iteration limit; training stops earlier only if LM cannot go on (damping limit).
+        Iteration limit; LM stops earlier only at its damping limit.
     scaling : (x_min, x_max, y_min, y_max), optional
-        Physical ranges mapped to [-1, 1]; default the training data's minima and maxima.
-    n_hidden : int
-        Hidden units.
+        Physical ranges mapped to [-1, 1]; default the training data's.
     """
     x = np.asarray(X, dtype=np.float64)
     y = np.asarray(Y, dtype=np.float64)
@@ -131,15 +90,8 @@ def goal_iteration(history: FitHistory, goal: float) -> int | None:
 
 def offline_rows(fit: OfflineFit, evaluations: Evaluations, *,
                  goal: float | None = None) -> list[ResultRow]:
-    """Evaluate a trained network on each data set: one row per data set.
-
-    Parameters
-    ----------
-    fit : OfflineFit
-    evaluations : mapping of str to (X (N, 3n), Y (N, n))
-    goal : float, optional
-        Training goal (scaled MSE) for the iterations-to-goal column.
-    """
+    """Evaluate a trained network on each data set (name → (X, Y)): one row each; ``goal``
+    (scaled MSE) fills the iterations-to-goal column."""
     label = method_spec(fit.method).label
     history = fit.history
     reached = None if goal is None else goal_iteration(history, goal)
@@ -158,17 +110,8 @@ def offline_rows(fit: OfflineFit, evaluations: Evaluations, *,
 
 @dataclass(frozen=True)
 class OfflineRuns:
-    """What `train_offline` produced.
-
-    Attributes
-    ----------
-    rows : list of ResultRow
-        Method by method, seed by seed, data set by data set (``'train'`` first).
-    fits : dict of str to list of OfflineFit
-        Method key to its trained networks, one per seed done.
-    seeds, seeds_skipped : list of int
-        Seeds done for every method; seeds left out by the time budget.
-    """
+    """What `train_offline` produced: rows by method, seed and data set (``'train'``
+    first), the fits per method key, the seeds done and those the time budget left out."""
 
     rows: list[ResultRow]
     fits: dict[str, list[OfflineFit]]
@@ -189,30 +132,16 @@ def train_offline(X: npt.ArrayLike, Y: npt.ArrayLike, evaluations: Evaluations |
 
     Parameters
     ----------
-    X : array_like of shape (N, 3n)
-        Training inputs.
-    Y : array_like of shape (N, n)
-        Training efforts.
-    evaluations : mapping of str to (X, Y), optional
-        Further data sets, evaluated after ``'train'``.
-    methods : sequence of str
-        Method keys.
-    seeds : iterable of int
-        Seeds of the initial weights.
-    iterations, goal, scaling
-        See `fit_offline` and the module docstring.
+    X, Y : array_like of shape (N, 3n), (N, n)
+        Training inputs and efforts (N·m, N); ``iterations``, ``goal``, ``scaling`` as in
+        `fit_offline`.
     hyperparameters : mapping of method key to Hyperparameters, optional
         Missing methods take the METHODS defaults.
     time_budget_s : float, optional
-        Wall time after which no new round of seeds starts: a round is skipped when the
-        time so far plus the mean time of the rounds done would exceed it. The first round
-        always runs.
+        No round starts that would end past it by the mean round time; the first always
+        runs.
     progress : callable, optional
         Called with a one-line message after each training.
-
-    Returns
-    -------
-    OfflineRuns
     """
     x = np.asarray(X, dtype=np.float64)
     y = np.asarray(Y, dtype=np.float64)

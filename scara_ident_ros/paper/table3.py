@@ -17,17 +17,6 @@ other data sets
 A stream whose step becomes non-finite stops learning there ("diverged"); its predictions
 from then on are NaN, and so are its metrics.
 
-Public API (plain arrays; X (N, 3n) = [q, q', q''] in time order, Y (N, n) efforts)::
-
-    OnlineTrace                                 network, predicted, learned, diverged_at, ...
-    learn_online(network, X, Y, *, chunk=1000) -> OnlineTrace
-    online_rows(method, seed, trace, Y, evaluations, *, window=5000, paper_window=100)
-        -> list[ResultRow]
-    run_online(X, Y, evaluations=None, *, scaling, methods=('ffmw', 'ffw', 'ffs'),
-               seeds=range(5), hyperparameters=None, window=5000, paper_window=100,
-               progress=None) -> list[ResultRow]
-    hold_rows(Y, *, window=5000, paper_window=100) -> list[ResultRow]
-
 The baseline of `hold_rows` predicts each sample's effort as the previous sample's: no model
 at all. At 1 kHz the effort barely changes between samples, so its a-priori error is small;
 a network's online error means little unless it beats this.
@@ -65,14 +54,10 @@ class OnlineTrace:
 
     Attributes
     ----------
-    network : FeedForwardNet
-        The network, with the weights it ended with.
     predicted : ndarray of shape (N, n)
         A-priori predictions (N·m, N); NaN from the divergence on.
-    learned : int
-        Samples learnt from.
     diverged_at : int or None
-        Index of the first sample of the block in which a step became non-finite.
+        First sample of the block in which a step became non-finite.
     seconds, cpu_seconds : float
         Wall and CPU time of the stream (s).
     """
@@ -93,13 +78,11 @@ def learn_online(network: FeedForwardNet, X: npt.ArrayLike, Y: npt.ArrayLike, *,
     ----------
     network : FeedForwardNet
         With its scaling set; trained in place.
-    X : array_like of shape (N, 3n)
-        Inputs in time order.
-    Y : array_like of shape (N, n)
-        Efforts (N·m, N).
+    X, Y : array_like of shape (N, 3n), (N, n)
+        Inputs and efforts (N·m, N) in time order.
     chunk : int
-        Samples per ``partial_fit`` call. A non-finite step is located to its block: the
-        weights stay as they were before that sample, the whole block counts as diverged.
+        Samples per ``partial_fit`` call; a non-finite step marks its whole block diverged
+        (the weights stay as before that sample).
     """
     x = np.asarray(X, dtype=np.float64)
     y = np.asarray(Y, dtype=np.float64)
@@ -130,22 +113,8 @@ def stream_data_names(window: int = DEFAULT_WINDOW,
 def online_rows(method: str, seed: int | None, trace: OnlineTrace, Y: npt.ArrayLike,
                 evaluations: Evaluations | None = None, *, window: int = DEFAULT_WINDOW,
                 paper_window: int = PAPER_WINDOW) -> list[ResultRow]:
-    """Rows of one stream: its last ``paper_window`` and ``window`` samples, then each
-    evaluation data set predicted without learning.
-
-    Parameters
-    ----------
-    method : str
-        Label of the rows (``'FFMW'``).
-    seed : int or None
-        Seed of the initial weights.
-    trace : OnlineTrace
-    Y : array_like of shape (N, n)
-        The stream's efforts.
-    evaluations : mapping of str to (X, Y), optional
-    window, paper_window : int
-        Window lengths (samples).
-    """
+    """Rows of one stream (efforts ``Y`` (N, n)): its last ``paper_window`` and ``window``
+    samples, then each evaluation data set predicted without learning."""
     y = np.asarray(Y, dtype=np.float64)
     extra = dict(iterations=trace.learned, train_time_s=trace.seconds,
                  cpu_time_s=trace.cpu_seconds, diverged=trace.diverged_at is not None,
@@ -179,20 +148,12 @@ def run_online(X: npt.ArrayLike, Y: npt.ArrayLike, evaluations: Evaluations | No
 
     Parameters
     ----------
-    X : array_like of shape (N, 3n)
-        The stream's inputs, in time order (q'' estimated, as online).
-    Y : array_like of shape (N, n)
-        Its efforts.
-    evaluations : mapping of str to (X, Y), optional
-        Data sets predicted without learning after the stream.
+    X, Y : array_like of shape (N, 3n), (N, n)
+        The stream's inputs (q'' estimated, as online) and efforts, in time order.
     scaling : (x_min, x_max, y_min, y_max)
         Physical ranges mapped to [-1, 1] (the robot limits).
-    methods, seeds, hyperparameters
-        As in :func:`scara_ident_ros.paper.table2.run_offline`.
-    window, paper_window : int
-        Window lengths of the stream rows (samples).
-    progress : callable, optional
-        Called with a one-line message after each stream.
+    methods, seeds, hyperparameters, progress
+        As in :func:`scara_ident_ros.paper.table2.train_offline`.
     """
     x = np.asarray(X, dtype=np.float64)
     y = np.asarray(Y, dtype=np.float64)
@@ -217,15 +178,8 @@ def run_online(X: npt.ArrayLike, Y: npt.ArrayLike, evaluations: Evaluations | No
 
 def hold_rows(Y: npt.ArrayLike, *, window: int = DEFAULT_WINDOW,
               paper_window: int = PAPER_WINDOW) -> list[ResultRow]:
-    """Stream rows of the baseline that predicts the previous sample's effort.
-
-    Parameters
-    ----------
-    Y : array_like of shape (N, n)
-        The stream's efforts (N·m, N), in time order.
-    window, paper_window : int
-        Window lengths (samples), as in `online_rows`.
-    """
+    """Stream rows (as in `online_rows`) of the baseline that predicts the previous
+    sample's effort, for efforts ``Y`` (N, n) in time order."""
     y = np.asarray(Y, dtype=np.float64)
     predicted = np.full(y.shape, np.nan)
     predicted[1:] = y[:-1]

@@ -7,19 +7,6 @@ The paper's figures (Tables 2 and 3) are printed beside ours. The paper does not
 data were scaled nor in which units its MSE is, so its raw numbers cannot be compared with
 ours; the normalised MSE (MSE / variance of each joint's effort) is the comparable figure,
 and the *ranking* of the methods is what can be checked.
-
-Public API::
-
-    PAPER_TABLE2, PAPER_TABLE3, PAPER_ITERATIONS, PAPER_SAMPLES, PAPER_NOTE
-    format_value(value) -> str;  format_spread(spread) -> str
-    offline_markdown(summaries, *, train='train', test='held-out', paper=True) -> str
-    online_markdown(summaries, *, short, long, test='held-out', paper=True) -> str
-    joint_markdown(summaries, *, table, data, joint_names=None, quantity='nmse') -> str
-    ranking(summaries, *, table, data, key='nmse_mean', methods=None) -> list[str]
-    paper_ranking(table) -> list[str]
-    ranking_text(summaries, table, criteria, labels) -> str
-    write_csv(path, rows, *, joint_names=None) -> None
-    read_csv(path) -> list[dict[str, str]]
 """
 from __future__ import annotations
 
@@ -107,14 +94,7 @@ def offline_markdown(summaries: Iterable[Summary], *, train: str = 'train',
     goal reached (runs reaching it: median [range] of the iterations to it), iterations
     done, wall and CPU training time, and the paper's MSE.
 
-    Parameters
-    ----------
-    summaries : iterable of Summary
-        Those of table ``'offline'`` are used.
-    train, test : str
-        Data names of the two evaluations.
-    paper : bool
-        Add the paper's column.
+    ``train``, ``test`` name the two evaluations; ``paper`` adds the paper's column.
     """
     methods, index = _index(summaries, 'offline')
     header = ['method', f'{train} MSE', f'{train} NMSE', f'{test} MSE', f'{test} NMSE',
@@ -144,14 +124,8 @@ def online_markdown(summaries: Iterable[Summary], *, short: str, long: str,
     figure), NMSE over its last ``long`` window, MSE and NMSE on the test data (predicted
     after the stream), microseconds per learnt sample, runs diverged, and the paper's error.
 
-    Parameters
-    ----------
-    summaries : iterable of Summary
-        Those of table ``'online'`` are used.
-    short, long, test : str
-        Data names (see :func:`~scara_ident_ros.paper.table3.stream_data_names`).
-    paper : bool
-        Add the paper's column.
+    ``short``, ``long``, ``test`` are data names
+    (:func:`~scara_ident_ros.paper.table3.stream_data_names`); ``paper`` adds its column.
     """
     methods, index = _index(summaries, 'online')
     header = ['method', f'{short} MSE', f'{short} NMSE', f'{long} NMSE', f'{test} MSE',
@@ -195,16 +169,8 @@ def ranking(summaries: Iterable[Summary], *, table: str, data: str, key: str = '
             methods: Sequence[str] | None = None) -> list[str]:
     """Methods ordered by the median of ``key`` on ``data``, best (lowest) first.
 
-    Parameters
-    ----------
-    summaries : iterable of Summary
-    table, data : str
-        Which summaries.
-    key : str
-        A `Spread` field of `Summary` (``'nmse_mean'``, ``'mse_mean'``).
-    methods : sequence of str, optional
-        Only these methods; default all but the reference and the baseline (the networks).
-        Methods without a finite median are left out.
+    ``key`` is a `Spread` field of `Summary` (``'nmse_mean'``); ``methods`` defaults to the
+    networks. Methods without a finite median are left out.
     """
     chosen = [s for s in summaries if s.table == table and s.data == data
               and (s.method in methods if methods is not None
@@ -223,22 +189,9 @@ def ranking_text(summaries: Iterable[Summary], table: str,
                  criteria: Sequence[tuple[str, str, str]], labels: Sequence[str]) -> str:
     """The measured rankings held against the paper's: Markdown bullets, '' if none.
 
-    Parameters
-    ----------
-    summaries : iterable of Summary
-    table : str
-        ``'offline'`` (the paper's Table 2) or ``'online'`` (Table 3).
-    criteria : sequence of (data, key, text)
-        Rank by the median of ``key`` (a `Summary` field) on ``data``, described as ``text``.
-    labels : sequence of str
-        The methods ranked.
-
-    Returns
-    -------
-    str
-        The paper's ranking, then per criterion the measured one and its verdict: the
-        paper's ranking holds or not (and whether its best is still best), and whether the
-        first two overlap (their min–max ranges over seeds intersect).
+    Each of ``criteria`` (data, key, text) ranks ``labels`` by the median of ``key`` on
+    ``data``; the verdict says whether the paper's ranking (and its best) holds and whether
+    the first two overlap (their min–max ranges over seeds intersect).
     """
     summaries = [s for s in summaries if s.table == table]
     paper = [m for m in paper_ranking(table) if m in labels]
@@ -265,14 +218,7 @@ def write_csv(path: str | Path, rows: Iterable[ResultRow], *,
               joint_names: Sequence[str] | None = None) -> None:
     """Write one CSV line per row (:meth:`ResultRow.to_dict` columns), floats in full.
 
-    Parameters
-    ----------
-    path : str or Path
-        Written (overwritten) as UTF-8.
-    rows : iterable of ResultRow
-        All with the same number of joints.
-    joint_names : sequence of str, optional
-        Suffixes of the per-joint columns.
+    ``rows`` all have the same number of joints; ``joint_names`` suffix the per-joint columns.
     """
     dicts = [row.to_dict(joint_names) for row in rows]
     fields: list[str] = []

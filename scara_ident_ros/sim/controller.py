@@ -53,20 +53,8 @@ class ComputedTorqueController:
 
     def compute(self, q: np.ndarray, qd: np.ndarray, q_des: np.ndarray, qd_des: np.ndarray,
                 qdd_des: np.ndarray) -> np.ndarray:
-        """Clipped control efforts for one state or a batch.
-
-        Parameters
-        ----------
-        q, qd : array_like of shape (4,) or (N, 4)
-            Measured joint positions and velocities (SI).
-        q_des, qd_des, qdd_des : array_like of shape (4,) or (N, 4)
-            Desired positions, velocities and accelerations (SI).
-
-        Returns
-        -------
-        ndarray of shape (4,) or (N, 4)
-            Efforts within ±effort_max (N·m, N·m, N, N·m).
-        """
+        """Efforts within ±effort_max (N·m, N·m, N, N·m) for measured q, qd and desired
+        q_des, qd_des, qdd_des, each (4,) or (N, 4) in SI; the result has their shape."""
         (q, qd, q_des, qd_des, qdd_des), single = _as_states(q, qd, q_des, qd_des, qdd_des)
         command = qdd_des + self._kd * (qd_des - qd) + self._kp * (q_des - q)
         tau = np.clip(self.model.inverse_dynamics(q, qd, command), -self._limit, self._limit)
@@ -75,18 +63,7 @@ class ComputedTorqueController:
     def compute_single(self, q: Sequence[float], qd: Sequence[float],
                        q_des: Sequence[float], qd_des: Sequence[float],
                        qdd_des: Sequence[float]) -> tuple[float, float, float, float]:
-        """Same as :meth:`compute` for one state, in plain Python floats (fast path).
-
-        Parameters
-        ----------
-        q, qd, q_des, qd_des, qdd_des : sequence of 4 float
-            Measured and desired joint states (SI).
-
-        Returns
-        -------
-        tuple of 4 float
-            Efforts within ±effort_max (N·m, N·m, N, N·m).
-        """
+        """Same as :meth:`compute` for one state, in plain Python floats (fast path)."""
         kp, kd = self.kp, self.kd
         command = [qdd_des[i] + kd[i] * (qd_des[i] - qd[i]) + kp[i] * (q_des[i] - q[i])
                    for i in range(4)]

@@ -6,11 +6,6 @@ It is installed with the tests, benchmarks and demos (``requirements.txt``), not
 this repository. Each entry names the URDF and, for a robot with more joints than its arm
 (a gripper), the joints to simulate; the others are locked (see
 :meth:`~scara_ident_ros.sim.pinocchio_robot.PinocchioRobot.from_urdf`).
-
-Public API::
-
-    EXAMPLE_ROBOTS                       name -> ExampleRobot(urdf, joints)
-    example_robot(name) -> ExampleRobot  with the absolute path of its URDF
 """
 from __future__ import annotations
 

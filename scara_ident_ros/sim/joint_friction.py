@@ -117,18 +117,8 @@ class JointFriction:
         return len(self.viscous)
 
     def __call__(self, qd: np.ndarray) -> np.ndarray:
-        """Friction efforts F(q') opposing the motion.
-
-        Parameters
-        ----------
-        qd : ndarray of shape (n,) or (N, n)
-            Joint velocities (rad/s or m/s).
-
-        Returns
-        -------
-        ndarray of the shape of ``qd``
-            Efforts (N·m or N), of the sign of the velocity.
-        """
+        """Friction efforts F(q') (N·m or N) for velocities ``qd`` (n,) or (N, n) (rad/s or
+        m/s), in the shape of ``qd`` and of the sign of the velocity."""
         level = self._fc + self._dfs * np.exp(qd * qd * self._minus_inv_vs2)   # N·m, N
         return level * np.tanh(qd * self._inv_eps) + self._fv * qd
 
@@ -145,16 +135,8 @@ class JointFriction:
         A joint of inertia I in its sticking band is a decaying mode of rate slope / I;
         RK4 needs h · rate <= :data:`RK4_STABILITY`.
 
-        Parameters
-        ----------
-        inertia : sequence of n float
-            A lower bound of the inertia each joint sees (kg·m² or kg), e.g. its rotor
-            inertia.
-
-        Returns
-        -------
-        float
-            The bound (s), ``inf`` when no joint has friction.
+        ``inertia`` (n,) is a lower bound of the inertia each joint sees (kg·m² or kg), e.g.
+        its rotor inertia; ``inf`` when no joint has friction.
         """
         rate = self.slope_max() / np.maximum(np.asarray(inertia, dtype=float), 1e-300)  # 1/s
         fastest = float(rate.max()) if rate.size else 0.0

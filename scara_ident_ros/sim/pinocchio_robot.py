@@ -81,11 +81,8 @@ class PinocchioRobot:
 
     Attributes
     ----------
-    model, data : pinocchio.Model, pinocchio.Data
-        The model and its workspace.
-    joint_names : tuple of str
-        The n simulated joints, in order.
-    friction : JointFriction
+    data : pinocchio.Data
+        The model's workspace.
     armature : tuple of n float
         Rotor inertias (kg·m² or kg).
     position_min, position_max, velocity_max, acceleration_max, effort_max : tuple of float

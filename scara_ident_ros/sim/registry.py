@@ -24,22 +24,8 @@ def make_trajectory(preset: str, params: Robot, seed: int,
                     **overrides: Any) -> FourierTrajectory | SequenceTrajectory:
     """Build a random excitation by name: a preset of :data:`PRESETS` or :data:`SEQUENCE`.
 
-    Parameters
-    ----------
-    preset : str
-        One of :data:`TRAJECTORIES`.
-    params : ScaraParams or PinocchioRobot
-        Robot whose limits (and dynamics: efforts) bound the motion.
-    seed : int
-        Seed of the random coefficients.
-    **overrides
-        Settings replacing those of the preset, or of each excitation of the sequence
-        (keywords of :meth:`FourierTrajectory.random`).
-
-    Returns
-    -------
-    FourierTrajectory or SequenceTrajectory
-        One periodic excitation for a preset; the endless sequence for :data:`SEQUENCE`.
+    ``overrides`` replace settings of the preset, or of each excitation of the sequence
+    (keywords of :meth:`FourierTrajectory.random`).
 
     Raises
     ------

@@ -1,10 +1,8 @@
 """Fixed-rate simulation of a robot tracking an excitation under computed-torque control.
 
-The robot is the SCARA (:class:`~scara_ident_ros.dynamics.params.ScaraParams`, its
-closed-form Lagrangian model) or any array dynamics with limits, such as a URDF's
+The robot is the SCARA (:class:`~scara_ident_ros.dynamics.params.ScaraParams`) or a URDF's
 (:class:`~scara_ident_ros.sim.pinocchio_robot.PinocchioRobot`); the robot-specific maths of
-one sample (control law, dynamics, RK4) is its plant (:mod:`scara_ident_ros.sim.plant`),
-everything else here is shared.
+one sample is its plant (:mod:`scara_ident_ros.sim.plant`), the rest here is shared.
 
 Each sample k at time t_k = k·dt (plus, with ``jitter``, a seeded offset e_k: the stamps of a
 real-time loop, see :mod:`scara_ident_ros.sim.jitter`):
@@ -18,17 +16,11 @@ real-time loop, see :mod:`scara_ident_ros.sim.jitter`):
    inertias of a URDF robot), and τ_k plus optional noise;
 4. the true state is integrated to t_{k+1} by ``substeps`` classical RK4 steps.
 
-τ_ext is an external effort (a contact) set with :meth:`Simulator.apply_external` and held
-until the next call; like T_d it is a load the joint must supply, so it accelerates the arm
-and the controller reacts, while the reported effort stays the actuator's τ_k: a model of the
-free robot then sees measured − predicted ≈ τ_ext.
-
-With jitter the steps have the lengths t_{k+1} − t_k, so every sample is the state at its own
-stamp and its effort the one applied from that stamp on: the inputs stay consistent.
-
-The SCARA's per-sample work runs on plain Python floats (see ``ScaraModel.*_single``), a URDF
-robot's on numpy arrays through Pinocchio: at 4 RK4 substeps one sample costs a few tens of
-microseconds for the SCARA, about a hundred for a 7-joint arm, so a 1 kHz node keeps up.
+τ_ext is an external effort (a contact, :meth:`Simulator.apply_external`): a load like T_d,
+while the reported effort stays the actuator's τ_k, so a model of the free robot sees
+measured − predicted ≈ τ_ext. With jitter each step lasts t_{k+1} − t_k, so every sample is
+the state at its own stamp. The SCARA's per-sample work runs on Python floats
+(``ScaraModel.*_single``), a URDF robot's on numpy arrays, so that a 1 kHz node keeps up.
 """
 from __future__ import annotations
 
@@ -68,33 +60,25 @@ class SimConfig:
     Attributes
     ----------
     dt : float
-        Sample period (s), > 0 and a whole number of nanoseconds.
-    substeps : int
-        RK4 steps per sample, >= 1.
+        Sample period (s), a whole number of nanoseconds; ``substeps`` RK4 steps per sample.
     kp, kd : tuple of n_joints float
         Controller gains (1/s², 1/s); a scalar applies to every joint.
     position_noise, velocity_noise, effort_noise : tuple of n_joints float
-        Standard deviation of the Gaussian measurement noise on the reported positions
-        (rad, m), velocities (rad/s, m/s) and efforts (N·m, N); a scalar applies to every
-        joint. The controller sees the noisy positions and velocities; the state does not.
+        Standard deviations of the Gaussian noise on the reported q (rad, m), q' (rad/s,
+        m/s) and efforts (N·m, N); the controller sees the noisy q and q'.
     disturbance : float
-        Size of the disturbance T_d as a fraction in [0, 1] of each joint's effort limit:
-        amplitude of the sinusoid or standard deviation of the random efforts; 0 = off.
-    disturbance_kind : str
-        Kind of disturbance, one of :data:`DISTURBANCES`.
-    disturbance_frequency_hz : float
-        Frequency of the sinusoid, or bandwidth of the random disturbance (Hz).
+        Size of T_d as a fraction in [0, 1] of each effort limit (sinusoid amplitude or
+        random standard deviation); 0: off. ``disturbance_frequency_hz``: its frequency or
+        bandwidth (Hz).
     model_mismatch : float
-        Relative error in [0, 1) of the controller's model parameters (see
-        ``ScaraParams.perturbed``); 0 gives the controller the true model.
+        Relative error in [0, 1) of the controller's model (``ScaraParams.perturbed``).
     jitter : float
-        Standard deviation of each sample's stamp around its nominal time k·dt (s), in
-        [0, dt / 2]: a real-time loop's wake-up jitter (:class:`StampJitter`); the state is
-        integrated to the jittered stamps. 0: stamps exactly k·dt.
+        Standard deviation (s) of each stamp around k·dt, in [0, dt / 2]
+        (:class:`StampJitter`).
     seed : int
-        Seed of the noise, disturbance, mismatch and jitter draws, >= 0.
+        Seed of the noise, disturbance, mismatch and jitter draws.
     n_joints : int
-        Number of joints of the robot, the length of the per-joint settings (4: the SCARA).
+        Length of the per-joint settings, the robot's joints.
     """
 
     dt: float = 1e-3                                             # s
@@ -175,14 +159,13 @@ class SimSample:
     Attributes
     ----------
     stamp_ns : int
-        Time of the sample, k · dt plus its jitter (ns).
+        k · dt plus its jitter (ns).
     q, qd : ndarray of shape (n,)
-        Measured positions (rad or m) and velocities (rad/s, m/s), with noise if any.
+        Measured positions (rad or m) and velocities (rad/s, m/s), noise included.
     qdd : ndarray of shape (n,)
-        True accelerations at the sample (rad/s², m/s²).
+        True accelerations (rad/s², m/s²).
     effort : ndarray of shape (n,)
-        Applied (clipped) efforts held over the step, with measurement noise if any
-        (N·m or N).
+        Applied (clipped) efforts over the step, noise included (N·m or N).
     """
 
     stamp_ns: int
@@ -222,21 +205,9 @@ class Simulator:
     params : ScaraParams or PinocchioRobot
         The true robot: the SCARA's parameters, or a URDF robot with its friction.
     trajectory : FourierTrajectory, SequenceTrajectory or TrajectoryFollower
-        Desired motion, built for the same robot; the state starts on it at t = 0. A
-        follower of external commands changes while the simulation runs: it is evaluated
-        one sample at a time.
+        Desired motion for the same robot; the state starts on it at t = 0.
     config : SimConfig, optional
-        Simulation settings, ``n_joints`` that of the robot; default ``SimConfig()`` with
-        the robot's number of joints.
-
-    Attributes
-    ----------
-    model : ScaraModel or PinocchioRobot
-        The plant's model.
-    controller : ComputedTorqueController or ArrayPlant
-        The controller, with the true or a perturbed model.
-    plant : ScaraPlant or ArrayPlant
-        The per-sample maths (:mod:`scara_ident_ros.sim.plant`).
+        Settings; by default ``SimConfig`` with the robot's number of joints.
 
     Raises
     ------
@@ -350,29 +321,12 @@ class Simulator:
     # -- stepping -----------------------------------------------------------------------------
 
     def step(self) -> SimSample:
-        """Produce the sample at the current time and advance the state by dt.
-
-        Returns
-        -------
-        SimSample
-            Readings, true acceleration and applied effort at the sample.
-        """
+        """Produce the sample at the current time and advance the state by dt."""
         stamp, q, qd, qdd, effort = self.advance()
         return SimSample(stamp, np.array(q), np.array(qd), np.array(qdd), np.array(effort))
 
     def simulate(self, n: int) -> SimRecord:
-        """Run ``n`` samples: the same numbers as ``n`` calls of :meth:`step`.
-
-        Parameters
-        ----------
-        n : int
-            Number of samples, >= 0.
-
-        Returns
-        -------
-        SimRecord
-            Arrays of shape (n,) and (n, n_joints).
-        """
+        """Run ``n`` samples: the same numbers as ``n`` calls of :meth:`step`."""
         n = _integer('n', n, minimum=0)
         rows = [self.advance() for _ in range(n)]
         stamps = np.array([row[0] for row in rows], dtype=np.int64)
@@ -382,17 +336,8 @@ class Simulator:
 
     def advance(self) -> tuple[int, Sequence[float], Sequence[float], Sequence[float],
                                Sequence[float]]:
-        """One sample as plain Python floats: the numbers of :meth:`step`, without arrays.
-
-        The real-time node's path (a 1 kHz publisher copies the floats into its message;
-        four small arrays per sample would cost more than the conversion saves).
-
-        Returns
-        -------
-        tuple
-            ``(stamp_ns, q, qd, qdd, effort)``: the stamp (ns) and four sequences of
-            n_joints float, as the fields of :class:`SimSample`.
-        """
+        """One sample, ``(stamp_ns, q, qd, qdd, effort)`` as in :class:`SimSample` but in
+        plain Python floats: the 1 kHz node copies them into its message without arrays."""
         k = self._k
         n = self._n
         plant = self.plant

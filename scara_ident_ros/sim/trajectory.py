@@ -120,18 +120,8 @@ class FourierTrajectory:
                 f'base_frequency_hz={self.base_frequency_hz!r}, q0={self.q0.tolist()!r})')
 
     def evaluate(self, t: float | np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Desired position, velocity and acceleration at time(s) t.
-
-        Parameters
-        ----------
-        t : float or array_like of shape (N,)
-            Time (s).
-
-        Returns
-        -------
-        q, qd, qdd : ndarray of shape (n,), or (N, n) for an array of times
-            Position (rad or m), velocity (…/s) and acceleration (…/s²).
-        """
+        """Desired q (rad or m), q' (…/s) and q'' (…/s²) at time(s) ``t`` (s): each (n,),
+        or (N, n) for N times."""
         t = np.asarray(t, dtype=float)
         if t.ndim > 1:
             raise ValueError(f't must be a scalar or of shape (N,), got {t.shape}')
@@ -176,30 +166,14 @@ class FourierTrajectory:
         then shrunk until the model's inverse dynamics needs at most that fraction of
         ``effort_max`` on every joint.
 
-        Parameters
-        ----------
-        params : ScaraParams or PinocchioRobot
-            Robot whose limits and dynamics bound the motion.
-        seed : int
-            Seed of the random generator; equal seeds give equal trajectories.
-        n_harmonics : int, optional
-            Number of harmonics L.
-        base_frequency_hz : float, optional
-            Fundamental frequency (Hz).
-        position_fraction, velocity_fraction, acceleration_fraction : float, optional
-            Fractions in (0, 1] of the half-range and of the speed and acceleration limits.
-        effort_fraction : float or None, optional
-            Fraction in (0, 1] of the effort limits, or None not to check efforts.
+        Fractions are in (0, 1]; ``effort_fraction`` None does not check efforts. Equal
+        seeds give equal trajectories; the defaults are the ``'standard'`` preset's.
 
         Raises
         ------
         ValueError
             For out-of-range settings, or when the efforts cannot be brought inside the
             limits (e.g. gravity alone exceeds them).
-
-        Notes
-        -----
-        The defaults are those of the ``'standard'`` preset.
         """
         if isinstance(n_harmonics, bool) or not isinstance(n_harmonics, int) or n_harmonics < 1:
             raise ValueError(f'n_harmonics must be an integer >= 1, got {n_harmonics!r}')
