@@ -30,14 +30,19 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from scara_ident_ros.dynamics.physical_model import PhysicalModel
+from scara_ident_ros.methods import make_network
 from scara_ident_ros.nn import FeedForwardNet, FitHistory, ModelFormatError
 from scara_ident_ros.nn.model_file import NETWORK_PREFIX, read_model_file, write_model
 from scara_ident_ros.nn.training import Callback
 
-__all__ = ['HybridModel', 'KIND', 'fit_hybrid', 'start_at_zero']
+__all__ = ['HybridModel', 'KIND', 'RESIDUAL_SHARE', 'fit_hybrid', 'online_hybrid',
+           'start_at_zero']
 
 FloatArray = NDArray[np.float64]
 KIND = 'hybrid'  #: the model file's kind
+#: An online hybrid's network outputs span this share of the effort limits (a residual is
+#: a fraction of the effort; online its range is not known in advance).
+RESIDUAL_SHARE = 0.25
 _PHYSICAL_PREFIX = 'physical.'
 
 
@@ -136,6 +141,35 @@ def start_at_zero(network: FeedForwardNet) -> None:
     output[:, :-1] = 0.0
     output[:, -1] = network.y_scaling.transform(np.zeros(network.n_outputs))
     network.set_params(theta)
+
+
+def online_hybrid(physical: PhysicalModel,
+                  scaling: tuple[ArrayLike, ArrayLike, ArrayLike, ArrayLike], *,
+                  n_hidden: int = 40, seed: int = 0, friction_steps: bool = True,
+                  share: float = RESIDUAL_SHARE) -> HybridModel:
+    """A hybrid to learn online: ``physical`` from the URDF's inertias, an FFS residual
+    network at zero output.
+
+    Parameters
+    ----------
+    physical : PhysicalModel
+        Its θ is set to the URDF's own (:meth:`PhysicalModel.urdf_parameters`, RLS's
+        prior mean).
+    scaling : (x_min, x_max, y_min, y_max)
+        The robot's limit scaling (``methods.limit_scaling``): inputs (3n,), efforts (n,).
+    n_hidden, seed, friction_steps
+        The FFS network's hidden units, weight seed and friction-step units.
+    share : float
+        The network's outputs span ``share`` of the effort scaling.
+    """
+    physical.set_theta(physical.urdf_parameters())
+    network = make_network('ffs', physical.n_joints, n_hidden=n_hidden, seed=seed,
+                           friction_steps=friction_steps)
+    x_min, x_max, y_min, y_max = scaling
+    network.set_scaling(x_min, x_max, share * np.asarray(y_min, float),
+                        share * np.asarray(y_max, float))
+    start_at_zero(network)
+    return HybridModel(physical, network)
 
 
 def fit_hybrid(physical: PhysicalModel, network: FeedForwardNet,
