@@ -19,8 +19,14 @@ the hybrid starts as the physical model alone, so when no iteration improves the
 validation error (``history.best_iteration == 0``) the hybrid is the physical model, not
 the physical model plus a random network.
 
+The network's correction can be bounded per joint (:attr:`HybridModel.bounds`): online, the
+range of the residuals it was fitted to. A network extrapolates badly outside the states it
+has seen; bounded, its error on a motion never seen is at most the residual's own range,
+so the hybrid cannot do much worse there than the physical model alone.
+
 Files: kind ``'hybrid'`` (:mod:`scara_ident_ros.nn.model_file`): the physical model's entries
-prefixed ``physical.``, the network's ``network.``.
+prefixed ``physical.``, the network's ``network.``, the bounds (if any) ``residual_low``
+and ``residual_high``.
 """
 from __future__ import annotations
 
@@ -60,6 +66,9 @@ class HybridModel:
     ----------
     metadata : dict of str to ndarray
         Saved with the model (``joint_names``, ``method``, ...).
+    bounds : (low, high) of ndarrays of shape (n,), or None
+        The network's correction is clipped to [low, high] per joint (N·m, N); None: not
+        bounded.
     """
 
     def __init__(self, physical: PhysicalModel, network: FeedForwardNet) -> None:
@@ -67,6 +76,7 @@ class HybridModel:
             raise ValueError(f'a {network.n_inputs}-{network.n_outputs} network cannot correct '
                              f'a physical model of {physical.n_joints} joints')
         self.physical, self.network = physical, network
+        self.bounds: tuple[FloatArray, FloatArray] | None = None
         self.metadata: dict[str, np.ndarray] = {
             'joint_names': np.array(physical.joint_names)}
 
@@ -88,7 +98,14 @@ class HybridModel:
     def predict(self, X: ArrayLike) -> FloatArray:
         """Efforts of X (N, 3n) = [q, q', q''] (or (3n,)): physical plus network, (N, n)."""
         x = np.asarray(X, dtype=np.float64)
-        return self.physical.predict(x) + self.network.predict(x)
+        return self.physical.predict(x) + self.correction(x)
+
+    def correction(self, X: ArrayLike) -> FloatArray:
+        """The network's part of :meth:`predict`, within :attr:`bounds`: (N, n) or (n,)."""
+        out = self.network.predict(np.asarray(X, dtype=np.float64))
+        if self.bounds is None:
+            return out
+        return np.clip(out, self.bounds[0], self.bounds[1])
 
     def partial_fit(self, X: FloatArray, Y: FloatArray) -> FloatArray:
         """Not learnt online yet.
@@ -104,6 +121,8 @@ class HybridModel:
         """Write both parts (kind ``'hybrid'``) with :attr:`metadata`, atomically."""
         arrays = {_PHYSICAL_PREFIX + k: v for k, v in self.physical.to_arrays().items()}
         arrays.update({NETWORK_PREFIX + k: v for k, v in self.network.to_arrays().items()})
+        if self.bounds is not None:
+            arrays['residual_low'], arrays['residual_high'] = self.bounds
         write_model(path, arrays, self.metadata, kind=KIND)
 
     @classmethod
@@ -126,7 +145,13 @@ class HybridModel:
              if k.startswith(NETWORK_PREFIX)})
         try:
             model = cls(physical, network)
-        except ValueError as exc:
+            if 'residual_low' in file.arrays:
+                low = np.asarray(file.arrays['residual_low'], np.float64)
+                high = np.asarray(file.arrays['residual_high'], np.float64)
+                if low.shape != (model.n_outputs,) or high.shape != low.shape:
+                    raise ValueError(f'bounds of shape {low.shape}, {high.shape}')
+                model.bounds = (low, high)
+        except (KeyError, ValueError) as exc:
             raise ModelFormatError(f'{path}: corrupt hybrid model: {exc}') from None
         model.metadata = file.metadata
         return model
