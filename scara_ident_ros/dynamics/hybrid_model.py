@@ -30,6 +30,7 @@ and ``residual_high``.
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -169,7 +170,7 @@ def start_at_zero(network: FeedForwardNet) -> None:
 
 
 def online_hybrid(physical: PhysicalModel,
-                  scaling: tuple[ArrayLike, ArrayLike, ArrayLike, ArrayLike], *,
+                  scaling: Sequence[ArrayLike], *,
                   n_hidden: int = 40, seed: int = 0, friction_steps: bool = True,
                   share: float = RESIDUAL_SHARE) -> HybridModel:
     """A hybrid to learn online: ``physical`` from the URDF's inertias, an FFS residual

@@ -329,8 +329,8 @@ def _curves(robot: ScaraParams | str, method: str, trainer: str, seed: int, seco
             noise: bool, held_out_s: tuple[float, float], lm_steps: int,
             reservoir_size: int, stribeck: bool) -> list[Curve]:
     params = robot_by_name(robot) if isinstance(robot, str) else robot
-    arm = isinstance(robot, str) and robot != 'scara'
-    physical = physical_model_of(robot, stribeck=stribeck) if arm else None
+    physical = (physical_model_of(robot, stribeck=stribeck)
+                if isinstance(robot, str) and robot != 'scara' else None)
     n = len(params.joint_names)
     config = noisy_config(params, seed) if noise else SimConfig(seed=seed, n_joints=n)
     record = simulate_record(params, seconds=seconds, seed=seed, preset='sequence',

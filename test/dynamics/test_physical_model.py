@@ -196,6 +196,17 @@ def test_physical_and_hybrid_files_round_trip(tmp_path: Path) -> None:
                                + hybrid.network.predict(x))
     with pytest.raises(ModelFormatError, match='a hybrid model, not a physical one'):
         PhysicalModel.load(tmp_path / 'hybrid.npz')
+    # bounded, the network's correction is clipped per joint, and the file keeps the bounds
+    correction = hybrid.network.predict(x)
+    low, high = np.quantile(correction, 0.25, axis=0), np.quantile(correction, 0.75, axis=0)
+    hybrid.bounds = (low, high)
+    np.testing.assert_allclose(hybrid.predict(x) - hybrid.physical.predict(x),
+                               np.clip(correction, low, high), atol=1e-9)
+    hybrid.save(tmp_path / 'bounded.npz')
+    bounded = HybridModel.load(tmp_path / 'bounded.npz')
+    assert bounded.bounds is not None
+    np.testing.assert_array_equal(bounded.bounds[0], low)
+    np.testing.assert_array_equal(bounded.predict(x), hybrid.predict(x))
 
 
 def test_bad_urdfs_and_joints_are_refused() -> None:
