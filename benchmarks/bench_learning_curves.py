@@ -25,13 +25,15 @@ figure to docs/. Two worker processes, one BLAS thread each.
 from __future__ import annotations
 
 import argparse
+import functools
+import json
 import os
 import sys
 import time
 from pathlib import Path
 
 from scara_ident_ros.dynamics import ScaraParams
-from scara_ident_ros.experiments.learning_curves import (ROBOTS, curves_markdown,
+from scara_ident_ros.experiments.learning_curves import (ROBOTS, Curve, curves_markdown,
                                                          held_out_set, noise_floor,
                                                          noisy_config, robot_by_name,
                                                          run_curves)
@@ -39,6 +41,16 @@ from scara_ident_ros.offline.figures import plot_learning_curves
 from scara_ident_ros.resources import config_path
 
 HERE = Path(__file__).resolve().parent
+
+
+def append_curves(path: Path, curves: list[Curve]) -> None:
+    """Append ``curves`` to the JSON-lines file ``path``, one curve a line."""
+    with path.open('a', encoding='utf-8') as stream:
+        for curve in curves:
+            stream.write(json.dumps({'label': curve.label, 'seed': curve.seed,
+                                     'seconds': curve.seconds.tolist(),
+                                     'nmse': curve.nmse.tolist(), 'cpu_s': curve.cpu_s})
+                         + '\n')
 
 
 def main() -> int:
@@ -57,6 +69,8 @@ def main() -> int:
                         help="the lm trainer's samples (the node's reservoir_size)")
     parser.add_argument('--no-references', dest='references', action='store_false',
                         help='leave out LS and RLS')
+    parser.add_argument('--partial', type=Path, default=None, metavar='FILE.jsonl',
+                        help='append each job\'s curves to FILE as it ends (JSON lines)')
     parser.add_argument('--stribeck', action='store_true',
                         help="a URDF arm's physical model (LS, RLS, hybrid) with a Stribeck "
                         "column at the simulator's Stribeck velocity")
@@ -79,7 +93,9 @@ def main() -> int:
                         workers=args.workers, lm_steps=args.lm_steps,
                         reservoir_size=args.reservoir_size,
                         references=args.references, held_out_s=tuple(args.held_out),
-                        stribeck=args.stribeck)
+                        stribeck=args.stribeck,
+                        finished=functools.partial(append_curves, args.partial)
+                        if args.partial else None)
     floor = (noise_floor(params, held_out_set(params, config=noisy_config(params, 99)))
              if args.noise else None)
     kind = title = 'with sensor noise' if args.noise else 'no noise'

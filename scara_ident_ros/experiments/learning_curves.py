@@ -45,7 +45,8 @@ import functools
 import time
 from collections import defaultdict
 from collections.abc import Sequence
-from concurrent.futures import ProcessPoolExecutor
+from collections.abc import Callable
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 
 import numpy as np
@@ -350,7 +351,8 @@ def run_curves(robot: ScaraParams | str, *, seeds: Sequence[int], methods: Seque
                trainers: Sequence[str], seconds: float = 120.0, noise: bool = False,
                workers: int = 2, held_out_s: tuple[float, float] = (6.0, 30.0),
                lm_steps: int = 2, references: bool = True,
-               reservoir_size: int = 4000, stribeck: bool = False) -> list[Curve]:
+               reservoir_size: int = 4000, stribeck: bool = False,
+               finished: Callable[[list[Curve]], None] | None = None) -> list[Curve]:
     """Every curve: LS and RLS, then each trainer and method, for each seed.
 
     ``robot`` is a SCARA's parameters or a name of :data:`ROBOTS` (built in each worker).
@@ -360,7 +362,9 @@ def run_curves(robot: ScaraParams | str, *, seeds: Sequence[int], methods: Seque
     ``held_out_s`` are the seconds of each held-out excitation and of the held-out
     sequence (:func:`held_out_set`); ``lm_steps`` the ``lm`` trainer's steps per update,
     ``reservoir_size`` its samples; ``references`` False leaves out LS and RLS; ``stribeck``
-    gives a URDF arm's physical model (LS, RLS, ``hybrid``) its Stribeck column.
+    gives a URDF arm's physical model (LS, RLS, ``hybrid``) its Stribeck column;
+    ``finished`` is called with each job's curves as it ends (a long run on a busy machine
+    keeps what it has done).
     The jobs run in ``workers`` processes, each with one BLAS thread. The CPU figures are
     then per process: on a machine with fewer free cores than workers they include waiting
     for the memory bus, not for the processor.
@@ -371,7 +375,14 @@ def run_curves(robot: ScaraParams | str, *, seeds: Sequence[int], methods: Seque
               stribeck) for t in trainers for m in methods for seed in seeds]
     if workers <= 1:
         results = [_job(job) for job in jobs]
+        if finished is not None:
+            for result in results:
+                finished(result)
     else:
         with ProcessPoolExecutor(workers) as pool:
-            results = list(pool.map(_job, jobs))
+            futures = [pool.submit(_job, job) for job in jobs]
+            if finished is not None:
+                for future in as_completed(futures):
+                    finished(future.result())
+            results = [future.result() for future in futures]
     return [curve for result in results for curve in result]
