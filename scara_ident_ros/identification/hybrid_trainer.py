@@ -10,25 +10,24 @@ from zero output so that the hybrid begins as the physical model.
 Which θ the residual is of matters. θ moves most in the first seconds, from the URDF's
 inertias and no friction to the stream's fit; a residual taken with the a-priori θ of its
 sample stays in the network's reservoir long after θ has moved on, and the network learns
-the physical model's early errors as if they were the robot's: the hybrid of a UR5 after
-3 s predicted held-out motion with NMSE 0.1–0.9 where RLS alone gave 1e-4. With a
-synchronous ``lm`` trainer (:class:`~scara_ident_ros.identification.trainer.ReservoirLM`)
-the hybrid therefore keeps its own reservoir of (x, τ, Y(x)) and gives each Levenberg–
-Marquardt update the residuals τ − Y θ of the current θ (a product with the stored
-regressor rows, no new dynamics). Another trainer (``bp``, or ``lm`` in a process of its
-own) takes the a-priori residual of each sample.
+the physical model's early errors as if they were the robot's. With a synchronous ``lm``
+trainer (:class:`~scara_ident_ros.identification.trainer.ReservoirLM`) the hybrid
+therefore keeps its own reservoir of (x, τ, Y(x)) and gives each Levenberg–Marquardt update
+the residuals τ − Y θ of the current θ (a product with the stored regressor rows, no new
+dynamics). Another trainer (``bp``, or ``lm`` in a process of its own) takes the a-priori
+residual of each sample, unchecked and unbounded.
 
 A network fitted to a small residual overfits easily (offline, ``fit_hybrid`` stops early
-for that reason): the UR5's hybrid after 1.5 s, fitted to 1,300 samples, predicted its last
-wrist joint with NMSE 0.39 where RLS gave 2e-3. So the synchronous hybrid keeps
-:data:`VALIDATION_SHARE` of its samples apart, never learnt by the network, and checks each
-update on their residuals (of the current θ): an update that raises the validation error
-(per joint, relative to its effort variance, summed) is undone, and a joint whose residual
-the network predicts worse than zero gets its output row reset to zero: the hybrid is then
-the physical model on that joint until an update earns it back. After each update the
-model's correction is bounded by the range of the residuals it was fitted to
+for that reason), and extrapolates on states the stream never held. So the synchronous
+hybrid keeps :data:`VALIDATION_SHARE` of its samples apart, never learnt by the network,
+and checks each update on their residuals (of the current θ): an update that raises the
+validation error (per joint, relative to its effort variance, summed) is undone, and a
+joint whose residual the network predicts worse than zero gets its output row reset to
+zero: the hybrid is then the physical model on that joint until an update earns it back.
+The validation samples come from the stream, so after each update the model's correction
+is also bounded by the range of the residuals it was fitted to
 (:attr:`HybridModel.bounds`): frozen, it cannot extrapolate further than that on motions
-the stream never held.
+the stream never held. What each of these changed, measured: docs/results_arms.md.
 """
 from __future__ import annotations
 
@@ -36,10 +35,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from scara_ident_ros.dynamics.hybrid_model import HybridModel
-from scara_ident_ros.nn import FeedForwardNet
 from scara_ident_ros.identification.reservoir import Reservoir
 from scara_ident_ros.identification.rls_trainer import RecursiveLeastSquaresTrainer
 from scara_ident_ros.identification.trainer import ReservoirLM, Trainer
+from scara_ident_ros.nn import FeedForwardNet
 
 __all__ = ['HybridTrainer', 'MIN_VALIDATION', 'VALIDATION_SHARE']
 
