@@ -10,7 +10,9 @@ same stream inputs, are the references (``scara_ident_ros.paper.learning_curves`
 ``--noise`` adds the simulator's sensor noise (position 1e-4, velocity 1e-3, effort 0.5 % of
 its limit) to the stream and the held-out data, and reports the noise floor. ``--robot``
 takes ``scara`` (the default), ``ur5`` or ``panda`` (``robot_sim``'s arms with friction and
-rotor inertia; LS and RLS are then the physical model of their URDF) or another SCARA robot
+rotor inertia; LS and RLS are then the physical model of their URDF, ``--stribeck`` with
+a Stribeck column; ``--methods hybrid`` the node's ``method:=hybrid``, that model plus an
+FFS network of its residual) or another SCARA robot
 file (e.g. ``benchmarks/other_scara.yaml``: other masses, lengths, friction, effort limits
 and joint names); its limits scale the networks as the node's limit parameters would.
 
@@ -23,19 +25,31 @@ figure to docs/. Two worker processes, one BLAS thread each.
 from __future__ import annotations
 
 import argparse
+import functools
+import json
 import os
 import sys
 import time
 from pathlib import Path
 
 from scara_ident_ros.dynamics import ScaraParams
-from scara_ident_ros.paper.learning_curves import (ROBOTS, curves_markdown, held_out_set,
+from scara_ident_ros.paper.figures import plot_learning_curves
+from scara_ident_ros.paper.learning_curves import (ROBOTS, Curve, curves_markdown, held_out_set,
                                                    noise_floor, noisy_config, robot_by_name,
                                                    run_curves)
-from scara_ident_ros.paper.figures import plot_learning_curves
 from scara_ident_ros.resources import config_path
 
 HERE = Path(__file__).resolve().parent
+
+
+def append_curves(path: Path, curves: list[Curve]) -> None:
+    """Append ``curves`` to the JSON-lines file ``path``, one curve a line."""
+    with path.open('a', encoding='utf-8') as stream:
+        for curve in curves:
+            stream.write(json.dumps({'label': curve.label, 'seed': curve.seed,
+                                     'seconds': curve.seconds.tolist(),
+                                     'nmse': curve.nmse.tolist(), 'cpu_s': curve.cpu_s})
+                         + '\n')
 
 
 def main() -> int:
@@ -54,6 +68,11 @@ def main() -> int:
                         help="the lm trainer's samples (the node's reservoir_size)")
     parser.add_argument('--no-references', dest='references', action='store_false',
                         help='leave out LS and RLS')
+    parser.add_argument('--partial', type=Path, default=None, metavar='FILE.jsonl',
+                        help='append each job\'s curves to FILE as it ends (JSON lines)')
+    parser.add_argument('--stribeck', action='store_true',
+                        help="a URDF arm's physical model (LS, RLS, hybrid) with a Stribeck "
+                        "column at the simulator's Stribeck velocity")
     parser.add_argument('--robot', default='scara',
                         help=f'one of {", ".join(ROBOTS)} or a SCARA robot file '
                         '(default: scara, the installed config/scara.yaml)')
@@ -72,7 +91,10 @@ def main() -> int:
                         trainers=args.trainers, seconds=args.seconds, noise=args.noise,
                         workers=args.workers, lm_steps=args.lm_steps,
                         reservoir_size=args.reservoir_size,
-                        references=args.references, held_out_s=tuple(args.held_out))
+                        references=args.references, held_out_s=tuple(args.held_out),
+                        stribeck=args.stribeck,
+                        finished=functools.partial(append_curves, args.partial)
+                        if args.partial else None)
     floor = (noise_floor(params, held_out_set(params, config=noisy_config(params, 99)))
              if args.noise else None)
     kind = title = 'with sensor noise' if args.noise else 'no noise'

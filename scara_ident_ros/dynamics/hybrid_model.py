@@ -19,11 +19,18 @@ the hybrid starts as the physical model alone, so when no iteration improves the
 validation error (``history.best_iteration == 0``) the hybrid is the physical model, not
 the physical model plus a random network.
 
+The network's correction can be bounded per joint (:attr:`HybridModel.bounds`): online, the
+range of the residuals it was fitted to. A network extrapolates badly outside the states it
+has seen; bounded, its error on a motion never seen is at most the residual's own range,
+so the hybrid cannot do much worse there than the physical model alone.
+
 Files: kind ``'hybrid'`` (:mod:`scara_ident_ros.nn.model_file`): the physical model's entries
-prefixed ``physical.``, the network's ``network.``.
+prefixed ``physical.``, the network's ``network.``, the bounds (if any) ``residual_low``
+and ``residual_high``.
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -31,13 +38,18 @@ from numpy.typing import ArrayLike, NDArray
 
 from scara_ident_ros.dynamics.physical_model import PhysicalModel
 from scara_ident_ros.nn import FeedForwardNet, FitHistory, ModelFormatError, fit
+from scara_ident_ros.nn.presets import make_network
 from scara_ident_ros.nn.model_file import NETWORK_PREFIX, read_model_file, write_model
 from scara_ident_ros.nn.training import Callback
 
-__all__ = ['HybridModel', 'KIND', 'fit_hybrid', 'start_at_zero']
+__all__ = ['HybridModel', 'KIND', 'RESIDUAL_SHARE', 'fit_hybrid', 'online_hybrid',
+           'start_at_zero']
 
 FloatArray = NDArray[np.float64]
 KIND = 'hybrid'  #: the model file's kind
+#: An online hybrid's network outputs span this share of the effort limits (a residual is
+#: a fraction of the effort; online its range is not known in advance).
+RESIDUAL_SHARE = 0.25
 _PHYSICAL_PREFIX = 'physical.'
 
 
@@ -55,6 +67,9 @@ class HybridModel:
     ----------
     metadata : dict of str to ndarray
         Saved with the model (``joint_names``, ``method``, ...).
+    bounds : (low, high) of ndarrays of shape (n,), or None
+        The network's correction is clipped to [low, high] per joint (N·m, N); None: not
+        bounded.
     """
 
     def __init__(self, physical: PhysicalModel, network: FeedForwardNet) -> None:
@@ -62,6 +77,7 @@ class HybridModel:
             raise ValueError(f'a {network.n_inputs}-{network.n_outputs} network cannot correct '
                              f'a physical model of {physical.n_joints} joints')
         self.physical, self.network = physical, network
+        self.bounds: tuple[FloatArray, FloatArray] | None = None
         self.metadata: dict[str, np.ndarray] = {
             'joint_names': np.array(physical.joint_names)}
 
@@ -83,7 +99,14 @@ class HybridModel:
     def predict(self, X: ArrayLike) -> FloatArray:
         """Efforts of X (N, 3n) = [q, q', q''] (or (3n,)): physical plus network, (N, n)."""
         x = np.asarray(X, dtype=np.float64)
-        return self.physical.predict(x) + self.network.predict(x)
+        return self.physical.predict(x) + self.correction(x)
+
+    def correction(self, X: ArrayLike) -> FloatArray:
+        """The network's part of :meth:`predict`, within :attr:`bounds`: (N, n) or (n,)."""
+        out = self.network.predict(np.asarray(X, dtype=np.float64))
+        if self.bounds is None:
+            return out
+        return np.clip(out, self.bounds[0], self.bounds[1])
 
     def partial_fit(self, X: FloatArray, Y: FloatArray) -> FloatArray:
         """Not learnt online yet.
@@ -99,6 +122,8 @@ class HybridModel:
         """Write both parts (kind ``'hybrid'``) with :attr:`metadata`, atomically."""
         arrays = {_PHYSICAL_PREFIX + k: v for k, v in self.physical.to_arrays().items()}
         arrays.update({NETWORK_PREFIX + k: v for k, v in self.network.to_arrays().items()})
+        if self.bounds is not None:
+            arrays['residual_low'], arrays['residual_high'] = self.bounds
         write_model(path, arrays, self.metadata, kind=KIND)
 
     @classmethod
@@ -121,7 +146,13 @@ class HybridModel:
              if k.startswith(NETWORK_PREFIX)})
         try:
             model = cls(physical, network)
-        except ValueError as exc:
+            if 'residual_low' in file.arrays:
+                low = np.asarray(file.arrays['residual_low'], np.float64)
+                high = np.asarray(file.arrays['residual_high'], np.float64)
+                if low.shape != (model.n_outputs,) or high.shape != low.shape:
+                    raise ValueError(f'bounds of shape {low.shape}, {high.shape}')
+                model.bounds = (low, high)
+        except (KeyError, ValueError) as exc:
             raise ModelFormatError(f'{path}: corrupt hybrid model: {exc}') from None
         model.metadata = file.metadata
         return model
@@ -136,6 +167,35 @@ def start_at_zero(network: FeedForwardNet) -> None:
     output[:, :-1] = 0.0
     output[:, -1] = network.y_scaling.transform(np.zeros(network.n_outputs))
     network.set_params(theta)
+
+
+def online_hybrid(physical: PhysicalModel,
+                  scaling: Sequence[ArrayLike], *,
+                  n_hidden: int = 40, seed: int = 0, friction_steps: bool = True,
+                  share: float = RESIDUAL_SHARE) -> HybridModel:
+    """A hybrid to learn online: ``physical`` from the URDF's inertias, an FFS residual
+    network at zero output.
+
+    Parameters
+    ----------
+    physical : PhysicalModel
+        Its θ is set to the URDF's own (:meth:`PhysicalModel.urdf_parameters`, RLS's
+        prior mean).
+    scaling : (x_min, x_max, y_min, y_max)
+        The robot's limit scaling (``methods.limit_scaling``): inputs (3n,), efforts (n,).
+    n_hidden, seed, friction_steps
+        The FFS network's hidden units, weight seed and friction-step units.
+    share : float
+        The network's outputs span ``share`` of the effort scaling.
+    """
+    physical.set_theta(physical.urdf_parameters())
+    network = make_network('ffs', physical.n_joints, n_hidden=n_hidden, seed=seed,
+                           friction_steps=friction_steps)
+    x_min, x_max, y_min, y_max = scaling
+    network.set_scaling(x_min, x_max, share * np.asarray(y_min, float),
+                        share * np.asarray(y_max, float))
+    start_at_zero(network)
+    return HybridModel(physical, network)
 
 
 def fit_hybrid(physical: PhysicalModel, network: FeedForwardNet,

@@ -8,6 +8,12 @@ f_c,j s(q'_j), with s the sign or the smooth tanh(q'_j / ε) (``coulomb``). So
 
     τ = Y(q, q', q'') θ,    Y = [W_ind | diag(q') | diag(s(q'))],    θ = [θ_b, f_v, f_c],
 
+and with a Stribeck velocity v_s > 0 (``stribeck_velocity``) a third friction column per
+joint, diag(exp(−(q'/v_s)²) s(q')), whose coefficient f_s,j is the breakaway friction's
+excess over f_c,j: the friction that falls from f_c + f_s at rest to f_c in motion (the
+Stribeck law of ``robot_sim``'s joints, docs/robot_sim.md). v_s is fixed, not fitted: the
+model stays linear in θ.
+
 where W_ind is the rigid-body regressor reduced to its base parameters θ_b
 (:mod:`~scara_ident_ros.dynamics.base_reduction`, from the regressor stacked over seeded
 random states). Friction columns are kept whole: rigid-body efforts hold no term linear in a
@@ -31,7 +37,7 @@ Public API::
 
     COULOMB_MODES, COULOMB_EPS, INERTIAL_NAMES
     PhysicalModel(urdf, *, joint_names=None, coulomb='tanh', coulomb_eps=COULOMB_EPS,
-                  armature=True, source='robot_description')
+                  armature=True, source='robot_description', stribeck_velocity=0.0)
     PhysicalModel.from_urdf_file(path, **options)
 """
 from __future__ import annotations
@@ -97,11 +103,14 @@ class PhysicalModel:
         Where the URDF came from, for messages.
     reduction : BaseReduction, optional
         A base reduction to use instead of computing one (a loaded model's).
+    stribeck_velocity : float
+        v_s (rad/s, m/s) of a Stribeck column per joint; 0: none.
 
     Attributes
     ----------
     theta : ndarray of shape (n_parameters,)
-        [θ_b, f_v, f_c]; zeros until :meth:`fit` (or :meth:`set_theta`).
+        [θ_b, f_v, f_c] (and f_s with a Stribeck velocity); zeros until :meth:`fit` (or
+        :meth:`set_theta`).
     metadata : dict of str to ndarray
         Saved with the model, as a network's (``joint_names``, ``method``, ...).
     residual_rms : ndarray of shape (n,) or None
@@ -111,7 +120,11 @@ class PhysicalModel:
     def __init__(self, urdf: str, *, joint_names: Sequence[str] | None = None,
                  coulomb: str = 'tanh', coulomb_eps: float = COULOMB_EPS,
                  armature: bool = True, source: str = 'robot_description',
-                 reduction: BaseReduction | None = None) -> None:
+                 reduction: BaseReduction | None = None,
+                 stribeck_velocity: float = 0.0) -> None:
+        if not stribeck_velocity >= 0.0:
+            raise ValueError(f'stribeck_velocity must be >= 0, got {stribeck_velocity!r}')
+        self.stribeck_velocity = float(stribeck_velocity)
         if coulomb not in COULOMB_MODES:
             raise ValueError(f'coulomb must be one of {COULOMB_MODES}, got {coulomb!r}')
         if not coulomb_eps > 0.0:
@@ -159,7 +172,9 @@ class PhysicalModel:
                                    f'{self.standard_names[:3]}...')
         self.parameter_names = (self.reduction.base_names
                                 + tuple(f'{name}.fv' for name in names)
-                                + tuple(f'{name}.fc' for name in names))
+                                + tuple(f'{name}.fc' for name in names)
+                                + (tuple(f'{name}.fs' for name in names)
+                                   if self.stribeck_velocity > 0.0 else ()))
         self.theta: FloatArray = np.zeros(len(self.parameter_names))
         self.residual_rms: FloatArray | None = None
         self.metadata: dict[str, np.ndarray] = {'joint_names': np.array(names)}
@@ -191,7 +206,7 @@ class PhysicalModel:
 
     @property
     def n_parameters(self) -> int:
-        """Length of θ: base parameters plus 2n friction coefficients."""
+        """Length of θ: base parameters plus 2n (3n with Stribeck) friction coefficients."""
         return len(self.parameter_names)
 
     @property
@@ -269,11 +284,15 @@ class PhysicalModel:
         if base.ndim != 3 or base.shape[1:] != (n, nb) or qd.shape != base.shape[:2]:
             raise ValueError(f'need a base regressor (N, {n}, {nb}) and qd (N, {n}), got '
                              f'{base.shape} and {qd.shape}')
-        out = np.zeros((base.shape[0], n, nb + 2 * n))
+        out = np.zeros((base.shape[0], n, self.n_parameters))
         out[:, :, :nb] = base
         joints = np.arange(n)
         out[:, joints, nb + joints] = qd
-        out[:, joints, nb + n + joints] = self.coulomb_shape(qd)
+        shape = self.coulomb_shape(qd)
+        out[:, joints, nb + n + joints] = shape
+        if self.stribeck_velocity > 0.0:
+            out[:, joints, nb + 2 * n + joints] = (
+                np.exp(-(qd / self.stribeck_velocity) ** 2) * shape)
         return out
 
     def stacked_regressor(self, q: ArrayLike, qd: ArrayLike, qdd: ArrayLike) -> FloatArray:
@@ -300,7 +319,8 @@ class PhysicalModel:
         inertial = [model.inertias[jid].toDynamicParameters() for jid in range(1, model.njoints)]
         standard = np.concatenate(inertial + ([np.asarray(model.armature)[self._v_index_array]]
                                               if self.armature else []))
-        return np.concatenate([self.reduction.base_values(standard), np.zeros(2 * self._n)])
+        return np.concatenate([self.reduction.base_values(standard),
+                               np.zeros(self.n_parameters - self.n_base)])
 
     def set_theta(self, theta: ArrayLike) -> None:
         """Set θ (n_parameters,), e.g. an online estimate."""
@@ -324,7 +344,16 @@ class PhysicalModel:
     @property
     def coulomb_friction(self) -> FloatArray:
         """Coulomb friction per joint (N·m, N), shape (n,)."""
-        return self.theta[self.n_base + self._n:].copy()
+        start = self.n_base + self._n
+        return self.theta[start:start + self._n].copy()
+
+    @property
+    def stribeck_friction(self) -> FloatArray:
+        """Breakaway excess f_s per joint (N·m, N), shape (n,); zeros without a Stribeck
+        velocity."""
+        if self.stribeck_velocity == 0.0:
+            return np.zeros(self._n)
+        return self.theta[self.n_base + 2 * self._n:].copy()
 
     @property
     def friction(self) -> dict[str, tuple[float, float]]:
@@ -400,6 +429,7 @@ class PhysicalModel:
                 'coulomb': np.array(self.coulomb),
                 'coulomb_eps': np.array(self.coulomb_eps),
                 'armature': np.array(self.armature), 'standard_names': np.array(r.names),
+                'stribeck_velocity': np.array(self.stribeck_velocity),
                 'independent': r.independent.astype(np.int64),
                 'dependent': r.dependent.astype(np.int64), 'beta': r.beta.copy(),
                 'theta': self.theta.copy()}
@@ -423,7 +453,8 @@ class PhysicalModel:
                         coulomb=str(arrays['coulomb']),
                         coulomb_eps=float(arrays['coulomb_eps']),
                         armature=bool(arrays['armature']), source=source,
-                        reduction=reduction)
+                        reduction=reduction,
+                        stribeck_velocity=float(arrays.get('stribeck_velocity', 0.0)))
             model.set_theta(arrays['theta'])
         except (KeyError, ValueError, TypeError) as exc:
             raise ModelFormatError(f'{source}: corrupt physical model: '
@@ -452,7 +483,8 @@ class PhysicalModel:
 
     def __repr__(self) -> str:
         return (f'PhysicalModel({self.source!r}, joints={list(self.joint_names)}, '
-                f'{self.n_base} base + {2 * self._n} friction parameters, '
+                f'{self.n_base} base + {self.n_parameters - self.n_base} friction '
+                'parameters, '
                 f'coulomb={self.coulomb!r})')
 
     # ---------------------------------------------------------------------------- helpers

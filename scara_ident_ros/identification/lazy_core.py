@@ -13,7 +13,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from scara_ident_ros.dynamics.hybrid_model import HybridModel, start_at_zero
+from scara_ident_ros.dynamics.hybrid_model import HybridModel, online_hybrid
 from scara_ident_ros.dynamics.joint_limits import JointLimits
 from scara_ident_ros.dynamics.physical_model import PhysicalModel
 from scara_ident_ros.identification.background_lm import BackgroundLM
@@ -39,7 +39,6 @@ __all__ = ['CoreSettings', 'LazyCore', 'ONLINE_METHODS', 'OnlineModel', 'PHYSICA
 PHYSICAL_METHODS = ('physical', 'hybrid')
 #: Every model an identifier learns online: the networks and the physical ones.
 ONLINE_METHODS = (*METHODS, *PHYSICAL_METHODS)
-RESIDUAL_SHARE = 0.25  # a hybrid's network outputs span this share of the effort limits
 OnlineModel = FeedForwardNet | PhysicalModel | HybridModel
 
 
@@ -174,7 +173,7 @@ class LazyCore:
         if isinstance(network, PhysicalModel):
             trainer = RecursiveLeastSquaresTrainer(network)
         elif isinstance(network, HybridModel):
-            trainer = HybridTrainer(network, trainer_of(network.network))
+            trainer = HybridTrainer(network, trainer_of(network.network), seed=settings.seed)
         else:
             trainer = trainer_of(network)
         self.core = OnlineIdentifier(
@@ -192,23 +191,19 @@ class LazyCore:
 
         ``physical``: the URDF's rigid-body model with friction and rotor inertia, from the
         URDF's own inertias (RLS's prior). ``hybrid``: that plus an FFS network of its
-        residual, starting at zero output, its outputs scaled to :data:`RESIDUAL_SHARE` of
-        the effort limits (a residual is a fraction of the effort).
+        residual, starting at zero output, its outputs scaled to ``RESIDUAL_SHARE`` of
+        the effort limits (a residual is a fraction of the effort:
+        :func:`~scara_ident_ros.dynamics.hybrid_model.online_hybrid`).
         """
         s = settings
         scaling = self.limits.select(names).scaling()
         if s.method in PHYSICAL_METHODS:
             physical = PhysicalModel(self.urdf, joint_names=names, source=self.urdf_source)
-            physical.set_theta(physical.urdf_parameters())
             if s.method == 'physical':
+                physical.set_theta(physical.urdf_parameters())
                 return physical
-            network = make_network('ffs', len(names), n_hidden=s.hidden_units, seed=s.seed,
-                                   friction_steps=s.lm_friction_steps)
-            x_min, x_max, y_min, y_max = scaling
-            network.set_scaling(x_min, x_max, RESIDUAL_SHARE * np.asarray(y_min),
-                                RESIDUAL_SHARE * np.asarray(y_max))
-            start_at_zero(network)
-            return HybridModel(physical, network)
+            return online_hybrid(physical, scaling, n_hidden=s.hidden_units, seed=s.seed,
+                                 friction_steps=s.lm_friction_steps)
         ffmw = s.method == 'ffmw'
         network = make_network(
             s.method, len(names), n_hidden=s.hidden_units, seed=s.seed,

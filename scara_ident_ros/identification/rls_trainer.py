@@ -50,6 +50,12 @@ class RecursiveLeastSquaresTrainer:
         ValueError
             If ``x`` or ``y`` is not finite or has the wrong size; nothing was learnt.
         """
+        prediction, _ = self.learn_rows(x, y)
+        return prediction
+
+    def learn_rows(self, x: NDArray[np.float64], y: NDArray[np.float64]
+                   ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """:meth:`learn`, also returning the sample's regressor rows h (n, p): τ = h θ."""
         n = self.model.n_joints
         x = np.asarray(x, dtype=np.float64).reshape(-1)
         y = np.asarray(y, dtype=np.float64).reshape(-1)
@@ -60,4 +66,4 @@ class RecursiveLeastSquaresTrainer:
         prediction = h @ self.model.theta
         self.rls.update_rows(h, y)
         self.model.theta = self.rls.theta
-        return prediction
+        return prediction, h

@@ -13,7 +13,10 @@ its analytic regressor) or a URDF arm of ``robot_sim`` (``PinocchioRobot``, by n
 :data:`ROBOTS`: friction and rotor inertia simulated; the references are then the
 :class:`~scara_ident_ros.dynamics.physical_model.PhysicalModel` of its URDF, base
 parameters, rotor inertias, viscous and tanh Coulomb friction at the simulator's
-``stick_velocity``; the simulated Stribeck bump is outside that model).
+``stick_velocity``; the simulated Stribeck bump is outside that model unless ``stribeck``
+adds its column at the simulator's Stribeck velocity). Method ``hybrid`` is that physical
+model learnt by RLS plus an FFS network of its residual learnt by ``lm``, as the node's
+``method:=hybrid`` (URDF arms only).
 
 NMSE per joint = MSE / variance of that joint's held-out effort; 1 is no better than the
 mean effort.
@@ -29,7 +32,8 @@ Public API::
     regressor_curves(record, held_out, *, seed, checkpoints, physical=None)
         -> (LS Curve, RLS Curve)
     run_curves(robot, *, seeds, methods, trainers, seconds, noise=False, workers=2,
-               held_out_s=(6, 30), lm_steps=2, references=True, reservoir_size=4000)
+               held_out_s=(6, 30), lm_steps=2, references=True, reservoir_size=4000,
+               stribeck=False)
         -> list[Curve]                             every curve, the jobs in worker processes
     noisy_config(params, seed) -> SimConfig        the simulator's sensor-noise options
     noise_floor(params, held_out) -> ndarray (n,)  effort noise variance / effort variance
@@ -41,7 +45,8 @@ import functools
 import time
 from collections import defaultdict
 from collections.abc import Sequence
-from concurrent.futures import ProcessPoolExecutor
+from collections.abc import Callable
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 
 import numpy as np
@@ -49,17 +54,20 @@ import numpy.typing as npt
 
 from scara_ident_ros.blas_threads import single_blas_thread
 from scara_ident_ros.dynamics import ScaraParams
+from scara_ident_ros.dynamics.hybrid_model import HybridModel, online_hybrid
 from scara_ident_ros.dynamics.physical_model import PhysicalModel
 from scara_ident_ros.dynamics.recursive_least_squares import RecursiveLeastSquares
+from scara_ident_ros.identification import (DIFFERENTIATOR_WINDOW, Holdout, InputStage, JointMap,
+                                            OnlineIdentifier, make_differentiator, make_trainer)
 from scara_ident_ros.identification.dataset import Dataset
+from scara_ident_ros.identification.hybrid_trainer import HybridTrainer
+from scara_ident_ros.identification.metrics import effort_errors
+from scara_ident_ros.identification.trainer import Trainer, starts_with_friction_steps
+from scara_ident_ros.nn import FeedForwardNet
+from scara_ident_ros.nn.presets import limit_scaling, make_network, method as method_spec
 from scara_ident_ros.paper.datasets import dataset_from_record, simulate_record
 from scara_ident_ros.paper.reference import fit_reference, predict_reference
 from scara_ident_ros.paper.tables import format_value
-from scara_ident_ros.identification import (DIFFERENTIATOR_WINDOW, Holdout, InputStage, JointMap,
-                                            OnlineIdentifier, make_differentiator, make_trainer)
-from scara_ident_ros.identification.metrics import effort_errors
-from scara_ident_ros.identification.trainer import starts_with_friction_steps
-from scara_ident_ros.nn.presets import limit_scaling, make_network, method as method_spec
 from scara_ident_ros.resources import config_path
 from scara_ident_ros.sim import SimConfig, SimRecord
 from scara_ident_ros.sim.trajectory import Robot
@@ -95,16 +103,18 @@ def robot_by_name(name: str) -> Robot:
     return PinocchioRobot.from_urdf(arm.urdf, joints=arm.joints)
 
 
-def physical_model_of(name: str) -> PhysicalModel:
-    """The physical model of URDF arm ``name`` (module docstring), its θ still zero."""
+def physical_model_of(name: str, *, stribeck: bool = False) -> PhysicalModel:
+    """The physical model of URDF arm ``name`` (module docstring), its θ still zero;
+    ``stribeck``: with a Stribeck column at the simulator's Stribeck velocity."""
     from scara_ident_ros.sim.example_robots import example_robot
     robot = robot_by_name(name)
     if isinstance(robot, ScaraParams):
         raise ValueError("the SCARA's references are its analytic regressor, not a URDF's")
     eps = float(np.max(robot.friction.stick_velocity))
+    vs = float(np.max(robot.friction.stribeck_velocity)) if stribeck else 0.0
     return PhysicalModel.from_urdf_file(example_robot(name).urdf,
                                         joint_names=robot.joint_names, coulomb='tanh',
-                                        coulomb_eps=eps)
+                                        coulomb_eps=eps, stribeck_velocity=vs)
 
 
 @dataclass(frozen=True)
@@ -164,8 +174,12 @@ def network_curve(record: SimRecord, held_out: Dataset, params: Robot, *, method
                   window: int = DIFFERENTIATOR_WINDOW,
                   lm_interval: int = 200, validation_block: int = 500,
                   lm_float64: bool = False, lm_slow_share: float = 0.0,
-                  lm_friction_steps: bool = True, reservoir_size: int = 4000) -> Curve:
+                  lm_friction_steps: bool = True, reservoir_size: int = 4000,
+                  physical: PhysicalModel | None = None) -> Curve:
     """Stream ``record`` through an identifier of ``method`` and ``trainer`` (node defaults).
+
+    Method ``hybrid`` needs ``physical``, the arm's (fresh) physical model: it learns by
+    RLS, its residual network by ``trainer`` (``lm``).
 
     The network's scaling comes from the robot's limits, as in the node; 10 % of the
     samples (blocks of ``validation_block``) are held back for the identifier's own
@@ -176,16 +190,25 @@ def network_curve(record: SimRecord, held_out: Dataset, params: Robot, *, method
     friction-step units and reservoir samples; the centred q'' fit's samples).
     """
     n = len(params.joint_names)
-    net = make_network(method, n, seed=seed,
-                       friction_steps=starts_with_friction_steps(trainer, lm_friction_steps))
-    net.set_scaling(*limit_scaling(*(params.array(name) for name in _LIMITS)))
-    ident = OnlineIdentifier(net, joint_names=params.joint_names,
+    scaling = limit_scaling(*(params.array(name) for name in _LIMITS))
+    friction_steps = starts_with_friction_steps(trainer, lm_friction_steps)
+    model: FeedForwardNet | HybridModel
+    if method == 'hybrid':
+        if physical is None:
+            raise ValueError('method hybrid needs the physical model of a URDF arm')
+        model = online_hybrid(physical, scaling, seed=seed, friction_steps=friction_steps)
+        net = model.network
+    else:
+        model = net = make_network(method, n, seed=seed, friction_steps=friction_steps)
+        net.set_scaling(*scaling)
+    learner: Trainer = make_trainer(trainer, net, steps=lm_steps, capacity=reservoir_size,
+                                    interval=lm_interval, seed=seed, float64=lm_float64,
+                                    slow_share=lm_slow_share)
+    if isinstance(model, HybridModel):
+        learner = HybridTrainer(model, learner, seed=seed)
+    ident = OnlineIdentifier(model, joint_names=params.joint_names,
                              differentiator=make_differentiator('centred', window=window),
-                             trainer=make_trainer(trainer, net, steps=lm_steps,
-                                                  capacity=reservoir_size,
-                                                  interval=lm_interval, seed=seed,
-                                                  float64=lm_float64,
-                                                  slow_share=lm_slow_share),
+                             trainer=learner,
                              holdout=Holdout(3 * n, n, block=validation_block, seed=seed))
     names = params.joint_names
     stamps = record.stamp_ns
@@ -200,8 +223,8 @@ def network_curve(record: SimRecord, held_out: Dataset, params: Robot, *, method
             ident.process(int(stamps[i]), names, record.q[i], record.qd[i], record.effort[i])
         cpu += time.process_time() - began
         start = stop
-        scores.append(_nmse(held_out.Y, net.predict(held_out.X)))
-    label = f'{method_spec(method).label} {trainer}'
+        scores.append(_nmse(held_out.Y, model.predict(held_out.X)))
+    label = 'hybrid' if method == 'hybrid' else f'{method_spec(method).label} {trainer}'
     if trainer == 'lm' and lm_steps != 2:
         label += f' ×{lm_steps}'
     if trainer == 'lm' and reservoir_size != 4000:
@@ -299,7 +322,7 @@ def noise_floor(params: Robot, held_out: Dataset) -> FloatArray:
 
 
 def _job(job: tuple[ScaraParams | str, str, str, int, float, bool, tuple[float, float], int,
-                    int]) -> list[Curve]:
+                    int, bool]) -> list[Curve]:
     # One BLAS thread: a worker's LM systems gain nothing from more, and two workers with
     # two threads each on 2 cores doubled the CPU time measured per curve.
     with single_blas_thread():
@@ -308,8 +331,10 @@ def _job(job: tuple[ScaraParams | str, str, str, int, float, bool, tuple[float, 
 
 def _curves(robot: ScaraParams | str, method: str, trainer: str, seed: int, seconds: float,
             noise: bool, held_out_s: tuple[float, float], lm_steps: int,
-            reservoir_size: int) -> list[Curve]:
+            reservoir_size: int, stribeck: bool) -> list[Curve]:
     params = robot_by_name(robot) if isinstance(robot, str) else robot
+    physical = (physical_model_of(robot, stribeck=stribeck)
+                if isinstance(robot, str) and robot != 'scara' else None)
     n = len(params.joint_names)
     config = noisy_config(params, seed) if noise else SimConfig(seed=seed, n_joints=n)
     record = simulate_record(params, seconds=seconds, seed=seed, preset='sequence',
@@ -318,20 +343,19 @@ def _curves(robot: ScaraParams | str, method: str, trainer: str, seed: int, seco
                             excitation_s=held_out_s[0], sequence_s=held_out_s[1])
     checkpoints = tuple(s for s in CHECKPOINTS_S if s <= seconds) or (seconds,)
     if method == 'regressor':
-        physical = (physical_model_of(robot)
-                    if isinstance(robot, str) and robot != 'scara' else None)
         return list(regressor_curves(record, held_out, seed=seed, checkpoints=checkpoints,
                                      physical=physical))
     return [network_curve(record, held_out, params, method=method, trainer=trainer, seed=seed,
                           lm_steps=lm_steps, checkpoints=checkpoints,
-                          reservoir_size=reservoir_size)]
+                          reservoir_size=reservoir_size, physical=physical)]
 
 
 def run_curves(robot: ScaraParams | str, *, seeds: Sequence[int], methods: Sequence[str],
                trainers: Sequence[str], seconds: float = 120.0, noise: bool = False,
                workers: int = 2, held_out_s: tuple[float, float] = (6.0, 30.0),
                lm_steps: int = 2, references: bool = True,
-               reservoir_size: int = 4000) -> list[Curve]:
+               reservoir_size: int = 4000, stribeck: bool = False,
+               finished: Callable[[list[Curve]], None] | None = None) -> list[Curve]:
     """Every curve: LS and RLS, then each trainer and method, for each seed.
 
     ``robot`` is a SCARA's parameters or a name of :data:`ROBOTS` (built in each worker).
@@ -340,18 +364,28 @@ def run_curves(robot: ScaraParams | str, *, seeds: Sequence[int], methods: Seque
     with the sensor noise of :func:`noisy_config` if ``noise`` (held-out data noisy too).
     ``held_out_s`` are the seconds of each held-out excitation and of the held-out
     sequence (:func:`held_out_set`); ``lm_steps`` the ``lm`` trainer's steps per update,
-    ``reservoir_size`` its samples; ``references`` False leaves out LS and RLS.
+    ``reservoir_size`` its samples; ``references`` False leaves out LS and RLS; ``stribeck``
+    gives a URDF arm's physical model (LS, RLS, ``hybrid``) its Stribeck column;
+    ``finished`` is called with each job's curves as it ends (a long run on a busy machine
+    keeps what it has done).
     The jobs run in ``workers`` processes, each with one BLAS thread. The CPU figures are
     then per process: on a machine with fewer free cores than workers they include waiting
     for the memory bus, not for the processor.
     """
     jobs = [(robot, 'regressor', '', seed, seconds, noise, held_out_s, lm_steps,
-             reservoir_size) for seed in seeds] if references else []
-    jobs += [(robot, m, t, seed, seconds, noise, held_out_s, lm_steps, reservoir_size)
-             for t in trainers for m in methods for seed in seeds]
+             reservoir_size, stribeck) for seed in seeds] if references else []
+    jobs += [(robot, m, t, seed, seconds, noise, held_out_s, lm_steps, reservoir_size,
+              stribeck) for t in trainers for m in methods for seed in seeds]
     if workers <= 1:
         results = [_job(job) for job in jobs]
+        if finished is not None:
+            for result in results:
+                finished(result)
     else:
         with ProcessPoolExecutor(workers) as pool:
-            results = list(pool.map(_job, jobs))
+            futures = [pool.submit(_job, job) for job in jobs]
+            if finished is not None:
+                for future in as_completed(futures):
+                    finished(future.result())
+            results = [future.result() for future in futures]
     return [curve for result in results for curve in result]

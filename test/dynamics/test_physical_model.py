@@ -196,6 +196,17 @@ def test_physical_and_hybrid_files_round_trip(tmp_path: Path) -> None:
                                + hybrid.network.predict(x))
     with pytest.raises(ModelFormatError, match='a hybrid model, not a physical one'):
         PhysicalModel.load(tmp_path / 'hybrid.npz')
+    # bounded, the network's correction is clipped per joint, and the file keeps the bounds
+    correction = hybrid.network.predict(x)
+    low, high = np.quantile(correction, 0.25, axis=0), np.quantile(correction, 0.75, axis=0)
+    hybrid.bounds = (low, high)
+    np.testing.assert_allclose(hybrid.predict(x) - hybrid.physical.predict(x),
+                               np.clip(correction, low, high), atol=1e-9)
+    hybrid.save(tmp_path / 'bounded.npz')
+    bounded = HybridModel.load(tmp_path / 'bounded.npz')
+    assert bounded.bounds is not None
+    np.testing.assert_array_equal(bounded.bounds[0], low)
+    np.testing.assert_array_equal(bounded.predict(x), hybrid.predict(x))
 
 
 def test_bad_urdfs_and_joints_are_refused() -> None:
@@ -243,3 +254,32 @@ def test_a_continuous_joint_takes_its_angle() -> None:
                          for k in range(20)])
     np.testing.assert_allclose(model.regressor(q, qd, qdd) @ model.urdf_parameters(), expected,
                                rtol=1e-10, atol=1e-10)
+
+
+def test_a_stribeck_column_recovers_the_breakaway_excess(tmp_path: Path) -> None:
+    """With ``stribeck_velocity`` the model holds the simulator's friction law exactly:
+    f_v q' + (f_c + f_s exp(−(q'/v_s)²)) tanh(q'/ε); the file keeps v_s."""
+    urdf = example_urdf('ur_description/urdf/ur5_robot.urdf')
+    model = PhysicalModel.from_urdf_file(urdf, coulomb_eps=0.05, stribeck_velocity=0.1)
+    n = model.n_joints
+    assert model.n_parameters == model.n_base + 3 * n
+    assert model.parameter_names[-1] == 'wrist_3_joint.fs'
+    rng = np.random.default_rng(5)
+    fv, fc, fs = rng.uniform(0.5, 5.0, n), rng.uniform(1.0, 8.0, n), rng.uniform(0.2, 2.0, n)
+    q, qd, qdd = states(rng, 600, n)
+    qd[::3] *= 0.05  # slow samples, where the Stribeck term is not negligible
+    shape = np.tanh(qd / 0.05)
+    tau = (rnea(urdf, None, q, qd, qdd) + fv * qd
+           + (fc + fs * np.exp(-(qd / 0.1) ** 2)) * shape)
+    model.fit(q, qd, qdd, tau)
+    np.testing.assert_allclose(model.viscous, fv, rtol=1e-7)
+    np.testing.assert_allclose(model.coulomb_friction, fc, rtol=1e-7)
+    np.testing.assert_allclose(model.stribeck_friction, fs, rtol=1e-6)
+    plain = PhysicalModel.from_urdf_file(urdf, coulomb_eps=0.05).fit(q, qd, qdd, tau)
+    assert np.all(plain.residual_rms > 1e3 * model.residual_rms)
+    assert np.all(plain.stribeck_friction == 0.0)
+    model.save(tmp_path / 'stribeck.npz')
+    loaded = PhysicalModel.load(tmp_path / 'stribeck.npz')
+    assert loaded.stribeck_velocity == 0.1
+    X = np.hstack([q, qd, qdd])
+    np.testing.assert_allclose(loaded.predict(X), model.predict(X), rtol=1e-12)

@@ -7,12 +7,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
 
 from scara_ident_ros.dynamics import ScaraParams
 from scara_ident_ros.excitation import MotionLimits
 from scara_ident_ros.excitation.simulated_loop import LoopSettings, simulate_loop
 from scara_ident_ros.paper.datasets import simulate_record
-from scara_ident_ros.nodes.excitation import PARAMETERS
 
 ROOT = Path(__file__).resolve().parents[2]
 S = 1_000_000_000  # ns
@@ -24,7 +24,9 @@ def params() -> ScaraParams:
 
 
 def test_the_settings_default_to_the_nodes_parameters() -> None:
-    defaults = {spec.name: spec.default for spec in PARAMETERS}
+    # the node's defaults, as config/excitation.yaml holds them (test/nodes checks it does)
+    config = yaml.safe_load((ROOT / 'config' / 'excitation.yaml').read_text())
+    defaults = config['/**']['ros__parameters']
     for field in dataclasses.fields(LoopSettings):
         assert field.default == defaults[field.name], field.name
 

@@ -2,15 +2,19 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
+import numpy as np
 import pytest
 import yaml
 
 from scara_ident_ros.dynamics import ScaraParams
-from scara_ident_ros.dynamics.hybrid_model import HybridModel
+from scara_ident_ros.dynamics.hybrid_model import HybridModel, online_hybrid
 from scara_ident_ros.dynamics.physical_model import PhysicalModel
 from scara_ident_ros.dynamics.joint_limits import load_joint_limits
 from scara_ident_ros.identification import CoreSettings, LazyCore, make_differentiator
+from scara_ident_ros.identification.hybrid_trainer import MIN_VALIDATION, HybridTrainer
+from scara_ident_ros.identification.reservoir_lm import ReservoirLM
 from scara_ident_ros.resources import config_path
 from scara_ident_ros.sim import SimConfig, Simulator, make_trajectory
 
@@ -60,3 +64,55 @@ def test_a_physical_model_without_a_urdf_says_what_it_needs() -> None:
     lazy = LazyCore(load_joint_limits(joint_names=NAMES))
     why = lazy.build(NAMES, CoreSettings.of(values), make_differentiator('centred'))
     assert 'needs the robot\'s URDF' in why and lazy.core is None
+
+
+
+def hybrid_after(samples: int) -> tuple[Any, Any, Any, np.ndarray, np.ndarray]:
+    """A synchronous hybrid on the SCARA's URDF after ``samples`` samples (no update yet):
+    the model, its trainer, the network's trainer, the inputs and efforts streamed."""
+    limits = load_joint_limits(joint_names=NAMES).select(NAMES)
+    model = online_hybrid(PhysicalModel.from_urdf_file(URDF), limits.scaling(), seed=0)
+    network = ReservoirLM(model.network, capacity=300, interval=10_000)
+    trainer = HybridTrainer(model, network, seed=0)
+    params = ScaraParams.from_yaml(config_path('scara.yaml'))
+    record = Simulator(params, make_trajectory('sequence', params, seed=2),
+                       SimConfig(seed=2)).simulate(samples)
+    X = np.hstack([record.q, record.qd, record.qdd])
+    for k in range(len(X)):
+        assert trainer.learn(X[k], record.effort[k]).shape == (4,)
+    return model, trainer, network, X, record.effort
+
+
+def test_the_hybrid_network_learns_the_residual_of_the_current_theta() -> None:
+    """A synchronous ``lm`` network is fitted to τ − Y(x) θ with θ as it is at the update,
+    not as it was when each sample arrived (hybrid_trainer's module docstring)."""
+    model, trainer, network, X, effort = hybrid_after(1000)
+    assert len(trainer.validation) >= MIN_VALIDATION
+    seen: list[tuple[np.ndarray, np.ndarray]] = []
+    network.step_on = lambda x, y: seen.append((x, y)) and False  # type: ignore[method-assign]
+    assert not trainer.step()
+    (x, y), = seen
+    assert x.shape == (300, 12)
+    rows = {tuple(row): k for k, row in enumerate(X)}
+    kept = [rows[tuple(row)] for row in x]  # which streamed samples the reservoir kept
+    np.testing.assert_allclose(y, effort[kept] - model.physical.predict(X[kept]), atol=1e-9)
+    validation = {rows[tuple(row)] for row in trainer.validation.X}
+    assert not validation & set(kept)  # the network never learns a validation sample
+    assert len(network.reservoir) == 0  # the network trainer's own reservoir is not used
+
+
+def test_an_update_that_raises_the_validation_error_is_undone() -> None:
+    model, trainer, network, X, _ = hybrid_after(1000)
+    net = model.network
+    before = net.get_params()
+
+    def spoil(x: np.ndarray, y: np.ndarray) -> bool:
+        net.set_params(before + np.random.default_rng(0).normal(0.0, 1.0, before.shape))
+        return True
+
+    network.step_on = spoil  # type: ignore[method-assign]
+    assert not trainer.step() and trainer.undone == 1
+    np.testing.assert_array_equal(net.get_params(), before)
+    network.step_on = ReservoirLM.step_on.__get__(network)  # type: ignore[method-assign]
+    assert trainer.step()  # a real update on residuals lowers the validation error
+    assert trainer.undone == 1 and not np.array_equal(net.get_params(), before)

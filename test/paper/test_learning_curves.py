@@ -9,9 +9,9 @@ import pytest
 from scara_ident_ros.dynamics import LeastSquaresIdentifier, ScaraParams
 from scara_ident_ros.dynamics.recursive_least_squares import RecursiveLeastSquares
 from scara_ident_ros.paper.datasets import simulate_record
-from scara_ident_ros.paper.learning_curves import (curves_markdown, held_out_set, network_curve,
-                                                   regressor_curves, run_curves)
 from scara_ident_ros.paper.figures import learning_curves_figure, plot_learning_curves
+from scara_ident_ros.paper.learning_curves import (Curve, curves_markdown, held_out_set,
+                                                   network_curve, regressor_curves, run_curves)
 from scara_ident_ros.sim import SimRecord
 
 PARAMS = ScaraParams()
@@ -80,3 +80,19 @@ def test_curves_run_for_a_urdf_arm() -> None:
     assert np.all(ls.nmse < 0.05), ls.nmse
     np.testing.assert_allclose(rls.nmse, ls.nmse, rtol=0.05)
     assert network.cpu_s > 0 and network.nmse.max() > ls.nmse.max()
+
+
+def test_hybrid_curve_on_a_urdf_arm() -> None:
+    """``--methods hybrid --stribeck`` at a small size: the hybrid starts as the physical
+    model (RLS) and its network, fitted to the residuals of the current θ and checked on
+    samples it does not learn and bounded by their range, does not spoil it (with the
+    a-priori residuals of each sample it did: docs/results_arms.md)."""
+    done: list[list[Curve]] = []
+    curves = run_curves('ur5', seeds=[0], methods=['hybrid'], trainers=['lm'], seconds=3.0,
+                        workers=1, held_out_s=(0.5, 1.0), stribeck=True, finished=done.append)
+    assert [curve.label for curve in curves] == ['LS', 'RLS', 'hybrid']
+    assert [[c.label for c in job] for job in done] == [['LS', 'RLS'], ['hybrid']]
+    rls, hybrid = curves[1], curves[2]
+    assert hybrid.nmse.shape == (1, 6) and hybrid.cpu_s > 0
+    assert hybrid.nmse.max() < 3 * rls.nmse.max(), (hybrid.nmse, rls.nmse)
+    assert hybrid.nmse.max() < 1e-2
