@@ -27,8 +27,9 @@ import argparse
 from pathlib import Path
 
 from scara_ident_ros.cli import CliError
-from scara_ident_ros.identification.split import (VALIDATION_BLOCK_S, VALIDATION_FRACTION,
-                                                   SplitError)
+from scara_ident_ros.cli.validation_options import (add_validation_options,
+                                                     check_validation_options)
+from scara_ident_ros.identification.split import SplitError
 from scara_ident_ros.nn.presets import METHODS
 from scara_ident_ros.paper.report import (DEFAULT_SAMPLES, DEFAULT_SEEDS, DEFAULT_TIME_BUDGET_S,
                                           make_report)
@@ -56,13 +57,7 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     parser.add_argument('--samples', type=int, default=DEFAULT_SAMPLES,
                         help=f'training samples drawn at random from the run for LM '
                              f'(default: {DEFAULT_SAMPLES}; 0: all)')
-    parser.add_argument('--validation-fraction', type=float, default=VALIDATION_FRACTION,
-                        help="fraction of the run's time blocks kept out of training, one "
-                             'block drawn from each stretch of 1/fraction blocks '
-                             f'(default: {VALIDATION_FRACTION:g})')
-    parser.add_argument('--validation-block', type=float, default=VALIDATION_BLOCK_S,
-                        metavar='SECONDS',
-                        help=f'length of the time blocks (default: {VALIDATION_BLOCK_S:g} s)')
+    add_validation_options(parser)
     parser.add_argument('--time-budget', type=float, default=0.0, metavar='SECONDS',
                         help='start no new round of seeds after this much offline training '
                              f'(default: 0, no limit; scara-ident run uses '
@@ -78,11 +73,7 @@ def run(args: argparse.Namespace) -> int:
     if args.seeds < 1 or args.iterations < 1 or args.samples < 0 or args.time_budget < 0:
         raise CliError('need --seeds >= 1, --iterations >= 1, --samples >= 0 and '
                        '--time-budget >= 0')
-    if not 0.0 <= args.validation_fraction < 1.0:
-        raise CliError(f'--validation-fraction must be in [0, 1), got '
-                       f'{args.validation_fraction}')
-    if not args.validation_block > 0.0:
-        raise CliError(f'--validation-block must be positive, got {args.validation_block}')
+    check_validation_options(args)
     problem = unwritable_dir(args.out)
     if problem:
         raise CliError(f'--out {args.out} {problem}')

@@ -46,9 +46,11 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from scara_ident_ros.cli import CliError
+from scara_ident_ros.cli.validation_options import (add_validation_options,
+                                                     check_validation_options)
 from scara_ident_ros.dynamics.physical_model import COULOMB_EPS, COULOMB_MODES
 from scara_ident_ros.identification import DIFFERENTIATOR_WINDOW
-from scara_ident_ros.identification.split import VALIDATION_BLOCK_S, VALIDATION_FRACTION
+from scara_ident_ros.identification.split import VALIDATION_BLOCK_S
 from scara_ident_ros.nn.presets import METHODS, make_network
 from scara_ident_ros.nn import ALGORITHMS, fit
 from scara_ident_ros.paths import unwritable_file
@@ -104,13 +106,7 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     parser.add_argument('--joints', nargs='+', default=None, metavar='NAME',
                         help='joints to model, in this order (default: all, as in the '
                              'messages)')
-    parser.add_argument('--validation-fraction', type=float, default=VALIDATION_FRACTION,
-                        help='fraction of the recording\'s time blocks used for validation, '
-                             'one block drawn from each stretch of 1/fraction blocks '
-                             f'(default: {VALIDATION_FRACTION:g}; 0: none, no early stop)')
-    parser.add_argument('--validation-block', type=float, default=VALIDATION_BLOCK_S,
-                        metavar='SECONDS',
-                        help=f'length of the time blocks (default: {VALIDATION_BLOCK_S:g} s)')
+    add_validation_options(parser, zero='none, no early stop')
     parser.add_argument('--max-fail', type=int, default=MAX_FAIL,
                         help='stop after this many iterations in a row without a new best '
                              f'validation error (default: {MAX_FAIL})')
@@ -143,11 +139,7 @@ def run(args: argparse.Namespace) -> int:
 
     if args.iterations < 1:
         raise CliError(f'--iterations must be at least 1, got {args.iterations}')
-    if not 0.0 <= args.validation_fraction < 1.0:
-        raise CliError(f'--validation-fraction must be in [0, 1), got '
-                       f'{args.validation_fraction}')
-    if not args.validation_block > 0.0:
-        raise CliError(f'--validation-block must be positive, got {args.validation_block}')
+    check_validation_options(args)
     if args.max_fail < 1:
         raise CliError(f'--max-fail must be at least 1, got {args.max_fail}')
     if args.samples < 0 or args.seed < 0 or args.goal < 0.0 or args.min_iterations < 0:
