@@ -66,6 +66,7 @@ from scara_ident_ros.dynamics.coulomb_selection import select_coulomb  # noqa: E
 from scara_ident_ros.dynamics.hybrid_model import fit_hybrid  # noqa: E402
 from scara_ident_ros.dynamics.physical_model import PhysicalModel  # noqa: E402
 from scara_ident_ros.identification.dataset import Dataset, make_dataset  # noqa: E402
+from scara_ident_ros.identification.metrics import effort_errors  # noqa: E402
 from scara_ident_ros.paper.datasets import dataset_from_record, simulate_record  # noqa: E402
 from scara_ident_ros.nn import fit  # noqa: E402
 from scara_ident_ros.nn.presets import make_network  # noqa: E402
@@ -137,8 +138,8 @@ def scara_dataset(seconds: float, seed: int) -> Dataset:
 
 
 def nmse(model: Callable[[np.ndarray], np.ndarray], data: Dataset) -> np.ndarray:
-    """Held-out NMSE per joint of ``model``'s predictions."""
-    return np.asarray(np.mean((data.Y - model(data.X)) ** 2, axis=0) / data.Y.var(axis=0))
+    """Held-out NMSE per joint of ``model``'s predictions (the package's one NMSE)."""
+    return effort_errors(data.Y, model(data.X)).nmse
 
 
 def row(robot: str, label: str, values: np.ndarray, seconds: float, note: str = '') -> str:
