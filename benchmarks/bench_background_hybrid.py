@@ -5,7 +5,7 @@ Both stream the same simulated ``sequence`` of an arm through the learning curve
 their frozen models on the learning curves' held-out excitations. The background one is fed
 at the stream's rate in wall time, as a node is, its ``lm`` in a learner process; the
 synchronous one takes every update in the message path (``lm_background:=false``).
-Figures: docs/results_arms.md.
+Figures: docs/results.md ("The node's default").
 
     python benchmarks/bench_background_hybrid.py --robot ur5 --seconds 30
 """
