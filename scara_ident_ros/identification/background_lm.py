@@ -22,6 +22,15 @@ A process rather than a thread: the steps' Python glue would otherwise hold the 
 the message path needs, and a thread's priority cannot be lowered without risking that the
 GIL waits for it.
 
+A hybrid's network (``hybrid``: :class:`~scara_ident_ros.dynamics.hybrid_model.HybridModel`)
+learns there as in the caller's process
+(:class:`~scara_ident_ros.identification.residual_learner.ResidualLearner`): its residuals of
+the current θ, each update checked on held-back samples, the correction bounded. The
+message path sends (x, τ) as for a network, and with each batch the physical model's θ of
+the moment (p floats); the learner rebuilds the physical model from its URDF and computes
+the regressor rows Y(x) only for the samples its reservoirs keep. It hands back the weights
+with the bounds (and the bounds alone after an update that was undone).
+
 The message path never blocks on the pipe: a batch is written only when the pipe has room
 for it in one atomic write (``select``); otherwise it waits in a bounded backlog, and
 batches beyond that are dropped and counted (:attr:`BackgroundLM.dropped`). The learner
@@ -40,13 +49,16 @@ from collections import deque
 from dataclasses import dataclass
 from multiprocessing.connection import Connection
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from scara_ident_ros.identification.reservoir_lm import ReservoirLM
 from scara_ident_ros.nn import FeedForwardNet
+
+if TYPE_CHECKING:
+    from scara_ident_ros.dynamics.hybrid_model import HybridModel
 
 __all__ = ['BackgroundLM', 'LearnerSettings', 'prestart']
 
@@ -88,6 +100,10 @@ class BackgroundLM:
         The reservoir and the steps. ``interval`` is the least number of new samples
         between two updates: with the CPU to spare, an update starts as soon as that many
         have come; without, later.
+    hybrid : HybridModel, optional
+        The hybrid ``model`` is the network of: the learner fits ``model`` to the residuals
+        of its physical part's latest θ (module docstring) and the bounds it sends are set
+        on it. Samples are then handed over with :meth:`add` (the caller predicts).
 
     Attributes
     ----------
@@ -99,27 +115,35 @@ class BackgroundLM:
         Updates (``steps`` LM steps each) whose weights the model has taken.
     steps : int
         LM steps the learner has taken, as of its latest update.
+    undone : int
+        A hybrid's updates undone by the learner's validation check.
     """
 
     name = 'lm'
 
-    def __init__(self, model: FeedForwardNet, settings: LearnerSettings = LearnerSettings()
-                 ) -> None:
+    def __init__(self, model: FeedForwardNet, settings: LearnerSettings = LearnerSettings(),
+                 *, hybrid: HybridModel | None = None) -> None:
+        if hybrid is not None and hybrid.network is not model:
+            raise ValueError('hybrid must be the model whose network the learner learns')
         self.model = model
         self.settings = settings
+        self.hybrid = hybrid
         width = model.n_inputs + model.n_outputs
-        self._batch = np.empty((max(1, BATCH_BYTES // (8 * width)), width))
+        theta_bytes = 8 * hybrid.physical.n_parameters if hybrid is not None else 0
+        self._batch = np.empty((max(1, (BATCH_BYTES - theta_bytes) // (8 * width)), width))
         self._n = 0
         self._backlog: deque[NDArray[np.float64]] = deque()
         self.sent = 0
         self.dropped = 0
         self.updates = 0
         self.steps = 0
+        self.undone = 0
         self.ready = False  # the learner has started and waits for samples
         self._update_times: deque[float] = deque()
         self._process, self._to_learner, self._from_learner = (
             _PRESTARTED.pop() if _PRESTARTED else _start_learner())
-        self._to_learner.send((model, settings))  # the learner waits for it
+        physical = hybrid.physical.to_arrays() if hybrid is not None else None
+        self._to_learner.send((model, settings, physical))  # the learner waits for it
         self._closed = False
 
     # ------------------------------------------------------------------ message path
@@ -127,6 +151,12 @@ class BackgroundLM:
         """Predict ``y`` (n,) from ``x`` (3n,) with the current weights, then hand the sample
         to the learner; never waits for it."""
         predicted = self.model.predict(x)
+        self.add(x, y)
+        return predicted
+
+    def add(self, x: NDArray[np.float64], y: NDArray[np.float64]) -> None:
+        """Hand the sample x (3n,), y (n,) to the learner, without predicting; never waits
+        for it. A hybrid's batch goes with its physical part's θ as it is then."""
         row = self._batch[self._n]
         n_in = x.shape[0]
         row[:n_in] = x
@@ -134,17 +164,22 @@ class BackgroundLM:
         self._n += 1
         self.sent += 1
         if self._n == self._batch.shape[0]:
-            self._send(self._batch.copy())
+            self._send(self._message(self._batch.copy()))
             self._n = 0
             self.poll()
-        return predicted
+
+    def _message(self, batch: NDArray[np.float64]) -> Any:
+        """A batch as sent: the array, or a hybrid's ('samples', array, θ)."""
+        if self.hybrid is None:
+            return batch
+        return ('samples', batch, np.array(self.hybrid.physical.theta, dtype=np.float64))
 
     def poll(self) -> bool:
         """Take the newest weights the learner has sent, if any; return whether it had."""
         got = False
         try:
             while self._from_learner.poll():
-                kind, theta, steps = self._from_learner.recv()
+                kind, theta, steps, *extra = self._from_learner.recv()
                 self.ready = True
                 if kind == 'weights':
                     self.model.set_params(theta)
@@ -152,6 +187,8 @@ class BackgroundLM:
                     self.steps = steps
                     self._update_times.append(time.monotonic())
                     got = True
+                if extra and self.hybrid is not None:  # a hybrid's bounds (and undone)
+                    self.hybrid.bounds, self.undone = extra[0]
         except (EOFError, OSError):  # the learner has ended: keep the weights we have
             pass
         return got
@@ -196,6 +233,8 @@ class BackgroundLM:
             dropped = backlog.popleft()
             if isinstance(dropped, np.ndarray):
                 self.dropped += dropped.shape[0]
+            elif dropped[0] == 'samples':
+                self.dropped += dropped[1].shape[0]
 
     def _writable(self) -> bool:
         return bool(select.select([], [self._to_learner], [], 0)[1])
@@ -208,7 +247,7 @@ class BackgroundLM:
             return
         self._closed = True
         if self._n:
-            self._send(self._batch[:self._n].copy())
+            self._send(self._message(self._batch[:self._n].copy()))
             self._n = 0
         deadline = time.monotonic() + timeout
         while self._backlog and time.monotonic() < deadline and self.alive:
@@ -266,8 +305,12 @@ def prestart(count: int) -> None:
 
 
 def _learner(inbox: Connection, outbox: Connection, model: FeedForwardNet,
-             settings: LearnerSettings) -> None:
-    """The learner process: keep the reservoir, step, send weights, until told to stop."""
+             settings: LearnerSettings, physical: dict[str, np.ndarray] | None = None
+             ) -> None:
+    """The learner process: keep the reservoir, step, send weights, until told to stop.
+
+    ``physical``: a hybrid's physical model (``PhysicalModel.to_arrays``), whose residual
+    ``model`` learns through a :class:`ResidualLearner`."""
     from scara_ident_ros.blas_threads import single_blas_thread
 
     try:
@@ -279,6 +322,14 @@ def _learner(inbox: Connection, outbox: Connection, model: FeedForwardNet,
     trainer = ReservoirLM(model, capacity=settings.capacity, interval=settings.interval,
                           steps=settings.steps, seed=settings.seed, float64=settings.float64,
                           slow_share=settings.slow_share)
+    residual = None
+    if physical is not None:
+        from scara_ident_ros.dynamics.hybrid_model import HybridModel
+        from scara_ident_ros.dynamics.physical_model import PhysicalModel
+        from scara_ident_ros.identification.residual_learner import ResidualLearner
+
+        hybrid = HybridModel(PhysicalModel.from_arrays(physical, source='learner'), model)
+        residual = ResidualLearner(hybrid, trainer, seed=settings.seed)
     n_in = model.n_inputs
     lock = threading.Condition()
     state = {'new': 0, 'stop': False}
@@ -292,6 +343,11 @@ def _learner(inbox: Connection, outbox: Connection, model: FeedForwardNet,
                         for row in item:
                             trainer.add(row[:n_in], row[n_in:])
                         state['new'] += item.shape[0]
+                    elif item[0] == 'samples' and residual is not None:
+                        batch = item[1]
+                        residual.add_batch(batch[:, :n_in], batch[:, n_in:])
+                        residual.model.physical.theta = item[2]
+                        state['new'] += batch.shape[0]
                     elif item[0] == 'schedule':
                         trainer.interval, trainer.steps_per_update = item[1], item[2]
                     elif item[0] == 'stop':
@@ -319,10 +375,24 @@ def _learner(inbox: Connection, outbox: Connection, model: FeedForwardNet,
                 if state['stop'] and not state['new']:
                     break
                 last, state['new'] = state['stop'], 0
-                X, Y = (array.copy() for array in trainer.samples())
-            if trainer.step_on(X, Y):
+                if residual is None:
+                    X, Y = (array.copy() for array in trainer.samples())
+                else:
+                    snap = residual.snapshot(residual.model.physical.theta)
+            if residual is None:
+                message: tuple[Any, ...] | None = (
+                    ('weights', model.get_params(), trainer.steps)
+                    if trainer.step_on(X, Y) else None)
+            elif snap is None:  # too few validation samples yet
+                message = None
+            else:
+                changed = residual.step(snap)
+                message = ('weights' if changed else 'bounds',
+                           model.get_params() if changed else None, trainer.steps,
+                           (residual.model.bounds, residual.undone))
+            if message is not None:
                 try:
-                    outbox.send(('weights', model.get_params(), trainer.steps))
+                    outbox.send(message)
                 except (BrokenPipeError, OSError):
                     break
             if last:
@@ -348,8 +418,8 @@ def main(argv: list[str] | None = None) -> None:
     inbox = Connection(int(args[0]), writable=False)
     outbox = Connection(int(args[1]), readable=False)
     try:
-        model, settings = inbox.recv()
+        model, settings, physical = inbox.recv()
     except (EOFError, OSError):
         return
-    _learner(inbox, outbox, model, settings)
+    _learner(inbox, outbox, model, settings, physical)
 

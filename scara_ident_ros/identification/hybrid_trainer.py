@@ -14,11 +14,14 @@ the physical model's early errors as if they were the robot's. With a synchronou
 trainer (:class:`~scara_ident_ros.identification.trainer.ReservoirLM`) the hybrid
 therefore keeps its own reservoir of (x, τ, Y(x)) and gives each Levenberg–Marquardt update
 the residuals τ − Y θ of the current θ (a product with the stored regressor rows, no new
-dynamics). Another trainer (``bp``, or ``lm`` in a process of its own) takes the a-priori
-residual of each sample, unchecked and unbounded.
+dynamics). With ``lm`` in a learner process (the identifier's default, ``lm_background``),
+the same happens there: the message path sends (x, τ) and the latest θ, the learner keeps
+the reservoir and computes Y(x) for the samples it keeps (one shared definition:
+:class:`~scara_ident_ros.identification.residual_learner.ResidualLearner`). ``bp`` takes
+the a-priori residual of each sample, unchecked and unbounded.
 
 A network fitted to a small residual overfits easily (offline, ``fit_hybrid`` stops early
-for that reason), and extrapolates on states the stream never held. So the synchronous
+for that reason), and extrapolates on states the stream never held. So an ``lm``
 hybrid keeps :data:`VALIDATION_SHARE` of its samples apart, never learnt by the network,
 and checks each update on their residuals (of the current θ): an update that raises the
 validation error (per joint, relative to its effort variance, summed) is undone, and a
@@ -35,18 +38,15 @@ import numpy as np
 from numpy.typing import NDArray
 
 from scara_ident_ros.dynamics.hybrid_model import HybridModel
+from scara_ident_ros.identification.background_lm import BackgroundLM
 from scara_ident_ros.identification.reservoir import Reservoir
-from scara_ident_ros.identification.rls_trainer import RecursiveLeastSquaresTrainer
 from scara_ident_ros.identification.reservoir_lm import ReservoirLM
+from scara_ident_ros.identification.residual_learner import (MIN_VALIDATION,
+                                                             VALIDATION_SHARE, ResidualLearner)
+from scara_ident_ros.identification.rls_trainer import RecursiveLeastSquaresTrainer
 from scara_ident_ros.identification.trainer import Trainer
-from scara_ident_ros.nn import FeedForwardNet
 
 __all__ = ['HybridTrainer', 'MIN_VALIDATION', 'VALIDATION_SHARE']
-
-#: Share of a synchronous hybrid's samples kept to check its network's updates.
-VALIDATION_SHARE = 0.2
-#: Validation samples needed before the network's first update.
-MIN_VALIDATION = 100
 
 
 class HybridTrainer:
@@ -57,12 +57,13 @@ class HybridTrainer:
     model : HybridModel
         The model whose two parts are learnt in place.
     network_trainer : Trainer
-        The residual network's trainer (``lm``, beside the stream in the identifier). A
-        :class:`ReservoirLM` is driven with the residuals of the current θ, every
-        ``interval`` of its samples, on a reservoir of the hybrid's of the same capacity
-        (its own reservoirs stay empty).
+        The residual network's trainer. A :class:`ReservoirLM` is driven through a
+        :class:`ResidualLearner` with the residuals of the current θ, every ``interval`` of
+        its samples (its own reservoirs stay empty). A :class:`BackgroundLM` made for this
+        model (its ``hybrid``) runs the same :class:`ResidualLearner` in its learner
+        process: the message path hands it (x, τ) and θ, nothing more.
     seed : int
-        Seed of that reservoir's draws.
+        Seed of the reservoirs' draws (synchronous; a background learner has its own).
     """
 
     name = 'hybrid'
@@ -72,19 +73,38 @@ class HybridTrainer:
         self.model = model
         self.physical = RecursiveLeastSquaresTrainer(model.physical)
         self.network = network_trainer
-        self.reservoir: Reservoir | None = None
+        self.residual: ResidualLearner | None = None
+        self._background = (isinstance(network_trainer, BackgroundLM)
+                            and network_trainer.hybrid is model)
         if isinstance(network_trainer, ReservoirLM):
-            n, p = model.n_outputs, model.physical.n_parameters
-            slow = network_trainer.slow
-            capacity = network_trainer.reservoir.capacity + (slow.capacity if slow else 0)
-            self._shape = (n, p)
-            # the targets' columns: τ (n), then the regressor rows Y(x) (n·p)
-            self.reservoir = Reservoir(capacity, model.n_inputs, n + n * p, seed=seed)
-            self.validation = Reservoir(max(round(capacity * VALIDATION_SHARE), MIN_VALIDATION),
-                                        model.n_inputs, n + n * p, seed=seed + 1)
-            self._draw = np.random.default_rng(seed + 2)
+            self.residual = ResidualLearner(model, network_trainer, seed=seed)
+            self._lm = network_trainer
             self._since = 0
-        self.undone = 0  # network updates undone by the validation check
+
+    @property
+    def undone(self) -> int:
+        """Network updates undone by the validation check."""
+        if self.residual is not None:
+            return self.residual.undone
+        return self.network.undone if isinstance(self.network, BackgroundLM) else 0
+
+    @property
+    def validation(self) -> Reservoir:
+        """The synchronous network's validation samples.
+
+        Raises
+        ------
+        AttributeError
+            Without a synchronous ``lm`` network.
+        """
+        if self.residual is None:
+            raise AttributeError('only a synchronous lm network has validation samples here')
+        return self.residual.validation
+
+    @property
+    def reservoir(self) -> Reservoir | None:
+        """The synchronous network's samples (None without a synchronous ``lm`` network)."""
+        return None if self.residual is None else self.residual.reservoir
 
     def learn(self, x: NDArray[np.float64], y: NDArray[np.float64]) -> NDArray[np.float64]:
         """Return the a-priori prediction of ``y`` (n,) from ``x`` (3n,), then learn both
@@ -95,65 +115,28 @@ class HybridTrainer:
         ValueError
             If the physical step was refused (not finite); nothing was learnt.
         """
-        if self.reservoir is None:
+        if self._background:
+            physical = self.physical.learn(x, y)
+            predicted = physical + self.model.correction(x)
+            assert isinstance(self.network, BackgroundLM)
+            self.network.add(x, y)
+            return predicted
+        if self.residual is None:
             physical = self.physical.learn(x, y)
             return physical + self.network.learn(x, y - physical)
         physical, rows = self.physical.learn_rows(x, y)
         predicted = physical + self.model.correction(x)
-        kept = np.concatenate([y, rows.reshape(-1)])
-        if self._draw.random() < VALIDATION_SHARE:
-            self.validation.add(x, kept)
-        else:
-            self.reservoir.add(x, kept)
+        self.residual.add(x, y, rows)
         self._since += 1
-        if isinstance(self.network, ReservoirLM) and self._since >= self.network.interval:
+        if self._since >= self._lm.interval:
             self._since = 0
             self.step()
         return predicted
 
     def step(self) -> bool:
         """One update of the network on the reservoir's residuals of the current θ; return
-        whether its weights changed (False without a reservoir of its own)."""
-        if (self.reservoir is None or not isinstance(self.network, ReservoirLM)
-                or len(self.validation) < MIN_VALIDATION):
+        whether its weights changed (False without a synchronous ``lm`` network)."""
+        if self.residual is None:
             return False
-        net = self.model.network
-        x_val, r_val = self.validation.X, self._residual(self.validation)
-        scale = np.maximum(self.validation.Y[:, :self._shape[0]].var(axis=0), 1e-300)
-        before = net.get_params()
-        error = _errors(self.model, x_val, r_val) / scale
-        residual = self._residual(self.reservoir)
-        self.model.bounds = (residual.min(axis=0), residual.max(axis=0))
-        changed = self.network.step_on(self.reservoir.X.copy(), residual)
-        if not changed:
-            return False
-        after = _errors(self.model, x_val, r_val) / scale
-        if after.sum() > error.sum():
-            net.set_params(before)
-            self.undone += 1
-            return False
-        worse = after > np.mean(r_val ** 2, axis=0) / scale  # than predicting no residual
-        if np.any(worse):
-            _zero_outputs(net, worse)
-        return True
-
-    def _residual(self, store: Reservoir) -> NDArray[np.float64]:
-        """τ − Y(x) θ of the stored samples, θ the physical model's now: (m, n)."""
-        n, p = self._shape
-        stored = store.Y
-        return stored[:, :n] - stored[:, n:].reshape(-1, n, p) @ self.model.physical.theta
-
-
-def _errors(model: HybridModel, X: NDArray[np.float64],
-            residual: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Mean squared error per joint of the (bounded) correction's ``residual`` (n,)."""
-    return np.asarray(np.mean((model.correction(X) - residual) ** 2, axis=0))
-
-
-def _zero_outputs(net: FeedForwardNet, joints: NDArray[np.bool_]) -> None:
-    """Make ``net`` predict 0 for ``joints`` (n,) (their output rows as ``start_at_zero``)."""
-    theta = net.get_params()
-    _, output = net.unpack(theta)
-    output[joints, :-1] = 0.0
-    output[joints, -1] = net.y_scaling.transform(np.zeros(net.n_outputs))[joints]
-    net.set_params(theta)
+        return self.residual.step(
+            self.residual.snapshot(self.model.physical.theta, copy=False))

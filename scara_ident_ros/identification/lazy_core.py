@@ -162,18 +162,19 @@ class LazyCore:
                    if settings.validation_fraction > 0 else None)
         self.network, self.names = network, names
 
-        def trainer_of(net: FeedForwardNet) -> Trainer:
+        def trainer_of(net: FeedForwardNet, hybrid: HybridModel | None = None) -> Trainer:
             return make_trainer(settings.trainer, net, capacity=settings.reservoir_size,
                                 interval=settings.lm_interval, steps=settings.lm_steps,
                                 seed=settings.seed, float64=settings.lm_float64,
                                 slow_share=settings.lm_slow_share, background=background,
-                                label=f'lm-{settings.method}')
+                                label=f'lm-{settings.method}', hybrid=hybrid)
 
         trainer: Trainer
         if isinstance(network, PhysicalModel):
             trainer = RecursiveLeastSquaresTrainer(network)
         elif isinstance(network, HybridModel):
-            trainer = HybridTrainer(network, trainer_of(network.network), seed=settings.seed)
+            trainer = HybridTrainer(network, trainer_of(network.network, network),
+                                    seed=settings.seed)
         else:
             trainer = trainer_of(network)
         self.core = OnlineIdentifier(

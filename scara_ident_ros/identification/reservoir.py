@@ -56,17 +56,27 @@ class Reservoir:
         x : ndarray of shape (n_inputs,)
         y : ndarray of shape (n_outputs,)
         """
+        slot = self.offer()
+        if slot < 0:
+            return False
+        self.put(slot, x, y)
+        return True
+
+    def offer(self) -> int:
+        """Count one pair offered; return the slot it goes in (:meth:`put`), or -1 if it
+        is not kept (the same draw as :meth:`add`: a caller can skip computing a pair that
+        would not be kept)."""
         count = self.count
         self.count = count + 1
         if count < self.capacity:
-            slot = count
-        else:
-            slot = int(self._rng.random() * (count + 1))  # uniform in 0..count
-            if slot >= self.capacity:
-                return False
+            return count
+        slot = int(self._rng.random() * (count + 1))  # uniform in 0..count
+        return slot if slot < self.capacity else -1
+
+    def put(self, slot: int, x: NDArray[np.float64], y: NDArray[np.float64]) -> None:
+        """Store a pair in ``slot`` (from :meth:`offer`)."""
         self._x[slot] = x
         self._y[slot] = y
-        return True
 
     def clear(self) -> None:
         """Forget every pair."""

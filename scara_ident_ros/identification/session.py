@@ -33,6 +33,7 @@ from scara_ident_ros.identification.contact_detector import ContactDetector
 from scara_ident_ros.identification.differentiator import (AccelerationEstimate,
                                                            make_differentiator)
 from scara_ident_ros.identification.error_window import ErrorWindow
+from scara_ident_ros.identification.hybrid_trainer import HybridTrainer
 from scara_ident_ros.identification.input_stage import Input
 from scara_ident_ros.identification.lazy_core import CoreSettings, LazyCore, OnlineModel
 from scara_ident_ros.identification.metrics import ErrorStats
@@ -98,8 +99,10 @@ class MethodRun:
 
     @property
     def background(self) -> BackgroundLM | None:
-        """The trainer, if it learns beside the stream."""
+        """The trainer, if it learns beside the stream (a hybrid's: its network's)."""
         trainer = self.core.trainer if self.core is not None else None
+        if isinstance(trainer, HybridTrainer):
+            trainer = trainer.network
         return trainer if isinstance(trainer, BackgroundLM) else None
 
     def built(self, names: Sequence[str]) -> None:

@@ -23,7 +23,7 @@ Both give the a-priori prediction of each sample, made before the sample is lear
 """
 from __future__ import annotations
 
-from typing import Any, Protocol, runtime_checkable
+from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import NDArray
@@ -32,6 +32,9 @@ from scara_ident_ros.identification.background_lm import BackgroundLM, LearnerSe
 from scara_ident_ros.identification.reservoir_lm import ReservoirLM
 from scara_ident_ros.nn import FeedForwardNet
 from scara_ident_ros.nn.scaling import MinMaxScaling
+
+if TYPE_CHECKING:
+    from scara_ident_ros.dynamics.hybrid_model import HybridModel
 
 __all__ = ['Trainer', 'BackPropagation', 'TRAINERS', 'make_trainer',
            'starts_with_friction_steps']
@@ -160,14 +163,16 @@ class BackPropagation:
 
 def make_trainer(name: str, model: FeedForwardNet, *, capacity: int = 4000,
                  interval: int = 200, steps: int = 2, seed: int = 0, float64: bool = False,
-                 slow_share: float = 0.0, background: bool = False, label: str = 'lm'
+                 slow_share: float = 0.0, background: bool = False, label: str = 'lm',
+                 hybrid: HybridModel | None = None
                  ) -> BackPropagation | ReservoirLM | BackgroundLM:
     """Build the trainer called ``name`` (one of :data:`TRAINERS`) for ``model``.
 
     ``capacity``, ``interval``, ``steps``, ``seed``, ``float64`` and ``slow_share`` are
     :class:`ReservoirLM`'s; BP uses the network's own learning rate and momentum.
     ``background``: ``lm`` learns in a process beside the caller (:class:`BackgroundLM`,
-    ``interval`` then the least samples between two updates, ``label`` naming its process);
+    ``interval`` then the least samples between two updates, ``label`` naming its process,
+    ``hybrid`` the hybrid ``model`` is the network of, learnt on its residuals there);
     BP stays per sample.
     """
     if name == 'bp':
@@ -175,7 +180,7 @@ def make_trainer(name: str, model: FeedForwardNet, *, capacity: int = 4000,
     if name == 'lm' and background:
         return BackgroundLM(model, LearnerSettings(
             capacity=capacity, interval=interval, steps=steps, seed=seed, float64=float64,
-            slow_share=slow_share, label=label))
+            slow_share=slow_share, label=label), hybrid=hybrid)
     if name == 'lm':
         return ReservoirLM(model, capacity=capacity, interval=interval, steps=steps,
                            seed=seed, float64=float64, slow_share=slow_share)

@@ -60,6 +60,7 @@ from scara_ident_ros.dynamics.recursive_least_squares import RecursiveLeastSquar
 from scara_ident_ros.identification import (DIFFERENTIATOR_WINDOW, Holdout, InputStage, JointMap,
                                             OnlineIdentifier, make_differentiator, make_trainer)
 from scara_ident_ros.identification.dataset import Dataset
+from scara_ident_ros.identification.background_lm import BackgroundLM
 from scara_ident_ros.identification.hybrid_trainer import HybridTrainer
 from scara_ident_ros.identification.metrics import effort_errors
 from scara_ident_ros.identification.trainer import Trainer, starts_with_friction_steps
@@ -175,7 +176,7 @@ def network_curve(record: SimRecord, held_out: Dataset, params: Robot, *, method
                   lm_interval: int = 200, validation_block: int = 500,
                   lm_float64: bool = False, lm_slow_share: float = 0.0,
                   lm_friction_steps: bool = True, reservoir_size: int = 4000,
-                  physical: PhysicalModel | None = None) -> Curve:
+                  physical: PhysicalModel | None = None, background: bool = False) -> Curve:
     """Stream ``record`` through an identifier of ``method`` and ``trainer`` (node defaults).
 
     Method ``hybrid`` needs ``physical``, the arm's (fresh) physical model: it learns by
@@ -188,6 +189,10 @@ def network_curve(record: SimRecord, held_out: Dataset, params: Robot, *, method
     ``reservoir_size`` are the node's parameters of those names (the ``lm`` trainer's steps
     per update, samples between updates, float64 normal equations, share of slow samples,
     friction-step units and reservoir samples; the centred q'' fit's samples).
+
+    ``background``: ``lm`` learns in a learner process, as in the node by default
+    (``lm_background``); the stream is then fed at its own rate in wall time (a node's
+    pace: the learner's updates depend on it), the latest weights taken at each checkpoint.
     """
     n = len(params.joint_names)
     scaling = limit_scaling(*(params.array(name) for name in _LIMITS))
@@ -203,7 +208,11 @@ def network_curve(record: SimRecord, held_out: Dataset, params: Robot, *, method
         net.set_scaling(*scaling)
     learner: Trainer = make_trainer(trainer, net, steps=lm_steps, capacity=reservoir_size,
                                     interval=lm_interval, seed=seed, float64=lm_float64,
-                                    slow_share=lm_slow_share)
+                                    slow_share=lm_slow_share, background=background,
+                                    hybrid=model if isinstance(model, HybridModel) else None)
+    beside = learner if isinstance(learner, BackgroundLM) else None
+    if beside is not None:
+        beside.wait_ready(30.0)
     if isinstance(model, HybridModel):
         learner = HybridTrainer(model, learner, seed=seed)
     ident = OnlineIdentifier(model, joint_names=params.joint_names,
@@ -216,19 +225,30 @@ def network_curve(record: SimRecord, held_out: Dataset, params: Robot, *, method
     scores: list[FloatArray] = []
     cpu = 0.0
     start = 0
+    wall0 = time.monotonic()
     for mark in marks:
         stop = int(np.searchsorted(stamps, mark))
         began = time.process_time()
         for i in range(start, stop):
+            if beside is not None and i % 100 == 0:  # the stream's pace
+                ahead = (stamps[i] - stamps[0]) * 1e-9 - (time.monotonic() - wall0)
+                if ahead > 0:
+                    time.sleep(ahead)
             ident.process(int(stamps[i]), names, record.q[i], record.qd[i], record.effort[i])
         cpu += time.process_time() - began
         start = stop
+        if beside is not None:
+            beside.poll()
         scores.append(_nmse(held_out.Y, model.predict(held_out.X)))
+    if beside is not None:
+        beside.close()
     label = 'hybrid' if method == 'hybrid' else f'{method_spec(method).label} {trainer}'
     if trainer == 'lm' and lm_steps != 2:
         label += f' ×{lm_steps}'
     if trainer == 'lm' and reservoir_size != 4000:
         label += f' ({reservoir_size} samples)'
+    if beside is not None:
+        label += ' (background)'
     return Curve(label, seed, np.asarray(checkpoints, float), np.array(scores), cpu)
 
 

@@ -2,6 +2,7 @@
 parameters changed while running, lags and the summary."""
 from __future__ import annotations
 
+import time
 from pathlib import Path
 from typing import Any
 
@@ -200,3 +201,27 @@ def test_save_says_why_not_and_writes_atomically(tmp_path: Path) -> None:
     feed(session, simulated(30), 30)
     ok, message = session.save()
     assert ok and str(path) in message and path.is_file()
+
+
+def test_a_background_hybrid_reports_its_learners_updates() -> None:
+    """method:=hybrid with the default learner process: the session's learning statistics
+    are its network's learner's."""
+    urdf = Path(__file__).resolve().parents[2] / 'urdf' / 'scara.urdf'
+    session = IdentificationSession(settings(method='hybrid', lm_background=True,
+                                             urdf_file=str(urdf), joint_names=NAMES))
+    record = Simulator(SCARA, make_trajectory('sequence', SCARA, seed=1),
+                       SimConfig(seed=1)).simulate(3000)
+    try:
+        for i in range(3000):
+            session.process(T0 + i * MS, NAMES, record.q[i], record.qd[i], record.effort[i])
+            if i % 250 == 249:
+                time.sleep(0.05)
+        run, = session.runs
+        assert run.background is not None and run.background.hybrid is run.network
+        deadline = time.monotonic() + 30.0
+        while run.background.updates == 0 and time.monotonic() < deadline:
+            run.background.poll()
+            time.sleep(0.05)
+        assert run.learning()['updates'] >= 1
+    finally:
+        session.close()

@@ -11,8 +11,9 @@ from scara_ident_ros.dynamics.recursive_least_squares import RecursiveLeastSquar
 from scara_ident_ros.paper.datasets import simulate_record
 from scara_ident_ros.paper.figures import learning_curves_figure, plot_learning_curves
 from scara_ident_ros.paper.learning_curves import (Curve, curves_markdown, held_out_set,
-                                                   network_curve, regressor_curves, run_curves)
-from scara_ident_ros.sim import SimRecord
+                                                   network_curve, physical_model_of,
+                                                   regressor_curves, robot_by_name, run_curves)
+from scara_ident_ros.sim import SimConfig, SimRecord
 
 PARAMS = ScaraParams()
 
@@ -96,3 +97,21 @@ def test_hybrid_curve_on_a_urdf_arm() -> None:
     assert hybrid.nmse.shape == (1, 6) and hybrid.cpu_s > 0
     assert hybrid.nmse.max() < 3 * rls.nmse.max(), (hybrid.nmse, rls.nmse)
     assert hybrid.nmse.max() < 1e-2
+
+
+def test_background_hybrid_curve_on_a_urdf_arm() -> None:
+    """The node's default path (``lm`` in a learner process, the stream at its own pace)
+    learns the hybrid as the synchronous one does: the same order on held-out motion."""
+    params = robot_by_name('ur5')
+    record = simulate_record(params, seconds=3.0, seed=0, preset='sequence',
+                             config=SimConfig(seed=0, n_joints=6))
+    held_out = held_out_set(params, excitation_s=0.5, sequence_s=1.0)
+    sync, background = (
+        network_curve(record, held_out, params, method='hybrid', trainer='lm',
+                      checkpoints=(3.0,), physical=physical_model_of('ur5', stribeck=True),
+                      background=beside)
+        for beside in (False, True))
+    assert (sync.label, background.label) == ('hybrid', 'hybrid (background)')
+    assert background.nmse.shape == (1, 6) and np.all(np.isfinite(background.nmse))
+    ours, theirs = background.nmse.max(), sync.nmse.max()
+    assert theirs / 10 <= ours <= theirs * 10, (ours, theirs)

@@ -1,0 +1,168 @@
+"""The network side of an online hybrid: residuals of the current θ, checked updates, bounds.
+
+One definition for both places a hybrid's ``lm`` network learns: in the caller's process
+(:class:`~scara_ident_ros.identification.hybrid_trainer.HybridTrainer`, synchronous) and in
+a learner process beside the stream
+(:class:`~scara_ident_ros.identification.background_lm.BackgroundLM`). Why each part is
+there: the module docstring of :mod:`~scara_ident_ros.identification.hybrid_trainer`.
+
+Samples (x, τ) are kept with their regressor rows Y(x) in a reservoir, or, with probability
+:data:`VALIDATION_SHARE`, in a validation reservoir the network never learns. An update
+(:meth:`ResidualLearner.step`) fits the network to τ − Y(x) θ with the θ given to it (the
+physical model's latest), keeps it only if the validation error does not rise, resets the
+output rows of joints predicted worse than zero, and bounds the correction by the range of
+the residuals it was fitted to (:attr:`HybridModel.bounds`). The rows are computed only for
+samples a reservoir keeps (:meth:`ResidualLearner.add`'s ``rows`` may be a callable).
+"""
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from scara_ident_ros.dynamics.hybrid_model import HybridModel
+from scara_ident_ros.identification.reservoir import Reservoir
+from scara_ident_ros.identification.reservoir_lm import ReservoirLM
+from scara_ident_ros.nn import FeedForwardNet
+
+__all__ = ['MIN_VALIDATION', 'ResidualLearner', 'Snapshot', 'VALIDATION_SHARE']
+
+FloatArray = NDArray[np.float64]
+#: Share of a hybrid's samples kept to check its network's updates.
+VALIDATION_SHARE = 0.2
+#: Validation samples needed before the network's first update.
+MIN_VALIDATION = 100
+
+
+@dataclass(frozen=True)
+class Snapshot:
+    """Copies of what an update uses, taken at once (the reservoirs may change during it).
+
+    ``X`` (m, 3n) and ``stored`` (m, n + n·p): the reservoir's inputs and [τ, Y(x) rows];
+    ``X_val``, ``stored_val``: the validation reservoir's; ``theta`` (p,): the physical
+    model's parameters the residuals are taken with.
+    """
+
+    X: FloatArray
+    stored: FloatArray
+    X_val: FloatArray
+    stored_val: FloatArray
+    theta: FloatArray
+
+
+class ResidualLearner:
+    """Learn a :class:`HybridModel`'s network on residuals of the current θ (module docstring).
+
+    Parameters
+    ----------
+    model : HybridModel
+        Its network is learnt in place, its :attr:`~HybridModel.bounds` set; its physical
+        part gives the regressor rows of :meth:`add_batch` (θ is given to :meth:`snapshot`).
+    network_trainer : ReservoirLM
+        Takes the LM steps (:meth:`ReservoirLM.step_on`); its own reservoirs stay empty.
+        The reservoir here has their capacity together.
+    seed : int
+        Seed of the reservoirs' draws.
+
+    Attributes
+    ----------
+    undone : int
+        Updates undone by the validation check.
+    """
+
+    def __init__(self, model: HybridModel, network_trainer: ReservoirLM, *,
+                 seed: int = 0) -> None:
+        self.model, self.network = model, network_trainer
+        n, p = model.n_outputs, model.physical.n_parameters
+        slow = network_trainer.slow
+        capacity = network_trainer.reservoir.capacity + (slow.capacity if slow else 0)
+        self._shape = (n, p)
+        # the stored columns: τ (n), then the regressor rows Y(x) (n·p)
+        self.reservoir = Reservoir(capacity, model.n_inputs, n + n * p, seed=seed)
+        self.validation = Reservoir(max(round(capacity * VALIDATION_SHARE), MIN_VALIDATION),
+                                    model.n_inputs, n + n * p, seed=seed + 1)
+        self._draw = np.random.default_rng(seed + 2)
+        self._row = np.empty(n + n * p)
+        self.undone = 0
+
+    def add(self, x: FloatArray, y: FloatArray,
+            rows: FloatArray | Callable[[], FloatArray]) -> None:
+        """Offer a sample x (3n,), τ (n,) with its regressor rows (n, p), or a callable
+        giving them: called only if a reservoir keeps the sample."""
+        store = self.validation if self._draw.random() < VALIDATION_SHARE else self.reservoir
+        slot = store.offer()
+        if slot < 0:
+            return
+        n = self._shape[0]
+        row = self._row
+        row[:n] = y
+        row[n:] = (rows() if callable(rows) else rows).reshape(-1)
+        store.put(slot, x, row)
+
+    def add_batch(self, X: FloatArray, Y: FloatArray) -> None:
+        """:meth:`add` each sample of X (m, 3n), τ (m, n), its rows from the model's
+        physical part."""
+        physical, n = self.model.physical, self._shape[0]
+
+        def rows_of(x: FloatArray) -> Callable[[], FloatArray]:
+            return lambda: physical.regressor(x[:n], x[n:2 * n], x[2 * n:])
+
+        for x, y in zip(X, Y):
+            self.add(x, y, rows_of(x))
+
+    def snapshot(self, theta: FloatArray, *, copy: bool = True) -> Snapshot | None:
+        """The reservoirs and ``theta`` for :meth:`step`; None while fewer than
+        :data:`MIN_VALIDATION` validation samples are kept. ``copy``: copies (the
+        reservoirs may change before the step ends), else views."""
+        if len(self.validation) < MIN_VALIDATION:
+            return None
+        arrays = [self.reservoir.X, self.reservoir.Y, self.validation.X, self.validation.Y]
+        if copy:
+            arrays = [a.copy() for a in arrays]
+        X, stored, X_val, stored_val = arrays
+        return Snapshot(X, stored, X_val, stored_val, np.array(theta, dtype=np.float64))
+
+    def step(self, snap: Snapshot | None) -> bool:
+        """One checked update of the network on ``snap``'s residuals; return whether its
+        weights changed (the bounds are set either way, if ``snap`` is not None)."""
+        if snap is None:
+            return False
+        net = self.model.network
+        r_val = self._residual(snap.stored_val, snap.theta)
+        scale = np.maximum(snap.stored_val[:, :self._shape[0]].var(axis=0), 1e-300)
+        before = net.get_params()
+        error = _errors(self.model, snap.X_val, r_val) / scale
+        residual = self._residual(snap.stored, snap.theta)
+        self.model.bounds = (residual.min(axis=0), residual.max(axis=0))
+        if not self.network.step_on(snap.X, residual):
+            return False
+        after = _errors(self.model, snap.X_val, r_val) / scale
+        if after.sum() > error.sum():
+            net.set_params(before)
+            self.undone += 1
+            return False
+        worse = after > np.mean(r_val ** 2, axis=0) / scale  # than predicting no residual
+        if np.any(worse):
+            _zero_outputs(net, worse)
+        return True
+
+    def _residual(self, stored: FloatArray, theta: FloatArray) -> FloatArray:
+        """τ − Y(x) θ of stored samples [τ, Y rows]: (m, n)."""
+        n, p = self._shape
+        return np.asarray(stored[:, :n] - stored[:, n:].reshape(-1, n, p) @ theta)
+
+
+def _errors(model: HybridModel, X: FloatArray, residual: FloatArray) -> FloatArray:
+    """Mean squared error per joint of the (bounded) correction's ``residual`` (n,)."""
+    return np.asarray(np.mean((model.correction(X) - residual) ** 2, axis=0))
+
+
+def _zero_outputs(net: FeedForwardNet, joints: NDArray[np.bool_]) -> None:
+    """Make ``net`` predict 0 for ``joints`` (n,) (their output rows as ``start_at_zero``)."""
+    theta = net.get_params()
+    _, output = net.unpack(theta)
+    output[joints, :-1] = 0.0
+    output[joints, -1] = net.y_scaling.transform(np.zeros(net.n_outputs))[joints]
+    net.set_params(theta)
