@@ -9,7 +9,7 @@ estimated), with:
 - q'' estimated by the identifier's input stage (as online) or the simulator's true q'';
 - no Stribeck column, or columns exp(−(q'/v_s)²) tanh(q'/ε) per joint for each v_s of
   ``--stribeck`` (the simulator's friction falls from its breakaway level to its Coulomb
-  level over v_s = 0.1 rad/s: docs/robot_sim.md); ``0.05,0.2`` gives two columns.
+  level over v_s = 0.1 rad/s: docs/nodes.md); ``0.05,0.2`` gives two columns.
 
 Prints the held-out NMSE per joint and on the training data.
 

@@ -11,7 +11,7 @@ f_c,j s(q'_j), with s the sign or the smooth tanh(q'_j / ε) (``coulomb``). So
 and with a Stribeck velocity v_s > 0 (``stribeck_velocity``) a third friction column per
 joint, diag(exp(−(q'/v_s)²) s(q')), whose coefficient f_s,j is the breakaway friction's
 excess over f_c,j: the friction that falls from f_c + f_s at rest to f_c in motion (the
-Stribeck law of ``robot_sim``'s joints, docs/robot_sim.md). v_s is fixed, not fitted: the
+Stribeck law of ``robot_sim``'s joints, docs/nodes.md). v_s is fixed, not fitted: the
 model stays linear in θ.
 
 where W_ind is the rigid-body regressor reduced to its base parameters θ_b

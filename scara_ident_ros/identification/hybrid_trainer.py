@@ -30,7 +30,7 @@ zero: the hybrid is then the physical model on that joint until an update earns 
 The validation samples come from the stream, so after each update the model's correction
 is also bounded by the range of the residuals it was fitted to
 (:attr:`HybridModel.bounds`): frozen, it cannot extrapolate further than that on motions
-the stream never held. What each of these changed, measured: docs/results_arms.md.
+the stream never held. What each of these changed, measured: docs/results.md (other arms).
 """
 from __future__ import annotations
 
