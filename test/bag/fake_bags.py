@@ -7,24 +7,18 @@ friction and a gravity-like term, so a network can learn it in a few iterations.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
 
+from bag_files import Robot  # test/bag, beside this file
+
 METHODS = ('ffmw', 'ffw', 'ffs')
 
 
-@dataclass(frozen=True)
-class States:
-    """Joint states as arrays (the bag reader's shape): stamps (N,), arrays (N, n)."""
-
-    stamp_ns: NDArray[np.int64]
-    names: tuple[str, ...]
-    position: NDArray[np.float64]
-    velocity: NDArray[np.float64]
-    effort: NDArray[np.float64]
+#: Joint states as arrays (the bag reader's shape), as the bag tests' ``Robot``.
+States = Robot
 
 
 def synthetic_states(n_joints: int, seconds: float, *, rate_hz: float = 1000.0,
