@@ -17,7 +17,8 @@ that came since the previous one.
 
 The learner runs at a lower CPU priority (``nice``) with one BLAS thread: when the CPU is
 short, the stream's processes (simulator, message paths, recorder) go first and learning
-slows down; :attr:`BackgroundLM.updates` and :meth:`BackgroundLM.rate` say by how much.
+slows down; :attr:`BackgroundLM.updates` and :meth:`BackgroundLM.rate` say by how much, and
+:meth:`BackgroundLM.overdue` how long an update has been due (a busy CPU can starve it).
 A process rather than a thread: the steps' Python glue would otherwise hold the GIL that
 the message path needs, and a thread's priority cannot be lowered without risking that the
 GIL waits for it.
@@ -140,6 +141,11 @@ class BackgroundLM:
         self.undone = 0
         self.ready = False  # the learner has started and waits for samples
         self._update_times: deque[float] = deque()
+        # an update is due once `interval` samples are sent after the learner's last
+        # finished one (or its start): _mark is `sent` then, _due when the update fell due
+        self._interval = settings.interval
+        self._mark = 0
+        self._due: float | None = None
         self._process, self._to_learner, self._from_learner = (
             _PRESTARTED.pop() if _PRESTARTED else _start_learner())
         physical = hybrid.physical.to_arrays() if hybrid is not None else None
@@ -163,6 +169,8 @@ class BackgroundLM:
         row[n_in:] = y
         self._n += 1
         self.sent += 1
+        if self._due is None and self.sent - self._mark >= self._interval:
+            self._due = time.monotonic()
         if self._n == self._batch.shape[0]:
             self._send(self._message(self._batch.copy()))
             self._n = 0
@@ -181,6 +189,8 @@ class BackgroundLM:
             while self._from_learner.poll():
                 kind, theta, steps, *extra = self._from_learner.recv()
                 self.ready = True
+                if kind in ('weights', 'bounds', 'unchanged'):  # an update has finished
+                    self._mark, self._due = self.sent, None
                 if kind == 'weights':
                     self.model.set_params(theta)
                     self.updates += 1
@@ -209,8 +219,15 @@ class BackgroundLM:
             times.popleft()
         return len(times) / RATE_SPAN
 
+    def overdue(self) -> float | None:
+        """Seconds since an update fell due (``interval`` samples sent since the learner's
+        last finished update, or since it started) without one finishing; None if none is
+        due. A hybrid's update its check undoes counts as finished."""
+        return None if self._due is None else time.monotonic() - self._due
+
     def set_schedule(self, *, interval: int, steps: int) -> None:
         """Change the least samples between updates and the steps per update, from now on."""
+        self._interval = int(interval)
         self._send(('schedule', int(interval), int(steps)))
 
     @property
@@ -379,22 +396,22 @@ def _learner(inbox: Connection, outbox: Connection, model: FeedForwardNet,
                     X, Y = (array.copy() for array in trainer.samples())
                 else:
                     snap = residual.snapshot(residual.model.physical.theta)
+            # every pass answers, so that the caller knows the learner keeps up
             if residual is None:
-                message: tuple[Any, ...] | None = (
+                message: tuple[Any, ...] = (
                     ('weights', model.get_params(), trainer.steps)
-                    if trainer.step_on(X, Y) else None)
+                    if trainer.step_on(X, Y) else ('unchanged', None, trainer.steps))
             elif snap is None:  # too few validation samples yet
-                message = None
+                message = ('unchanged', None, trainer.steps)
             else:
                 changed = residual.step(snap)
                 message = ('weights' if changed else 'bounds',
                            model.get_params() if changed else None, trainer.steps,
                            (residual.model.bounds, residual.undone))
-            if message is not None:
-                try:
-                    outbox.send(message)
-                except (BrokenPipeError, OSError):
-                    break
+            try:
+                outbox.send(message)
+            except (BrokenPipeError, OSError):
+                break
             if last:
                 break
     try:

@@ -494,6 +494,7 @@ class IdentificationSession:
                 'error_finite': error_finite, 'validation_nmse': validation,
                 'learning': self.settings['learn'],
                 'update_rate': background.rate() if background is not None else None,
+                'update_overdue_s': background.overdue() if background is not None else None,
                 'contact_armed': armed, 'contact_thresholds': thresholds,
                 'contact_arm_nmse': self.settings['contact_arm_nmse']}
 

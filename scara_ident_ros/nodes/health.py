@@ -13,13 +13,15 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from enum import IntEnum
 
-__all__ = ['LATE_WARN', 'NMSE_WARN', 'RATE_ERROR', 'SKIPPED_WARN', 'STALE_AFTER', 'Deltas',
+__all__ = ['LATE_WARN', 'NMSE_WARN', 'RATE_ERROR', 'SKIPPED_WARN', 'STALE_AFTER',
+           'STALL_AFTER', 'Deltas',
            'Health', 'Level', 'LossCounter', 'identifier_health', 'recorder_health',
            'simulator_health']
 
 STALE_AFTER = 1.0  # s without a sample before the identifier warns
 SKIPPED_WARN = 0.1  # fraction of a period's samples skipped before the identifier warns
 NMSE_WARN = 1.0  # validation NMSE above which the model is worse than the mean
+STALL_AFTER = 10.0  # s a learner process's due update may wait before the identifier warns
 LATE_WARN = 0.01  # fraction of a period's samples late before the simulator warns
 RATE_ERROR = 0.5  # fraction of the nominal rate below which the simulator is in error
 LOST_GAP = 1.5  # stamp gap, in sample periods, from which samples count as lost
@@ -132,6 +134,7 @@ def identifier_health(*, period_s: float, since_sample_s: float | None, processe
                       recent_skipped: int, recent_lost: int, lag_s: float | None,
                       error_finite: bool, validation_nmse: float | None,
                       learning: bool, update_rate: float | None = None,
+                      update_overdue_s: float | None = None,
                       contact_armed: bool | None = None,
                       contact_thresholds: Sequence[float] | None = None,
                       contact_arm_nmse: float | None = None) -> Health:
@@ -149,6 +152,9 @@ def identifier_health(*, period_s: float, since_sample_s: float | None, processe
         Largest delay from a sample's stamp to its prediction in the period (s).
     update_rate : float or None
         Weight updates/s of a trainer beside the stream; None for one in the message path.
+    update_overdue_s : float or None
+        Seconds such a trainer's due update has waited (its samples came, no update
+        finished: the CPU is too busy for its lower priority); None if none is due.
     contact_armed : bool or None
         Whether contact detection is armed; None: no contact detection.
     contact_thresholds : sequence of float or None
@@ -177,6 +183,11 @@ def identifier_health(*, period_s: float, since_sample_s: float | None, processe
     if validation_nmse is not None and validation_nmse > NMSE_WARN:
         text = (f'validation NMSE {validation_nmse:.3g} > {NMSE_WARN:g}: the model predicts '
                 'worse than the mean (as it does in its first seconds of learning)')
+        problems.append((Level.WARN, text))
+    if learning and update_overdue_s is not None and update_overdue_s > STALL_AFTER:
+        text = (f'learning stalled: no update for {update_overdue_s:.0f} s while samples came '
+                '(the learner process runs below the stream in CPU priority and the CPU is '
+                'busy): predictions go on with the last weights')
         problems.append((Level.WARN, text))
     updates = f' ({update_rate:.1f} updates/s)' if learning and update_rate is not None else ''
     level, message = _level(problems, f"identifying at {rate:.0f} samples/s, learning "

@@ -98,6 +98,37 @@ def test_the_message_path_never_waits_for_a_stopped_learner(trainer: BackgroundL
     assert wait_until(lambda: trainer.updates >= 1, trainer)
 
 
+def test_it_says_how_long_a_due_update_has_waited(trainer: BackgroundLM) -> None:
+    """An update is due once ``interval`` samples have come since the last finished one;
+    a frozen learner leaves it waiting (the diagnostics warn), a running one catches up."""
+    assert trainer.overdue() is None  # nothing sent yet
+    X, Y = data(400)
+    pid = trainer._process.pid
+    os.kill(pid, signal.SIGSTOP)
+    try:
+        stream(trainer, X[:49], Y[:49])
+        assert trainer.overdue() is None  # one sample short of the interval (50)
+        stream(trainer, X[49:], Y[49:])
+        time.sleep(0.3)
+        trainer.poll()
+        waited = trainer.overdue()
+        assert waited is not None and waited >= 0.3
+    finally:
+        os.kill(pid, signal.SIGCONT)
+    assert wait_until(lambda: trainer.overdue() is None, trainer)
+
+
+def test_an_update_at_a_minimum_counts_as_finished(trainer: BackgroundLM) -> None:
+    """Samples the network already predicts exactly: no LM step lowers the error, the
+    weights stay, and the learner still answers, so no update stays due."""
+    X, _ = data(300)
+    Y = trainer.model.predict(X)
+    stream(trainer, X, Y)
+    assert wait_until(lambda: trainer.overdue() is None, trainer)
+    trainer.close()
+    assert trainer.updates == 0
+
+
 def test_weights_are_swapped_whole(trainer: BackgroundLM) -> None:
     """Under a stream of updates, each prediction is made with one complete set of weights
     the learner sent (or the first): never a mix of two."""

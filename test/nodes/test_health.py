@@ -52,6 +52,7 @@ def test_identifier_says_whether_contact_detection_is_armed() -> None:
     ({'recent_skipped': 200}, Level.WARN, '20% of the samples skipped (> 10%)'),
     ({'validation_nmse': 1.2}, Level.WARN, 'validation NMSE 1.2 > 1'),
     ({'recent_lost': 3, 'lost': 3}, Level.ERROR, '3 samples lost in the last 1.0 s'),
+    ({'update_overdue_s': 12.4}, Level.WARN, 'learning stalled: no update for 12 s'),
     ({'error_finite': False}, Level.ERROR, 'not finite'),
     ({'error_finite': False, 'validation_nmse': 2.0}, Level.ERROR, 'worse than the mean'),
 ])
@@ -148,3 +149,11 @@ def test_loss_counter_counts_no_loss_in_a_jittered_stream_and_finds_real_ones() 
             if k % 1000 != 500:  # 30 single samples missing
                 dropped.observe(int(stamp))
         assert dropped.lost in found  # never more than were lost
+
+
+@pytest.mark.parametrize('changes', [{'update_overdue_s': 9.0},
+                                     {'update_overdue_s': 60.0, 'learning': False},
+                                     {'update_overdue_s': None}])
+def test_a_due_update_warns_only_when_learning_and_long_overdue(
+        changes: dict[str, Any]) -> None:
+    assert identifier_health(**healthy_identifier(**changes)).level is Level.OK
