@@ -41,7 +41,8 @@ from typing import IO, Any
 
 import numpy as np
 
-from ros_env import ros_env  # benchmarks/: the script's own folder
+from processes import STOP_TIMEOUT, cpu_seconds, kill, stop  # benchmarks/: the script's own folder
+from ros_env import ros_env
 
 IDENTIFIER = 'scara_ident_ros.nodes.identifier'
 SCARA_SIM = 'scara_ident_ros.nodes.scara_sim'
@@ -58,8 +59,6 @@ TARGET_RATE = 5000.0  # samples/s processed, at least
 TARGET_P99_MS = 50.0
 START_TIMEOUT = 60.0  # s for discovery, the machine is shared
 STALL_TIMEOUT = 30.0  # s without an answer before a run is declared stuck
-STOP_TIMEOUT = 20.0  # s for a node to exit after SIGINT
-CLK_TCK = os.sysconf('SC_CLK_TCK')
 LAG = 21 // 2  # samples by which the default centred q'' (window 21) answers a sample
 
 
@@ -81,23 +80,6 @@ def start(module: str, params: list[str], log: IO[str],
         args += ['-p', param]
     return subprocess.Popen(args, stdin=subprocess.DEVNULL, stdout=log,
                             stderr=subprocess.STDOUT, env=node_env(), text=True)
-
-
-def stop(proc: subprocess.Popen[str]) -> int:
-    """SIGINT, then SIGKILL after :data:`STOP_TIMEOUT`; return the exit status."""
-    if proc.poll() is None:
-        proc.send_signal(signal.SIGINT)
-        try:
-            return proc.wait(STOP_TIMEOUT)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-    return proc.wait()
-
-
-def cpu_seconds(pid: int) -> float:
-    """utime + stime of process ``pid`` (all its threads), seconds."""
-    fields = Path(f'/proc/{pid}/stat').read_text().rsplit(')', 1)[1].split()
-    return (int(fields[11]) + int(fields[12])) / CLK_TCK  # fields 14 and 15 of stat(5)
 
 
 def tail(path: str | Path, lines: int = 20) -> str:
@@ -220,9 +202,7 @@ def throughput(samples: int, rounds: int, workdir: Path,
         spin_for(probe, 0.2)
         status = stop(node)
     finally:
-        if node.poll() is None:
-            node.kill()
-            node.wait()
+        kill(node)
         log.close()
         probe.close()
     info = json.loads(stats_file.read_text()) if stats_file.exists() else {}
@@ -285,10 +265,7 @@ def latency(seconds: float, warmup: float, workdir: Path) -> dict[str, Any]:
         raise RuntimeError(f'{exc}\nidentifier log:\n{tail(id_log.name)}\nsim log:\n'
                            f'{tail(sim_log.name)}') from None
     finally:
-        for proc in (sim, node):
-            if proc is not None and proc.poll() is None:
-                proc.kill()
-                proc.wait()
+        kill(sim, node)
         id_log.close()
         sim_log.close()
         probe.close()

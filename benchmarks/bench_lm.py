@@ -18,43 +18,23 @@ Usage::
 from __future__ import annotations
 
 import argparse
-import contextlib
 import os
 import statistics
 import sys
 import time
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from scara_ident_ros.blas_threads import single_blas_thread  # noqa: E402
 from scara_ident_ros.nn import FeedForwardNet, fit  # noqa: E402
 from scara_ident_ros.nn.batch import jacobian  # noqa: E402
 from scara_ident_ros.nn.network import predict_scaled  # noqa: E402
+from scara_samples import scara_samples  # noqa: E402  (benchmarks/: the script's own folder)
 
 ACTIVATIONS = ('mslog', 'slog', 'sigmoid')
-
-
-def scara_data(n: int, stride: int) -> tuple[np.ndarray, np.ndarray, str]:
-    """Return n samples x = [q, q', q''] (n, 12), y = effort (n, 4) and their origin."""
-    try:
-        from scara_ident_ros.dynamics.params import ScaraParams
-        from scara_ident_ros.sim import Simulator, make_trajectory
-        params = ScaraParams()
-        record = Simulator(params, make_trajectory('standard', params, seed=0)).simulate(
-            n * stride)
-        x = np.hstack([record.q, record.qd, record.qdd])[::stride]
-        y = np.asarray(record.effort, dtype=np.float64)[::stride]
-        return x, y, f'simulated SCARA (1 kHz, every {stride}th sample)'
-    except Exception as exc:  # the simulator is another team's: fall back, say so
-        print(f'(simulator unavailable: {exc!r}; using a smooth synthetic map)')
-        rng = np.random.default_rng(0)
-        x = rng.uniform(-1.0, 1.0, (n, 12))
-        y = np.stack([np.sin(x[:, 0] + x[:, 1]) * x[:, 8], np.cos(x[:, 1]) * x[:, 9],
-                      9.81 + x[:, 10], 0.1 * x[:, 11] + 0.05 * np.tanh(x[:, 7])], axis=1)
-        return x, y, 'synthetic smooth map'
 
 
 class _Stop(Exception):
@@ -103,15 +83,6 @@ class ScipyRun:
         self.elapsed = time.perf_counter() - self.start
 
 
-def blas_single_thread() -> contextlib.AbstractContextManager[Any]:
-    try:
-        from threadpoolctl import threadpool_limits
-    except ImportError:
-        print('(threadpoolctl not importable: BLAS threads left as they are)')
-        return contextlib.nullcontext()
-    return threadpool_limits(1)
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
     parser.add_argument('--samples', type=int, default=2000)
@@ -119,9 +90,9 @@ def main() -> None:
     parser.add_argument('--repeats', type=int, default=3, help='runs of ours (median)')
     parser.add_argument('--limit', type=float, default=600.0, help='scipy time limit, s')
     args = parser.parse_args()
-    x, y, origin = scara_data(args.samples, 10)
+    x, y, origin = scara_samples(args.samples, 10)
     rows = []
-    with blas_single_thread():
+    with single_blas_thread():
         load_before = os.getloadavg()[0]
         fit(FeedForwardNet(12, 40, 4), x, y, iterations=2)  # warm caches and allocators
         for activation in ACTIVATIONS:

@@ -25,7 +25,6 @@ Usage::
 from __future__ import annotations
 
 import argparse
-import contextlib
 import os
 import statistics
 import sys
@@ -39,30 +38,14 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from scara_ident_ros.blas_threads import single_blas_thread  # noqa: E402
 from scara_ident_ros.nn import FeedForwardNet  # noqa: E402
+from scara_samples import scara_samples  # noqa: E402  (benchmarks/: the script's own folder)
 
 ACTIVATIONS = ('mslog', 'slog', 'sigmoid')
 LEARNING_RATE = 0.01
 MOMENTUM = 0.9
 Step = Callable[[int], Any]
-
-
-def scara_stream(n: int) -> tuple[np.ndarray, np.ndarray, str]:
-    """Return n samples x = [q, q', q''] (n, 12), y = effort (n, 4) and their origin."""
-    try:
-        from scara_ident_ros.dynamics.params import ScaraParams
-        from scara_ident_ros.sim import Simulator, make_trajectory
-        params = ScaraParams()
-        record = Simulator(params, make_trajectory('standard', params, seed=0)).simulate(n)
-        x = np.hstack([record.q, record.qd, record.qdd])
-        return x, np.asarray(record.effort, dtype=np.float64), 'simulated SCARA, 1 kHz'
-    except Exception as exc:  # the simulator is another team's: fall back, say so
-        print(f'(simulator unavailable: {exc!r}; using a smooth synthetic map)')
-        rng = np.random.default_rng(0)
-        x = rng.uniform(-1.0, 1.0, (n, 12))
-        y = np.stack([np.sin(x[:, 0] + x[:, 1]) * x[:, 8], np.cos(x[:, 1]) * x[:, 9],
-                      9.81 + x[:, 10], 0.1 * x[:, 11] + 0.05 * np.tanh(x[:, 7])], axis=1)
-        return x, y, 'synthetic smooth map'
 
 
 def to_packed(v: np.ndarray, c: np.ndarray, w: np.ndarray, d: np.ndarray) -> np.ndarray:
@@ -147,15 +130,6 @@ def sklearn_sgd(xs: np.ndarray, ys: np.ndarray,
     return (lambda i: partial_fit(xs[i:i + 1], ys[i:i + 1])), params
 
 
-def blas_single_thread() -> contextlib.AbstractContextManager[Any]:
-    try:
-        from threadpoolctl import threadpool_limits
-    except ImportError:
-        print('(threadpoolctl not importable: BLAS threads left as they are)')
-        return contextlib.nullcontext()
-    return threadpool_limits(1)
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
     parser.add_argument('--samples', type=int, default=2000, help='samples per round')
@@ -164,7 +138,7 @@ def main() -> None:
     args = parser.parse_args()
     n = args.samples
 
-    x, y, origin = scara_stream(n)
+    x, y, origin = scara_samples(n)
     reference = FeedForwardNet(12, 40, 4)
     reference.set_scaling(x.min(axis=0), x.max(axis=0), y.min(axis=0), y.max(axis=0))
     xs, ys = reference.x_scaling.transform(x), reference.y_scaling.transform(y)
@@ -183,7 +157,7 @@ def main() -> None:
         print('(scikit-learn not importable: skipped)')
 
     rows = []
-    with blas_single_thread():
+    with single_blas_thread():
         load_before = os.getloadavg()[0]
         for activation in ACTIVATIONS:
             start_net = FeedForwardNet(12, 40, 4, activation, seed=0)  # = ours' initial one
@@ -223,7 +197,7 @@ def main() -> None:
     for activation, name, median, low, high, diff in rows:
         print(f'| {activation} | {name} | {median:.1f} | {low:.1f} – {high:.1f} | '
               f'{median / ours_time[activation]:.1f}× | {diff:.1e} |')
-    with blas_single_thread():
+    with single_blas_thread():
         latency_table(x, y, args.calls)
 
 

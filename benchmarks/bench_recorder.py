@@ -63,7 +63,8 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from ros_env import ros_env  # benchmarks/: the script's own folder
+from processes import cpu_seconds, kill  # benchmarks/: the script's own folder
+from ros_env import ros_env
 
 REPO = Path(__file__).resolve().parents[1]
 TOPIC = '/joint_states'
@@ -100,12 +101,6 @@ def _env(domain: int, repo: Path = REPO) -> dict[str, str]:
     env['ROS_DOMAIN_ID'] = str(domain)
     env['PYTHONPATH'] = str(repo) + os.pathsep + env.get('PYTHONPATH', '')
     return env
-
-
-def _cpu_seconds(pid: int) -> float:
-    with open(f'/proc/{pid}/stat') as stat:
-        fields = stat.read().rsplit(')', 1)[1].split()
-    return (int(fields[11]) + int(fields[12])) / os.sysconf('SC_CLK_TCK')
 
 
 # -- publisher process -----------------------------------------------------------------
@@ -182,13 +177,13 @@ def run_scenario(scenario: Scenario, workdir: Path, domain: int, repo: Path = RE
         publisher = subprocess.Popen(
             [sys.executable, __file__, '--publisher', str(scenario.count), str(scenario.rate),
              str(scenario.pub_depth)], env=env, stdout=subprocess.PIPE, text=True)
-        cpu_before = _cpu_seconds(recorder.pid)
+        cpu_before = cpu_seconds(recorder.pid)
         out, _ = publisher.communicate(timeout=START_TIMEOUT + scenario.count / 2000 + 60)
         if publisher.returncode != 0 or not out.startswith('published'):
             raise RuntimeError(f'publisher failed ({publisher.returncode}): {out}')
         published_rate = float(out.split()[1])
         time.sleep(0.5)
-        cpu = _cpu_seconds(recorder.pid) - cpu_before
+        cpu = cpu_seconds(recorder.pid) - cpu_before
         recorder.send_signal(signal.SIGINT)
         try:
             _, err = recorder.communicate(timeout=60)
@@ -199,10 +194,7 @@ def run_scenario(scenario: Scenario, workdir: Path, domain: int, repo: Path = RE
         if recorder.returncode != 0:
             raise RuntimeError(f'recorder failed ({recorder.returncode}): {err}')
     finally:
-        for process in (publisher, recorder):
-            if process is not None and process.poll() is None:
-                process.kill()
-                process.wait()
+        kill(publisher, recorder)
     received = json.loads(Path(f'{bag}.json').read_text())['received']
     indices = []
     times = []

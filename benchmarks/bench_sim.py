@@ -37,7 +37,8 @@ from typing import Any
 
 import numpy as np
 
-from ros_env import ros_env  # benchmarks/: the script's own folder
+from processes import cpu_seconds, kill, stop  # benchmarks/: the script's own folder
+from ros_env import ros_env
 
 NODES = ('scara_sim', 'robot_sim')
 JOINT_STATES_TOPIC = '/joint_states'
@@ -46,7 +47,6 @@ TARGET_RATE = 999.0  # messages/s, at least
 TARGET_P99_MS = 1.5  # inter-arrival p99, at most
 TARGET_CPU = 25.0  # % of one core for the simulator, at most
 START_TIMEOUT = 60.0  # s until the first message
-CLK_TCK = os.sysconf('SC_CLK_TCK')
 
 
 # -- the subscriber process ------------------------------------------------------------------
@@ -99,12 +99,6 @@ def subscribe(out: Path, capacity: int) -> None:
 
 # -- the driver ------------------------------------------------------------------------------
 
-def cpu_seconds(pid: int) -> float:
-    """utime + stime of process ``pid`` (all its threads), seconds."""
-    fields = Path(f'/proc/{pid}/stat').read_text().rsplit(')', 1)[1].split()
-    return (int(fields[11]) + int(fields[12])) / CLK_TCK  # fields 14 and 15 of stat(5)
-
-
 def wait_for_line(proc: subprocess.Popen[str], expected: str, timeout: float) -> None:
     """Read the child's stdout until the line ``expected``; raise after ``timeout`` s."""
     deadline = time.monotonic() + timeout
@@ -118,17 +112,6 @@ def wait_for_line(proc: subprocess.Popen[str], expected: str, timeout: float) ->
             if not line and proc.poll() is not None:
                 break
     raise RuntimeError(f'subscriber did not print {expected!r} within {timeout} s')
-
-
-def stop(proc: subprocess.Popen[str], timeout: float = 20.0) -> int:
-    """SIGINT, then SIGKILL after ``timeout`` s; return the exit status."""
-    if proc.poll() is None:
-        proc.send_signal(signal.SIGINT)
-        try:
-            return proc.wait(timeout)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-    return proc.wait()
 
 
 def measure(seconds: float, warmup: float, workdir: Path, node: str = 'scara_sim',
@@ -163,10 +146,7 @@ def measure(seconds: float, warmup: float, workdir: Path, node: str = 'scara_sim
         subscriber_status = stop(subscriber)
         sim_status = stop(sim)
     finally:
-        for proc in (subscriber, sim):
-            if proc is not None and proc.poll() is None:
-                proc.kill()
-                proc.wait()
+        kill(subscriber, sim)
     if subscriber_status != 0 or sim_status != 0:
         raise RuntimeError(f'exit status subscriber {subscriber_status}, sim {sim_status}; '
                            f'sim log:\n{sim_log.read_text()}')

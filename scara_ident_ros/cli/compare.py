@@ -34,6 +34,18 @@ QUICK: dict[str, Any] = {
     'search_seconds': 2.0, 'iterations': 5, 'samples': 200, 'window': 1000,
     'curve_seconds': 2.0,
 }
+#: Help of the options ``DEFAULTS`` sets, ``{}`` their default.
+_HELP = {
+    'seeds': 'network seeds 0..N-1 per method (default {})',
+    'train_seconds': 'training run used offline, s (default {:g})',
+    'test_seconds': 'held-out run, s (default {:g})',
+    'online_seconds': 'online stream, s at 1 kHz (default {:g})',
+    'search_seconds': 'start of the stream used by the hyperparameter search, s (default {:g})',
+    'iterations': 'LM iterations (default {}, as the paper)',
+    'samples': 'training samples for LM (default {})',
+    'window': 'samples of the longer online error window (default {})',
+    'curve_seconds': 'seconds of stream of the learning curves (default {:g}; 0: no curves)',
+}
 #: How long ``scara-ident compare`` takes with the defaults, roughly (figures with their
 #: conditions: docs/results.md, "The paper's Tables 2 and 3").
 DEFAULT_WALL_TIME = ('a few minutes without the learning curves (--curve-seconds 0); the '
@@ -45,31 +57,12 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     parser = subparsers.add_parser(
         'compare', help="reproduce the paper's Tables 2 and 3 on simulated data",
         description=comparison.__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    d = DEFAULTS
-    parser.add_argument('--seeds', type=int, default=None,
-                        help=f'network seeds 0..N-1 per method (default {d["seeds"]})')
-    parser.add_argument('--train-seconds', type=float, default=None,
-                        help=f'training run used offline, s (default {d["train_seconds"]:g})')
-    parser.add_argument('--test-seconds', type=float, default=None,
-                        help=f'held-out run, s (default {d["test_seconds"]:g})')
-    parser.add_argument('--online-seconds', type=float, default=None,
-                        help=f'online stream, s at 1 kHz (default {d["online_seconds"]:g})')
-    parser.add_argument('--search-seconds', type=float, default=None,
-                        help='start of the stream used by the hyperparameter search, s '
-                             f'(default {d["search_seconds"]:g})')
-    parser.add_argument('--iterations', type=int, default=None,
-                        help=f'LM iterations (default {d["iterations"]}, as the paper)')
-    parser.add_argument('--samples', type=int, default=None,
-                        help=f'training samples for LM (default {d["samples"]})')
+    for key, default in DEFAULTS.items():  # the type of each option is its default's
+        parser.add_argument(f'--{key.replace("_", "-")}', type=type(default), default=None,
+                            help=_HELP[key].format(default))
     parser.add_argument('--goal', type=float, default=DEFAULT_GOAL,
                         help='LM goal: training MSE of outputs scaled to [-1, 1] '
                              f'(default {DEFAULT_GOAL:g})')
-    parser.add_argument('--window', type=int, default=None,
-                        help='samples of the longer online error window '
-                             f'(default {d["window"]})')
-    parser.add_argument('--curve-seconds', type=float, default=None,
-                        help='seconds of stream of the learning curves (default '
-                             f'{d["curve_seconds"]:g}; 0: no curves)')
     parser.add_argument('--acceleration', choices=('true', 'estimated'), default='true',
                         help="q'' of the offline data: the simulator's or estimated from q' "
                              '(default true)')
