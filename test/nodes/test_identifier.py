@@ -828,9 +828,9 @@ def test_subscribes_anyway_after_wait_timeout(tmp_path: Path,
 def test_a_slow_trainer_does_not_delay_the_predictions(tmp_path: Path,
                                                        listener: rostest.Listener) -> None:
     """A deliberately slow lm trainer (100 hidden units, 5000 samples, an update every 10
-    samples: each step takes seconds) learns beside the stream: a stream paced at 1 kHz is
-    still predicted sample by sample, none later than a fraction of a second (with
-    lm_background false the same stream is held for seconds at each step)."""
+    samples: an update takes up to a second) learns beside the stream: a stream paced at
+    1 kHz is still predicted sample by sample, none held for the updates (with
+    lm_background false the same stream is held for up to a second at each of them)."""
     n = 3000
     record = simulated(n)
     msgs = [sample_msg(record, i, T0_NS + i * PERIOD_NS) for i in range(n)]
@@ -850,9 +850,10 @@ def test_a_slow_trainer_does_not_delay_the_predictions(tmp_path: Path,
     info = stats(tmp_path)
     assert info['predicted'] == n and info['learned'] == n
     assert info['wall_clock_stamps'] is False  # T0_NS is no wall time: lag on its own clock
-    # the prediction waits LAG samples (10 ms) for its q''; a step in the message path
-    # would hold the stream for seconds
-    assert info['max_lag_ms'] < 500.0, info
+    # the prediction waits LAG samples (10 ms) for its q''; in the message path the 300
+    # updates (up to 1 s each on a quiet machine) would hold the stream for minutes. The
+    # bound leaves room for a loaded CI machine (744 ms seen at load 10 on 2 cores).
+    assert info['max_lag_ms'] < 3000.0, info
     assert info['updates'] >= 1, info  # the learner did learn, slowly
 
 
