@@ -18,42 +18,16 @@ from dataclasses import dataclass
 import numpy as np
 
 from scara_ident_ros.dynamics import ScaraParams
+from scara_ident_ros.dynamics.joint_limits import JointLimits
 from scara_ident_ros.excitation.chunks import make_chunk
-from scara_ident_ros.excitation.motion_limits import MotionLimits
+from scara_ident_ros.excitation.loop_settings import LoopSettings
 from scara_ident_ros.excitation.plan import ExcitationPlan
 from scara_ident_ros.sim import SimConfig, SimRecord, Simulator
 from scara_ident_ros.sim.trajectory_follower import TrajectoryFollower
 
-__all__ = ['LoopSettings', 'SimulatedLoop', 'simulate_loop']
+__all__ = ['SimulatedLoop', 'simulate_loop']
 
 NS_PER_S = 1_000_000_000
-
-
-@dataclass(frozen=True)
-class LoopSettings:
-    """The ``excitation`` node's parameters that shape the motion; defaults the node's.
-
-    Attributes
-    ----------
-    position_margin : float
-        Fraction of each joint's range kept clear at both ends.
-    velocity_scale, acceleration_scale : float
-        Fractions of the velocity and acceleration limits the motion keeps to.
-    seed : int
-        Seed of the sequence excitation.
-    point_period, chunk_period, horizon, start_delay : float
-        Time between two points of a chunk, between two chunks, from a chunk's send time
-        to its stop, and from the first chunk to the plan's origin (s).
-    """
-
-    position_margin: float = 0.1
-    velocity_scale: float = 0.5
-    acceleration_scale: float = 0.5
-    seed: int = 0
-    point_period: float = 0.01
-    chunk_period: float = 0.25
-    horizon: float = 1.0
-    start_delay: float = 0.5
 
 
 @dataclass(frozen=True)
@@ -82,7 +56,7 @@ class SimulatedLoop:
         return np.asarray((self.record.stamp_ns - self.origin_ns) / NS_PER_S, dtype=float)
 
 
-def simulate_loop(params: ScaraParams, limits: MotionLimits, *, seconds: float,
+def simulate_loop(params: ScaraParams, limits: JointLimits, *, seconds: float,
                   settings: LoopSettings | None = None,
                   config: SimConfig | None = None) -> SimulatedLoop:
     """Simulate ``seconds`` of the loop on the SCARA ``params``.
@@ -91,7 +65,7 @@ def simulate_loop(params: ScaraParams, limits: MotionLimits, *, seconds: float,
     ----------
     params : ScaraParams
         The simulated arm (its joints in the order of ``limits``).
-    limits : MotionLimits
+    limits : JointLimits
         The arm's limits as the node loads them (from its URDF), without margins.
     seconds : float
         Length of the stream from the first chunk (s); ``round(seconds / dt)`` samples.

@@ -65,6 +65,19 @@ def test_bad_options_say_what_is_wrong(options: dict[str, Any], error: type[Exce
         load_joint_limits(**options)
 
 
+@pytest.mark.parametrize(('names', 'change', 'message'), [
+    (['a', 'a'], {}, 'parameters: joint names must be distinct'),
+    (['a', 'b'], {'velocity_max': [2.0, float('nan')]}, 'velocity_max must be 2 finite'),
+    (['a', 'b'], {'position_max': [1.0, 0.0]}, 'position_min must be below position_max'),
+    (['a', 'b'], {'effort_max': [20.0, 0.0]}, 'effort limits must be > 0'),
+])
+def test_unusable_limits_are_refused_in_one_line(names: list[str], change: dict[str, Any],
+                                                 message: str) -> None:
+    with pytest.raises(LimitsError, match=message) as error:
+        load_joint_limits(joint_names=names, explicit={**TWO, **change})
+    assert '\n' not in str(error.value)
+
+
 def test_select_orders_and_says_what_is_missing() -> None:
     limits = JointLimits.of(['a', 'b'], TWO, source='test')
     assert limits.missing(['b', 'c']) == ['c']
