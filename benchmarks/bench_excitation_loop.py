@@ -60,7 +60,7 @@ from typing import Any
 import numpy as np
 
 from ros_env import ros_env  # benchmarks/: the script's own folder
-from scara_ident_ros.excitation.loop_settings import LoopSettings
+from scara_ident_ros.excitation import LoopSettings
 
 ROOT = Path(__file__).resolve().parents[1]
 URDF = ROOT / 'urdf' / 'scara.urdf'

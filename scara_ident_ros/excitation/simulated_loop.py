@@ -20,14 +20,44 @@ import numpy as np
 from scara_ident_ros.dynamics import ScaraParams
 from scara_ident_ros.dynamics.joint_limits import JointLimits
 from scara_ident_ros.excitation.chunks import make_chunk
-from scara_ident_ros.excitation.loop_settings import LoopSettings
 from scara_ident_ros.excitation.plan import ExcitationPlan
 from scara_ident_ros.sim import SimConfig, SimRecord, Simulator
 from scara_ident_ros.sim.trajectory_follower import TrajectoryFollower
 
-__all__ = ['SimulatedLoop', 'simulate_loop']
+__all__ = ['LoopSettings', 'SimulatedLoop', 'simulate_loop']
 
 NS_PER_S = 1_000_000_000
+
+
+@dataclass(frozen=True)
+class LoopSettings:
+    """The ``excitation`` node's parameters that shape the motion, with their defaults.
+
+    The one place the defaults are written: the node declares its parameters with them, the
+    dry run's options and the loop here default to them (``config/excitation.yaml`` repeats
+    them; the tests check it).
+
+    Attributes
+    ----------
+    position_margin : float
+        Fraction of each joint's range kept clear at both ends.
+    velocity_scale, acceleration_scale : float
+        Fractions of the velocity and acceleration limits the motion keeps to.
+    seed : int
+        Seed of the sequence excitation.
+    point_period, chunk_period, horizon, start_delay : float
+        Time between two points of a chunk, between two chunks, from a chunk's send time
+        to its stop, and from the first chunk to the plan's origin (s).
+    """
+
+    position_margin: float = 0.1
+    velocity_scale: float = 0.5
+    acceleration_scale: float = 0.5
+    seed: int = 0
+    point_period: float = 0.01
+    chunk_period: float = 0.25
+    horizon: float = 1.0
+    start_delay: float = 0.5
 
 
 @dataclass(frozen=True)
