@@ -6,9 +6,13 @@ or ``robot_description``, with acceleration limits from ``acceleration_max`` or 
 YAML), from five explicit lists with their joint names, or from the robot YAML
 (``config/scara.yaml`` unless another is given). :meth:`JointLimits.select` orders them for
 the identifier's joints; :meth:`JointLimits.scaling` gives the network's input/output ranges
-(`identification.sample_check.joint_bounds` the values a sample may have). The excitation
-keeps to :meth:`JointLimits.with_margins` (part of each range kept clear, fractions of the
-velocity and acceleration limits) and checks its samples with :meth:`JointLimits.violations`.
+(`identification.sample_check.joint_bounds` the values a sample may have).
+
+An excitation on a real arm takes the same limits with :func:`load_motion_limits` (a URDF
+required, every error in one line), keeps to :meth:`JointLimits.with_margins`
+(``position_margin`` of each range clear at both ends, ``velocity_scale`` and
+``acceleration_scale`` of the limits) and checks its samples with
+:meth:`JointLimits.violations`.
 """
 from __future__ import annotations
 
@@ -20,12 +24,13 @@ import numpy as np
 import numpy.typing as npt
 from numpy.typing import NDArray
 
-from scara_ident_ros.dynamics import ScaraParams
+from scara_ident_ros.dynamics import ParamError, ScaraParams
 from scara_ident_ros.dynamics.urdf_limits import UrdfError, UrdfLimits, parse_urdf, read_urdf
 from scara_ident_ros.errors import ScaraIdentError
 from scara_ident_ros.resources import config_path
 
-__all__ = ['LIMIT_NAMES', 'TOLERANCE', 'JointLimits', 'LimitsError', 'load_joint_limits']
+__all__ = ['LIMIT_NAMES', 'TOLERANCE', 'JointLimits', 'LimitsError', 'load_joint_limits',
+           'load_motion_limits']
 
 #: The limits of each joint, in the order of :class:`JointLimits`' arrays.
 LIMIT_NAMES = ('position_min', 'position_max', 'velocity_max', 'acceleration_max',
@@ -266,3 +271,38 @@ def _urdf_limits(joint_names: Sequence[str], robot_yaml: str | Path, urdf_file: 
         robot = ScaraParams.from_yaml(robot_yaml)
         acceleration = dict(zip(robot.joint_names, robot.array('acceleration_max')))
     return JointLimits.from_urdf(urdf, acceleration, required=joint_names)
+
+
+def load_motion_limits(*, urdf_file: str = '', robot_description: str = '',
+                       joint_names: Sequence[str] = (), robot_config: str = '',
+                       acceleration_max: Sequence[float] = ()) -> JointLimits:
+    """A URDF's limits of ``joint_names`` (all its limited joints when empty), with
+    acceleration limits as the identifier takes them.
+
+    The arguments are the identifier's parameters of the same names
+    (:func:`load_joint_limits`); exactly one URDF.
+
+    Raises
+    ------
+    LimitsError
+        With one line saying what is missing: no URDF, a URDF that does not parse or has no
+        limits for a joint (continuous, or no ``<limit>``), no acceleration limit.
+    """
+    if not urdf_file and not robot_description:
+        raise LimitsError('no URDF: give urdf_file or robot_description (the arm\'s limits '
+                          'come from its URDF)')
+    try:
+        limits = load_joint_limits(
+            joint_names=list(joint_names), robot_config=robot_config, urdf_file=urdf_file,
+            robot_description=robot_description,
+            explicit={'acceleration_max': list(acceleration_max)})
+        if joint_names:
+            limits = limits.select(list(joint_names))
+    except (UrdfError, LimitsError, ParamError, OSError) as exc:
+        raise LimitsError(' '.join(str(exc).split())) from None
+    if not limits.names:
+        raise LimitsError(f'{limits.source}: no joint with position, velocity and '
+                          'acceleration limits (URDF has no acceleration limits: give '
+                          'joint_names and acceleration_max, or a robot_config naming the '
+                          'joints)')
+    return limits

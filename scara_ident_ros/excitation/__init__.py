@@ -11,9 +11,9 @@ simulated arm in one process, for benchmarks.
 """
 from __future__ import annotations
 
+from scara_ident_ros.dynamics.joint_limits import load_motion_limits
 from scara_ident_ros.excitation.chunks import Chunk, make_chunk
 from scara_ident_ros.excitation.joint_sequence import JointSequence
-from scara_ident_ros.excitation.motion_limits import load_motion_limits
 from scara_ident_ros.excitation.plan import ExcitationPlan
 from scara_ident_ros.excitation.simulated_loop import LoopSettings
 from scara_ident_ros.excitation.stopping import Stop, plan_stop
