@@ -60,12 +60,11 @@ from typing import Any
 import numpy as np
 
 from ros_env import ros_env  # benchmarks/: the script's own folder
+from scara_ident_ros.excitation import LoopSettings
 
 ROOT = Path(__file__).resolve().parents[1]
 URDF = ROOT / 'urdf' / 'scara.urdf'
-CHUNK_PERIOD = 0.25  # s, the node's default
-HORIZON = 1.0  # s, the node's default
-STEP = 0.01  # s, the node's point period
+NODE = LoopSettings()  # the excitation node's defaults
 START_TIMEOUT = 60.0  # s, the machine is shared
 S = 1_000_000_000  # ns
 
@@ -81,15 +80,16 @@ def plan_check(seconds: float, position_margin: float, velocity_scale: float,
     start = np.array([0.5, -0.5, 0.05, 2.0])
     plan = ExcitationPlan(margined, start, seed=0)
     end = plan.approach_duration + seconds
-    chunks = [make_chunk(plan, t - STEP, min(t + HORIZON, end), STEP, margined)
-              for t in np.arange(0.0, end, CHUNK_PERIOD)]
+    step = NODE.point_period
+    chunks = [make_chunk(plan, t - step, min(t + NODE.horizon, end), step, margined)
+              for t in np.arange(0.0, end, NODE.chunk_period)]
     q = np.vstack([c.q for c in chunks])
     qd = np.vstack([c.qd for c in chunks])
     qdd = np.vstack([c.qdd for c in chunks])
     broken = margined.violations(q, qd, qdd, position_hull=start)
     span = limits.position_max - limits.position_min
     clearance = np.minimum(q - limits.position_min, limits.position_max - q).min(axis=0) / span
-    stops = [plan_stop(plan, t, margined, STEP) for t in np.arange(0.0, end, 0.1)]
+    stops = [plan_stop(plan, t, margined, step) for t in np.arange(0.0, end, 0.1)]
     stop_peak = np.zeros(limits.n_joints)
     for stop in stops:
         _, _, a = stop.evaluate(np.linspace(stop.start, stop.end, 201))
@@ -324,7 +324,7 @@ def in_process_job(job: tuple[int, float, Setting | None, tuple[float, float]]
     from scara_ident_ros.blas_threads import single_blas_thread
     from scara_ident_ros.dynamics import ScaraParams
     from scara_ident_ros.excitation import load_motion_limits
-    from scara_ident_ros.excitation.simulated_loop import LoopSettings, simulate_loop
+    from scara_ident_ros.excitation.simulated_loop import simulate_loop
     from scara_ident_ros.paper.datasets import dataset_from_record, simulate_record
     from scara_ident_ros.paper.learning_curves import (CHECKPOINTS_S, held_out_set,
                                                              network_curve)
@@ -458,9 +458,9 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
     parser.add_argument('--seconds', type=float, default=10.0,
                         help='seconds of sequence after the approach (default 10)')
-    parser.add_argument('--position-margin', type=float, default=0.1)
-    parser.add_argument('--velocity-scale', type=float, default=0.5)
-    parser.add_argument('--acceleration-scale', type=float, default=0.5)
+    parser.add_argument('--position-margin', type=float, default=NODE.position_margin)
+    parser.add_argument('--velocity-scale', type=float, default=NODE.velocity_scale)
+    parser.add_argument('--acceleration-scale', type=float, default=NODE.acceleration_scale)
     parser.add_argument('--identify', action='store_true',
                         help='part c: identifier on the loop and on the sequence, scored')
     parser.add_argument('--logs', type=Path, default=None, help='keep the node logs here')

@@ -20,7 +20,7 @@ import numpy as np
 from scara_ident_ros.cli import CliError
 
 if TYPE_CHECKING:
-    from scara_ident_ros.excitation import MotionLimits
+    from scara_ident_ros.dynamics.joint_limits import JointLimits
 
 __all__ = ['add_parser', 'run']
 
@@ -30,7 +30,10 @@ def _floats(text: str) -> list[float]:
 
 
 def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
-    """Register ``scara-ident excitation``."""
+    """Register ``scara-ident excitation``, with the node's defaults."""
+    from scara_ident_ros.excitation import LoopSettings
+
+    node = LoopSettings()
     parser = subparsers.add_parser(
         'excitation', help="plan a real arm's excitation and check it (--dry-run)",
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -48,15 +51,16 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
                         help='comma-separated start positions (default: mid-range)')
     parser.add_argument('--seconds', type=float, default=30.0,
                         help='seconds of excitation after the approach (default 30)')
-    parser.add_argument('--seed', type=int, default=0, help='seed of the sequence')
-    parser.add_argument('--position-margin', type=float, default=0.1,
-                        help='fraction of each range kept clear at both ends (default 0.1)')
-    parser.add_argument('--velocity-scale', type=float, default=0.5,
-                        help='fraction of the velocity limits (default 0.5)')
-    parser.add_argument('--acceleration-scale', type=float, default=0.5,
-                        help='fraction of the acceleration limits (default 0.5)')
-    parser.add_argument('--point-period', type=float, default=0.01,
-                        help='seconds between two samples (default 0.01)')
+    parser.add_argument('--seed', type=int, default=node.seed, help='seed of the sequence')
+    parser.add_argument('--position-margin', type=float, default=node.position_margin,
+                        help='fraction of each range kept clear at both ends (default '
+                             '%(default)s)')
+    parser.add_argument('--velocity-scale', type=float, default=node.velocity_scale,
+                        help='fraction of the velocity limits (default %(default)s)')
+    parser.add_argument('--acceleration-scale', type=float, default=node.acceleration_scale,
+                        help='fraction of the acceleration limits (default %(default)s)')
+    parser.add_argument('--point-period', type=float, default=node.point_period,
+                        help='seconds between two samples (default %(default)s)')
     parser.add_argument('--output', type=Path, default=Path('excitation'),
                         help='directory for excitation.csv and excitation.png')
     parser.set_defaults(func=run)
@@ -64,8 +68,8 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
 
 def run(args: argparse.Namespace) -> int:
     """Plan, check, write and summarise."""
-    from scara_ident_ros.excitation import (ExcitationPlan, MotionLimitsError,
-                                            load_motion_limits, make_chunk)
+    from scara_ident_ros.dynamics.joint_limits import LimitsError
+    from scara_ident_ros.excitation import ExcitationPlan, load_motion_limits, make_chunk
 
     if not args.seconds > 0 or not 0.0 < args.point_period <= 0.1:
         raise CliError('--seconds must be > 0 and --point-period in (0, 0.1]')
@@ -76,7 +80,7 @@ def run(args: argparse.Namespace) -> int:
                                     acceleration_max=args.acceleration_max)
         margined = limits.with_margins(args.position_margin, args.velocity_scale,
                                        args.acceleration_scale)
-    except MotionLimitsError as exc:
+    except LimitsError as exc:
         raise CliError(str(exc)) from None
     start = limits.centre if args.start is None else np.array(args.start, dtype=float)
     if start.shape != (limits.n_joints,):
@@ -113,8 +117,8 @@ def _fractions(values: np.ndarray, limit: np.ndarray) -> str:
     return ', '.join(f'{x:.2f}' for x in np.abs(values).max(axis=0) / limit)
 
 
-def _plot(path: Path, t: np.ndarray, motion: tuple[np.ndarray, ...], limits: MotionLimits,
-          margined: MotionLimits, marks: tuple[float, float]) -> None:
+def _plot(path: Path, t: np.ndarray, motion: tuple[np.ndarray, ...], limits: JointLimits,
+          margined: JointLimits, marks: tuple[float, float]) -> None:
     """q, q', q'' of each joint against time, with the limits and their margins."""
     import matplotlib
     matplotlib.use('Agg', force=True)

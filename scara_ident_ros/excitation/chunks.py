@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from scara_ident_ros.excitation.motion_limits import MotionLimits
+from scara_ident_ros.dynamics.joint_limits import JointLimits
 from scara_ident_ros.excitation.plan import ExcitationPlan
 from scara_ident_ros.excitation.stopping import plan_stop
 
@@ -54,7 +54,7 @@ class Chunk:
 
 
 def make_chunk(plan: ExcitationPlan, first: float, stop_time: float, step: float,
-               limits: MotionLimits) -> Chunk:
+               limits: JointLimits) -> Chunk:
     """The plan from ``first`` to ``stop_time``, then a stop to rest, every ``step`` s.
 
     ``first`` is rounded down and ``stop_time`` up to the grid of ``step`` (s); the stop

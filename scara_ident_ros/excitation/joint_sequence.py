@@ -7,7 +7,7 @@ quintic smoothstep s(τ) = 10τ³ − 15τ⁴ + 6τ⁵, a blend redrawn if it wo
 It also bounds the efforts, through the robot's dynamics model (the SCARA's, or Pinocchio's
 from a URDF with trusted inertias). On a real arm the excitation trusts only the URDF's
 limits: :class:`JointSequence` is the same construction on
-:class:`~scara_ident_ros.excitation.motion_limits.MotionLimits`, without the effort bound.
+:class:`~scara_ident_ros.dynamics.joint_limits.JointLimits`, without the effort bound.
 With efforts that never bind, it gives the simulator's sequence to rounding
 (``test/excitation/test_joint_sequence.py`` checks it on the SCARA).
 """
@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from scara_ident_ros.excitation.motion_limits import MotionLimits
+from scara_ident_ros.dynamics.joint_limits import JointLimits
 from scara_ident_ros.sim.sequence import SEQUENCE_EXCITATION, SEQUENCE_LIMITS, smoothstep
 from scara_ident_ros.sim.trajectory import FourierTrajectory
 
@@ -34,7 +34,7 @@ class JointSequence:
 
     Parameters
     ----------
-    limits : MotionLimits
+    limits : JointLimits
         The limits the motion keeps to (with the safety margins already taken off).
     seed : int
         Seed (>= 0); equal seeds and limits give equal sequences.
@@ -50,7 +50,7 @@ class JointSequence:
         Candidates drawn for one excitation before giving up with a ValueError.
     """
 
-    def __init__(self, limits: MotionLimits, *, seed: int,
+    def __init__(self, limits: JointLimits, *, seed: int,
                  excitation: Mapping[str, Any] | None = None,
                  limit_fractions: Mapping[str, float] | None = None,
                  max_attempts: int = 50) -> None:

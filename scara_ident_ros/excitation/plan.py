@@ -21,10 +21,9 @@ import numpy as np
 import numpy.typing as npt
 from numpy.typing import NDArray
 
+from scara_ident_ros.dynamics.joint_limits import JointLimits, LimitsError
 from scara_ident_ros.excitation.joint_sequence import JointSequence, Motion
-from scara_ident_ros.sim.sequence import smoothstep
-from scara_ident_ros.excitation.motion_limits import MotionLimits, MotionLimitsError
-from scara_ident_ros.sim.sequence import SEQUENCE_LIMITS
+from scara_ident_ros.sim.sequence import SEQUENCE_LIMITS, smoothstep
 
 __all__ = ['ExcitationPlan']
 
@@ -39,7 +38,7 @@ class ExcitationPlan:
 
     Parameters
     ----------
-    limits : MotionLimits
+    limits : JointLimits
         The limits with the safety margins taken off (what the motion keeps to).
     start : ndarray of shape (n,)
         The arm's position at rest when the plan starts (rad or m), inside the robot's
@@ -55,11 +54,11 @@ class ExcitationPlan:
         T_a (s).
     """
 
-    def __init__(self, limits: MotionLimits, start: NDArray[np.float64], *,
+    def __init__(self, limits: JointLimits, start: NDArray[np.float64], *,
                  seed: int) -> None:
         start = np.array(start, dtype=float)
         if start.shape != (limits.n_joints,) or not np.all(np.isfinite(start)):
-            raise MotionLimitsError(f'start must be {limits.n_joints} finite positions, '
+            raise LimitsError(f'start must be {limits.n_joints} finite positions, '
                                     f'got {start!r}')
         self.limits = limits
         self.start = start
@@ -103,5 +102,5 @@ class ExcitationPlan:
                     and np.all(np.abs(qdd) <= acceleration_max)):
                 return duration
             duration *= _APPROACH_GROWTH
-        raise MotionLimitsError(f'no approach of up to {_APPROACH_MAX:g} s from {self.start} '
+        raise LimitsError(f'no approach of up to {_APPROACH_MAX:g} s from {self.start} '
                                 'keeps to the limits')

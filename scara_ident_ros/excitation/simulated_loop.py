@@ -18,8 +18,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from scara_ident_ros.dynamics import ScaraParams
+from scara_ident_ros.dynamics.joint_limits import JointLimits
 from scara_ident_ros.excitation.chunks import make_chunk
-from scara_ident_ros.excitation.motion_limits import MotionLimits
 from scara_ident_ros.excitation.plan import ExcitationPlan
 from scara_ident_ros.sim import SimConfig, SimRecord, Simulator
 from scara_ident_ros.sim.trajectory_follower import TrajectoryFollower
@@ -31,7 +31,11 @@ NS_PER_S = 1_000_000_000
 
 @dataclass(frozen=True)
 class LoopSettings:
-    """The ``excitation`` node's parameters that shape the motion; defaults the node's.
+    """The ``excitation`` node's parameters that shape the motion, with their defaults.
+
+    The one place the defaults are written: the node declares its parameters with them, the
+    dry run's options and the loop here default to them (``config/excitation.yaml`` repeats
+    them; the tests check it).
 
     Attributes
     ----------
@@ -82,7 +86,7 @@ class SimulatedLoop:
         return np.asarray((self.record.stamp_ns - self.origin_ns) / NS_PER_S, dtype=float)
 
 
-def simulate_loop(params: ScaraParams, limits: MotionLimits, *, seconds: float,
+def simulate_loop(params: ScaraParams, limits: JointLimits, *, seconds: float,
                   settings: LoopSettings | None = None,
                   config: SimConfig | None = None) -> SimulatedLoop:
     """Simulate ``seconds`` of the loop on the SCARA ``params``.
@@ -91,7 +95,7 @@ def simulate_loop(params: ScaraParams, limits: MotionLimits, *, seconds: float,
     ----------
     params : ScaraParams
         The simulated arm (its joints in the order of ``limits``).
-    limits : MotionLimits
+    limits : JointLimits
         The arm's limits as the node loads them (from its URDF), without margins.
     seconds : float
         Length of the stream from the first chunk (s); ``round(seconds / dt)`` samples.

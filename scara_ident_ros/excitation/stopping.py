@@ -21,8 +21,8 @@ import math
 import numpy as np
 import numpy.typing as npt
 
+from scara_ident_ros.dynamics.joint_limits import JointLimits, LimitsError
 from scara_ident_ros.excitation.joint_sequence import Motion
-from scara_ident_ros.excitation.motion_limits import MotionLimits, MotionLimitsError
 from scara_ident_ros.excitation.plan import ExcitationPlan
 
 __all__ = ['Stop', 'plan_stop']
@@ -70,7 +70,7 @@ class Stop:
         return q, qd * rate, qdd * rate ** 2 + qd * rate_change
 
 
-def plan_stop(plan: ExcitationPlan, start: float, limits: MotionLimits,
+def plan_stop(plan: ExcitationPlan, start: float, limits: JointLimits,
               step: float) -> Stop:
     """The shortest stop from ``start`` keeping to the acceleration limits of ``limits``.
 
@@ -82,7 +82,7 @@ def plan_stop(plan: ExcitationPlan, start: float, limits: MotionLimits,
 
     Raises
     ------
-    MotionLimitsError
+    LimitsError
         If no stop of up to two minutes keeps to the acceleration limits (the plan itself
         would have to be outside them).
     """
@@ -96,5 +96,5 @@ def plan_stop(plan: ExcitationPlan, start: float, limits: MotionLimits,
         _, _, qdd = stop.evaluate(times)
         if np.all(np.abs(qdd) <= limits.acceleration_max):
             return stop
-    raise MotionLimitsError(f'no stop from plan time {start:g} s of up to {_STOP_MAX:g} s '
+    raise LimitsError(f'no stop from plan time {start:g} s of up to {_STOP_MAX:g} s '
                             'keeps to the acceleration limits')

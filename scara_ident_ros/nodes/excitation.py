@@ -38,9 +38,10 @@ from sensor_msgs.msg import JointState
 from std_srvs.srv import Trigger
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
+from scara_ident_ros.dynamics.joint_limits import LimitsError
 from scara_ident_ros.errors import ConfigError
-from scara_ident_ros.excitation import (Chunk, ExcitationPlan, MotionLimitsError,
-                                        load_motion_limits, make_chunk)
+from scara_ident_ros.excitation import (Chunk, ExcitationPlan, LoopSettings, load_motion_limits,
+                                        make_chunk)
 from scara_ident_ros.nodes.messages import NS_PER_S, ns_to_stamp
 from scara_ident_ros.nodes.parameters import ParamSpec, declare_parameters
 from scara_ident_ros.nodes.runtime import run_node
@@ -52,6 +53,7 @@ NAME = 'excitation'
 ACTION = '/joint_trajectory_controller/follow_joint_trajectory'
 STOP_LEAD = 0.1  # s from a stop request to the start of the stop: the last chunk's delivery
 SPIN_PERIOD = 0.01  # s, longest wait for a callback in the loop
+MOTION = LoopSettings()  # the defaults of the parameters that shape the motion
 
 PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec('urdf_file', '', "The arm's URDF file: its joints and limits (or give "
@@ -63,22 +65,23 @@ PARAMETERS: tuple[ParamSpec, ...] = (
               'the acceleration limits URDF has not; empty: the installed config/scara.yaml'),
     ParamSpec('acceleration_max', [], 'Acceleration limit of each joint of joint_names '
               '(rad/s^2 or m/s^2); empty: from robot_config', items=float),
-    ParamSpec('position_margin', 0.1, "Fraction of each joint's range kept clear at both "
-              'ends', min=0.0, max=0.49),
-    ParamSpec('velocity_scale', 0.5, 'Fraction of the velocity limits the motion keeps to',
-              min=0.01, max=1.0),
-    ParamSpec('acceleration_scale', 0.5, 'Fraction of the acceleration limits the motion '
-              '(and every stop) keeps to', min=0.01, max=1.0),
-    ParamSpec('seed', 0, 'Seed of the sequence excitation (as scara_sim seed)', min=0),
+    ParamSpec('position_margin', MOTION.position_margin, "Fraction of each joint's range kept "
+              'clear at both ends', min=0.0, max=0.49),
+    ParamSpec('velocity_scale', MOTION.velocity_scale, 'Fraction of the velocity limits the '
+              'motion keeps to', min=0.01, max=1.0),
+    ParamSpec('acceleration_scale', MOTION.acceleration_scale, 'Fraction of the acceleration '
+              'limits the motion (and every stop) keeps to', min=0.01, max=1.0),
+    ParamSpec('seed', MOTION.seed, 'Seed of the sequence excitation (as scara_sim seed)', min=0),
     ParamSpec('duration', 0.0, 'Seconds of excitation after the approach, then a stop; '
               '0: until stopped', 's', min=0.0),
-    ParamSpec('point_period', 0.01, 'Time between two trajectory points', 's',
+    ParamSpec('point_period', MOTION.point_period, 'Time between two trajectory points', 's',
               min=0.001, max=0.1),
-    ParamSpec('chunk_period', 0.25, 'Time between two chunks sent', 's', min=0.01, max=10.0),
-    ParamSpec('horizon', 1.0, 'How far ahead of now a chunk follows the plan before its stop '
-              '(at least 2 chunk_period)', 's', min=0.02, max=60.0),
-    ParamSpec('start_delay', 0.5, 'From the first chunk to the start of the motion', 's',
-              min=0.0, max=10.0),
+    ParamSpec('chunk_period', MOTION.chunk_period, 'Time between two chunks sent', 's',
+              min=0.01, max=10.0),
+    ParamSpec('horizon', MOTION.horizon, 'How far ahead of now a chunk follows the plan '
+              'before its stop (at least 2 chunk_period)', 's', min=0.02, max=60.0),
+    ParamSpec('start_delay', MOTION.start_delay, 'From the first chunk to the start of the '
+              'motion', 's', min=0.0, max=10.0),
     ParamSpec('state_timeout', 0.5, '/joint_states silent this long stops the arm', 's',
               min=0.01, max=60.0),
     ParamSpec('wait_timeout', 10.0, 'Longest wait at start for /joint_states and for the '
@@ -107,7 +110,7 @@ class ExcitationNode(Node):
                 acceleration_max=s['acceleration_max'])
             self.margined = self.limits.with_margins(
                 s['position_margin'], s['velocity_scale'], s['acceleration_scale'])
-        except MotionLimitsError as exc:
+        except LimitsError as exc:
             raise ConfigError(str(exc)) from None
         self.send = self._make_sender()
         # raw: only the arrival counts while moving; the positions are read once, at start

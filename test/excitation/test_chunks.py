@@ -7,7 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
-from scara_ident_ros.excitation import ExcitationPlan, MotionLimits, make_chunk
+from scara_ident_ros.dynamics.joint_limits import JointLimits
+from scara_ident_ros.excitation import ExcitationPlan, make_chunk
 
 sys.path.insert(0, str(Path(__file__).parent))  # --import-mode=importlib
 from smoothness import assert_consistent  # noqa: E402
@@ -17,7 +18,7 @@ CHUNK_PERIOD = 0.25   # s
 HORIZON = 1.0         # s
 
 
-def test_chunks_are_continuous_within_limits_and_agree(margined: MotionLimits) -> None:
+def test_chunks_are_continuous_within_limits_and_agree(margined: JointLimits) -> None:
     start = np.array([-1.0, 1.2, 0.15, 3.0])
     plan = ExcitationPlan(margined, start, seed=1)
     chunks = [make_chunk(plan, t - STEP, t + HORIZON, STEP, margined)

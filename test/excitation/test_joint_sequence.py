@@ -8,16 +8,16 @@ import numpy as np
 import pytest
 
 from scara_ident_ros.dynamics import ScaraParams
-from scara_ident_ros.excitation import JointSequence, MotionLimits
+from scara_ident_ros.dynamics.joint_limits import LIMIT_NAMES, JointLimits
+from scara_ident_ros.excitation import JointSequence
 from scara_ident_ros.sim.sequence import SequenceTrajectory
 
 CONFIG = Path(__file__).resolve().parents[2] / 'config' / 'scara.yaml'
 
 
-def scara_limits(params: ScaraParams) -> MotionLimits:
-    return MotionLimits(params.joint_names, params.array('position_min'),
-                        params.array('position_max'), params.array('velocity_max'),
-                        params.array('acceleration_max'), 'scara.yaml')
+def scara_limits(params: ScaraParams) -> JointLimits:
+    return JointLimits.of(params.joint_names, {key: params.array(key) for key in LIMIT_NAMES},
+                          'scara.yaml')
 
 
 @pytest.mark.parametrize('seed', [0, 7])
@@ -33,9 +33,9 @@ def test_on_the_scara_it_is_the_simulators_sequence(seed: int) -> None:
 
 def test_any_number_of_joints_keeps_to_the_blend_fractions() -> None:
     n = 6
-    limits = MotionLimits(tuple(f'j{i}' for i in range(n)), -np.arange(1, n + 1.0),
-                          np.arange(1, n + 1.0) * 0.5, np.full(n, 2.0),
-                          np.linspace(3.0, 20.0, n))
+    limits = JointLimits(tuple(f'j{i}' for i in range(n)), -np.arange(1, n + 1.0),
+                         np.arange(1, n + 1.0) * 0.5, np.full(n, 2.0),
+                         np.linspace(3.0, 20.0, n), np.full(n, 10.0))
     sequence = JointSequence(limits, seed=3)
     t = np.arange(0.0, 30.0, 0.002)
     q, qd, qdd = sequence.evaluate(t)

@@ -8,7 +8,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from scara_ident_ros.excitation import ExcitationPlan, MotionLimits
+from scara_ident_ros.dynamics.joint_limits import JointLimits
+from scara_ident_ros.excitation import ExcitationPlan
 
 sys.path.insert(0, str(Path(__file__).parent))  # --import-mode=importlib
 from smoothness import assert_consistent  # noqa: E402
@@ -21,7 +22,7 @@ DT = 0.001  # s
     [-2.2, 2.4, 0.195, 6.0],       # in the margins, near the limits
 ])
 def test_the_plan_starts_at_rest_and_keeps_to_the_limits(start: list[float],
-                                                         margined: MotionLimits) -> None:
+                                                         margined: JointLimits) -> None:
     plan = ExcitationPlan(margined, np.array(start), seed=2)
     t = np.arange(0.0, plan.approach_duration + 12.0, DT)
     q, qd, qdd = plan.evaluate(t)
@@ -36,7 +37,7 @@ def test_the_plan_starts_at_rest_and_keeps_to_the_limits(start: list[float],
         np.testing.assert_allclose(ours[after], sequence, rtol=0, atol=1e-12)
 
 
-def test_the_approach_ends_in_the_sequences_state(margined: MotionLimits) -> None:
+def test_the_approach_ends_in_the_sequences_state(margined: JointLimits) -> None:
     plan = ExcitationPlan(margined, np.array([1.5, -1.8, 0.05, -4.0]), seed=0)
     t_a = plan.approach_duration
     assert t_a > 1.0  # a far start needs a longer approach

@@ -10,8 +10,9 @@ import pytest
 import yaml
 
 from scara_ident_ros.dynamics import ScaraParams
-from scara_ident_ros.excitation import MotionLimits
-from scara_ident_ros.excitation.simulated_loop import LoopSettings, simulate_loop
+from scara_ident_ros.dynamics.joint_limits import JointLimits
+from scara_ident_ros.excitation import LoopSettings
+from scara_ident_ros.excitation.simulated_loop import simulate_loop
 from scara_ident_ros.paper.datasets import simulate_record
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -32,7 +33,7 @@ def test_the_settings_default_to_the_nodes_parameters() -> None:
 
 
 def test_the_arm_holds_then_tracks_the_plan_within_the_margins(params: ScaraParams,
-                                                               limits: MotionLimits) -> None:
+                                                               limits: JointLimits) -> None:
     settings = LoopSettings(seed=3)
     loop = simulate_loop(params, limits, seconds=4.0, settings=settings)
     record, t = loop.record, loop.plan_times()
@@ -52,7 +53,7 @@ def test_the_arm_holds_then_tracks_the_plan_within_the_margins(params: ScaraPara
 
 
 def test_without_margins_the_loop_moves_as_the_simulators_own_sequence(
-        params: ScaraParams, limits: MotionLimits) -> None:
+        params: ScaraParams, limits: JointLimits) -> None:
     """Scales 1/1 and no position margin: after the start delay and the approach, the arm
     follows the simulator's own ``sequence`` of the same seed (the same excitation), so the
     two streams differ by a shift in time only."""
@@ -69,7 +70,7 @@ def test_without_margins_the_loop_moves_as_the_simulators_own_sequence(
 
 
 def test_limits_of_other_joints_are_refused(params: ScaraParams,
-                                            limits: MotionLimits) -> None:
+                                            limits: JointLimits) -> None:
     other = dataclasses.replace(limits, names=('a', 'b', 'c', 'd'))
     with pytest.raises(ValueError, match='limits of'):
         simulate_loop(params, other, seconds=0.1)

@@ -8,7 +8,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from scara_ident_ros.excitation import ExcitationPlan, MotionLimits, Stop, plan_stop
+from scara_ident_ros.dynamics.joint_limits import JointLimits
+from scara_ident_ros.excitation import ExcitationPlan, Stop, plan_stop
 
 sys.path.insert(0, str(Path(__file__).parent))  # --import-mode=importlib
 from smoothness import assert_consistent  # noqa: E402
@@ -16,7 +17,7 @@ from smoothness import assert_consistent  # noqa: E402
 
 @pytest.mark.parametrize('scales', [(0.5, 0.5), (1.0, 0.1)])
 def test_stops_from_many_times_are_smooth_and_end_at_rest(scales: tuple[float, float],
-                                                          limits: MotionLimits) -> None:
+                                                          limits: JointLimits) -> None:
     margined = limits.with_margins(0.1, *scales)
     plan = ExcitationPlan(margined, np.array([0.3, -0.2, 0.12, 1.0]), seed=5)
     too_hard = []

@@ -29,8 +29,8 @@ from rostest import Listener, NodeProcess  # noqa: E402
 sys.path.insert(0, str(Path(__file__).parents[1] / 'excitation'))
 from smoothness import assert_consistent  # noqa: E402
 
-from scara_ident_ros.excitation import (ExcitationPlan, MotionLimits,  # noqa: E402
-                                        load_motion_limits)
+from scara_ident_ros.dynamics.joint_limits import JointLimits  # noqa: E402
+from scara_ident_ros.excitation import ExcitationPlan, load_motion_limits  # noqa: E402
 
 pytestmark = pytest.mark.ros
 
@@ -43,7 +43,7 @@ NAMES = ['joint1', 'joint2', 'joint3', 'joint4']
 CENTRE = [0.0, 0.0, 0.1, 0.0]
 TIMEOUT = 60.0  # s: generous, the machine is shared
 S = 1_000_000_000  # ns
-LIMITS: MotionLimits = load_motion_limits(urdf_file=URDF)
+LIMITS: JointLimits = load_motion_limits(urdf_file=URDF)
 MARGINED = LIMITS.with_margins(0.1, 0.5, 0.5)
 
 
