@@ -474,9 +474,7 @@ class PhysicalModel:
         ModelFormatError
             If the file is not a physical model of ours or is corrupt.
         """
-        file = read_model_file(path)
-        if file.kind != KIND:
-            raise ModelFormatError(f'{path}: a {file.kind} model, not a physical one')
+        file = read_model_file(path, kind=KIND)
         model = cls.from_arrays(file.arrays, source=str(path))
         model.metadata = file.metadata
         return model
