@@ -135,9 +135,7 @@ class HybridModel:
         ModelFormatError
             If the file is not a hybrid model of ours or is corrupt.
         """
-        file = read_model_file(path)
-        if file.kind != KIND:
-            raise ModelFormatError(f'{path}: a {file.kind} model, not a hybrid one')
+        file = read_model_file(path, kind=KIND)
         physical = PhysicalModel.from_arrays(
             {k[len(_PHYSICAL_PREFIX):]: v for k, v in file.arrays.items()
              if k.startswith(_PHYSICAL_PREFIX)}, source=str(path))

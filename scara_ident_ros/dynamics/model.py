@@ -51,9 +51,9 @@ and the equation of motion (eq. 6 of the paper)
     F(q') = viscous ∘ q' + coulomb ∘ tanh(q' / coulomb_eps).
 
 Every public method takes one state (arrays of shape (4,)) or a batch (shape (N, 4)) and
-answers in kind, q in (rad, rad, m, rad), q' and q'' per second and per second squared,
-efforts in (N·m, N·m, N, N·m); the ``*_single`` methods are the fast unbatched path for the
-simulator.
+answers in kind (a matrix: (4, 4) or (N, 4, 4)), q in (rad, rad, m, rad), q' and q'' per
+second and per second squared, efforts in (N·m, N·m, N, N·m); the ``*_single`` methods are
+the fast unbatched path for the simulator.
 """
 from __future__ import annotations
 
@@ -108,16 +108,6 @@ class ScaraModel:
         Position ``x = l1 c1 + l2 c12``, ``y = l1 s1 + l2 s12``, ``z = −d3 − d4`` (m); the
         tool z axis points down and its x axis has yaw ψ = θ1 + θ2 − θ4 about the upward
         vertical, so the rotation is ``[[cψ, sψ, 0], [sψ, −cψ, 0], [0, 0, −1]]``.
-
-        Parameters
-        ----------
-        q : array_like of shape (4,) or (N, 4)
-            Joint positions (rad, rad, m, rad).
-
-        Returns
-        -------
-        ndarray of shape (4, 4) or (N, 4, 4)
-            Homogeneous transforms (m).
         """
         (q,), single = _as_states(q)
         p = self.params
@@ -141,17 +131,8 @@ class ScaraModel:
 
         ``M[j, j]`` is the inertia seen by actuator j when the other joints are locked;
         only the coupling of joints 1 and 2 depends on the configuration (through cos θ2).
-
-        Parameters
-        ----------
-        q : array_like of shape (4,) or (N, 4)
-            Joint positions (rad, rad, m, rad).
-
-        Returns
-        -------
-        ndarray of shape (4, 4) or (N, 4, 4)
-            Inertia (kg·m² for the revolute joints, kg for joint 3, kg·m for the
-            revolute-prismatic couplings, which are zero here).
+        In kg·m² for the revolute joints, kg for joint 3, kg·m for the revolute-prismatic
+        couplings (zero here).
         """
         (q,), single = _as_states(q)
         cc2 = self._c * np.cos(q[:, 1])
@@ -168,17 +149,8 @@ class ScaraModel:
                         qd: np.ndarray | Sequence[float]) -> np.ndarray:
         """Coriolis/centrifugal matrix C(q, q') from the Christoffel symbols of M.
 
-        With this choice Ṁ − 2C is skew-symmetric.
-
-        Parameters
-        ----------
-        q, qd : array_like of shape (4,) or (N, 4)
-            Joint positions (rad, rad, m, rad) and velocities (rad/s, rad/s, m/s, rad/s).
-
-        Returns
-        -------
-        ndarray of shape (4, 4) or (N, 4, 4)
-            C such that C q' is the Coriolis/centrifugal effort (N·m·s/rad, N·s/m).
+        With this choice Ṁ − 2C is skew-symmetric; C q' is the Coriolis/centrifugal effort
+        (N·m·s/rad, N·s/m).
         """
         (q, qd), single = _as_states(q, qd)
         cs2 = self._c * np.sin(q[:, 1])

@@ -370,15 +370,9 @@ class PhysicalModel:
             tau: ArrayLike) -> PhysicalModel:
         """θ by linear least squares, min Σ ||Y θ − τ||², over all samples.
 
-        :func:`~scara_ident_ros.dynamics.least_squares.fit_least_squares`: the stacked
-        system is reduced block by block, so memory does not grow with the samples.
-
-        Parameters
-        ----------
-        q, qd, qdd : array_like of shape (N, n)
-            Joint positions, velocities and accelerations (SI).
-        tau : array_like of shape (N, n)
-            Measured efforts (N·m, N).
+        :func:`~scara_ident_ros.dynamics.least_squares.fit_least_squares` of the states and
+        efforts (its parameters): the stacked system is reduced block by block, so memory
+        does not grow with the samples.
 
         Returns
         -------
@@ -474,9 +468,7 @@ class PhysicalModel:
         ModelFormatError
             If the file is not a physical model of ours or is corrupt.
         """
-        file = read_model_file(path)
-        if file.kind != KIND:
-            raise ModelFormatError(f'{path}: a {file.kind} model, not a physical one')
+        file = read_model_file(path, kind=KIND)
         model = cls.from_arrays(file.arrays, source=str(path))
         model.metadata = file.metadata
         return model

@@ -109,16 +109,8 @@ def logistic(z: npt.ArrayLike) -> FloatArray:
 
 
 def logistic_derivative(z: npt.ArrayLike) -> FloatArray:
-    """Return σ'(z) = e^−|z| / (1 + e^−|z|)², accurate in both tails and free of overflow.
-
-    Parameters
-    ----------
-    z : array_like of any shape
-
-    Returns
-    -------
-    ndarray of the shape of ``z``
-    """
+    """Return σ'(z) = e^−|z| / (1 + e^−|z|)², accurate in both tails and free of overflow;
+    same shapes as `logistic`."""
     e = np.exp(-np.abs(np.asarray(z, dtype=np.float64)))
     return e / (1.0 + e) ** 2
 
@@ -156,19 +148,8 @@ def sigmoid_derivative(z: npt.ArrayLike, k: float = 1.0) -> FloatArray:
 
 
 def slog(z: npt.ArrayLike, k: float = 1.0) -> FloatArray:
-    """Return k·SLOG(z) = k·[σ(z+2) − σ(z+3) − σ(z−3) + σ(z−1)], eq. 1 (FFW).
-
-    Parameters
-    ----------
-    z : array_like of any shape
-        Net input (x·v + c − b) / a.
-    k : float, default 1.0
-        Gain.
-
-    Returns
-    -------
-    ndarray of the shape of ``z``
-    """
+    """Return k·SLOG(z) = k·[σ(z+2) − σ(z+3) − σ(z−3) + σ(z−1)], eq. 1 (FFW); z, k and
+    shapes as `sigmoid`'s."""
     return k * _logistic_sum(z, 'slog', logistic)
 
 
@@ -178,19 +159,8 @@ def slog_derivative(z: npt.ArrayLike, k: float = 1.0) -> FloatArray:
 
 
 def mslog(z: npt.ArrayLike, k: float = 2.5) -> FloatArray:
-    """Return MSLOG(z) = K·SLOG(z), eq. 2 (FFMW); K defaults to the paper's 2.5.
-
-    Parameters
-    ----------
-    z : array_like of any shape
-        Net input (x·v + c − b) / a, with a = b = 5 in the paper.
-    k : float, default 2.5
-        The gain K.
-
-    Returns
-    -------
-    ndarray of the shape of ``z``
-    """
+    """Return MSLOG(z) = K·SLOG(z), eq. 2 (FFMW), with the gain k = K defaulting to the
+    paper's 2.5 (whose z has a = b = 5); same shapes as `slog`."""
     return slog(z, k)
 
 

@@ -26,17 +26,8 @@ FloatArray = npt.NDArray[np.float64]
 
 
 class GradientDescent:
-    """A `training.TrainingStep` doing batch gradient descent with momentum.
-
-    Parameters
-    ----------
-    net : FeedForwardNet
-        Network to train, in place.
-    xs : ndarray of shape (n_samples, n_inputs)
-        Scaled inputs.
-    ys : ndarray of shape (n_samples, n_outputs)
-        Scaled targets.
-    """
+    """A `training.TrainingStep` (and its ``net, xs, ys``) doing batch gradient descent
+    with momentum."""
 
     def __init__(self, net: FeedForwardNet, xs: FloatArray, ys: FloatArray) -> None:
         self._net, self._xs, self._ys = net, xs, ys

@@ -219,12 +219,8 @@ class LevenbergMarquardt:
 
     Parameters
     ----------
-    net : FeedForwardNet
-        Network to train, in place.
-    xs : ndarray of shape (n_samples, n_inputs)
-        Scaled inputs.
-    ys : ndarray of shape (n_samples, n_outputs)
-        Scaled targets.
+    net, xs, ys
+        The network to train and its scaled samples, as `training.TrainingStep` says.
     mu : float, default 1e-3
         Initial damping.
     mu_decrease, mu_increase : float, default 0.1 and 10
@@ -267,16 +263,10 @@ class LevenbergMarquardt:
         return self.set_data(self._xs, self._ys)
 
     def set_data(self, xs: FloatArray, ys: FloatArray) -> float:
-        """Train on other samples from now on (keeping mu); return their current MSE.
+        """Train on other samples ``xs, ys`` (as the constructor's) from now on, keeping mu;
+        return their current MSE.
 
         For learning beside a stream, where the samples (a reservoir) change between steps.
-
-        Parameters
-        ----------
-        xs : ndarray of shape (n_samples, n_inputs)
-            Scaled inputs.
-        ys : ndarray of shape (n_samples, n_outputs)
-            Scaled targets.
         """
         self._xs, self._ys = xs, ys
         self._sse = mse_scaled(self._net, xs, ys) * ys.size

@@ -152,18 +152,18 @@ def read_model(path: str | Path) -> tuple[dict[str, np.ndarray], dict[str, np.nd
     FileNotFoundError
         If there is no such file.
     """
-    file = read_model_file(path)
-    if file.kind != 'network':
-        raise ModelFormatError(f'{path}: a {file.kind} model, not a network')
+    file = read_model_file(path, kind='network')
     return file.arrays, file.metadata
 
 
-def read_model_file(path: str | Path) -> ModelFile:
-    """Read a model file of any kind; validate a network's (or a hybrid's network) entries.
+def read_model_file(path: str | Path, *, kind: str | None = None) -> ModelFile:
+    """Read a model file; validate a network's (or a hybrid's network) entries.
 
     Parameters
     ----------
     path : str or Path
+    kind : str, optional
+        The kind the caller reads (one of :data:`KINDS`); None: any kind.
 
     Returns
     -------
@@ -174,8 +174,8 @@ def read_model_file(path: str | Path) -> ModelFile:
     ------
     ModelFormatError
         If the path is a directory, or the file is not a model file (not a zip/.npz
-        archive, a single .npy array, object arrays), has another format version or an
-        unknown kind, or is corrupt.
+        archive, a single .npy array, object arrays), has another format version, an
+        unknown kind or another than ``kind``, or is corrupt.
     FileNotFoundError
         If there is no such file.
     """
@@ -192,28 +192,30 @@ def read_model_file(path: str | Path) -> ModelFile:
         raise ModelFormatError(f'{path}: network file format version {int(version)}, '
                                f'this code reads version {FORMAT_VERSION} only')
     kind_entry = entries.pop('kind', None)
-    kind = 'network' if kind_entry is None else str(kind_entry)
+    found = 'network' if kind_entry is None else str(kind_entry)
     if kind_entry is not None and (kind_entry.shape != () or kind_entry.dtype.kind != 'U'
-                                   or kind not in KINDS[1:]):
-        raise ModelFormatError(f'{path}: unknown model kind {kind!r}; this code reads '
+                                   or found not in KINDS[1:]):
+        raise ModelFormatError(f'{path}: unknown model kind {found!r}; this code reads '
                                f'{", ".join(KINDS)}')
     metadata = {name[len(METADATA_PREFIX):]: value for name, value in entries.items()
                 if name.startswith(METADATA_PREFIX)}
     arrays = {name: value for name, value in entries.items()
               if not name.startswith(METADATA_PREFIX)}
-    if kind == 'network':
+    if found == 'network':
         problem = _check_arrays(arrays)
-    elif kind == 'hybrid':
+    elif found == 'hybrid':
         problem = _check_arrays({name[len(NETWORK_PREFIX):]: value
                                  for name, value in arrays.items()
                                  if name.startswith(NETWORK_PREFIX)})
     else:
         problem = ''
     if problem:
-        raise ModelFormatError(f'{path}: corrupt {kind} model file: {problem}'
-                               if kind != 'network' else
+        raise ModelFormatError(f'{path}: corrupt {found} model file: {problem}'
+                               if found != 'network' else
                                f'{path}: corrupt network file: {problem}')
-    return ModelFile(kind, arrays, metadata)
+    if kind is not None and found != kind:
+        raise ModelFormatError(f'{path}: a {found} model, not a {kind} one')
+    return ModelFile(found, arrays, metadata)
 
 
 def _read_npz(path: Path) -> dict[str, np.ndarray]:

@@ -25,7 +25,7 @@ from __future__ import annotations
 import math
 import operator
 from pathlib import Path
-from typing import Callable, NamedTuple
+from typing import NamedTuple
 
 import numpy as np
 import numpy.typing as npt
@@ -129,8 +129,7 @@ class FeedForwardNet:
         self._hot = HotScaling(np.empty(n_in), np.empty(n_in), np.empty(n_out),
                                np.empty(n_out), np.empty(n_out))
         self._load_scaling_constants()
-        self._step: Callable[[FloatArray, FloatArray], FloatArray] = self._step_unscaled
-        self._predict_one, self._online_step = self._build_single_sample_path()
+        self._build_single_sample_path()
 
     # ----------------------------------------------------------------------------- properties
     @property
@@ -186,9 +185,7 @@ class FeedForwardNet:
     @learning_rate.setter
     def learning_rate(self, value: float) -> None:
         self._learning_rate = _check_rate('learning_rate', value)
-        self._predict_one, self._online_step = self._build_single_sample_path()
-        if self._scaling_set:
-            self._step = self._online_step
+        self._build_single_sample_path()
 
     @property
     def momentum(self) -> float:
@@ -198,9 +195,7 @@ class FeedForwardNet:
     @momentum.setter
     def momentum(self, value: float) -> None:
         self._momentum = _check_momentum(value)
-        self._predict_one, self._online_step = self._build_single_sample_path()
-        if self._scaling_set:
-            self._step = self._online_step
+        self._build_single_sample_path()
 
     @property
     def x_scaling(self) -> MinMaxScaling:
@@ -370,12 +365,14 @@ class FeedForwardNet:
                            'set_scaling(x_min, x_max, y_min, y_max) with the physical '
                            'ranges (e.g. the robot limits) or fit(net, ...) first')
 
-    def _build_single_sample_path(self) -> tuple[Callable[[FloatArray], FloatArray],
-                                                 Callable[[FloatArray, FloatArray], FloatArray]]:
-        return build_sample_path(
+    def _build_single_sample_path(self) -> None:
+        """(Re)build the per-sample closures over the buffers and the training options;
+        `partial_fit` steps through them once the scaling is set."""
+        self._predict_one, self._online_step = build_sample_path(
             self._form, self._constants.a, self._Vt, self._Wt, self._hot, theta=self._theta,
             velocity=self._velocity, grad=self._grad,
             learning_rate=self._learning_rate, momentum=self._momentum)
+        self._step = self._online_step if self._scaling_set else self._step_unscaled
 
     # ---------------------------------------------------------------------------- checking
     def check_inputs(self, x: FloatArray, name: str) -> FloatArray:
@@ -458,15 +455,12 @@ class FeedForwardNet:
         """Picklable state (for a learner in another process): the single-sample path is a
         closure over buffers, rebuilt on unpickling."""
         state = self.__dict__.copy()
-        state['_step'] = None if self._step is self._online_step else self._step
-        del state['_predict_one'], state['_online_step']
+        del state['_predict_one'], state['_online_step'], state['_step']
         return state
 
     def __setstate__(self, state: dict[str, object]) -> None:
         self.__dict__.update(state)
-        self._predict_one, self._online_step = self._build_single_sample_path()
-        if self._step is None:
-            self._step = self._online_step
+        self._build_single_sample_path()
 
     def __repr__(self) -> str:
         k, a, b = self._constants

@@ -109,7 +109,12 @@ class Weights(Protocol):
 
 
 class TrainingStep(Protocol):
-    """One offline training algorithm, bound to a network and its scaled data."""
+    """One offline training algorithm, bound to a network and its scaled data.
+
+    The algorithms (`GradientDescent`, `LevenbergMarquardt`) are built as
+    ``Algorithm(net, xs, ys, **options)``: the `FeedForwardNet` they train in place, the
+    scaled inputs xs (n_samples, n_inputs) and the scaled targets ys (n_samples, n_outputs).
+    """
 
     def start(self, history: FitHistory) -> float:
         """Prepare (keeping ``history`` to record into); return the current training MSE."""

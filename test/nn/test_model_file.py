@@ -177,8 +177,11 @@ def test_kinds(tmp_path: Path, good_file: Path) -> None:
                 kind='hybrid')
     file = read_model_file(tmp_path / 'hybrid.npz')
     assert file.kind == 'hybrid' and file.metadata['joint_names'].tolist() == ['a']
+    assert read_model_file(tmp_path / 'hybrid.npz', kind='hybrid').kind == 'hybrid'
     with pytest.raises(ModelFormatError, match='a hybrid model, not a network'):
         FeedForwardNet.load(tmp_path / 'hybrid.npz')
+    with pytest.raises(ModelFormatError, match='a network model, not a physical one$'):
+        read_model_file(good_file, kind='physical')
     arrays[NETWORK_PREFIX + 'params'] = np.zeros(3)
     write_model(tmp_path / 'bad_hybrid.npz', arrays, {}, kind='hybrid')
     with pytest.raises(ModelFormatError, match='corrupt hybrid model file: params'):

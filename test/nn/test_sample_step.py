@@ -1,6 +1,8 @@
 """The per-sample path: the online step is SGD with momentum, in physical units."""
 from __future__ import annotations
 
+import pickle
+
 import numpy as np
 import pytest
 
@@ -97,6 +99,22 @@ def test_learning_rate_and_momentum_can_change_online() -> None:
     np.testing.assert_allclose(net.get_params(), theta0 - 0.0125 * grad, rtol=1e-11)
     with pytest.raises(ValueError):
         net.learning_rate = -1.0
+
+
+def test_option_changes_and_pickling_keep_partial_fit_tied_to_the_scaling() -> None:
+    """The per-sample path is rebuilt after an option change and on unpickling: without a
+    scaling partial_fit refuses, with one it steps at the network's current options."""
+    net = FeedForwardNet(12, 40, 4, momentum=0.0)
+    net.learning_rate = 0.0125
+    for copy in (net, pickle.loads(pickle.dumps(net))):
+        with pytest.raises(RuntimeError, match='scaling'):
+            copy.partial_fit(np.zeros(12), np.zeros(4))
+    net.set_scaling(-np.ones(12), np.ones(12), -np.ones(4), np.ones(4))
+    copy = pickle.loads(pickle.dumps(net))
+    x, y = np.full(12, 0.3), np.full(4, -0.2)
+    _, grad = loss_gradient(copy, x[None], y[None])
+    copy.partial_fit(x, y)
+    np.testing.assert_allclose(copy.get_params(), net.get_params() - 0.0125 * grad, rtol=1e-11)
 
 
 @pytest.mark.parametrize('name', NAMES)
