@@ -456,10 +456,12 @@ class FeedForwardNet:
         closure over buffers, rebuilt on unpickling."""
         state = self.__dict__.copy()
         del state['_predict_one'], state['_online_step'], state['_step']
+        del state['_Vt'], state['_Wt']  # views of θ: pickled, they would become copies
         return state
 
     def __setstate__(self, state: dict[str, object]) -> None:
         self.__dict__.update(state)
+        self._Vt, self._Wt = self.unpack(self._theta)
         self._build_single_sample_path()
 
     def __repr__(self) -> str:

@@ -129,3 +129,12 @@ def test_partial_fit_reduces_error_on_a_simple_function(name: str) -> None:
         net.partial_fit(x, y)
     after = np.mean((net.predict(x) - y) ** 2)
     assert after < 0.1 * before, (before, after)
+
+
+def test_an_unpickled_network_predicts_one_sample_with_its_new_weights() -> None:
+    """The per-sample path reads the weights through views of θ; unpickled (as a learner
+    process receives it), set_params must still reach it."""
+    copy = pickle.loads(pickle.dumps(scaled_net(seed=1)))
+    copy.set_params(scaled_net(seed=2).get_params())
+    x = np.random.default_rng(3).uniform(-1.0, 1.0, (5, 12))
+    np.testing.assert_allclose(copy.predict(x[0]), copy.predict(x)[0], rtol=1e-12)
