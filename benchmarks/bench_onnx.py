@@ -40,13 +40,13 @@ from threadpoolctl import threadpool_limits
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from scara_ident_ros.dynamics import ScaraParams  # noqa: E402
+from scara_ident_ros.dynamics.joint_limits import LIMIT_NAMES  # noqa: E402
 from scara_ident_ros.nn.presets import METHODS, limit_scaling, make_network  # noqa: E402
 from scara_ident_ros.nn import FeedForwardNet  # noqa: E402
 from scara_ident_ros.nn.onnx_export import (INPUT_NAME, OUTPUT_NAME,  # noqa: E402
                                             network_to_onnx, relative_difference)
 
 HERE = Path(__file__).resolve().parent
-LIMITS = ('position_min', 'position_max', 'velocity_max', 'acceleration_max', 'effort_max')
 TARGET_US = 50.0  # issue 20: one sample through onnxruntime (Python) in <= 50 µs
 BATCH = 1000
 WARM_UP = 2000
@@ -57,7 +57,7 @@ def scara_network(method: str) -> FeedForwardNet:
     """The identifier's network of ``method`` for the default SCARA, before learning."""
     params = ScaraParams()
     network = make_network(method, 4, seed=0, friction_steps=True)
-    network.set_scaling(*limit_scaling(*(params.array(name) for name in LIMITS)))
+    network.set_scaling(*limit_scaling(*(params.array(name) for name in LIMIT_NAMES)))
     return network
 
 
@@ -142,7 +142,7 @@ def main() -> int:
                         help='Markdown file to write (default benchmarks/onnx.md)')
     args = parser.parse_args()
     params = ScaraParams()
-    x_min, x_max, _, _ = limit_scaling(*(params.array(name) for name in LIMITS))
+    x_min, x_max, _, _ = limit_scaling(*(params.array(name) for name in LIMIT_NAMES))
     X = np.random.default_rng(1).uniform(x_min, x_max, (BATCH, x_min.size))
     per_round = max(1, args.calls // args.rounds)
     load_before, started = os.getloadavg()[0], time.monotonic()

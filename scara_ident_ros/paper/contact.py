@@ -27,6 +27,7 @@ import numpy as np
 import numpy.typing as npt
 
 from scara_ident_ros.dynamics import ScaraParams
+from scara_ident_ros.dynamics.joint_limits import LIMIT_NAMES
 from scara_ident_ros.identification import (Holdout, InputStage, JointMap, OnlineIdentifier,
                                             make_differentiator, make_trainer)
 from scara_ident_ros.identification.contact_detector import ContactDetector
@@ -41,7 +42,6 @@ __all__ = ['ContactRun', 'Pulse', 'alarm_events', 'baseline_flags', 'detect',
 
 FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
-_LIMITS = ('position_min', 'position_max', 'velocity_max', 'acceleration_max', 'effort_max')
 
 
 @dataclass(frozen=True)
@@ -88,7 +88,7 @@ def train_model(params: ScaraParams, *, seconds: float, seed: int, config: SimCo
                        config).simulate(round(seconds / config.dt))
     net = make_network('ffs', 4, n_hidden=hidden, seed=seed,
                        friction_steps=starts_with_friction_steps('lm', True))
-    net.set_scaling(*limit_scaling(*(params.array(name) for name in _LIMITS)))
+    net.set_scaling(*limit_scaling(*(params.array(name) for name in LIMIT_NAMES)))
     ident = OnlineIdentifier(net, joint_names=params.joint_names,
                              differentiator=make_differentiator('centred'),
                              trainer=make_trainer('lm', net, seed=seed),

@@ -54,6 +54,7 @@ import numpy.typing as npt
 
 from scara_ident_ros.blas_threads import single_blas_thread
 from scara_ident_ros.dynamics import ScaraParams
+from scara_ident_ros.dynamics.joint_limits import LIMIT_NAMES
 from scara_ident_ros.dynamics.hybrid_model import HybridModel, online_hybrid
 from scara_ident_ros.dynamics.physical_model import PhysicalModel
 from scara_ident_ros.dynamics.recursive_least_squares import RecursiveLeastSquares
@@ -82,7 +83,6 @@ FloatArray = npt.NDArray[np.float64]
 #: Seconds of stream after which the frozen models are scored (those within the stream).
 CHECKPOINTS_S: tuple[float, ...] = (10.0, 20.0, 30.0, 60.0, 90.0, 120.0, 150.0, 180.0, 240.0)
 
-_LIMITS = ('position_min', 'position_max', 'velocity_max', 'acceleration_max', 'effort_max')
 _HELD_OUT_SEED = 1_000_000  # held-out excitations' seeds start here, far from any stream's
 #: The simulator's sensor noise of the noisy curves: position (rad, m), velocity (rad/s, m/s)
 #: standard deviations, and the effort's as a fraction of each joint's effort limit.
@@ -195,7 +195,7 @@ def network_curve(record: SimRecord, held_out: Dataset, params: Robot, *, method
     pace: the learner's updates depend on it), the latest weights taken at each checkpoint.
     """
     n = len(params.joint_names)
-    scaling = limit_scaling(*(params.array(name) for name in _LIMITS))
+    scaling = limit_scaling(*(params.array(name) for name in LIMIT_NAMES))
     friction_steps = starts_with_friction_steps(trainer, lm_friction_steps)
     model: FeedForwardNet | HybridModel
     if method == 'hybrid':
