@@ -15,8 +15,8 @@ from scara_ident_ros.nn.presets import METHODS
 from scara_ident_ros.nn import FeedForwardNet
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'bag'))
-from fake_bags import (States, synthetic_states,  # noqa: E402  (not a package)
-                       write_bare_mcap, write_rosbag, write_run_bag)
+from bag_files import write_bare_mcap  # noqa: E402  (not a package)
+from fake_bags import States, synthetic_states, write_rosbag, write_run_bag  # noqa: E402
 
 SHIPPED = Path(__file__).resolve().parents[2] / 'bags' / 'demo_run'
 #: Foreign bags: a rosbag2 directory written by rosbags (sqlite3 storage), a bare ``.mcap``

@@ -13,7 +13,8 @@ from scara_ident_ros.cli import train as train_cli
 from scara_ident_ros.nn import FeedForwardNet
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'bag'))
-from fake_bags import synthetic_states, write_bare_mcap  # noqa: E402  (not a package)
+from bag_files import write_bare_mcap  # noqa: E402  (not a package)
+from fake_bags import synthetic_states  # noqa: E402
 
 #: ``validating on N in K blocks of B s from T0 s to T1 s``
 VALIDATION = re.compile(r'training on (\d+), validating on (\d+) in (\d+) blocks? of ([\d.]+) s '
