@@ -63,11 +63,15 @@ def float_array(values: Sequence[float]) -> bytes:
 
 
 def robot_messages(states: Robot, *, order: Sequence[int] | None = None) -> list[bytes]:
-    """One serialized JointState per row; ``order`` permutes the joints in each message."""
+    """One serialized JointState per row; ``order`` permutes the joints in each message.
+
+    An array of width 0 (no values of that kind) gives empty fields.
+    """
     perm = list(range(len(states.names))) if order is None else list(order)
     names = [states.names[j] for j in perm]
-    return [joint_state(int(states.stamp_ns[i]), names, states.position[i, perm],
-                        states.velocity[i, perm], states.effort[i, perm])
+    arrays = [np.ascontiguousarray(a[:, perm]) if a.shape[1] else a
+              for a in (states.position, states.velocity, states.effort)]
+    return [joint_state(int(states.stamp_ns[i]), names, *(a[i] for a in arrays))
             for i in range(states.stamp_ns.shape[0])]
 
 

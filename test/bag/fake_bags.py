@@ -12,7 +12,8 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from bag_files import Robot  # test/bag, beside this file
+from bag_files import (FLOAT64_ARRAY, JOINT_STATE, Robot,  # test/bag, beside this file
+                       float_array, robot_messages, write_rosbags_bag)
 
 METHODS = ('ffmw', 'ffw', 'ffs')
 
@@ -42,84 +43,24 @@ def synthetic_states(n_joints: int, seconds: float, *, rate_hz: float = 1000.0,
     return States(stamps, names, q, qd, effort)
 
 
-def _typestore():  # type: ignore[no-untyped-def]
-    from rosbags.typesys import Stores, get_typestore
-    return get_typestore(Stores.ROS2_HUMBLE)
-
-
-def _joint_state(store, stamp_ns: int, names: Sequence[str], position: NDArray[np.float64],
-                 velocity: NDArray[np.float64], effort: NDArray[np.float64]):  # type: ignore
-    types = store.types
-    stamp = types['builtin_interfaces/msg/Time'](sec=int(stamp_ns // 1_000_000_000),
-                                                 nanosec=int(stamp_ns % 1_000_000_000))
-    header = types['std_msgs/msg/Header'](stamp=stamp, frame_id='')
-    return types['sensor_msgs/msg/JointState'](
-        header=header, name=list(names), position=np.asarray(position, np.float64),
-        velocity=np.asarray(velocity, np.float64), effort=np.asarray(effort, np.float64))
-
-
 def write_rosbag(path: Path, states: States, *, storage: str = 'sqlite3',
                  topic: str = '/joint_states', order: Sequence[int] | None = None,
                  extra_topics: dict[str, States] | None = None,
                  mse_topics: dict[str, tuple[NDArray[np.int64], NDArray[np.float64]]]
                  | None = None) -> Path:
-    """Write a rosbag2 bag (``storage`` 'sqlite3' or 'mcap') with rosbags' Writer.
+    """Write a rosbag2 bag (``storage`` 'sqlite3' or 'mcap', version 8) with rosbags' Writer.
 
     ``order`` permutes the joints inside each message (names travel with the values);
     ``extra_topics`` adds more JointState topics; ``mse_topics`` adds Float64MultiArray
     topics as (log times (M,), data (M, k)).
     """
-    from rosbags.rosbag2 import StoragePlugin, Writer
-
-    store = _typestore()
-    plugin = StoragePlugin.MCAP if storage == 'mcap' else StoragePlugin.SQLITE3
-    perm = np.arange(len(states.names)) if order is None else np.asarray(order)
-    topics = {topic: states, **(extra_topics or {})}
-    entries: list[tuple[int, int, str, bytes]] = []  # (time, rank, topic, cdr)
-    with Writer(path, version=8, storage_plugin=plugin) as writer:
-        connections = {name: writer.add_connection(name, 'sensor_msgs/msg/JointState',
-                                                   typestore=store) for name in topics}
-        for rank, (name, st) in enumerate(topics.items()):
-            names = [st.names[j] for j in perm]
-            for i in range(st.stamp_ns.shape[0]):
-                row = [a[i, perm] if a.shape[1] else a[i]
-                       for a in (st.position, st.velocity, st.effort)]
-                msg = _joint_state(store, int(st.stamp_ns[i]), names, *row)
-                entries.append((int(st.stamp_ns[i]), rank, name,
-                                store.serialize_cdr(msg, 'sensor_msgs/msg/JointState')))
-        for name, (times, data) in (mse_topics or {}).items():
-            connections[name] = writer.add_connection(name, 'std_msgs/msg/Float64MultiArray',
-                                                      typestore=store)
-            cls = store.types['std_msgs/msg/Float64MultiArray']
-            layout = store.types['std_msgs/msg/MultiArrayLayout'](dim=[], data_offset=0)
-            for time_ns, row in zip(times.tolist(), data):
-                msg = cls(layout=layout, data=np.asarray(row, np.float64))
-                entries.append((time_ns, 99, name,
-                                store.serialize_cdr(msg, 'std_msgs/msg/Float64MultiArray')))
-        entries.sort(key=lambda e: (e[0], e[1]))
-        for time_ns, _, name, raw in entries:
-            writer.write(connections[name], time_ns, raw)
-    return path
-
-
-def write_bare_mcap(path: Path, states: States, *, topic: str = '/joint_states') -> Path:
-    """Write a plain ``.mcap`` file (no bag directory) with mcap-ros2-support."""
-    from mcap_ros2.writer import Writer
-
-    msgdef, _ = _typestore().generate_msgdef('sensor_msgs/msg/JointState', ros_version=2)
-    with path.open('wb') as stream:
-        writer = Writer(stream)
-        schema = writer.register_msgdef('sensor_msgs/msg/JointState', msgdef)
-        for i in range(states.stamp_ns.shape[0]):
-            stamp = int(states.stamp_ns[i])
-            writer.write_message(topic, schema, {
-                'header': {'stamp': {'sec': stamp // 1_000_000_000,
-                                     'nanosec': stamp % 1_000_000_000}, 'frame_id': ''},
-                'name': list(states.names), 'position': states.position[i].tolist(),
-                'velocity': states.velocity[i].tolist(), 'effort': states.effort[i].tolist()},
-                log_time=stamp, publish_time=stamp)
-        writer.finish()
-    return path
+    topics = {name: (JOINT_STATE, list(zip(st.stamp_ns.tolist(),
+                                           robot_messages(st, order=order))))
+              for name, st in {topic: states, **(extra_topics or {})}.items()}
+    for name, (times, data) in (mse_topics or {}).items():
+        topics[name] = (FLOAT64_ARRAY, [(time_ns, float_array(row))
+                                        for time_ns, row in zip(times.tolist(), data)])
+    return write_rosbags_bag(path, topics, storage=storage, version=8)
 
 
 def write_run_bag(path: Path, states: States, *, methods: Sequence[str] = METHODS,

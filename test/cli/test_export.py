@@ -10,25 +10,20 @@ import pytest
 
 from scara_ident_ros.cli import main
 from scara_ident_ros.dynamics import ScaraParams
-from scara_ident_ros.nn.presets import limit_scaling, make_network
+from scara_ident_ros.nn.presets import make_network
 from scara_ident_ros.nn import FeedForwardNet
 from scara_ident_ros.nn import onnx_export
+from robot_scaling import robot_scaling  # test/robot_scaling.py
+from in_process_cli import run_cli  # test/in_process_cli.py
 
 PARAMS = ScaraParams()
-LIMITS = ('position_min', 'position_max', 'velocity_max', 'acceleration_max', 'effort_max')
 JOINTS = ['shoulder', 'elbow', 'quill', 'wrist']
-
-
-def run_cli(capsys: pytest.CaptureFixture[str], *argv: object) -> tuple[int, str, str]:
-    code = main([str(a) for a in argv])
-    captured = capsys.readouterr()
-    return code, captured.out, captured.err
 
 
 def saved_model(path: Path, method: str = 'ffw', *, names: bool = True) -> FeedForwardNet:
     """A SCARA network of ``method`` with limit scaling, saved at ``path`` as train does."""
     network = make_network(method, 4, seed=1, friction_steps=True)
-    network.set_scaling(*limit_scaling(*(PARAMS.array(name) for name in LIMITS)))
+    network.set_scaling(*robot_scaling(PARAMS))
     network.metadata['method'] = np.array(method)
     if names:
         network.metadata['joint_names'] = np.array(JOINTS)

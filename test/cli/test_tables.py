@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import csv
-import re
 import struct
 import sys
 from pathlib import Path
@@ -18,6 +17,7 @@ from scara_ident_ros.paper.figures import figure_size_px
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'bag'))
 from fake_bags import (synthetic_states, write_rosbag,  # noqa: E402  (not a package)
                        write_run_bag)
+from in_process_cli import assert_one_line_error, run_cli  # test/in_process_cli.py
 
 FAST = dict(seeds=2, iterations=4, samples=200, progress=None)
 LABELS = ('FFMW', 'FFW', 'FFS')
@@ -163,34 +163,27 @@ def test_time_budget_keeps_whole_rounds_of_seeds(tmp_path: Path) -> None:
     assert '--seeds 1' in text
 
 
-def _one_line(code: int, err: str, pattern: str) -> None:
-    assert code == 2
-    lines = err.strip().splitlines()
-    assert len(lines) == 1 and re.search(pattern, lines[0]), err
-
-
 def test_bad_inputs_give_one_line(run_bag: tuple[Path, object], tmp_path: Path,
                                   capsys: pytest.CaptureFixture[str]) -> None:
     out = tmp_path / 'out'
-    _one_line(main(['tables', str(tmp_path / 'missing'), '--out', str(out)]),
-              capsys.readouterr().err, r'missing: does not exist')
+    assert_one_line_error(*run_cli(capsys, 'tables', tmp_path / 'missing', '--out', out),
+                          r'missing: does not exist')
     few = write_rosbag(tmp_path / 'few', synthetic_states(2, 0.005))
-    _one_line(main(['tables', str(few), '--out', str(out)]), capsys.readouterr().err,
-              r'few.*need at least 20')
+    assert_one_line_error(*run_cli(capsys, 'tables', few, '--out', out), r'few.*need at least 20')
     # a run of one block of 1 s: too short for the validation split of train and tables
     short = write_rosbag(tmp_path / 'short', synthetic_states(2, 1.0))
-    _one_line(main(['tables', str(short), '--out', str(out)]), capsys.readouterr().err,
-              r'short.*fill 1 block of 1 s.*--validation-block')
+    assert_one_line_error(*run_cli(capsys, 'tables', short, '--out', out),
+                          r'short.*fill 1 block of 1 s.*--validation-block')
     # a held-out run without the analysed run's joints
     other = write_rosbag(tmp_path / 'other', synthetic_states(2, 0.5, prefix='axis'))
-    _one_line(main(['tables', str(run_bag[0]), str(other), '--out', str(out), '--seeds', '1',
-                    '--iterations', '1']), capsys.readouterr().err,
-              r'other.*joint1.*joint names in the messages: axis1, axis2')
-    _one_line(main(['tables', str(run_bag[0]), '--out', str(out), '--seeds', '0']),
-              capsys.readouterr().err, r'--seeds >= 1')
+    assert_one_line_error(*run_cli(capsys, 'tables', run_bag[0], other, '--out', out,
+                                   '--seeds', '1', '--iterations', '1'),
+                          r'other.*joint1.*joint names in the messages: axis1, axis2')
+    assert_one_line_error(*run_cli(capsys, 'tables', run_bag[0], '--out', out, '--seeds', '0'),
+                          r'--seeds >= 1')
     (tmp_path / 'file').write_text('')
-    _one_line(main(['tables', str(run_bag[0]), '--out', str(tmp_path / 'file')]),
-              capsys.readouterr().err, r'not a directory')
+    assert_one_line_error(*run_cli(capsys, 'tables', run_bag[0], '--out', tmp_path / 'file'),
+                          r'not a directory')
     assert not out.exists()  # nothing written on a bad input
 
 

@@ -1,7 +1,6 @@
 """``scara-ident train`` and ``evaluate`` on bags written by other tools, and every bad input."""
 from __future__ import annotations
 
-import re
 import shlex
 import sys
 from pathlib import Path
@@ -15,19 +14,14 @@ from scara_ident_ros.nn.presets import METHODS
 from scara_ident_ros.nn import FeedForwardNet
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'bag'))
-from fake_bags import (States, synthetic_states,  # noqa: E402  (not a package)
-                       write_bare_mcap, write_rosbag, write_run_bag)
+from bag_files import write_bare_mcap  # noqa: E402  (not a package)
+from fake_bags import States, synthetic_states, write_rosbag, write_run_bag  # noqa: E402
+from in_process_cli import assert_one_line_error, run_cli  # test/in_process_cli.py
 
 SHIPPED = Path(__file__).resolve().parents[2] / 'bags' / 'demo_run'
 #: Foreign bags: a rosbag2 directory written by rosbags (sqlite3 storage), a bare ``.mcap``
 #: written by mcap-ros2-support.
 FORMATS = ('sqlite3', 'mcap')
-
-
-def run_cli(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str, str]:
-    code = main([str(a) for a in argv])
-    captured = capsys.readouterr()
-    return code, captured.out, captured.err
 
 
 def write_bag(fmt: str, path: Path, states: States) -> Path:
@@ -192,13 +186,6 @@ def test_six_joints_bare_mcap_with_joint_selection(bags: dict[str, Path], tmp_pa
     assert 'validation' not in table_rows(out).get('mean', [''])[0]
 
 
-def _assert_one_line_error(code: int, out: str, err: str, pattern: str) -> None:
-    assert code == 2
-    lines = err.strip().splitlines()
-    assert len(lines) == 1, err
-    assert re.search(pattern, lines[0]), lines[0]
-
-
 def _bad_bags(root: Path) -> dict[str, tuple[Path, str]]:
     """Bags that cannot be trained on, and what their error line must say."""
     states = synthetic_states(2, 1.0)
@@ -231,21 +218,21 @@ def _bad_bags(root: Path) -> dict[str, tuple[Path, str]]:
 def test_bad_bags_give_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     bad = _bad_bags(tmp_path)
     for name, (bag, pattern) in bad.items():
-        _assert_one_line_error(*run_cli(capsys, 'train', bag, '--method', 'ffmw', '--out',
-                                        tmp_path / f'{name}.npz'), pattern)
+        assert_one_line_error(*run_cli(capsys, 'train', bag, '--method', 'ffmw', '--out',
+                                       tmp_path / f'{name}.npz'), pattern)
         assert not (tmp_path / f'{name}.npz').exists()
     # a topic that is not there, and a joint no message has
     bag = write_rosbag(tmp_path / 'ok', synthetic_states(2, 0.2))
-    _assert_one_line_error(*run_cli(capsys, 'train', bag, '--method', 'ffs', '--topic', '/x',
-                                    '--out', tmp_path / 'm.npz'), r'/x .*/joint_states')
-    _assert_one_line_error(*run_cli(capsys, 'train', bag, '--method', 'ffs', '--joints',
-                                    'joint1', 'elbow', '--out', tmp_path / 'm.npz'),
-                           r'no joint elbow \(its joints: joint1, joint2\)')
+    assert_one_line_error(*run_cli(capsys, 'train', bag, '--method', 'ffs', '--topic', '/x',
+                                   '--out', tmp_path / 'm.npz'), r'/x .*/joint_states')
+    assert_one_line_error(*run_cli(capsys, 'train', bag, '--method', 'ffs', '--joints',
+                                   'joint1', 'elbow', '--out', tmp_path / 'm.npz'),
+                          r'no joint elbow \(its joints: joint1, joint2\)')
     # the identifiers' predictions are JointStates too, with effort only
     run = write_run_bag(tmp_path / 'run', synthetic_states(2, 0.2), methods=('ffmw',))
-    _assert_one_line_error(*run_cli(capsys, 'train', run, '--method', 'ffmw', '--topic',
-                                    '/ffmw/identified_torque', '--out', tmp_path / 'm.npz'),
-                           r'/ffmw/identified_torque carries no position for joint1, joint2')
+    assert_one_line_error(*run_cli(capsys, 'train', run, '--method', 'ffmw', '--topic',
+                                   '/ffmw/identified_torque', '--out', tmp_path / 'm.npz'),
+                          r'/ffmw/identified_torque carries no position for joint1, joint2')
 
 
 def test_truncated_bag_names_the_recover_command(tmp_path: Path,
@@ -255,7 +242,7 @@ def test_truncated_bag_names_the_recover_command(tmp_path: Path,
     bag.write_bytes(full.read_bytes()[:full.stat().st_size // 2])
     code, out, err = run_cli(capsys, 'train', bag, '--method', 'ffmw', '--out',
                              tmp_path / 'm.npz')
-    _assert_one_line_error(code, out, err, r'truncated MCAP file')
+    assert_one_line_error(code, out, err, r'truncated MCAP file')
     assert 'recover_bag' not in err
     hint = ': recover it with: '
     assert hint in err
@@ -263,8 +250,8 @@ def test_truncated_bag_names_the_recover_command(tmp_path: Path,
     assert command == ['scara-ident', 'recover', str(bag)]
     # the command as suggested runs; the bag is no longer truncated (but empty: one chunk)
     assert main(command[1:]) == 0
-    _assert_one_line_error(*run_cli(capsys, 'train', bag, '--method', 'ffmw', '--out',
-                                    tmp_path / 'm.npz'), r'no sensor_msgs/msg/JointState')
+    assert_one_line_error(*run_cli(capsys, 'train', bag, '--method', 'ffmw', '--out',
+                                   tmp_path / 'm.npz'), r'no sensor_msgs/msg/JointState')
 
 
 def test_no_joint_state_topic_lists_the_topics(tmp_path: Path,
@@ -279,11 +266,11 @@ def test_no_joint_state_topic_lists_the_topics(tmp_path: Path,
         for stamp in states.stamp_ns[:5].tolist():
             msg = store.types['std_msgs/msg/Float64'](data=1.0)
             writer.write(conn, stamp, store.serialize_cdr(msg, 'std_msgs/msg/Float64'))
-    _assert_one_line_error(*run_cli(capsys, 'train', bag, '--method', 'ffmw', '--out',
-                                    tmp_path / 'm.npz'),
-                           r'no sensor_msgs/msg/JointState topic.*/temperature')
-    _assert_one_line_error(*run_cli(capsys, 'evaluate', tmp_path / 'm.npz', bag),
-                           r'm\.npz: no such model file')
+    assert_one_line_error(*run_cli(capsys, 'train', bag, '--method', 'ffmw', '--out',
+                                   tmp_path / 'm.npz'),
+                          r'no sensor_msgs/msg/JointState topic.*/temperature')
+    assert_one_line_error(*run_cli(capsys, 'evaluate', tmp_path / 'm.npz', bag),
+                          r'm\.npz: no such model file')
 
 
 def test_bad_models_give_one_line(bags: dict[str, Path], tmp_path: Path,
@@ -291,41 +278,41 @@ def test_bad_models_give_one_line(bags: dict[str, Path], tmp_path: Path,
     text = tmp_path / 'notes.npz'
     text.write_text('not a model\n')
     code, out, err = run_cli(capsys, 'evaluate', text, bags['sqlite2'])
-    _assert_one_line_error(code, out, err, r'notes\.npz: not a \.npz network file \(not a '
-                                           r'zip/\.npz archive\)$')
+    assert_one_line_error(code, out, err, r'notes\.npz: not a \.npz network file \(not a '
+                                          r'zip/\.npz archive\)$')
     assert 'pickle' not in err  # numpy's advice on unpickling has no place here
     # a directory given as MODEL (e.g. the --out directory of several models)
     (tmp_path / 'models').mkdir()
-    _assert_one_line_error(*run_cli(capsys, 'evaluate', tmp_path / 'models', bags['sqlite2']),
-                           r'models: is a directory, not a model file')
+    assert_one_line_error(*run_cli(capsys, 'evaluate', tmp_path / 'models', bags['sqlite2']),
+                          r'models: is a directory, not a model file')
     other = tmp_path / 'other.npz'
     np.savez(other, weights=np.zeros(3))
-    _assert_one_line_error(*run_cli(capsys, 'evaluate', other, bags['sqlite2']), r'other\.npz')
+    assert_one_line_error(*run_cli(capsys, 'evaluate', other, bags['sqlite2']), r'other\.npz')
     # a network that is not 3n -> n
     odd = FeedForwardNet(5, 4, 2)
     odd.save(tmp_path / 'odd.npz')
-    _assert_one_line_error(*run_cli(capsys, 'evaluate', tmp_path / 'odd.npz', bags['sqlite2']),
-                           r'5 inputs and 2 outputs is not an inverse-dynamics model')
+    assert_one_line_error(*run_cli(capsys, 'evaluate', tmp_path / 'odd.npz', bags['sqlite2']),
+                          r'5 inputs and 2 outputs is not an inverse-dynamics model')
     # a 6-joint model without names on a 2-joint bag; a named one whose joints are absent
     six = FeedForwardNet(18, 4, 6)
     six.save(tmp_path / 'six.npz')
-    _assert_one_line_error(*run_cli(capsys, 'evaluate', tmp_path / 'six.npz', bags['sqlite2']),
-                           r'model of 6 joints, but .* has 2')
+    assert_one_line_error(*run_cli(capsys, 'evaluate', tmp_path / 'six.npz', bags['sqlite2']),
+                          r'model of 6 joints, but .* has 2')
     six.metadata['joint_names'] = np.array([f'joint{i + 1}' for i in range(6)])
     six.save(tmp_path / 'six_named.npz')
-    _assert_one_line_error(*run_cli(capsys, 'evaluate', tmp_path / 'six_named.npz',
-                                    bags['sqlite2']),
-                           r'no joint joint3, joint4, joint5, joint6 \(its joints: joint2, '
-                           r'joint1\)')
+    assert_one_line_error(*run_cli(capsys, 'evaluate', tmp_path / 'six_named.npz',
+                                   bags['sqlite2']),
+                          r'no joint joint3, joint4, joint5, joint6 \(its joints: joint2, '
+                          r'joint1\)')
 
 
 def test_bad_options_give_one_line(bags: dict[str, Path], tmp_path: Path,
                                    capsys: pytest.CaptureFixture[str]) -> None:
     for option, value in (('--validation-fraction', '1.0'), ('--iterations', '0')):
-        _assert_one_line_error(*run_cli(capsys, 'train', bags['sqlite2'], '--method', 'ffw',
-                                        option, value, '--out', tmp_path / 'm.npz'), option)
-    _assert_one_line_error(*run_cli(capsys, 'train', bags['sqlite2'], '--method', 'ffw',
-                                    '--out', tmp_path), r'is a directory')
+        assert_one_line_error(*run_cli(capsys, 'train', bags['sqlite2'], '--method', 'ffw',
+                                       option, value, '--out', tmp_path / 'm.npz'), option)
+    assert_one_line_error(*run_cli(capsys, 'train', bags['sqlite2'], '--method', 'ffw',
+                                   '--out', tmp_path), r'is a directory')
 
 
 @pytest.mark.parametrize('command', ['train', 'evaluate'])
@@ -343,5 +330,5 @@ def test_an_unwritable_model_path_is_refused_before_training(
     for out, pattern in ((tmp_path, r'is a directory'), (Path('/proc/m.npz'), r'/proc/m.npz')):
         code, stdout, err = run_cli(capsys, 'train', str(bag), '--method', 'ffs', '--out',
                                     str(out))
-        _assert_one_line_error(code, stdout, err, pattern)
+        assert_one_line_error(code, stdout, err, pattern)
         assert 'training on' not in stdout  # refused before reading the bag

@@ -7,13 +7,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from scara_ident_ros.cli import main
 from scara_ident_ros.dynamics.hybrid_model import HybridModel
 from scara_ident_ros.dynamics.physical_model import PhysicalModel
 from scara_ident_ros.nn import FeedForwardNet
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'bag'))
 from fake_bags import States, write_rosbag  # noqa: E402  (not a package)
+from in_process_cli import run_cli  # test/in_process_cli.py
 
 URDF = Path(__file__).resolve().parents[2] / 'urdf' / 'scara.urdf'
 NAMES = ('joint1', 'joint2', 'joint3', 'joint4')
@@ -43,12 +43,6 @@ def scara_states(seconds: float, *, seed: int, rate_hz: float = 500.0) -> States
               + COULOMB * np.tanh(qd / EPS))
     stamps = 1_700_000_000_000_000_000 + np.round(t * 1e9).astype(np.int64)
     return States(stamps, NAMES, q, qd, effort)
-
-
-def run_cli(capsys: pytest.CaptureFixture[str], *argv: object) -> tuple[int, str, str]:
-    code = main([str(a) for a in argv])
-    captured = capsys.readouterr()
-    return code, captured.out, captured.err
 
 
 def table(text: str, first: str) -> dict[str, list[str]]:

@@ -13,7 +13,9 @@ from scara_ident_ros.cli import train as train_cli
 from scara_ident_ros.nn import FeedForwardNet
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'bag'))
-from fake_bags import synthetic_states, write_bare_mcap  # noqa: E402  (not a package)
+from bag_files import write_bare_mcap  # noqa: E402  (not a package)
+from fake_bags import synthetic_states  # noqa: E402
+from in_process_cli import assert_one_line_error, run_cli  # test/in_process_cli.py
 
 #: ``validating on N in K blocks of B s from T0 s to T1 s``
 VALIDATION = re.compile(r'training on (\d+), validating on (\d+) in (\d+) blocks? of ([\d.]+) s '
@@ -21,12 +23,6 @@ VALIDATION = re.compile(r'training on (\d+), validating on (\d+) in (\d+) blocks
 #: ``N iterations in T s (stopped: REASON; weights of iteration B)``
 STOPPED = re.compile(r'(\d+) iterations in [\d.]+ s \(stopped: (\w+); weights of iteration '
                      r'(\d+)\)')
-
-
-def run_cli(capsys: pytest.CaptureFixture[str], *argv: object) -> tuple[int, str, str]:
-    code = main([str(a) for a in argv])
-    captured = capsys.readouterr()
-    return code, captured.out, captured.err
 
 
 @pytest.fixture(scope='module')
@@ -107,11 +103,8 @@ def test_bad_split_options_give_one_line(bag: Path, tmp_path: Path,
                    r'--validation-block or give --validation-fraction 0'),
     ]
     for argv, pattern in cases:
-        code, out, err = run_cli(capsys, 'train', *argv, '--method', 'ffs',
-                                 '--out', tmp_path / 'm.npz')
-        lines = err.strip().splitlines()
-        assert code == 2 and len(lines) == 1, err
-        assert re.search(pattern, lines[0]), lines[0]
+        assert_one_line_error(*run_cli(capsys, 'train', *argv, '--method', 'ffs',
+                                       '--out', tmp_path / 'm.npz'), pattern)
     assert not (tmp_path / 'm.npz').exists()
     # the short bag trains without validation
     code, out, err = run_cli(capsys, 'train', short, '--method', 'ffs', '--iterations', '1',

@@ -14,6 +14,7 @@ from scara_ident_ros.identification import make_trainer
 from scara_ident_ros.identification.background_lm import BACKLOG, BackgroundLM, LearnerSettings
 from scara_ident_ros.nn.presets import make_network
 from scara_ident_ros.nn import FeedForwardNet
+from robot_scaling import robot_scaling  # test/robot_scaling.py
 
 N_JOINTS = 2
 WAIT = 30.0  # s: the longest a test waits for the learner (a loaded CI machine)
@@ -180,7 +181,6 @@ def test_a_7_joint_arm_stream_keeps_up_with_the_learner_beside_it() -> None:
     stream's own duration (a loose bound: 1 ms a sample at 1 kHz)."""
     from scara_ident_ros.paper.datasets import simulate_record
     from scara_ident_ros.identification import Holdout, OnlineIdentifier, make_differentiator
-    from scara_ident_ros.nn.presets import limit_scaling
     from scara_ident_ros.sim.example_robots import example_robot
     from scara_ident_ros.sim.pinocchio_robot import PinocchioRobot
 
@@ -190,8 +190,7 @@ def test_a_7_joint_arm_stream_keeps_up_with_the_learner_beside_it() -> None:
     assert n == 7
     record = simulate_record(robot, seconds=4.0, seed=3, preset='sequence')
     net = make_network('ffs', n, seed=0, friction_steps=True)
-    net.set_scaling(*limit_scaling(*(robot.array(name) for name in (
-        'position_min', 'position_max', 'velocity_max', 'acceleration_max', 'effort_max'))))
+    net.set_scaling(*robot_scaling(robot))
     trainer = make_trainer('lm', net, background=True)
     assert isinstance(trainer, BackgroundLM) and trainer.wait_ready(WAIT)
     ident = OnlineIdentifier(net, joint_names=robot.joint_names,

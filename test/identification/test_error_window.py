@@ -10,20 +10,34 @@ from numpy.typing import NDArray
 from scara_ident_ros.identification import PAPER_WINDOW, ErrorStats, ErrorWindow
 
 
-def brute(effort: NDArray[np.float64], predicted: NDArray[np.float64]) -> tuple[
-        NDArray[np.float64], NDArray[np.float64]]:
+Floats = NDArray[np.float64]
+
+
+def brute(effort: Floats, predicted: Floats) -> tuple[Floats, Floats]:
     """MSE and NMSE of (k, n) arrays, the plain way."""
     mse = np.mean((effort - predicted) ** 2, axis=0)
     with np.errstate(divide='ignore', invalid='ignore'):  # one sample: no variance yet
         return mse, mse / np.var(effort, axis=0)
 
 
-def stream(count: int, n: int, seed: int = 0) -> tuple[NDArray[np.float64],
-                                                        NDArray[np.float64]]:
+def stream(count: int, n: int, seed: int = 0) -> tuple[Floats, Floats]:
     rng = np.random.default_rng(seed)
     # A large mean on one joint, as gravity puts on joint 3: the variance must not cancel.
     effort = rng.normal(0.0, 1.0, (count, n)) * [2.0, 0.5, 1e-3] + [0.0, 3.0, 5e3]
     return effort, effort + rng.normal(0.0, 0.1, (count, n)) * [1.0, 1.0, 1e-4]
+
+
+def assert_matches_brute(stats: ErrorStats, effort: Floats, predicted: Floats, k: int,
+                         window: int, rtol: tuple[float, float]) -> tuple[Floats, Floats]:
+    """Check ``stats`` after sample k against brute force over the last ``window`` samples
+    (MSE and, from the second sample on, NMSE to ``rtol``); return that MSE and NMSE."""
+    lo = max(0, k + 1 - window)
+    mse, nmse = brute(effort[lo:k + 1], predicted[lo:k + 1])
+    assert stats.count == k + 1 - lo
+    np.testing.assert_allclose(stats.mse, mse, rtol=rtol[0])
+    if k > 0:
+        np.testing.assert_allclose(stats.nmse, nmse, rtol=rtol[1])
+    return mse, nmse
 
 
 def test_running_statistics_match_brute_force() -> None:
@@ -32,13 +46,9 @@ def test_running_statistics_match_brute_force() -> None:
     errors = ErrorWindow(3, window)
     for k in range(len(effort)):
         errors.update(effort[k], predicted[k])
-        lo = max(0, k + 1 - window)
-        mse, nmse = brute(effort[lo:k + 1], predicted[lo:k + 1])
         stats = errors.snapshot()
-        assert stats.count == k + 1 - lo
-        np.testing.assert_allclose(stats.mse, mse, rtol=1e-9)
+        mse, nmse = assert_matches_brute(stats, effort, predicted, k, window, (1e-9, 1e-6))
         if k > 0:
-            np.testing.assert_allclose(stats.nmse, nmse, rtol=1e-6)
             assert stats.nmse_total == pytest.approx(float(np.mean(nmse)), rel=1e-6)
         assert stats.mse_total == pytest.approx(float(np.mean(mse)), rel=1e-9)
 
@@ -64,13 +74,8 @@ def test_recent_is_the_exact_figure_over_the_last_k() -> None:
     for k in range(len(effort)):
         errors.update(effort[k], predicted[k])
         if k in (0, 57, 99, 100, 249, 250, 611, 729):
-            lo = max(0, k + 1 - PAPER_WINDOW)
-            mse, nmse = brute(effort[lo:k + 1], predicted[lo:k + 1])
-            stats = errors.recent()
-            assert stats.count == k + 1 - lo
-            np.testing.assert_allclose(stats.mse, mse, rtol=1e-12)
-            if k > 0:
-                np.testing.assert_allclose(stats.nmse, nmse, rtol=1e-9)
+            assert_matches_brute(errors.recent(), effort, predicted, k, PAPER_WINDOW,
+                                 (1e-12, 1e-9))
     with pytest.raises(ValueError, match='k must be'):
         errors.recent(251)
     with pytest.raises(ValueError, match='k must be'):

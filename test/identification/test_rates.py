@@ -20,12 +20,12 @@ from scara_ident_ros.paper.datasets import dataset_from_record, simulate_record
 from scara_ident_ros.paper.reference import fit_reference, predict_reference
 from scara_ident_ros.identification import (Holdout, InputStage, JointMap, OnlineIdentifier,
                                             ReservoirLM)
-from scara_ident_ros.nn.presets import limit_scaling, make_network
+from scara_ident_ros.nn.presets import make_network
 from scara_ident_ros.sim import SimConfig, SimRecord
+from robot_scaling import robot_scaling  # test/robot_scaling.py
 
 PARAMS = ScaraParams()
 NAMES = PARAMS.joint_names
-LIMITS = ('position_min', 'position_max', 'velocity_max', 'acceleration_max', 'effort_max')
 SEED = 3  # the excitation
 #: rate (Hz) -> jitter (s): a 1 kHz simulator, a UR-like 500 Hz and an older arm's 100 Hz
 STREAMS = {1000: 0.0, 500: 2e-4, 100: 1e-3}
@@ -85,7 +85,7 @@ def learn(rate: int, seconds: float = 15.0) -> Learnt:
     score the frozen network on 5 s of the same motion at 1 kHz, never learnt."""
     record = stream(rate, seconds)
     net = make_network('ffs', 4, n_hidden=10, seed=0)
-    net.set_scaling(*limit_scaling(*(PARAMS.array(name) for name in LIMITS)))
+    net.set_scaling(*robot_scaling(PARAMS))
     ident = OnlineIdentifier(net, joint_names=NAMES,
                              trainer=ReservoirLM(net, capacity=500, interval=200, seed=0),
                              holdout=Holdout(12, 4, seed=0))

@@ -14,19 +14,19 @@ from scara_ident_ros.identification import (BackPropagation, Bounds, Holdout, On
                                             Reservoir, ReservoirLM, SkipReason, make_trainer)
 import itertools
 
-from scara_ident_ros.nn.presets import FRICTION_STEP_WIDTHS, limit_scaling, make_network
+from scara_ident_ros.nn.presets import FRICTION_STEP_WIDTHS, make_network
 from scara_ident_ros.nn import FeedForwardNet
 from scara_ident_ros.nn.batch import mse_scaled
 from scara_ident_ros.blas_threads import single_blas_thread
+from robot_scaling import robot_scaling  # test/robot_scaling.py
 
 PARAMS = ScaraParams()
-LIMITS = ('position_min', 'position_max', 'velocity_max', 'acceleration_max', 'effort_max')
 
 
 def network(method: str = 'ffs', seed: int = 0, friction_steps: bool = False
             ) -> FeedForwardNet:
     net = make_network(method, 4, seed=seed, friction_steps=friction_steps)
-    net.set_scaling(*limit_scaling(*(PARAMS.array(name) for name in LIMITS)))
+    net.set_scaling(*robot_scaling(PARAMS))
     return net
 
 

@@ -1,4 +1,5 @@
-"""Shared data for the network tests: a smooth 12 → 4 map shaped like inverse dynamics."""
+"""Shared data for the network tests: the activations, a smooth 12 → 4 map shaped like
+inverse dynamics."""
 from __future__ import annotations
 
 import numpy as np
@@ -22,3 +23,9 @@ def smooth_data() -> tuple[np.ndarray, np.ndarray]:
     rng = np.random.default_rng(42)
     x = rng.uniform(-1.0, 1.0, (300, 12))
     return x, smooth_map(x)
+
+
+@pytest.fixture(params=('sigmoid', 'slog', 'mslog'))
+def name(request: pytest.FixtureRequest) -> str:
+    """Each of the paper's three activations, by its name in the network's tables."""
+    return str(request.param)

@@ -10,10 +10,7 @@ from scara_ident_ros.nn.network import forward_scaled
 from scara_ident_ros.nn.levenberg_marquardt import (LevenbergMarquardt, normal_blocks,
                                                     normal_equations)
 
-NAMES = ('sigmoid', 'slog', 'mslog')
 
-
-@pytest.mark.parametrize('name', NAMES)
 def test_structured_normal_equations_equal_dense_ones(name: str) -> None:
     net = FeedForwardNet(5, 8, 3, name, seed=3)
     rng = np.random.default_rng(3)

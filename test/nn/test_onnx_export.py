@@ -17,15 +17,15 @@ import pytest
 from onnx import numpy_helper
 
 from scara_ident_ros.dynamics import ScaraParams
-from scara_ident_ros.nn.presets import METHODS, limit_scaling, make_network
+from scara_ident_ros.nn.presets import METHODS, make_network
 from scara_ident_ros.nn import FeedForwardNet, fit
 from scara_ident_ros.nn.onnx_export import (INPUT_NAME, IR_VERSION, OPSET, OUTPUT_NAME,
                                             network_to_onnx, onnx_agreement,
                                             relative_difference, save_onnx)
+from robot_scaling import robot_scaling  # test/robot_scaling.py
 
 PARAMS = ScaraParams()
-LIMITS = ('position_min', 'position_max', 'velocity_max', 'acceleration_max', 'effort_max')
-SCALING = limit_scaling(*(PARAMS.array(name) for name in LIMITS))
+SCALING = robot_scaling(PARAMS)
 JOINTS = ['joint1', 'joint2', 'joint3', 'joint4']
 TOLERANCE = 1e-6
 

@@ -9,8 +9,6 @@ import pytest
 from scara_ident_ros.nn import FeedForwardNet
 from scara_ident_ros.nn.batch import loss_gradient
 
-NAMES = ('sigmoid', 'slog', 'mslog')
-
 
 def scaled_net(name: str = 'mslog', **options: float) -> FeedForwardNet:
     net = FeedForwardNet(12, 40, 4, name, **options)  # type: ignore[arg-type]
@@ -18,7 +16,6 @@ def scaled_net(name: str = 'mslog', **options: float) -> FeedForwardNet:
     return net
 
 
-@pytest.mark.parametrize('name', NAMES)
 def test_online_step_is_sgd_with_momentum(name: str) -> None:
     net = scaled_net(name, learning_rate=0.01, momentum=0.5, seed=4)
     rng = np.random.default_rng(4)
@@ -117,7 +114,6 @@ def test_option_changes_and_pickling_keep_partial_fit_tied_to_the_scaling() -> N
     np.testing.assert_allclose(copy.get_params(), net.get_params() - 0.0125 * grad, rtol=1e-11)
 
 
-@pytest.mark.parametrize('name', NAMES)
 def test_partial_fit_reduces_error_on_a_simple_function(name: str) -> None:
     rng = np.random.default_rng(7)
     x = rng.uniform(-1, 1, (3000, 2))

@@ -11,11 +11,9 @@ from scara_ident_ros.nn.gradient_descent import GradientDescent
 from scara_ident_ros.nn.levenberg_marquardt import LevenbergMarquardt
 from scara_ident_ros.nn.training import run_training
 
-NAMES = ('sigmoid', 'slog', 'mslog')
 Data = tuple[np.ndarray, np.ndarray]
 
 
-@pytest.mark.parametrize('name', NAMES)
 def test_lm_reaches_a_tight_goal_fast_and_beats_gd(name: str, smooth_data: Data) -> None:
     x, y = smooth_data
     lm = fit(FeedForwardNet(12, 20, 4, name), x, y, iterations=100, goal=1e-4)

@@ -1,13 +1,17 @@
-"""Fixtures of the node tests: a ROS domain of each test's own, claimed by a lock."""
+"""Fixtures of the node tests: a ROS domain of each test's own, claimed by a lock, and the
+test's listener on DDS."""
 from __future__ import annotations
 
 import sys
+from collections.abc import Iterator
 from pathlib import Path
-from typing import IO
+from typing import IO, Any
 
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE.parent))
+sys.path.insert(0, str(HERE))  # rostest and the helpers beside it: test/nodes is no package
 from ros_domains import claim_domain  # noqa: E402  (test/ is no package)
 
 #: the last test's domain lock, released once the next test holds its own: two tests in a
@@ -30,3 +34,17 @@ def domain(monkeypatch: pytest.MonkeyPatch) -> int:
     monkeypatch.setenv('ROS_DOMAIN_ID', str(value))
     monkeypatch.setenv('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
     return value
+
+
+@pytest.fixture
+def listener(request: pytest.FixtureRequest) -> Iterator[Any]:
+    """The test's side of DDS: a ``rostest.Listener`` (a fresh rclpy Context) named after the
+    test module, closed after the test. A test module that wants its own domain for it
+    requests ``domain`` first (``pytest.mark.usefixtures('domain')``)."""
+    from rostest import Listener  # here, not above: only the tests that listen import rclpy
+
+    node = Listener(f'{request.path.stem}_listener')
+    try:
+        yield node
+    finally:
+        node.close()

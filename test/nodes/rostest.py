@@ -10,8 +10,8 @@ is left behind in the default context between tests.
 The children inherit ``os.environ`` (``ROS_DOMAIN_ID`` chosen by ``test/conftest.py``),
 with ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`` forced unless already set.
 
-Importing: pytest runs with ``--import-mode=importlib``, so a test module in this
-directory puts the directory on ``sys.path`` before ``import rostest``.
+Importing: pytest runs with ``--import-mode=importlib``, so ``test/nodes/conftest.py`` puts
+this directory on ``sys.path`` for the test modules' ``import rostest``.
 """
 from __future__ import annotations
 

@@ -13,7 +13,6 @@ import json
 import signal
 import sys
 import time
-from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -23,8 +22,7 @@ from sensor_msgs.msg import JointState
 from std_srvs.srv import Trigger
 from trajectory_msgs.msg import JointTrajectory
 
-sys.path.insert(0, str(Path(__file__).parent))  # --import-mode=importlib: see rostest.py
-from rostest import Listener, NodeProcess  # noqa: E402
+from rostest import Listener, NodeProcess  # test/nodes/rostest.py
 
 sys.path.insert(0, str(Path(__file__).parents[1] / 'excitation'))
 from smoothness import assert_consistent  # noqa: E402
@@ -87,13 +85,6 @@ class FakeArm:
 
     def spin_until(self, done: object, timeout: float = TIMEOUT) -> None:
         assert self.listener.spin_until(done, timeout), f'{len(self.chunks)} chunks'  # type: ignore[arg-type]
-
-
-@pytest.fixture
-def listener() -> Iterator[Listener]:
-    listener = Listener()
-    yield listener
-    listener.close()
 
 
 def excitation(*extra: str, state_timeout: float = 3.0) -> NodeProcess:

@@ -19,9 +19,8 @@ import json
 import time
 import math
 import signal
-import sys
 from collections import Counter
-from collections.abc import Iterator, Sequence
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -33,7 +32,7 @@ from std_msgs.msg import Float64MultiArray
 from scara_ident_ros.dynamics import ScaraParams
 from scara_ident_ros.identification import Holdout, InputStage, JointMap
 from scara_ident_ros.identification.sample_check import RESTART_SAMPLES
-from scara_ident_ros.nn.presets import METHODS, limit_scaling, make_network
+from scara_ident_ros.nn.presets import METHODS, make_network
 from scara_ident_ros.nn import FeedForwardNet
 from scara_ident_ros.nodes.identifier import PARAMETERS
 from scara_ident_ros.nodes.messages import NS_PER_S, ns_to_stamp, stamp_to_ns
@@ -41,8 +40,8 @@ from scara_ident_ros.resources import config_path
 from scara_ident_ros.sim import SimConfig, Simulator, make_trajectory
 from scara_ident_ros.sim.simulator import SimRecord
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-import rostest  # noqa: E402  (test/nodes is not a package: see rostest's docstring)
+import rostest  # test/nodes/rostest.py
+from robot_scaling import robot_scaling  # test/robot_scaling.py
 
 pytestmark = pytest.mark.ros
 
@@ -196,13 +195,6 @@ def node_inputs(record: SimRecord, n: int) -> np.ndarray:
                                                   record.qd[:n], record.effort[:n])
     assert (out == stamps_ns).all()  # one input per sample, in order
     return X
-
-
-@pytest.fixture
-def listener() -> Iterator[rostest.Listener]:
-    node = rostest.Listener('identifier_test')
-    yield node
-    node.close()
 
 
 def model_digest(path: Path) -> str:
@@ -689,8 +681,7 @@ def saved_model(path: Path, names: Sequence[str], *, record_names: bool = True,
     """Save a fresh network for ``names`` (with them in its metadata, as a node records)."""
     network = make_network(method, len(names))
     index = [NAMES.index(name) for name in names]
-    network.set_scaling(*limit_scaling(*(SCARA_PARAMS.array(name)[index] for name in (
-        'position_min', 'position_max', 'velocity_max', 'acceleration_max', 'effort_max'))))
+    network.set_scaling(*robot_scaling(SCARA_PARAMS, index))
     if record_names:
         network.metadata['joint_names'] = np.array(names)
     network.save(path)

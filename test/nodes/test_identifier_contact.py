@@ -10,8 +10,6 @@ once the parameter is raised above it.
 from __future__ import annotations
 
 import json
-import sys
-from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -21,15 +19,15 @@ from sensor_msgs.msg import JointState
 
 from scara_ident_ros.dynamics import ScaraParams
 from scara_ident_ros.identification import Holdout, InputStage, JointMap
-from scara_ident_ros.nn.presets import limit_scaling, make_network
+from scara_ident_ros.nn.presets import make_network
 from scara_ident_ros.nn import FeedForwardNet
 from scara_ident_ros.nn.network import forward_scaled
 from scara_ident_ros.nodes.messages import NS_PER_S, ns_to_stamp, stamp_to_ns
 from scara_ident_ros.resources import config_path
 from scara_ident_ros.sim import SimConfig, Simulator, make_trajectory
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-import rostest  # noqa: E402  (test/nodes is not a package: see rostest's docstring)
+import rostest  # test/nodes/rostest.py
+from robot_scaling import robot_scaling  # test/robot_scaling.py
 
 pytestmark = pytest.mark.ros
 
@@ -59,8 +57,7 @@ def stream() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
 def fitted_model(path: Path, X: np.ndarray, Y: np.ndarray) -> FeedForwardNet:
     """An FFS network for the SCARA's limits, its output layer fitted to (X, Y), saved."""
     net = make_network('ffs', 4)
-    net.set_scaling(*limit_scaling(*(SCARA.array(name) for name in (
-        'position_min', 'position_max', 'velocity_max', 'acceleration_max', 'effort_max'))))
+    net.set_scaling(*robot_scaling(SCARA))
     hidden = forward_scaled(net, net.x_scaling.transform(X)).h
     design = np.hstack([hidden, np.ones((len(X), 1))])
     weights, *_ = np.linalg.lstsq(design, net.y_scaling.transform(Y), rcond=None)
@@ -89,13 +86,6 @@ def contact_value(diagnostics: list[DiagnosticArray]) -> str | None:
                 if pair.key == 'contact detection':
                     return str(pair.value)
     return None
-
-
-@pytest.fixture
-def listener() -> Iterator[rostest.Listener]:
-    listener = rostest.Listener()
-    yield listener
-    listener.close()
 
 
 def test_contact_only_once_armed_with_the_samples_stamp(tmp_path: Path,

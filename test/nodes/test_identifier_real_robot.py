@@ -10,8 +10,6 @@ from __future__ import annotations
 
 import json
 import signal
-import sys
-from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -22,8 +20,7 @@ from std_msgs.msg import Float64MultiArray
 
 from scara_ident_ros.nodes.messages import NS_PER_S, stamp_to_ns
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-import rostest  # noqa: E402  (test/nodes is not a package: see rostest's docstring)
+import rostest  # test/nodes/rostest.py
 
 pytestmark = pytest.mark.ros
 
@@ -38,13 +35,6 @@ LAG = 10  # samples: the centred q'' fit of 21
 DEPTH = 5000  # messages: the whole stream fits in the history
 DISCOVERY_TIMEOUT = 20.0  # s, the machine is shared
 STREAM_TIMEOUT = 30.0  # s
-
-
-@pytest.fixture
-def listener() -> Iterator[rostest.Listener]:
-    node = rostest.Listener('real_robot_test')
-    yield node
-    node.close()
 
 
 def params_file(tmp_path: Path, **values: object) -> Path:

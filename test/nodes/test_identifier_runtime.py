@@ -11,9 +11,7 @@ from __future__ import annotations
 import hashlib
 import json
 import signal
-import sys
 import time
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -26,9 +24,8 @@ from std_srvs.srv import Trigger
 
 from scara_ident_ros.sim.simulator import SimRecord
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-import rostest  # noqa: E402  (test/nodes is not a package: see rostest's docstring)
-from test_identifier import (DEPTH, DISCOVERY_TIMEOUT, IDENTIFIER,  # noqa: E402
+import rostest  # test/nodes/rostest.py
+from test_identifier import (DEPTH, DISCOVERY_TIMEOUT, IDENTIFIER,
                              JOINT_STATES_TOPIC, LAG, MSE_TOPIC, PERIOD_NS, SETTLE, T0_NS,
                              TORQUE_TOPIC, held_out_indices, sample_msg, simulated)
 
@@ -120,13 +117,6 @@ def start(tmp_path: Path, *params: str) -> rostest.NodeProcess:
     for param in params:
         args += ['-p', param]
     return rostest.NodeProcess(IDENTIFIER, args)
-
-
-@pytest.fixture
-def listener() -> Iterator[rostest.Listener]:
-    node = rostest.Listener('identifier_runtime_test')
-    yield node
-    node.close()
 
 
 @pytest.mark.slow

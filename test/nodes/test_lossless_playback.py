@@ -13,16 +13,14 @@ import json
 import signal
 import subprocess
 import sys
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 import pytest
 
-HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE))
+from rostest import NodeProcess  # test/nodes/rostest.py
 
-from rostest import Listener, NodeProcess  # noqa: E402
+HERE = Path(__file__).resolve().parent
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
 
@@ -51,15 +49,6 @@ def test_play_at_rate_max_into_an_identifier_loses_no_sample(tmp_path: Path) -> 
     info = json.loads(stats.read_text())
     assert info['processed'] == info['predicted'] == SAMPLES, (info, out.stderr[-3000:])
     assert not info['skipped'], info
-
-
-@pytest.fixture
-def listener() -> Iterator[Any]:
-    node = Listener('lossless_playback_listener')
-    try:
-        yield node
-    finally:
-        node.close()
 
 
 def test_the_player_does_not_claim_what_was_not_acknowledged(listener: Any) -> None:

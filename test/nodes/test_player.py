@@ -12,16 +12,14 @@ import signal
 import subprocess
 import sys
 import time
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 import pytest
 
-pytestmark = pytest.mark.ros
+pytestmark = [pytest.mark.ros, pytest.mark.usefixtures('domain')]  # before the listener
 
 HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE))
 sys.path.insert(0, str(HERE.parent / 'bag'))  # bag_files: bags of rosbags, mcap-ros2-support
 
 PLAYER = 'scara_ident_ros.nodes.player'
@@ -29,16 +27,6 @@ JOINT_STATES = '/joint_states'
 MSE = '/ffmw/identification_mse'
 START_NS = 1_700_000_000_000_000_000
 RUN_TIMEOUT = 60.0  # s for a player run to end by itself (the machine is shared)
-
-@pytest.fixture
-def listener(domain: int) -> Iterator[Any]:
-    from rostest import Listener
-
-    node = Listener('player_test_listener')
-    try:
-        yield node
-    finally:
-        node.close()
 
 
 def joint_state(i: int) -> bytes:

@@ -19,7 +19,6 @@ pytestmark = pytest.mark.ros
 
 
 HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE))
 
 RECORDER = 'scara_ident_ros.nodes.recorder'
 PLAYER = 'scara_ident_ros.nodes.player'

@@ -24,9 +24,6 @@ import pytest
 
 pytestmark = pytest.mark.ros
 
-HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE))
-
 RECORDER = 'scara_ident_ros.nodes.recorder'
 JOINT_STATES = '/joint_states'
 MSE = '/ffmw/identification_mse'

@@ -9,8 +9,6 @@ from __future__ import annotations
 
 import json
 import signal
-import sys
-from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -23,8 +21,7 @@ from std_srvs.srv import Trigger
 
 from scara_ident_ros.bag import open_bag
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-import rostest  # noqa: E402  (test/nodes is not a package: see rostest's docstring)
+import rostest  # test/nodes/rostest.py
 
 pytestmark = pytest.mark.ros
 
@@ -36,13 +33,6 @@ BATCH = 300  # messages published between two service calls
 DISCOVERY_TIMEOUT = 20.0  # s, the machine is shared
 COUNT_TIMEOUT = 30.0  # s for the recorder to report a count
 OK, WARN = b'\x00', b'\x01'  # DiagnosticStatus levels
-
-
-@pytest.fixture
-def listener() -> Iterator[rostest.Listener]:
-    node = rostest.Listener('recorder_services_test')
-    yield node
-    node.close()
 
 
 def numbered(i: int) -> JointState:

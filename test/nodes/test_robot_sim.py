@@ -9,8 +9,6 @@ are those of the same simulation run in-process, whose states must equal the str
 """
 from __future__ import annotations
 
-import sys
-from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -18,14 +16,13 @@ import pinocchio as pin
 import pytest
 from sensor_msgs.msg import JointState
 
-sys.path.insert(0, str(Path(__file__).parent))  # --import-mode=importlib: see rostest.py
-from rostest import Listener, NodeProcess  # noqa: E402
+from rostest import Listener, NodeProcess  # test/nodes/rostest.py
 
-from scara_ident_ros.nodes.robot_sim import SUBSTEPS, robot_from_settings  # noqa: E402
-from scara_ident_ros.errors import ConfigError  # noqa: E402
-from scara_ident_ros.sim import SimConfig, Simulator, make_trajectory  # noqa: E402
-from scara_ident_ros.sim.example_robots import example_robot  # noqa: E402
-from scara_ident_ros.sim.pinocchio_robot import PinocchioRobot  # noqa: E402
+from scara_ident_ros.nodes.robot_sim import SUBSTEPS, robot_from_settings
+from scara_ident_ros.errors import ConfigError
+from scara_ident_ros.sim import SimConfig, Simulator, make_trajectory
+from scara_ident_ros.sim.example_robots import example_robot
+from scara_ident_ros.sim.pinocchio_robot import PinocchioRobot
 
 pytestmark = pytest.mark.ros
 
@@ -42,13 +39,6 @@ ROBOTS = {
             'wrist_2_joint', 'wrist_3_joint'),
     'panda': tuple(f'panda_joint{i}' for i in range(1, 8)),   # the fingers are locked
 }
-
-
-@pytest.fixture
-def listener() -> Iterator[Listener]:
-    listener = Listener()
-    yield listener
-    listener.close()
 
 
 def field(messages: list[JointState], name: str) -> np.ndarray:

@@ -8,9 +8,7 @@ when the first sample is published.
 from __future__ import annotations
 
 import signal
-import sys
 import time
-from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -19,11 +17,10 @@ import yaml
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 
-sys.path.insert(0, str(Path(__file__).parent))  # --import-mode=importlib: see rostest.py
-from rostest import Listener, NodeProcess  # noqa: E402
+from rostest import Listener, NodeProcess  # test/nodes/rostest.py
 
-from scara_ident_ros.dynamics import ScaraParams  # noqa: E402
-from scara_ident_ros.sim import SimConfig, Simulator, make_trajectory  # noqa: E402
+from scara_ident_ros.dynamics import ScaraParams
+from scara_ident_ros.sim import SimConfig, Simulator, make_trajectory
 
 pytestmark = pytest.mark.ros
 
@@ -35,13 +32,6 @@ NAMES = ['joint1', 'joint2', 'joint3', 'joint4']
 MS = 1_000_000  # ns
 RECEIVE_TIMEOUT = 60.0  # s: generous, the machine is shared
 EXIT_TIMEOUT = 30.0  # s
-
-
-@pytest.fixture
-def listener() -> Iterator[Listener]:
-    listener = Listener()
-    yield listener
-    listener.close()
 
 
 def stamps_ns(messages: list[JointState] | list[Clock]) -> np.ndarray:

@@ -19,12 +19,8 @@ from pathlib import Path
 
 import pytest
 
-HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE))
-sys.path.insert(0, str(HERE.parent))
-
-from ros_domains import claim_domain  # noqa: E402  (test/ is no package)
-from rostest import NodeProcess  # noqa: E402
+from ros_domains import claim_domain  # test/ros_domains.py
+from rostest import NodeProcess  # test/nodes/rostest.py
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
 

@@ -11,11 +11,11 @@ from scara_ident_ros.dynamics import ScaraParams
 from scara_ident_ros.identification.dataset import Dataset
 from scara_ident_ros.paper.datasets import simulate_dataset
 from scara_ident_ros.paper.hyperparameters import Grid, Hyperparameters, search
-from scara_ident_ros.nn.presets import METHODS, limit_scaling, make_network
+from scara_ident_ros.nn.presets import METHODS, make_network
+from robot_scaling import robot_scaling  # test/robot_scaling.py
 
 PARAMS = ScaraParams()
-SCALING = limit_scaling(PARAMS.position_min, PARAMS.position_max, PARAMS.velocity_max,
-                        PARAMS.acceleration_max, PARAMS.effort_max)
+SCALING = robot_scaling(PARAMS)
 
 
 @pytest.fixture(scope='module')

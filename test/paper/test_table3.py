@@ -8,12 +8,12 @@ from scara_ident_ros.dynamics import ScaraParams
 from scara_ident_ros.identification.dataset import Dataset
 from scara_ident_ros.paper.datasets import simulate_dataset
 from scara_ident_ros.paper.table3 import hold_rows, learn_online, online_rows, run_online
-from scara_ident_ros.nn.presets import limit_scaling, make_network
+from scara_ident_ros.nn.presets import make_network
 from scara_ident_ros.nn import FeedForwardNet
+from robot_scaling import robot_scaling  # test/robot_scaling.py
 
 PARAMS = ScaraParams()
-SCALING = limit_scaling(PARAMS.position_min, PARAMS.position_max, PARAMS.velocity_max,
-                        PARAMS.acceleration_max, PARAMS.effort_max)
+SCALING = robot_scaling(PARAMS)
 
 
 @pytest.fixture(scope='module')
