@@ -9,6 +9,7 @@ mcap-ros2-support, from ``test/bag/bag_files.py``) are compared message by messa
 from __future__ import annotations
 
 import signal
+import statistics
 import subprocess
 import sys
 import time
@@ -108,7 +109,9 @@ def test_plays_every_message_at_the_recorded_pace_then_exits(
     span = received[-1][0] - received[0][0]
     assert 0.8 / rate < span < 1.0 / rate + 0.4, span
     gaps = [b[0] - a[0] for a, b in zip(received, received[1:])]
-    assert min(gaps) > 0.02 / rate, gaps  # spaced out, not bunched
+    # spaced out, not bunched (the median: on a loaded machine the listener itself may be
+    # late and take two at once, 21 µs apart)
+    assert statistics.median(gaps) > 0.025 / rate, gaps
     assert 'played 21 messages' in output.stderr
 
 
