@@ -61,7 +61,7 @@ from scara_ident_ros.nn import FeedForwardNet
 if TYPE_CHECKING:
     from scara_ident_ros.dynamics.hybrid_model import HybridModel
 
-__all__ = ['BackgroundLM', 'LearnerSettings', 'prestart']
+__all__ = ['NICE', 'BackgroundLM', 'LearnerSettings', 'prestart']
 
 #: Bytes of one batch message at most: below PIPE_BUF (4096 on Linux), so a write into a
 #: pipe that select() calls writable neither blocks nor interleaves.

@@ -63,6 +63,7 @@ class CoreSettings:
     reservoir_size: int
     lm_steps: int
     lm_interval: int
+    lm_nice: int
     lm_float64: bool
     lm_slow_share: float
     lm_friction_steps: bool
@@ -167,6 +168,7 @@ class LazyCore:
                                 interval=settings.lm_interval, steps=settings.lm_steps,
                                 seed=settings.seed, float64=settings.lm_float64,
                                 slow_share=settings.lm_slow_share, background=background,
+                                nice=settings.lm_nice,
                                 label=f'lm-{settings.method}', hybrid=hybrid)
 
         trainer: Trainer

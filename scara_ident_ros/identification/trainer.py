@@ -28,7 +28,7 @@ from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import NDArray
 
-from scara_ident_ros.identification.background_lm import BackgroundLM, LearnerSettings
+from scara_ident_ros.identification.background_lm import NICE, BackgroundLM, LearnerSettings
 from scara_ident_ros.identification.reservoir_lm import ReservoirLM
 from scara_ident_ros.nn import FeedForwardNet
 from scara_ident_ros.nn.scaling import MinMaxScaling
@@ -164,7 +164,7 @@ class BackPropagation:
 def make_trainer(name: str, model: FeedForwardNet, *, capacity: int = 4000,
                  interval: int = 200, steps: int = 2, seed: int = 0, float64: bool = False,
                  slow_share: float = 0.0, background: bool = False, label: str = 'lm',
-                 hybrid: HybridModel | None = None
+                 hybrid: HybridModel | None = None, nice: int = NICE
                  ) -> BackPropagation | ReservoirLM | BackgroundLM:
     """Build the trainer called ``name`` (one of :data:`TRAINERS`) for ``model``.
 
@@ -172,7 +172,8 @@ def make_trainer(name: str, model: FeedForwardNet, *, capacity: int = 4000,
     :class:`ReservoirLM`'s; BP uses the network's own learning rate and momentum.
     ``background``: ``lm`` learns in a process beside the caller (:class:`BackgroundLM`,
     ``interval`` then the least samples between two updates, ``label`` naming its process,
-    ``hybrid`` the hybrid ``model`` is the network of, learnt on its residuals there);
+    ``hybrid`` the hybrid ``model`` is the network of, learnt on its residuals there,
+    ``nice`` the niceness the process adds);
     BP stays per sample.
     """
     if name == 'bp':
@@ -180,7 +181,7 @@ def make_trainer(name: str, model: FeedForwardNet, *, capacity: int = 4000,
     if name == 'lm' and background:
         return BackgroundLM(model, LearnerSettings(
             capacity=capacity, interval=interval, steps=steps, seed=seed, float64=float64,
-            slow_share=slow_share, label=label), hybrid=hybrid)
+            slow_share=slow_share, nice=nice, label=label), hybrid=hybrid)
     if name == 'lm':
         return ReservoirLM(model, capacity=capacity, interval=interval, steps=steps,
                            seed=seed, float64=float64, slow_share=slow_share)

@@ -187,7 +187,8 @@ def identifier_health(*, period_s: float, since_sample_s: float | None, processe
     if learning and update_overdue_s is not None and update_overdue_s > STALL_AFTER:
         text = (f'learning stalled: no update for {update_overdue_s:.0f} s while samples came '
                 '(the learner process runs below the stream in CPU priority and the CPU is '
-                'busy): predictions go on with the last weights')
+                'busy; lm_nice:=0 gives it an equal share): predictions go on with the last '
+                'weights')
         problems.append((Level.WARN, text))
     updates = f' ({update_rate:.1f} updates/s)' if learning and update_rate is not None else ''
     level, message = _level(problems, f"identifying at {rate:.0f} samples/s, learning "

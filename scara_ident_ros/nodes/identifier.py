@@ -127,6 +127,10 @@ PARAMETERS = (
               'learning slows down and the updates/s say so); false: steps in the message '
               'path every lm_interval samples (reproducible, for experiments)',
               fixed='the trainer is built once'),
+    ParamSpec('lm_nice', 10, 'lm trainer beside the stream: niceness its learner process adds '
+              "to the node's: above 0 the stream's processes go first when the CPU is short "
+              '(learning slows down, the stream does not); 0 gives learning an equal share',
+              min=0, max=19, fixed='the learner process is started once'),
     ParamSpec('lm_float64', False, 'lm trainer: assemble its normal equations in float64 '
               '(more CPU)', fixed='the trainer is built once'),
     ParamSpec('lm_slow_share', 0.0, 'lm trainer: share of reservoir_size kept for samples '

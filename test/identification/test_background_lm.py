@@ -130,6 +130,18 @@ def test_an_update_at_a_minimum_counts_as_finished(trainer: BackgroundLM) -> Non
     assert trainer.updates == 0
 
 
+@pytest.mark.parametrize('nice', [0, 7])
+def test_the_learner_runs_at_the_niceness_it_is_given(nice: int) -> None:
+    """The niceness adds to the caller's (``lm_nice``): the learner gives way to the stream."""
+    made = BackgroundLM(network(), LearnerSettings(nice=nice))
+    try:
+        assert made.wait_ready(WAIT)
+        own = os.getpriority(os.PRIO_PROCESS, 0)
+        assert os.getpriority(os.PRIO_PROCESS, made._process.pid) == min(own + nice, 19)
+    finally:
+        made.close()
+
+
 def test_weights_are_swapped_whole(trainer: BackgroundLM) -> None:
     """Under a stream of updates, each prediction is made with one complete set of weights
     the learner sent (or the first): never a mix of two."""

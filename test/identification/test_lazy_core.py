@@ -16,7 +16,8 @@ LIMITS = JointLimits.of(NAMES, {
 SETTINGS = CoreSettings.of({
     'method': 'ffs', 'hidden_units': 5, 'seed': 0, 'learning_rate': 0.0, 'momentum': -1.0,
     'k': 2.5, 'a': 5.0, 'b': 5.0, 'trainer': 'bp', 'reservoir_size': 100, 'lm_steps': 1,
-    'lm_interval': 10, 'lm_float64': False, 'lm_slow_share': 0.0, 'lm_friction_steps': True,
+    'lm_interval': 10, 'lm_nice': 10, 'lm_float64': False, 'lm_slow_share': 0.0,
+    'lm_friction_steps': True,
     'validation_fraction': 0.0, 'validation_block': 10,
     'mse_window': 100, 'learn': True, 'max_gap': 0.02, 'limit_margin': 0.5, 'min_joints': 1,
     'unrelated': 'ignored'})

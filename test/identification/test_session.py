@@ -2,8 +2,8 @@
 parameters changed while running, lags and the summary."""
 from __future__ import annotations
 
+import os
 import time
-from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -14,8 +14,6 @@ import yaml
 from scara_ident_ros.dynamics import ScaraParams
 from scara_ident_ros.dynamics.joint_limits import LimitsError
 from scara_ident_ros.errors import ConfigError
-from scara_ident_ros.identification import trainer as trainer_module
-from scara_ident_ros.identification.background_lm import LearnerSettings
 from scara_ident_ros.identification.session import IdentificationSession
 from scara_ident_ros.identification.reservoir_lm import ReservoirLM
 from scara_ident_ros.identification.warm_start import ModelMismatch
@@ -207,16 +205,13 @@ def test_save_says_why_not_and_writes_atomically(tmp_path: Path) -> None:
     assert ok and str(path) in message and path.is_file()
 
 
-def test_a_background_hybrid_reports_its_learners_updates(
-        monkeypatch: pytest.MonkeyPatch) -> None:
+def test_a_background_hybrid_reports_its_learners_updates() -> None:
     """method:=hybrid with the default learner process: the session's learning statistics
     are its network's learner's."""
-    # The learner at the stream's priority: at its default niceness a loaded CI machine can
-    # starve it for longer than the wait (what is tested here is the reporting, not the
-    # priority).
-    monkeypatch.setattr(trainer_module, 'LearnerSettings', partial(LearnerSettings, nice=0))
+    # lm_nice 0, the learner at the stream's priority: at the default niceness a loaded CI
+    # machine can starve it for longer than the wait (the reporting is tested here)
     urdf = Path(__file__).resolve().parents[2] / 'urdf' / 'scara.urdf'
-    session = IdentificationSession(settings(method='hybrid', lm_background=True,
+    session = IdentificationSession(settings(method='hybrid', lm_background=True, lm_nice=0,
                                              urdf_file=str(urdf), joint_names=NAMES))
     record = Simulator(SCARA, make_trajectory('sequence', SCARA, seed=1),
                        SimConfig(seed=1)).simulate(6000)
@@ -224,6 +219,8 @@ def test_a_background_hybrid_reports_its_learners_updates(
         run, = session.runs
         assert run.background is not None and run.background.hybrid is run.network
         assert run.background.wait_ready(WAIT)
+        assert os.getpriority(os.PRIO_PROCESS, run.background._process.pid) == \
+            os.getpriority(os.PRIO_PROCESS, 0)  # lm_nice reached the learner
         # a stream, not a burst: the learner updates once per 200 new samples, and an
         # update its validation check undoes is no update
         deadline = time.monotonic() + WAIT
