@@ -19,9 +19,14 @@ pytestmark = [pytest.mark.ros, pytest.mark.slow]  # one interpreter importing th
 TEST_DIR = Path(__file__).resolve().parent
 MARKED = re.compile(r'^pytestmark = .*pytest\.mark\.ros\b', re.MULTILINE)
 
+# the paths pytest gives a test module: test/ (its conftest.py) and the module's own folder
 IMPORT_EACH = """
-import importlib.util, sys
-for index, path in enumerate(sys.argv[1:]):
+import importlib.util, os, sys
+test_dir, modules = sys.argv[1], sys.argv[2:]
+sys.path.insert(0, test_dir)
+for index, path in enumerate(modules):
+    if os.path.dirname(path) not in sys.path:
+        sys.path.insert(0, os.path.dirname(path))
     spec = importlib.util.spec_from_file_location(f'core_selection_{index}', path)
     module = sys.modules[spec.name] = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
@@ -47,7 +52,8 @@ def test_the_marker_is_found_where_it_is_written() -> None:
 def test_modules_not_marked_ros_import_no_rclpy() -> None:
     modules = unmarked_modules()
     assert len(modules) > 50
-    out = subprocess.run([sys.executable, '-c', IMPORT_EACH, *map(str, modules)],
+    out = subprocess.run([sys.executable, '-c', IMPORT_EACH, str(TEST_DIR),
+                          *map(str, modules)],
                          capture_output=True, text=True, timeout=300, check=False)
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == '', (
