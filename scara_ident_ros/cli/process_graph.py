@@ -32,7 +32,10 @@ from typing import IO
 __all__ = ['NodeProcess', 'ProcessGraph', 'StopSignals', 'publishers_on']
 
 PR_SET_PDEATHSIG = 1  # prctl option: signal this process when its parent dies (Linux)
-PROBE_TIME = 2.0  # s of discovery before concluding that no other graph publishes
+#: s of discovery before concluding that no other graph publishes: longer than Fast DDS's
+#: participant announcement period (3 s), so that a participant whose answer to the probe's
+#: first announcements is missed (a loaded machine) is still heard at its next announcement
+PROBE_TIME = 4.0
 PROBE_SETTLE = 2.0  # s of looking on after the last new publisher, for its graph's others
 PROBE_POLL = 0.1  # s between two looks at the publisher counts
 
