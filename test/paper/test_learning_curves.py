@@ -87,7 +87,7 @@ def test_hybrid_curve_on_a_urdf_arm() -> None:
     """``--methods hybrid --stribeck`` at a small size: the hybrid starts as the physical
     model (RLS) and its network, fitted to the residuals of the current θ and checked on
     samples it does not learn and bounded by their range, does not spoil it (with the
-    a-priori residuals of each sample it did: docs/results_arms.md)."""
+    a-priori residuals of each sample it did: docs/results.md, other arms)."""
     done: list[list[Curve]] = []
     curves = run_curves('ur5', seeds=[0], methods=['hybrid'], trainers=['lm'], seconds=3.0,
                         workers=1, held_out_s=(0.5, 1.0), stribeck=True, finished=done.append)
