@@ -46,7 +46,7 @@ from scara_ident_ros.blas_threads import single_blas_thread
 from scara_ident_ros.errors import ConfigError
 from scara_ident_ros.identification import (DIFFERENTIATOR_WINDOW, DIFFERENTIATORS, TRAINERS,
                                             StepResult)
-from scara_ident_ros.identification.background_lm import prestart
+from scara_ident_ros.identification.background_lm import NICE, prestart
 from scara_ident_ros.identification.lazy_core import ONLINE_METHODS
 from scara_ident_ros.identification.sample_check import GAP_PERIODS
 from scara_ident_ros.identification.session import IdentificationSession, MethodRun
@@ -127,7 +127,7 @@ PARAMETERS = (
               'learning slows down and the updates/s say so); false: steps in the message '
               'path every lm_interval samples (reproducible, for experiments)',
               fixed='the trainer is built once'),
-    ParamSpec('lm_nice', 10, 'lm trainer beside the stream: niceness its learner process adds '
+    ParamSpec('lm_nice', NICE, 'lm trainer beside the stream: niceness its learner process adds '
               "to the node's: above 0 the stream's processes go first when the CPU is short "
               '(learning slows down, the stream does not); 0 gives learning an equal share',
               min=0, max=19, fixed='the learner process is started once'),
