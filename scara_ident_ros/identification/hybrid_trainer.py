@@ -21,16 +21,17 @@ the reservoir and computes Y(x) for the samples it keeps (one shared definition:
 the a-priori residual of each sample, unchecked and unbounded.
 
 A network fitted to a small residual overfits easily (offline, ``fit_hybrid`` stops early
-for that reason), and extrapolates on states the stream never held. So an ``lm``
-hybrid keeps :data:`VALIDATION_SHARE` of its samples apart, never learnt by the network,
-and checks each update on their residuals (of the current θ): an update that raises the
-validation error (per joint, relative to its effort variance, summed) is undone, and a
-joint whose residual the network predicts worse than zero gets its output row reset to
-zero: the hybrid is then the physical model on that joint until an update earns it back.
-The validation samples come from the stream, so after each update the model's correction
-is also bounded by the range of the residuals it was fitted to
-(:attr:`HybridModel.bounds`): frozen, it cannot extrapolate further than that on motions
-the stream never held. What each of these changed, measured: docs/results.md (other arms).
+for that reason), and extrapolates on states the stream never held. So an ``lm`` hybrid
+keeps a share of its samples apart
+(:data:`~scara_ident_ros.identification.residual_learner.VALIDATION_SHARE`), never learnt by
+the network, and checks each update on their residuals (of the current θ): an update that
+raises the validation error (per joint, relative to its effort variance, summed) is undone,
+and a joint whose residual the network predicts worse than zero gets its output row reset to
+zero: the hybrid is then the physical model on that joint until an update earns it back. The
+validation samples come from the stream, so after each update the model's correction is also
+bounded by the range of the residuals it was fitted to (:attr:`HybridModel.bounds`): frozen,
+it cannot extrapolate further than that on motions the stream never held. What each of these
+changed, measured: docs/results.md (other arms).
 """
 from __future__ import annotations
 
@@ -41,12 +42,11 @@ from scara_ident_ros.dynamics.hybrid_model import HybridModel
 from scara_ident_ros.identification.background_lm import BackgroundLM
 from scara_ident_ros.identification.reservoir import Reservoir
 from scara_ident_ros.identification.reservoir_lm import ReservoirLM
-from scara_ident_ros.identification.residual_learner import (MIN_VALIDATION,
-                                                             VALIDATION_SHARE, ResidualLearner)
+from scara_ident_ros.identification.residual_learner import ResidualLearner
 from scara_ident_ros.identification.rls_trainer import RecursiveLeastSquaresTrainer
 from scara_ident_ros.identification.trainer import Trainer
 
-__all__ = ['HybridTrainer', 'MIN_VALIDATION', 'VALIDATION_SHARE']
+__all__ = ['HybridTrainer']
 
 
 class HybridTrainer:

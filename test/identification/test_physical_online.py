@@ -13,7 +13,8 @@ from scara_ident_ros.dynamics.hybrid_model import HybridModel, online_hybrid
 from scara_ident_ros.dynamics.physical_model import PhysicalModel
 from scara_ident_ros.dynamics.joint_limits import load_joint_limits
 from scara_ident_ros.identification import CoreSettings, LazyCore, make_differentiator
-from scara_ident_ros.identification.hybrid_trainer import MIN_VALIDATION, HybridTrainer
+from scara_ident_ros.identification.hybrid_trainer import HybridTrainer
+from scara_ident_ros.identification.residual_learner import MIN_VALIDATION
 from scara_ident_ros.identification.reservoir_lm import ReservoirLM
 from scara_ident_ros.resources import config_path
 from scara_ident_ros.sim import SimConfig, Simulator, make_trajectory
