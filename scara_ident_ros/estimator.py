@@ -1,0 +1,138 @@
+"""The estimator contract every effort model keeps, and the one loader of model files.
+
+Every model of the package (network, physical, hybrid, kernel, ...) maps inputs to joint
+efforts with the scikit-learn estimator calls, so that a user with arrays writes::
+
+    model = KernelModel(n_features=1000)      # hyperparameters as constructor data
+    model.fit(X, Y)                            # X (N, 3n) = [q, q', q''], Y (N, n)
+    model.score(Xt, Yt)                        # 1 - mean NMSE over the joints (R²)
+    model.save('wam.npz')
+    same = load_model('wam.npz')               # the kind is read from the file
+
+and the CLI, the node and the paper's code make the same calls. Shapes and units::
+
+    X : (N, 3n) float64   [q_1..q_n, q'_1..q'_n, q''_1..q''_n] (rad, m, /s, /s²)
+    Y : (N, n) float64    joint efforts (N·m, N)
+
+A model that learns online also has ``partial_fit(X, Y)``, which returns its predictions of
+the samples *before* it learns them (each sample predicted before it is learnt).
+
+Model files are ``.npz`` archives with a ``kind`` (:mod:`scara_ident_ros.nn.model_file`);
+:func:`load_model` finds the class registered for that kind with :func:`register_kind`.
+"""
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any, Protocol, runtime_checkable
+
+import numpy as np
+import numpy.typing as npt
+
+__all__ = ['Estimator', 'OnlineEstimator', 'load_model', 'register_kind', 'registered_kinds',
+           'r2_score']
+
+FloatArray = npt.NDArray[np.float64]
+
+
+@runtime_checkable
+class Estimator(Protocol):
+    """What every effort model offers (module docstring for shapes and units)."""
+
+    #: The model file's kind, read back by :func:`load_model`.
+    kind: str
+
+    def fit(self, X: npt.ArrayLike, Y: npt.ArrayLike) -> Any:
+        """Learn from samples X (N, 3n) and efforts Y (N, n); returns the model."""
+
+    def predict(self, X: npt.ArrayLike) -> FloatArray:
+        """Efforts (N, n) for inputs X (N, 3n)."""
+
+    def score(self, X: npt.ArrayLike, Y: npt.ArrayLike) -> float:
+        """1 − mean over the joints of NMSE (R², higher is better): :func:`r2_score`."""
+
+    def get_params(self) -> dict[str, Any]:
+        """The hyperparameters given to the constructor, as data."""
+
+    def save(self, path: str | Path) -> None:
+        """Write the model to ``path`` (an .npz model file holding its kind)."""
+
+
+@runtime_checkable
+class OnlineEstimator(Estimator, Protocol):
+    """An estimator that learns sample by sample (or batch by batch) on a stream."""
+
+    def partial_fit(self, X: npt.ArrayLike, Y: npt.ArrayLike) -> FloatArray:
+        """Predict Y (N, n) from X (N, 3n), then learn the samples; returns the predictions
+        made before learning."""
+
+
+def r2_score(Y: npt.ArrayLike, prediction: npt.ArrayLike) -> float:
+    """1 − mean over the joints of MSE / variance of Y (joints with zero variance left out).
+
+    Parameters
+    ----------
+    Y, prediction : array_like of shape (N, n)
+        Measured and predicted efforts.
+    """
+    y = np.asarray(Y, dtype=np.float64)
+    p = np.asarray(prediction, dtype=np.float64)
+    if y.ndim == 1:
+        y, p = y[:, None], p.reshape(-1, 1)
+    if y.shape != p.shape or y.shape[0] < 2:
+        raise ValueError(f'need Y and prediction of one shape (N >= 2, n); '
+                         f'got {y.shape} and {p.shape}')
+    var = y.var(axis=0)
+    used = var > 0
+    if not used.any():
+        raise ValueError('every joint of Y is constant: R² is undefined')
+    nmse = ((y - p) ** 2).mean(axis=0)[used] / var[used]
+    return float(1.0 - nmse.mean())
+
+
+_Loader = Callable[[Path], Estimator]
+_LOADERS: dict[str, _Loader] = {}
+
+
+def register_kind(kind: str, loader: _Loader) -> None:
+    """Make :func:`load_model` read files of ``kind`` with ``loader(path)``."""
+    _LOADERS[kind] = loader
+
+
+def registered_kinds() -> tuple[str, ...]:
+    """The kinds :func:`load_model` reads (after their modules are imported)."""
+    _import_models()
+    return tuple(sorted(_LOADERS))
+
+
+def load_model(path: str | Path) -> Estimator:
+    """Read a model file of any kind; the class comes from the kind stored in the file.
+
+    Raises
+    ------
+    scara_ident_ros.nn.ModelFormatError
+        If the file is not a model file of ours or holds a kind no class reads.
+    """
+    from scara_ident_ros.nn.model_file import read_model_file
+    from scara_ident_ros.nn.errors import ModelFormatError
+
+    path = Path(path)
+    kind = read_model_file(path).kind
+    _import_models()
+    loader = _LOADERS.get(kind)
+    if loader is None:
+        raise ModelFormatError(f'{path}: a {kind!r} model, which no model class reads '
+                               f'(known: {", ".join(sorted(_LOADERS))})')
+    return loader(path)
+
+
+def _import_models() -> None:
+    """Import the model modules, each registering its kind (lazily: Pinocchio is heavy)."""
+    import importlib
+
+    for module in _MODEL_MODULES:
+        importlib.import_module(module)
+
+
+#: Modules that call :func:`register_kind` when imported.
+_MODEL_MODULES: list[str] = []
