@@ -135,4 +135,4 @@ def _import_models() -> None:
 
 
 #: Modules that call :func:`register_kind` when imported.
-_MODEL_MODULES: list[str] = []
+_MODEL_MODULES: list[str] = ['scara_ident_ros.learners.sparse_spectrum_gp']
