@@ -22,6 +22,8 @@ from scara_ident_ros.dynamics.physical_model import PhysicalModel
 from scara_ident_ros.dynamics.urdf_limits import UrdfError
 from scara_ident_ros.identification.warm_start import ModelMismatch, check_warm_start
 from scara_ident_ros.identification.warm_start import model_joint_names as network_joint_names
+from scara_ident_ros.learners.sparse_spectrum_gp import KIND as KERNEL
+from scara_ident_ros.learners.sparse_spectrum_gp import SparseSpectrumGP
 from scara_ident_ros.nn.presets import METHODS
 from scara_ident_ros.nn import FeedForwardNet, ModelFormatError
 from scara_ident_ros.nn.model_file import read_model_file
@@ -31,7 +33,7 @@ __all__ = ['ModelMismatch', 'SavedModel', 'errors_markdown', 'evaluate', 'load_m
            'model_joint_names', 'model_method']
 
 #: What a model file holds.
-SavedModel = Union[FeedForwardNet, PhysicalModel, HybridModel]
+SavedModel = Union[FeedForwardNet, PhysicalModel, HybridModel, SparseSpectrumGP]
 
 
 def load_model(path: Path) -> SavedModel:
@@ -60,6 +62,8 @@ def load_model(path: Path) -> SavedModel:
             model = PhysicalModel.load(path)
         elif kind == HYBRID:
             model = HybridModel.load(path)
+        elif kind == KERNEL:
+            model = SparseSpectrumGP.load(path)
         else:
             model = FeedForwardNet.load(path)
     except (ModelFormatError, UrdfError) as exc:
@@ -85,7 +89,8 @@ def model_method(model: SavedModel) -> str:
     method = model.metadata.get('method')
     if not isinstance(model, FeedForwardNet):
         return str(method) if method is not None else (
-            PHYSICAL if isinstance(model, PhysicalModel) else HYBRID)
+            PHYSICAL if isinstance(model, PhysicalModel)
+            else KERNEL if isinstance(model, SparseSpectrumGP) else HYBRID)
     if method is not None and str(method) in METHODS:
         return str(method)
     for key, spec in METHODS.items():
