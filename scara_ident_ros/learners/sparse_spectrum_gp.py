@@ -37,6 +37,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 from scipy.linalg import LinAlgError, cho_factor, cho_solve
+from scipy.linalg.blas import dsymv, dsyr
 
 from scara_ident_ros.estimator import r2_score, register_kind
 from scara_ident_ros.learners.ard_hyperparameters import (HYPER_SAMPLES, ArdHyperparameters,
@@ -178,10 +179,13 @@ class SparseSpectrumGP:
                 w = self._weights[g]
                 ti = t[i, g * k_out:(g + 1) * k_out]
                 prediction[i, g * k_out:(g + 1) * k_out] = zi @ w
-                pz = self._inverse[g] @ zi
-                gain = pz / (1.0 + zi @ pz)
-                w += np.outer(gain, ti - zi @ w)
-                self._inverse[g] -= np.outer(gain, pz)
+                # P is symmetric: BLAS keeps one triangle (that of P.T, F-ordered, in place)
+                upper = self._inverse[g].T
+                pz = dsymv(1.0, upper, zi, lower=0)
+                scale = 1.0 / (1.0 + zi @ pz)
+                w += np.outer(scale * pz, ti - zi @ w)
+                dsyr(-scale, pz, a=upper, lower=0, overwrite_a=1)
+                self._triangle_only = True
             self._pending.append(i)
             self.n_samples_ += 1
             self._unfolded += 1
@@ -205,6 +209,7 @@ class SparseSpectrumGP:
         for g in range(self._groups):
             out[:, g * k_out:(g + 1) * k_out] = z[g] @ self._weights[g]
             if return_std:
+                self._full_inverse()
                 spread = np.einsum('nd,de,ne->n', z[g], self._inverse[g], z[g])
                 var = self.hyper_.noise[g] * (1.0 + spread)
                 std[:, g * k_out:(g + 1) * k_out] = np.sqrt(var)[:, None]
@@ -396,6 +401,7 @@ class SparseSpectrumGP:
         self.gram_ = ridge[:, None, None] * eye
         self.moment_ = np.zeros((groups, dim, self._k_out))
         self._inverse = eye / ridge[:, None, None]
+        self._triangle_only = False
         self._weights = np.zeros((groups, dim, self._k_out))
         self._pending: list[int] = []
         self._pending_rows: list[tuple[np.ndarray, np.ndarray]] = []
@@ -433,6 +439,14 @@ class SparseSpectrumGP:
             self._unfolded = 0
             self._solve()
 
+    def _full_inverse(self) -> None:
+        """Mirror the triangle of P that the recursive update keeps (its lower, C order)."""
+        if self._triangle_only:
+            for g in range(self._groups):
+                lower = np.tril(self._inverse[g])
+                self._inverse[g] = lower + np.tril(lower, -1).T
+            self._triangle_only = False
+
     def _solve(self) -> None:
         """W = A⁻¹ B and P = A⁻¹ from the accumulated A, B (Cholesky)."""
         eye = np.eye(self.n_features)
@@ -440,6 +454,7 @@ class SparseSpectrumGP:
             factor = cho_factor(self.gram_[g], lower=True, check_finite=False)
             self._weights[g] = cho_solve(factor, self.moment_[g], check_finite=False)
             self._inverse[g] = cho_solve(factor, eye, check_finite=False)
+        self._triangle_only = False
 
     def __repr__(self) -> str:
         state = (f'{self.n_inputs_}->{self.n_outputs_}, {self.n_samples_} samples'
