@@ -59,8 +59,9 @@ if TYPE_CHECKING:
     from scara_ident_ros.identification.dataset import Dataset
     from scara_ident_ros.nn import FitHistory
 
-__all__ = ['FRICTION_STEPS', 'HYBRID_NETWORK', 'ITERATIONS', 'KERNEL_METHOD', 'MAX_FAIL', 'MIN_ITERATIONS',
-           'PHYSICAL_METHODS', 'SAMPLES', 'VALIDATION_BLOCK_S', 'add_parser', 'run']
+__all__ = ['FRICTION_STEPS', 'HYBRID_NETWORK', 'ITERATIONS', 'KERNEL_METHOD', 'MAX_FAIL',
+           'MIN_ITERATIONS', 'PHYSICAL_METHODS', 'SAMPLES', 'VALIDATION_BLOCK_S', 'add_parser',
+           'run']
 
 #: Defaults of the options, chosen with benchmarks/bench_train_defaults.py (module docstring).
 ITERATIONS = 500           # Levenberg–Marquardt iterations at most
@@ -82,7 +83,8 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument('bag', type=Path, metavar='BAG',
                         help='rosbag2 bag directory (MCAP or sqlite3) or .mcap file')
-    parser.add_argument('--method', required=True, choices=[*METHODS, *PHYSICAL_METHODS, KERNEL_METHOD],
+    parser.add_argument('--method', required=True,
+                        choices=[*METHODS, *PHYSICAL_METHODS, KERNEL_METHOD],
                         help='network: ffmw (MSLOG), ffw (SLOG) or ffs (sigmoid); physical: '
                              'least squares on the URDF\'s base parameters and friction; '
                              'hybrid: physical plus an FFS network on its residual; '

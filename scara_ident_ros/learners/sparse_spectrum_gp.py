@@ -130,6 +130,12 @@ class SparseSpectrumGP:
         self.metadata: dict[str, np.ndarray] = {}
         self.n_samples_ = 0
         self._ready = False
+        self._inverse = np.zeros((0, 0, 0))   # P = A⁻¹ per group (G, D, D)
+        self._weights = np.zeros((0, 0, 0))   # W = A⁻¹ B per group (G, D, n/G)
+        self._triangle_only = False           # only P's lower triangle is current
+        self._pending: list[int] = []          # rows of this partial_fit not yet in A, B
+        self._pending_rows: list[tuple[np.ndarray, np.ndarray]] = []  # earlier calls' rows
+        self._unfolded = 0                     # rows learnt since A⁻¹ was last recomputed
 
     # ----------------------------------------------------------------- estimator contract
     def get_params(self) -> dict[str, Any]:
@@ -192,14 +198,22 @@ class SparseSpectrumGP:
             if self._unfolded >= self.refresh:
                 self._fold(z, t)
         if self._pending:  # keep the rows until the next refresh
-            self._pending_rows.append((z[:, self._pending], t[self._pending]))
+            rows = np.asarray(self._pending, dtype=np.int64)
+            self._pending_rows.append((z[:, rows], t[rows]))
             self._pending = []
         return prediction * self.y_scale_ + self.y_mean_
 
-    def predict(self, X: npt.ArrayLike, *, return_std: bool = False
-                ) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
-        """Efforts (N, n) for inputs X (N, 3n); with ``return_std`` also their predictive
-        standard deviation (N, n), noise included (O(D²) per sample)."""
+    def predict(self, X: npt.ArrayLike) -> np.ndarray:
+        """Efforts (N, n) for inputs X (N, 3n) (N·m, N)."""
+        return self._predict(X, return_std=False)[0]
+
+    def predict_std(self, X: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+        """Efforts (N, n) for inputs X (N, 3n) and their predictive standard deviation
+        (N, n), noise included (O(D²) per sample; N·m, N)."""
+        return self._predict(X, return_std=True)
+
+    def _predict(self, X: npt.ArrayLike, *, return_std: bool
+                 ) -> tuple[np.ndarray, np.ndarray]:
         self._need_ready()
         x = self._check_x(X)
         z = self._features(x)
@@ -213,16 +227,11 @@ class SparseSpectrumGP:
                 spread = np.einsum('nd,de,ne->n', z[g], self._inverse[g], z[g])
                 var = self.hyper_.noise[g] * (1.0 + spread)
                 std[:, g * k_out:(g + 1) * k_out] = np.sqrt(var)[:, None]
-        prediction = out * self.y_scale_ + self.y_mean_
-        if return_std:
-            return prediction, std * self.y_scale_
-        return prediction
+        return out * self.y_scale_ + self.y_mean_, std * self.y_scale_
 
     def score(self, X: npt.ArrayLike, Y: npt.ArrayLike) -> float:
         """1 − mean NMSE over the joints (:func:`~scara_ident_ros.estimator.r2_score`)."""
-        prediction = self.predict(X)
-        assert isinstance(prediction, np.ndarray)
-        return r2_score(Y, prediction)
+        return r2_score(Y, self.predict(X))
 
     def save(self, path: str | Path) -> None:
         """Write the model (kind ``'kernel'``) with its :attr:`metadata`, atomically."""
@@ -403,8 +412,8 @@ class SparseSpectrumGP:
         self._inverse = eye / ridge[:, None, None]
         self._triangle_only = False
         self._weights = np.zeros((groups, dim, self._k_out))
-        self._pending: list[int] = []
-        self._pending_rows: list[tuple[np.ndarray, np.ndarray]] = []
+        self._pending = []
+        self._pending_rows = []
         self._unfolded = 0
         self.n_samples_ = 0
 
@@ -426,7 +435,8 @@ class SparseSpectrumGP:
         for zs, ts in self._pending_rows:
             self._add(zs, ts)
         self._pending_rows = []
-        self._add(z[:, self._pending], t[self._pending])
+        rows = np.asarray(self._pending, dtype=np.int64)
+        self._add(z[:, rows], t[rows])
         self._pending = []
         self._unfolded = 0
         self._solve()
@@ -468,4 +478,4 @@ def _scale(std: np.ndarray) -> np.ndarray:
     return np.where(std > 0.0, std, 1.0)
 
 
-register_kind(KIND, SparseSpectrumGP.load)
+register_kind(KIND, SparseSpectrumGP.load)  # load(path) -> the model

@@ -50,10 +50,10 @@ def test_learns_and_variance_tracks_error() -> None:
     x, y = data(600)
     model = SparseSpectrumGP(200, per_joint=True, hyper_samples=300).fit(x[:500], y[:500])
     assert model.score(x[500:], y[500:]) > 0.95
-    prediction, std = model.predict(x[500:], return_std=True)
+    prediction, std = model.predict_std(x[500:])
     rms = np.sqrt(((prediction - y[500:]) ** 2).mean(axis=0))
     assert np.all(std.mean(axis=0) > 0.3 * rms) and np.all(std.mean(axis=0) < 3.0 * rms)
-    _, far = model.predict(x[500:] + 5.0, return_std=True)  # far from every sample
+    _, far = model.predict_std(x[500:] + 5.0)  # far from every sample
     assert np.all(far.mean(axis=0) > 10.0 * std.mean(axis=0))
 
 
