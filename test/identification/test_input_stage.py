@@ -71,10 +71,13 @@ def test_lag_counts_and_gap_flush() -> None:
     # A rejected sample changes nothing; a history shorter than the window is dropped.
     assert stage.push(T0 + 101 * MS, NAMES, [np.nan, 0.0], [0.0, 1.0], [1.0, 2.0]) == \
         (SkipReason.NON_FINITE, [])
-    stage.push(T0 + 101 * MS, NAMES, [0.0, 0.0], [0.0, 1.0], [1.0, 2.0])
+    assert stage.push(T0 + 101 * MS, NAMES, [0.0, 0.0], [0.0, 1.0], [1.0, 2.0]) == \
+        (SkipReason.REPEATED, [])  # the state at 100 ms sent again
+    stage.push(T0 + 101 * MS, NAMES, [0.5, 0.0], [0.0, 1.0], [1.0, 2.0])
     assert stage.flush() == [] and stage.pending == 0
     assert stage.emitted == 30
     assert stage.skipped[SkipReason.WARMING_UP] == 2 and stage.skipped[SkipReason.NON_FINITE] == 1
+    assert stage.skipped[SkipReason.REPEATED] == 1
 
 
 def test_reordered_joints_come_out_in_joint_order() -> None:
