@@ -46,6 +46,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from scara_ident_ros.cli import CliError
+from scara_ident_ros.cli.recording_options import RECORDING_HELP, recording_note
 from scara_ident_ros.cli.validation_options import (add_validation_options,
                                                      check_validation_options)
 from scara_ident_ros.dynamics.physical_model import COULOMB_EPS, COULOMB_MODES
@@ -78,8 +79,8 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     parser = subparsers.add_parser(
         'train', help='train a network offline from the joint states of a bag',
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument('bag', type=Path, metavar='BAG',
-                        help='rosbag2 bag directory (MCAP or sqlite3) or .mcap file')
+    parser.add_argument('bag', type=Path, metavar='RECORDING',
+                        help=RECORDING_HELP)
     parser.add_argument('--method', required=True, choices=[*METHODS, *PHYSICAL_METHODS],
                         help='network: ffmw (MSLOG), ffw (SLOG) or ffs (sigmoid); physical: '
                              'least squares on the URDF\'s base parameters and friction; '
@@ -181,7 +182,8 @@ def run(args: argparse.Namespace) -> int:
                  f'{(blocks[-1] + 1) * args.validation_block:.1f} s')
     print(f'scara-ident train: {args.bag} {recording.topic}: {len(samples.data)} samples '
           f'of {len(names)} joints {list(names)} over {samples.data.seconds:.1f} s '
-          f'(skipped: {skipped_text(samples)}); training on {len(train)}, validating on '
+          f'(skipped: {skipped_text(samples)}{recording_note(recording)}); training on '
+          f'{len(train)}, validating on '
           f'{len(validation)}{where}', flush=True)
 
     metadata = {
