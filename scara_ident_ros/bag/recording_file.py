@@ -222,5 +222,5 @@ def _with_velocity(series: RecordingSeries) -> RecordingSeries:
     derived[order] = derive_velocity(series.stamp_ns[order], series.position[order][:, absent],
                                      effort=series.effort[order])
     velocity[:, absent] = derived
-    names = tuple(name for name, a in zip(series.names, absent) if a)
+    names = tuple(name for j, name in enumerate(series.names) if absent[j])
     return replace(series, velocity=velocity, velocity_derived=names)

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -33,7 +34,7 @@ def read_ros1_joint_states(path: Path, topic: str | None = None,
 
     try:
         with AnyReader([path]) as reader:
-            by_topic: dict[str, list[object]] = {}
+            by_topic: dict[str, list[Any]] = {}
             for connection in reader.connections:
                 if connection.msgtype == JOINT_STATE:
                     by_topic.setdefault(connection.topic, []).append(connection)
@@ -47,7 +48,7 @@ def read_ros1_joint_states(path: Path, topic: str | None = None,
                 raise BagError(f'{path}: no {JOINT_STATE} topic {topic} (its topics: {every})')
             rows = []
             for connection, _, raw in reader.messages(connections=by_topic[topic]):
-                msg = reader.deserialize(raw, connection.msgtype)
+                msg: Any = reader.deserialize(raw, connection.msgtype)
                 stamp = int(msg.header.stamp.sec) * 1_000_000_000 + int(msg.header.stamp.nanosec)
                 rows.append((stamp, list(msg.name), msg.position, msg.velocity, msg.effort))
     except BagError:

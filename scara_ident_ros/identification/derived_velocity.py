@@ -76,6 +76,6 @@ def derive_velocity(stamp_ns: NDArray[np.int64], position: NDArray[np.float64], 
             weights = fit.weights(t[first:first + window], int(i - first))
             derived[i] = (weights @ values[first:first + window])[0]
     velocity[kept] = derived
-    for i in np.flatnonzero(same):  # in order: a run of repeats takes the first's value
+    for i in np.flatnonzero(same).tolist():  # in order: a run of repeats takes the first's value
         velocity[i] = velocity[i - 1]
     return velocity

@@ -77,17 +77,17 @@ class LossCounter:
     ``span_s``, may hide ``round(dt / period) - 1`` lost samples. Whether it does shows in
     the stamps after it: samples that were merely late (uneven stamps, e.g. 0.7-8.8 ms steps
     at a nominal 1 kHz) are followed by short steps that bring the stream back on its
-    schedule; lost ones leave it behind. So a long step's samples are counted ``lost`` once
-    the stream is back on schedule (none lost) or after :data:`LOSS_HORIZON` more steps
-    (the samples the schedule is still short of: the long step's excess over the period,
-    less what the steps shorter than the period by more than :data:`QUIET_MADS` jitters
-    (as measured before the long step: catching up widens them) and than
-    :data:`QUIET_PERIODS` periods caught up; steps within the jitter count nothing, so that a period estimate off by 1 %
-    does not add up to a sample in 100 steps); ``lost`` only grows. Longer jumps (a replayed bag's gap, a simulator
-    restart) count as ``pauses``, and only if also longer than ``pause_periods`` periods.
-    Stamps repeated or going back count nothing. A recorder passes a long ``span_s`` (a
-    network partition is loss); an identifier passes its ``max_gap`` (its q'' estimate
-    restarts there).
+    schedule; lost ones leave it behind. So a long step's samples are counted ``lost`` when
+    the stream is back on schedule (none) or after :data:`LOSS_HORIZON` more steps (the
+    periods it is still behind). Behind is the long step's excess over the period less what
+    the steps short by more than :data:`QUIET_MADS` jitters (measured before the long step:
+    catching up widens them) and :data:`QUIET_PERIODS` periods caught up; other steps count
+    nothing, so that a period estimate off by 1 % cannot add up to a sample. ``lost`` only
+    grows; :meth:`settle` counts what is pending at the end of a stream. Longer jumps (a
+    replayed bag's gap, a simulator restart) count as ``pauses``, and only if also longer
+    than ``pause_periods`` periods. Stamps repeated or going back count nothing. A recorder
+    passes a long ``span_s`` (a network partition is loss); an identifier passes its
+    ``max_gap`` (its q'' estimate restarts there).
     """
 
     def __init__(self, *, span_s: float = LOST_SPAN, pause_periods: float = 0.0) -> None:

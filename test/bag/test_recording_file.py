@@ -158,7 +158,7 @@ def test_a_table_without_time_trains_on_its_given_accelerations(tmp_path: Path) 
     test = load_recording(f'{tmp_path / "arm.npz"}:test', minimum=5)
     assert len(test.samples.data) == 19 and test.samples.skipped == {'non_finite': 1}
     np.savez(tmp_path / 'loose.npz', q=X_train[:, :2], tau=X_train[:, :2])
-    with pytest.raises(BagError, match="without time .* no velocity and no acceleration"):
+    with pytest.raises(BagError, match='without time .* no velocity and no acceleration'):
         read_recording(tmp_path / 'loose.npz')
 
 
