@@ -213,7 +213,8 @@ def _with_velocity(series: RecordingSeries) -> RecordingSeries:
     """Derive q' from q for the joints whose velocity column is all NaN."""
     from scara_ident_ros.identification.derived_velocity import derive_velocity
 
-    absent = np.isnan(series.velocity).all(axis=0) & ~np.isnan(series.position).all(axis=0)
+    absent: NDArray[np.bool_] = (np.isnan(series.velocity).all(axis=0)
+                                 & ~np.isnan(series.position).all(axis=0))
     if not absent.any() or not series.timed:
         return series
     order = np.argsort(series.stamp_ns, kind='stable')
@@ -222,5 +223,5 @@ def _with_velocity(series: RecordingSeries) -> RecordingSeries:
     derived[order] = derive_velocity(series.stamp_ns[order], series.position[order][:, absent],
                                      effort=series.effort[order])
     velocity[:, absent] = derived
-    names = tuple(name for j, name in enumerate(series.names) if absent[j])
+    names = tuple(name for j, name in enumerate(series.names) if bool(absent[j]))
     return replace(series, velocity=velocity, velocity_derived=names)
