@@ -213,8 +213,8 @@ def _with_velocity(series: RecordingSeries) -> RecordingSeries:
     """Derive q' from q for the joints whose velocity column is all NaN."""
     from scara_ident_ros.identification.derived_velocity import derive_velocity
 
-    absent: NDArray[np.bool_] = (np.isnan(series.velocity).all(axis=0)
-                                 & ~np.isnan(series.position).all(axis=0))
+    absent = np.asarray(np.isnan(series.velocity).all(axis=0)
+                        & ~np.isnan(series.position).all(axis=0), dtype=bool)
     if not absent.any() or not series.timed:
         return series
     order = np.argsort(series.stamp_ns, kind='stable')
