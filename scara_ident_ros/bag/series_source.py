@@ -43,6 +43,11 @@ class SeriesSource:
         self.series = series
         self.topic = topic
         self._order = np.argsort(series.stamp_ns, kind='stable')
+        from rosbags.typesys import Stores, get_typestore
+
+        # Now, not on the first message: building it takes a while, and the player's clock
+        # runs from before the first message.
+        self._store = get_typestore(Stores.ROS2_JAZZY)
 
     @property
     def topics(self) -> dict[str, TopicInfo]:
@@ -87,9 +92,7 @@ class SeriesSource:
                                f'(it has {self.describe_topics()})')
             if not wanted:
                 return
-        from rosbags.typesys import Stores, get_typestore
-
-        store = get_typestore(Stores.ROS2_JAZZY)
+        store = self._store
         JointState = store.types[JOINT_STATE]
         Header = store.types['std_msgs/msg/Header']
         Time = store.types['builtin_interfaces/msg/Time']
