@@ -27,7 +27,7 @@ from numpy.typing import NDArray
 
 from scara_ident_ros.bag.errors import BagError
 
-__all__ = ['KINDS', 'TIMELESS_PERIOD_S', 'RecordingSeries', 'read_recording',
+__all__ = ['KINDS', 'TIMELESS_PERIOD_S', 'RecordingSeries', 'is_rosbag2', 'read_recording',
            'recording_kind', 'split_name']
 
 #: Time between two rows of a table without time (s): their stamps are only an order.
@@ -137,6 +137,16 @@ def recording_kind(path: Path) -> str:
         return suffix[1:]
     raise BagError(f'{path}: not a recording (expected a rosbag2 bag, a .mcap, .db3 or ROS 1 '
                    '.bag file, an .npz or .csv table, or a folder of CSV files)')
+
+
+def is_rosbag2(path: str | Path) -> bool:
+    """Whether ``path`` is a rosbag2 bag (the one kind with topics besides joint states,
+    e.g. a run's identifier outputs); False for anything else, readable or not."""
+    file, split = split_name(path)
+    try:
+        return split is None and recording_kind(file) == 'rosbag2'
+    except BagError:
+        return False
 
 
 def read_recording(path: str | Path, *, topic: str | None = None,
