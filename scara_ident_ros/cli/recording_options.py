@@ -5,11 +5,13 @@
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-__all__ = ['RECORDING_HELP', 'recording_note']
+__all__ = ['RECORDING_HELP', 'recording_note', 'urdf_joints_not_recorded']
 
 RECORDING_HELP = ('the recording: a rosbag2 bag (directory, .mcap or .db3), a ROS 1 .bag, an '
                   '.npz table (q, qd, qdd, tau, t, names; or X_<split>/Y_<split> named '
@@ -42,3 +44,19 @@ def recording_note(recording: Any) -> str:
     if getattr(series, 'acceleration', None) is not None:
         notes.append("q'' as given")
     return ''.join(f'; {note}' for note in notes)
+
+
+def urdf_joints_not_recorded(urdf: Path, names: Sequence[str]) -> list[str]:
+    """The moving joints (revolute, continuous, prismatic) of ``urdf`` that are not among the
+    recording's ``names``: a physical model holds them fixed at 0 (e.g. a gripper's). An
+    unreadable URDF gives [] here (its reader says what is wrong)."""
+    import xml.etree.ElementTree as ElementTree
+
+    try:
+        root = ElementTree.parse(urdf).getroot()
+    except (OSError, ElementTree.ParseError):
+        return []
+    moving = [joint.get('name', '') for joint in root.iter('joint')
+              if joint.get('type') in ('revolute', 'continuous', 'prismatic')
+              and joint.find('mimic') is None]
+    return [name for name in moving if name not in names]

@@ -46,7 +46,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from scara_ident_ros.cli import CliError
-from scara_ident_ros.cli.recording_options import RECORDING_HELP, recording_note
+from scara_ident_ros.cli.recording_options import (RECORDING_HELP, recording_note,
+                                                    urdf_joints_not_recorded)
 from scara_ident_ros.cli.validation_options import (add_validation_options,
                                                      check_validation_options)
 from scara_ident_ros.dynamics.physical_model import COULOMB_EPS, COULOMB_MODES
@@ -195,6 +196,10 @@ def run(args: argparse.Namespace) -> int:
         'differentiator': np.array('centred'), 'window': np.array(DIFFERENTIATOR_WINDOW)}
     if args.urdf is not None:
         metadata['urdf_file'] = np.array(str(args.urdf))
+        fixed = urdf_joints_not_recorded(args.urdf, names)
+        if fixed and args.method in PHYSICAL_METHODS:
+            print(f'{args.urdf}: joints not in the recording, held fixed at 0: '
+                  f'{", ".join(fixed)}', flush=True)
     if args.method in PHYSICAL_METHODS:
         return _train_physical(args, names, every_train, train, validation, metadata)
 
