@@ -2,7 +2,7 @@
 
 Loads a model written by ``scara-ident train`` (a network, a physical or a hybrid model)
 or by an identifier (FeedForwardNet.save),
-reads the bag's JointState messages, maps them to the model's joints BY NAME (metadata
+reads the recording's joint states (a bag or a table, as train reads them), maps them to the model's joints BY NAME (metadata
 joint_names; a model without names needs a bag with as many joints, taken in message
 order), builds the network inputs as the identifier does (its input stage: q'' from q' by
 the zero-phase centred estimate, bad samples dropped) and prints, as a Markdown table,

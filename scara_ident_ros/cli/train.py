@@ -1,8 +1,12 @@
-"""``scara-ident train``: train a network or a physical model offline from a bag's joint states.
+"""``scara-ident train``: train a network or a physical model offline from recorded joint states.
 
-Reads sensor_msgs/JointState messages from any rosbag2 bag (MCAP or sqlite3) or a bare
-.mcap file, turns them into network samples exactly as the online identifier does (its
-input stage: the same sample checks and zero-phase q'' estimate), and trains the method's
+Reads sensor_msgs/JointState messages from any rosbag2 bag (MCAP or sqlite3), a bare
+.mcap file or a ROS 1 .bag, or the joint states of a table (.npz or CSV with named
+columns, a /joint_states CSV export; FILE.npz:SPLIT for a published split, such as
+barrett_wam.npz:train), turns them into network samples exactly as the online identifier
+does (its input stage: the same sample checks, repeated samples refused, and zero-phase q''
+estimate; q' derived from q where the recording has none, q'' as given where a table gives
+it; docs/recording_and_retraining.md), and trains the method's
 3n-40-n network with Levenberg-Marquardt (or batch gradient descent), scaled to the
 training data's ranges.
 
