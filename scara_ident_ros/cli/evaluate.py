@@ -4,8 +4,9 @@ Loads a model written by ``scara-ident train`` (a network, a physical or a hybri
 or by an identifier (FeedForwardNet.save), reads the recording's joint states (a bag or a
 table, as train reads them: FILE.npz:SPLIT for a published split), maps them to the
 model's joints BY NAME (metadata joint_names; a model without names needs a recording with
-as many joints, taken in message order), builds the network inputs as the identifier does (its input stage: q'' from q' by
-the zero-phase centred estimate, bad samples dropped) and prints, as a Markdown table,
+as many joints, taken in message order), builds the network inputs as the identifier
+does (its input stage: q'' from q' by the zero-phase centred estimate, bad samples
+dropped) and prints, as a Markdown table,
 each joint's MSE ((N·m)² or N²) and normalised MSE (MSE / variance of the joint's effort
 over the evaluated samples; 1 = no better than the mean effort). Typical use: a model
 trained on one run evaluated on another (held-out) run. For a physical or hybrid model it
