@@ -191,7 +191,9 @@ def trim_bag(source: str | Path, destination: str | Path) -> TrimReport:
     try:
         if source.is_dir():
             partial.mkdir(parents=True)
-            for item in sorted(source.iterdir()):
+            # storage files last: a sqlite3 file is changed after its -wal/-shm are beside it
+            for item in sorted(source.iterdir(),
+                               key=lambda p: (p.suffix in ('.mcap', '.db3'), p.name)):
                 _copy_file(item, partial / item.name, cutter, report)
         else:
             partial.parent.mkdir(parents=True, exist_ok=True)
