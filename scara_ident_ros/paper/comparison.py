@@ -89,6 +89,9 @@ from scara_ident_ros.paper.software_versions import software_versions
 __all__ = ['HELD_OUT', 'CompareSettings', 'run_comparison']
 
 HELD_OUT = 'held-out'
+#: Settings that a recording (or a simulation) does not use, left out of its conditions.
+_SIMULATION_ONLY = ('test_seconds', 'curve_seconds', 'acceleration', 'preset', 'test_seed')
+_RECORDING_ONLY = ('recording', 'topic', 'joints', 'validation_fraction', 'validation_block')
 
 
 @dataclass(frozen=True)
@@ -378,7 +381,7 @@ def _report(offline: list[ResultRow], online: list[ResultRow], searches: list[Se
         "'goal reached' gives the runs reaching it and the iterations they needed. LS: "
         f'{c["reference"]}, fitted on the same samples.\n',
         offline_markdown(summaries, test=HELD_OUT), 'Held-out NMSE per joint:\n',
-        joint_markdown(summaries, table='offline', data=HELD_OUT),
+        joint_markdown(summaries, table='offline', data=HELD_OUT, joint_names=c['joints']),
         ranking_text(summaries, 'offline', [('train', 'mse_mean', 'training MSE'),
                                             (HELD_OUT, 'nmse_mean', 'held-out NMSE')],
                      labels),
@@ -393,7 +396,7 @@ def _report(offline: list[ResultRow], online: list[ResultRow], searches: list[Se
         'previous sample\'s; an online error is only worth something below it.\n',
         online_markdown(summaries, short=short, long=long, test=HELD_OUT),
         'Held-out NMSE per joint:\n',
-        joint_markdown(summaries, table='online', data=HELD_OUT),
+        joint_markdown(summaries, table='online', data=HELD_OUT, joint_names=c['joints']),
         ranking_text(summaries, 'online', [(short, 'mse_mean', f'{short} MSE'),
                                            (long, 'nmse_mean', f'{long} NMSE'),
                                            (HELD_OUT, 'nmse_mean', 'held-out NMSE')],
@@ -517,7 +520,8 @@ def _conditions(s: CompareSettings, seeds: list[int], methods: list[str],
                 window: int, source: _Data) -> dict[str, Any]:
     n = len(source.names)
     return {
-        'options': {k: (str(v) if isinstance(v, Path) else v) for k, v in asdict(s).items()},
+        'options': {k: (str(v) if isinstance(v, Path) else v) for k, v in asdict(s).items()
+                    if k not in (_SIMULATION_ONLY if s.recording else _RECORDING_ONLY)},
         'quick': bool(s.quick),
         'preset': s.preset, 'train_seed': s.train_seed, 'test_seed': s.test_seed,
         'seeds': seeds, 'methods': [method_spec(m).label for m in methods],
