@@ -192,7 +192,7 @@ class BackgroundLM:
                 if kind in ('weights', 'bounds', 'unchanged'):  # an update has finished
                     self._mark, self._due = self.sent, None
                 if kind == 'weights':
-                    self.model.set_params(theta)
+                    self.model.set_theta(theta)
                     self.updates += 1
                     self.steps = steps
                     self._update_times.append(time.monotonic())
@@ -399,14 +399,14 @@ def _learner(inbox: Connection, outbox: Connection, model: FeedForwardNet,
             # every pass answers, so that the caller knows the learner keeps up
             if residual is None:
                 message: tuple[Any, ...] = (
-                    ('weights', model.get_params(), trainer.steps)
+                    ('weights', model.get_theta(), trainer.steps)
                     if trainer.step_on(X, Y) else ('unchanged', None, trainer.steps))
             elif snap is None:  # too few validation samples yet
                 message = ('unchanged', None, trainer.steps)
             else:
                 changed = residual.step(snap)
                 message = ('weights' if changed else 'bounds',
-                           model.get_params() if changed else None, trainer.steps,
+                           model.get_theta() if changed else None, trainer.steps,
                            (residual.model.bounds, residual.undone))
             try:
                 outbox.send(message)

@@ -83,11 +83,11 @@ class SteppedModel(Protocol):
         """The outputs' scaling (errors are compared in scaled units)."""
         ...
 
-    def get_params(self) -> NDArray[np.float64]:
+    def get_theta(self) -> NDArray[np.float64]:
         """A copy of the weights, shape (n_params,)."""
         ...
 
-    def set_params(self, theta: NDArray[np.float64]) -> None:
+    def set_theta(self, theta: NDArray[np.float64]) -> None:
         """Copy weights of shape (n_params,) in."""
         ...
 
@@ -141,7 +141,7 @@ class BackPropagation:
         model = self.model
         if not self.guarded:
             return y - model.partial_fit(x[np.newaxis], y[np.newaxis])[0]
-        before = model.get_params()
+        before = model.get_theta()
         prior = model.partial_fit(x[np.newaxis], y[np.newaxis])[0]
         gain = model.y_scaling.gain
         post = (y - model.predict(x)) * gain
@@ -150,7 +150,7 @@ class BackPropagation:
         self._typical += TYPICAL_WEIGHT * (prior_sq - self._typical)
         limit = GROWTH * max(prior_sq, self._typical) + GUARD_FLOOR * y.shape[0]
         if not float(post @ post) <= limit:
-            model.set_params(before)
+            model.set_theta(before)
             model.reset_momentum()
             model.learning_rate = model.learning_rate / 2.0
             self.undone += 1

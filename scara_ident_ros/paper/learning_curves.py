@@ -278,7 +278,7 @@ def regressor_curves(record: SimRecord, held_out: Dataset, *, seed: int = 0,
             ls_cpu = time.process_time() - began  # a batch fit: the last one is the cost
             ls_predicted = predict_reference(fit.identifier, held_out.X)
         else:
-            physical.fit_inputs(X[:stop], Y[:stop])
+            physical.fit(X[:stop], Y[:stop])
             ls_cpu = time.process_time() - began
             ls_predicted = physical.predict(held_out.X)
         ls_scores.append(_nmse(held_out.Y, ls_predicted))

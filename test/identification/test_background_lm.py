@@ -146,23 +146,23 @@ def test_weights_are_swapped_whole(trainer: BackgroundLM) -> None:
     """Under a stream of updates, each prediction is made with one complete set of weights
     the learner sent (or the first): never a mix of two."""
     model = trainer.model
-    sent: list[NDArray[np.float64]] = [model.get_params()]
-    set_params = model.set_params
+    sent: list[NDArray[np.float64]] = [model.get_theta()]
+    set_theta = model.set_theta
 
     def record(theta: NDArray[np.float64]) -> None:
         sent.append(np.array(theta, copy=True))
-        set_params(theta)
+        set_theta(theta)
 
-    model.set_params = record  # type: ignore[method-assign]
+    model.set_theta = record  # type: ignore[method-assign]
     probe = network()
     X, Y = data(6000, seed=2)
     for k, (x, y) in enumerate(zip(X, Y, strict=True)):
         if k % 20 == 19:
             time.sleep(0.002)
-        weights = model.get_params()
+        weights = model.get_theta()
         assert np.array_equal(weights, sent[-1])  # the last complete set received
         predicted = trainer.learn(x, y)
-        probe.set_params(weights)
+        probe.set_theta(weights)
         assert np.array_equal(predicted, probe.predict(x))  # made with exactly those
     assert wait_until(lambda: len(sent) > 3, trainer)
 

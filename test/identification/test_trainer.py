@@ -251,7 +251,7 @@ def test_bp_guard_leaves_the_papers_learning_rate_alone() -> None:
 def test_predictions_beyond_the_effort_bounds_are_clipped() -> None:
     data = simulate_dataset(PARAMS, seconds=0.5, seed=3)
     net = network()
-    net.set_params(net.get_params() * 50.0)  # a network that predicts absurd efforts
+    net.set_theta(net.get_theta() * 50.0)  # a network that predicts absurd efforts
     bounds = Bounds.from_limits(*(PARAMS.array(name) for name in (
         'position_min', 'position_max', 'velocity_max', 'effort_max')))
     ident = OnlineIdentifier(net, joint_names=PARAMS.joint_names, learn=False, bounds=bounds)
