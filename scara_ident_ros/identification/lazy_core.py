@@ -9,13 +9,14 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, fields
-from typing import Any, NamedTuple
+from typing import Any, NamedTuple, cast
 
 import numpy as np
 
 from scara_ident_ros.dynamics.hybrid_model import HybridModel, online_hybrid
 from scara_ident_ros.dynamics.joint_limits import JointLimits
 from scara_ident_ros.dynamics.physical_model import PhysicalModel
+from scara_ident_ros.estimator import Estimator
 from scara_ident_ros.identification.background_lm import BackgroundLM
 from scara_ident_ros.identification.holdout import Holdout
 from scara_ident_ros.identification.hybrid_trainer import HybridTrainer
@@ -31,15 +32,13 @@ from scara_ident_ros.identification.trainer import (Trainer, make_trainer,
 from scara_ident_ros.nn.presets import METHODS, make_network
 from scara_ident_ros.nn import FeedForwardNet
 
-__all__ = ['CoreSettings', 'LazyCore', 'ONLINE_METHODS', 'OnlineModel', 'PHYSICAL_METHODS',
-           'Skipped']
+__all__ = ['CoreSettings', 'LazyCore', 'ONLINE_METHODS', 'PHYSICAL_METHODS', 'Skipped']
 
 #: Models on the robot's URDF (they need it): its rigid-body model alone, learnt by RLS, or
 #: with an FFS network of its residual.
 PHYSICAL_METHODS = ('physical', 'hybrid')
 #: Every model an identifier learns online: the networks and the physical ones.
 ONLINE_METHODS = (*METHODS, *PHYSICAL_METHODS)
-OnlineModel = FeedForwardNet | PhysicalModel | HybridModel
 
 
 @dataclass(frozen=True)
@@ -95,14 +94,15 @@ class LazyCore:
     ----------
     limits : JointLimits
         Scale a fresh network and bound the samples of the joints they name.
-    network : FeedForwardNet, optional
+    network : Estimator, optional
         A warm start (checked with :func:`~scara_ident_ros.identification.warm_start.
-        check_warm_start`); else a fresh network of the settings' method is made.
+        check_warm_start` to be a model of the settings' method); else a fresh model of
+        the settings' method is made.
 
     Attributes
     ----------
-    network : FeedForwardNet or None
-        The warm start, or the network once built.
+    network : Estimator or None
+        The warm start, or the model once built.
     core : OnlineIdentifier or None
         Once the joints are known.
     names : list of str
@@ -111,7 +111,7 @@ class LazyCore:
         Samples skipped before the core was built.
     """
 
-    def __init__(self, limits: JointLimits, network: OnlineModel | None = None, *,
+    def __init__(self, limits: JointLimits, network: Estimator | None = None, *,
                  urdf: str = '', urdf_source: str = 'robot_description') -> None:
         self.limits = limits
         self.urdf, self.urdf_source = urdf, urdf_source
@@ -171,14 +171,17 @@ class LazyCore:
                                 nice=settings.lm_nice,
                                 label=f'lm-{settings.method}', hybrid=hybrid)
 
+        # The method fixes the model's class: a warm start was checked to be the method's
+        # (``warm_start.check_warm_start``), a fresh model is made by it (:meth:`_fresh`).
         trainer: Trainer
-        if isinstance(network, PhysicalModel):
-            trainer = RecursiveLeastSquaresTrainer(network)
-        elif isinstance(network, HybridModel):
-            trainer = HybridTrainer(network, trainer_of(network.network, network),
+        if settings.method == 'physical':
+            trainer = RecursiveLeastSquaresTrainer(cast(PhysicalModel, network))
+        elif settings.method == 'hybrid':
+            hybrid = cast(HybridModel, network)
+            trainer = HybridTrainer(hybrid, trainer_of(hybrid.network, hybrid),
                                     seed=settings.seed)
         else:
-            trainer = trainer_of(network)
+            trainer = trainer_of(cast(FeedForwardNet, network))
         self.core = OnlineIdentifier(
             network, joint_names=names, differentiator=differentiator, trainer=trainer,
             holdout=holdout, mse_window=settings.mse_window, learn=settings.learn,
@@ -189,7 +192,7 @@ class LazyCore:
             counts.skipped[reason] += skipped
         return ''
 
-    def _fresh(self, names: list[str], settings: CoreSettings) -> OnlineModel:
+    def _fresh(self, names: list[str], settings: CoreSettings) -> Estimator:
         """A fresh model of ``settings.method`` for the joints ``names``.
 
         ``physical``: the URDF's rigid-body model with friction and rotor inertia, from the

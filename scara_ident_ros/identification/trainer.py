@@ -70,12 +70,12 @@ class SteppedModel(Protocol):
     """What :class:`BackPropagation` needs of a network: steps, and its weights to undo one."""
 
     def predict(self, X: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Efforts (n,) of one input (3n,) (see ``EffortModel``)."""
+        """Efforts (n,) of one input (3n,) (see ``estimator.OnlineEstimator``)."""
         ...
 
     def partial_fit(self, X: NDArray[np.float64],
                     Y: NDArray[np.float64]) -> NDArray[np.float64]:
-        """One step per row; the a-priori errors (see ``EffortModel``)."""
+        """One step per row; the a-priori errors (see ``estimator.OnlineEstimator``)."""
         ...
 
     @property
@@ -110,7 +110,7 @@ class BackPropagation:
 
     Parameters
     ----------
-    model : SteppedModel or EffortModel
+    model : SteppedModel or OnlineEstimator
         The network, with its scaling set; learning rate and momentum are its own. The
         guard needs a :class:`SteppedModel`; another effort model is stepped unguarded.
 

@@ -28,10 +28,10 @@ import numpy.typing as npt
 
 from scara_ident_ros.dynamics import ScaraParams
 from scara_ident_ros.dynamics.joint_limits import LIMIT_NAMES
+from scara_ident_ros.estimator import Estimator
 from scara_ident_ros.identification import (Holdout, InputStage, JointMap, OnlineIdentifier,
                                             make_differentiator, make_trainer)
 from scara_ident_ros.identification.contact_detector import ContactDetector
-from scara_ident_ros.identification.online_identifier import EffortModel
 from scara_ident_ros.identification.trainer import starts_with_friction_steps
 from scara_ident_ros.nn.presets import limit_scaling, make_network
 from scara_ident_ros.nn import FeedForwardNet
@@ -144,7 +144,7 @@ def pulse_record(params: ScaraParams, *, seconds: float, seed: int, config: SimC
     return SimRecord(stamps, *columns), pulses
 
 
-def residuals_of(net: EffortModel, record: SimRecord, names: tuple[str, ...]
+def residuals_of(net: Estimator, record: SimRecord, names: tuple[str, ...]
                  ) -> tuple[npt.NDArray[np.int64], FloatArray, FloatArray]:
     """The frozen model's τ_ext = measured − predicted on a record, through the input stage.
 
