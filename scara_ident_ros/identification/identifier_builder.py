@@ -24,6 +24,7 @@ from scara_ident_ros.dynamics.hybrid_model import HybridModel, online_hybrid
 from scara_ident_ros.dynamics.joint_limits import JointLimits
 from scara_ident_ros.dynamics.physical_model import PhysicalModel
 from scara_ident_ros.estimator import Estimator
+from scara_ident_ros.identification.background_lm import BackgroundLM
 from scara_ident_ros.identification.differentiator import (AccelerationEstimate,
                                                            make_differentiator)
 from scara_ident_ros.identification.holdout import Holdout
@@ -39,7 +40,7 @@ from scara_ident_ros.identification.trainer import (Trainer, make_trainer,
 from scara_ident_ros.nn import FeedForwardNet
 from scara_ident_ros.nn.presets import make_network
 
-__all__ = ['build_identifier', 'make_learner', 'make_model']
+__all__ = ['background_learner', 'build_identifier', 'make_learner', 'make_model']
 
 
 def make_model(names: Sequence[str], settings: CoreSettings, limits: JointLimits | None, *,
@@ -161,3 +162,11 @@ def build_identifier(names: Sequence[str], settings: CoreSettings,
         trainer=make_learner(model, settings, background=background), holdout=holdout,
         mse_window=settings.mse_window, learn=settings.learn,
         max_gap_ns=round(settings.max_gap * 1e9), bounds=bounds, stage=stage)
+
+
+def background_learner(trainer: Trainer | None) -> BackgroundLM | None:
+    """The learner process of an identifier's ``trainer`` (a hybrid's: its network's), or
+    None if it learns in the caller's process."""
+    if isinstance(trainer, HybridTrainer):
+        trainer = trainer.network
+    return trainer if isinstance(trainer, BackgroundLM) else None

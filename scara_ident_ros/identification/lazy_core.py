@@ -13,12 +13,11 @@ from typing import NamedTuple
 
 from scara_ident_ros.dynamics.joint_limits import JointLimits
 from scara_ident_ros.estimator import Estimator
-from scara_ident_ros.identification.background_lm import BackgroundLM
 from scara_ident_ros.identification.core_settings import (ONLINE_METHODS, PHYSICAL_METHODS,
                                                           CoreSettings)
-from scara_ident_ros.identification.hybrid_trainer import HybridTrainer
 from scara_ident_ros.identification.differentiator import AccelerationEstimate
-from scara_ident_ros.identification.identifier_builder import build_identifier, make_model
+from scara_ident_ros.identification.identifier_builder import (background_learner,
+                                                               build_identifier, make_model)
 from scara_ident_ros.identification.input_stage import InputStage
 from scara_ident_ros.identification.joint_map import JointMap
 from scara_ident_ros.identification.online_identifier import Counts, OnlineIdentifier
@@ -122,11 +121,9 @@ class LazyCore:
     def close(self) -> None:
         """End the core's trainers that run beside the stream (their last weights are the
         network's)."""
-        trainer = self.core.trainer if self.core is not None else None
-        if isinstance(trainer, HybridTrainer):
-            trainer = trainer.network
-        if isinstance(trainer, BackgroundLM):
-            trainer.close()
+        learner = background_learner(self.core.trainer if self.core is not None else None)
+        if learner is not None:
+            learner.close()
 
     def first(self, settings: CoreSettings, differentiator: AccelerationEstimate,
               stamp_ns: int, names: Sequence[str], position: FloatArrayLike,

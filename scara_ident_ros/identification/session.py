@@ -32,7 +32,7 @@ from scara_ident_ros.identification.contact_detector import ContactDetector
 from scara_ident_ros.identification.differentiator import (AccelerationEstimate,
                                                            make_differentiator)
 from scara_ident_ros.identification.error_window import ErrorWindow
-from scara_ident_ros.identification.hybrid_trainer import HybridTrainer
+from scara_ident_ros.identification.identifier_builder import background_learner
 from scara_ident_ros.identification.input_stage import Input
 from scara_ident_ros.identification.lazy_core import CoreSettings, LazyCore
 from scara_ident_ros.identification.metrics import ErrorStats
@@ -108,10 +108,7 @@ class MethodRun:
     @property
     def background(self) -> BackgroundLM | None:
         """The trainer, if it learns beside the stream (a hybrid's: its network's)."""
-        trainer = self.core.trainer if self.core is not None else None
-        if isinstance(trainer, HybridTrainer):
-            trainer = trainer.network
-        return trainer if isinstance(trainer, BackgroundLM) else None
+        return background_learner(self.core.trainer if self.core is not None else None)
 
     def built(self, names: Sequence[str]) -> None:
         """The core is built for ``names``: a disarmed contact detector, no score yet."""
