@@ -156,11 +156,14 @@ class HybridModel:
             if held.shape[0]:
                 validation = (x[held], y[held])
                 x, y = x[train], y[train]
-        fitted, self.history_ = fit_hybrid(
+        fitted, history = fit_hybrid(
             self.physical, self.network, (x, y), validation=validation, x_range=x_range,
             network_samples=samples, seed=seed, iterations=iterations, max_fail=max_fail,
             min_iterations=min_iterations, callback=callback)
-        self.bounds = fitted.bounds
+        # the fitted hybrid's state (its parts are this one's; bounds and the like), this
+        # one's metadata kept
+        state = {key: value for key, value in vars(fitted).items() if key != 'metadata'}
+        vars(self).update(state, history_=history)
         return self
 
     def score(self, X: ArrayLike, Y: ArrayLike) -> float:
