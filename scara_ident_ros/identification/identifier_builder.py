@@ -89,10 +89,11 @@ def make_learner(model: Estimator, settings: CoreSettings, *,
     s = settings
 
     def trainer_of(net: FeedForwardNet, hybrid: HybridModel | None = None) -> Trainer:
-        return make_trainer(s.trainer, net, capacity=s.reservoir_size, interval=s.lm_interval,
-                            steps=s.lm_steps, seed=s.seed, float64=s.lm_float64,
-                            slow_share=s.lm_slow_share, background=background,
-                            nice=s.lm_nice, label=f'lm-{s.method}', hybrid=hybrid)
+        return make_trainer(s.trainer, net, reservoir_size=s.reservoir_size,
+                            lm_interval=s.lm_interval, lm_steps=s.lm_steps, seed=s.seed,
+                            lm_float64=s.lm_float64, lm_slow_share=s.lm_slow_share,
+                            background=background, lm_nice=s.lm_nice, label=f'lm-{s.method}',
+                            hybrid=hybrid)
 
     # The method fixes the model's class: a warm start was checked to be the method's
     # (``warm_start.check_warm_start``), a fresh model is made by it (:func:`make_model`).

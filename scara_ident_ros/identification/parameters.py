@@ -14,6 +14,7 @@ from scara_ident_ros.identification.background_lm import NICE
 from scara_ident_ros.identification.differentiator import (DIFFERENTIATOR_WINDOW,
                                                            DIFFERENTIATORS)
 from scara_ident_ros.identification.core_settings import ONLINE_METHODS
+from scara_ident_ros.identification.reservoir_lm import LM_INTERVAL, LM_STEPS, RESERVOIR_SIZE
 from scara_ident_ros.identification.trainer import TRAINERS
 from scara_ident_ros.parameter_spec import ParamSpec
 
@@ -57,11 +58,13 @@ IDENTIFICATION_PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec('trainer', 'lm', 'Online training: lm (Levenberg-Marquardt steps on a reservoir '
               'of the whole stream, generalizes) or bp (the paper: one back-propagation step '
               'per sample, tracks)', choices=TRAINERS, fixed='the trainer keeps its state'),
-    ParamSpec('reservoir_size', 4000, 'Samples of the stream kept for the lm trainer',
-              min=10, max=1_000_000, fixed='the reservoir is allocated once'),
-    ParamSpec('lm_steps', 2, 'Levenberg-Marquardt steps of the lm trainer per update', min=1,
-              max=100, read_only=False),
-    ParamSpec('lm_interval', 200, 'Samples between two updates of the lm trainer (beside '
+    ParamSpec('reservoir_size', RESERVOIR_SIZE,
+              'Samples of the stream kept for the lm trainer', min=10, max=1_000_000,
+              fixed='the reservoir is allocated once'),
+    ParamSpec('lm_steps', LM_STEPS, 'Levenberg-Marquardt steps of the lm trainer per update',
+              min=1, max=100, read_only=False),
+    ParamSpec('lm_interval', LM_INTERVAL,
+              'Samples between two updates of the lm trainer (beside '
               'the stream: the least new samples between two)', min=1,
               max=1_000_000, read_only=False),
     ParamSpec('lm_background', True, 'lm trainer: learn in a process beside the stream, at '

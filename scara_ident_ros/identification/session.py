@@ -170,7 +170,7 @@ class MethodRun:
         if background is None:
             return {}
         return {'updates': background.updates, 'updates_per_s': background.rate(),
-                'lm_steps_taken': background.steps, 'learn_dropped': background.dropped}
+                'lm_steps_taken': background.steps_taken, 'learn_dropped': background.dropped}
 
     def apply(self, settings: Mapping[str, Any], changed: Mapping[str, Any]) -> None:
         """Make parameters set while running take effect."""
@@ -192,10 +192,11 @@ class MethodRun:
             core.errors = ErrorWindow(core.n_joints, settings['mse_window'])
         trainer = core.trainer
         if isinstance(trainer, ReservoirLM):
-            trainer.interval = settings['lm_interval']
-            trainer.steps_per_update = settings['lm_steps']
+            trainer.lm_interval = settings['lm_interval']
+            trainer.lm_steps = settings['lm_steps']
         elif isinstance(trainer, BackgroundLM) and {'lm_interval', 'lm_steps'} & set(changed):
-            trainer.set_schedule(interval=settings['lm_interval'], steps=settings['lm_steps'])
+            trainer.set_schedule(lm_interval=settings['lm_interval'],
+                                 lm_steps=settings['lm_steps'])
 
 
 class IdentificationSession:

@@ -73,7 +73,7 @@ def hybrid_after(samples: int) -> tuple[Any, Any, Any, np.ndarray, np.ndarray]:
     the model, its trainer, the network's trainer, the inputs and efforts streamed."""
     limits = load_joint_limits(joint_names=NAMES).select(NAMES)
     model = online_hybrid(PhysicalModel.from_urdf_file(URDF), limits.scaling(), seed=0)
-    network = ReservoirLM(model.network, capacity=300, interval=10_000)
+    network = ReservoirLM(model.network, reservoir_size=300, lm_interval=10_000)
     trainer = HybridTrainer(model, network, seed=0)
     params = ScaraParams.from_yaml(config_path('scara.yaml'))
     record = Simulator(params, make_trajectory('sequence', params, seed=2),

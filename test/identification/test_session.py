@@ -163,7 +163,7 @@ def test_parameters_set_while_running_reach_core_and_trainer() -> None:
     s.update(learn=False, lm_interval=400, lm_steps=1, mse_window=500)
     session.apply({'learn': False, 'lm_interval': 400, 'lm_steps': 1, 'mse_window': 500})
     assert core.learn is False and core.stage.check.need_effort is False
-    assert core.trainer.interval == 400 and core.trainer.steps_per_update == 1
+    assert core.trainer.lm_interval == 400 and core.trainer.lm_steps == 1
     assert core.errors.window == 500
     bp = settings(joint_names=NAMES, trainer='bp')
     session = IdentificationSession(bp)
