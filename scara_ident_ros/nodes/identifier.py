@@ -46,6 +46,7 @@ from scara_ident_ros.blas_threads import single_blas_thread
 from scara_ident_ros.errors import ConfigError
 from scara_ident_ros.identification import StepResult
 from scara_ident_ros.identification.background_lm import prestart
+from scara_ident_ros.identification.input_stage import Input
 from scara_ident_ros.identification.parameters import IDENTIFICATION_PARAMETERS, LIMITS
 from scara_ident_ros.identification.sample_check import GAP_PERIODS
 from scara_ident_ros.identification.session import IdentificationSession, MethodRun
@@ -76,6 +77,7 @@ STATS_PERIOD = 10.0  # s between statistics log lines
 WARN_PERIOD = 5.0  # s between two warnings about skipped samples
 WAIT_POLL_PERIOD = 0.02  # s between two looks at the outputs' subscriber counts
 FLUSH_TIMEOUT = 2.0  # s on shutdown for the subscribers to acknowledge the last predictions
+SETTLE_LOSS_S = 0.2  # s without a sample after which a long stamp step's losses are counted
 # Why a read-only parameter is fixed at start (shown by `ros2 param describe`; the others in
 # identification.parameters)
 START = 'used at start only'
@@ -149,23 +151,25 @@ class Outputs:
         self.send_external = True  # publish external_torque (parameter external_torque)
         self.deltas = Deltas()
 
-    def publish(self, results: list[StepResult], frame_id: str,
+    def publish(self, results: list[StepResult], inputs: list[Input], frame_id: str,
                 clock: StreamClock | None = None) -> None:
-        """Publish each prediction, its external torque and any contact, stamped with its
-        sample; ``clock`` records the lags (not given on shutdown)."""
+        """Publish each prediction with its sample's q and q', its external torque and any
+        contact, stamped with its sample; ``inputs`` are the samples of the predictions
+        (one per result with an effort, in order); ``clock`` records the lags (not given on
+        shutdown)."""
         if not results:
             return
         template, external = self.template, self.external_template
         if template is None or template.frame_id != frame_id:
             names = self.run.lazy.names
-            template = self.template = JointStateTemplate(names, frame_id)
+            template = self.template = JointStateTemplate(names, frame_id, state=True)
             external = self.external_template = JointStateTemplate(names, frame_id)
         assert external is not None
-        publish, run = self.send_torque, self.run
+        publish, run, samples = self.send_torque, self.run, iter(inputs)
         for result in results:
             if result.effort is None:
                 continue
-            publish(template.fill(result.stamp_ns, result.effort))
+            publish(template.fill(result.stamp_ns, result.effort, next(samples).x))
             if result.measured is not None:
                 self.publish_external(result.stamp_ns, result.measured - result.effort,
                                       external)
@@ -319,6 +323,7 @@ class IdentifierNode(Node):
     def health(self, out: Outputs, period_s: float) -> Health:
         """A method's health over the last ``period_s`` s, for ``/diagnostics``."""
         figures = self.session.health_figures(out.run)
+        self._settle_loss()
         recent = out.deltas(processed=figures['processed'], skipped=figures['skipped'],
                             lost=self.loss.lost)
         return identifier_health(
@@ -349,7 +354,7 @@ class IdentifierNode(Node):
         if self.session.core is not None:
             self.frame_id = msg.frame_id
         for out, method_results in zip(self.outputs, results):
-            out.publish(method_results, self.frame_id, self.clock)
+            out.publish(method_results, inputs, self.frame_id, self.clock)
         if inputs:
             self.path.out(inputs[0].stamp_ns, inputs[-1].stamp_ns, time.time_ns())
         for text in warnings:
@@ -371,9 +376,16 @@ class IdentifierNode(Node):
         """Samples taken from ``joint_states`` so far (a stop drains until it stays put)."""
         return self.session.processed()
 
+    def _settle_loss(self) -> None:
+        """Count the samples a long stamp step may have lost once the stream has paused (no
+        sample for :data:`SETTLE_LOSS_S`): late samples would have come by then."""
+        if self.last_sample is not None and time.monotonic() - self.last_sample > SETTLE_LOSS_S:
+            self.loss.settle()
+
     def stream(self) -> dict[str, Any]:
         """Figures of the ``joint_states`` stream: losses, pauses, delays, publishers."""
         watch = self.publisher_watch
+        self._settle_loss()
         return {
             'lost': self.loss.lost, 'pauses': self.loss.pauses, 'paused_s': self.loss.paused_s,
             'path_delay_p50_ms': self.path.delays.percentile_ms(50),
@@ -430,7 +442,7 @@ class IdentifierNode(Node):
         weights, checkpoint and log the final statistics."""
         results, inputs = self.session.flush()
         for out, method_results in zip(self.outputs, results):
-            out.publish(method_results, self.frame_id)
+            out.publish(method_results, inputs, self.frame_id)
         if inputs:
             for out in self.outputs:
                 for publisher in (out.torque_publisher, out.external_publisher,
