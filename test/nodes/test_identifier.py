@@ -703,7 +703,7 @@ BAD_CONFIGS = {
                    f'joint_names:={list(NAMES[::-1])}'], 'in that order'),
     'model of another method': (
         lambda d: [f'model_path:={saved_model(d / "m.npz", NAMES, method=OTHER_METHOD)}'],
-        f'{METHODS[OTHER_METHOD].activation} hidden units'),
+        f'is a {OTHER_METHOD} model, not one of method'),
     'mse_window too small': (lambda d: ['mse_window:=10'], 'mse_window'),
     'joint names not strings': (lambda d: ['joint_names:=[1, 2, 3, 4]'], 'joint_names'),
     'joints without limits': (lambda d: ['joint_names:=[a, b]'], 'no joint limits for'),
@@ -721,7 +721,7 @@ BAD_CONFIGS = {
     'stats_file unwritable': (lambda d: ['stats_file:=/proc/x/stats.json'], 'stats_file'),
     'save_path holds another method': (
         lambda d: [f'save_path:={saved_model(d / "m.npz", NAMES, method=OTHER_METHOD)}'],
-        f'{METHODS[OTHER_METHOD].activation} hidden units'),
+        f'is a {OTHER_METHOD} model, not one of method'),
 }
 
 
