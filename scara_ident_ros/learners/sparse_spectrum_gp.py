@@ -253,6 +253,18 @@ class SparseSpectrumGP:
 
     # ------------------------------------------------------------------ state and kernel
     @property
+    def n_inputs(self) -> int:
+        """Number of inputs d = 3n (after the first data)."""
+        self._need_ready()
+        return self.n_inputs_
+
+    @property
+    def method(self) -> str:
+        """The method key: ``metadata['method']`` if recorded, else ``'kernel'``."""
+        method = self.metadata.get('method')
+        return KIND if method is None else str(method)
+
+    @property
     def n_outputs(self) -> int:
         """Number of joints n (after the first data)."""
         self._need_ready()
