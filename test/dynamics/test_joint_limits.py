@@ -33,12 +33,14 @@ def test_the_default_is_the_robot_yaml() -> None:
 
 def test_a_urdf_gives_the_same_limits_with_the_yaml_accelerations() -> None:
     from_urdf = load_joint_limits(urdf_file=str(URDF))
-    assert from_urdf.names == YAML.joint_names and from_urdf.source == str(URDF)
+    assert from_urdf.names == YAML.joint_names
+    assert from_urdf.source == f'{URDF} (acceleration_max from {ROOT / "config" / "scara.yaml"})'
     for key in LIMIT_NAMES:
         np.testing.assert_array_equal(getattr(from_urdf, key), YAML.array(key), err_msg=key)
     text = load_joint_limits(robot_description=URDF.read_text(), joint_names=['joint2'],
                              explicit={'acceleration_max': [7.0]})
-    assert text.names == ('joint2',) and text.source == 'robot_description'
+    assert text.names == ('joint2',)
+    assert text.source == 'robot_description (acceleration_max from parameters)'
     np.testing.assert_array_equal(text.acceleration_max, [7.0])
 
 
