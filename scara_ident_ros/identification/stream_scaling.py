@@ -6,8 +6,11 @@ predict, :class:`StreamScaling` takes what is missing from the first
 :data:`SCALING_SPAN_S` of the stream, as ``scara-ident train`` does from a whole recording:
 
 - acceleration: :data:`MARGIN` × the largest |q''| seen (q'' estimated as the identifier
-  estimates it), at least ``velocity_max`` / :data:`ACCELERATION_TIME_S` (an arm standing
-  still at the start must not get a range of its sensor noise);
+  estimates it), at least ``velocity_max`` / :data:`ACCELERATION_TIME_S`: an arm standing
+  still at the start must not get a range of its sensor noise, and arms reach full speed
+  in a fraction of a second (the Barrett WAM recording, ``../shared/realdata``: its largest
+  |q''| is 6 to 11 times its largest |q'|; twice its first second's largest |q''| covers
+  the whole recording's on 6 of 7 joints);
 - a joint without URDF limits: position range :data:`MARGIN` × the range seen about its
   middle, at least ± :data:`POSITION_HALF_RANGE`; velocity and effort :data:`MARGIN` × the
   largest seen, at least :data:`FLOOR` (1 rad/s, 1 N·m, or the unit of a prismatic joint).
@@ -37,7 +40,7 @@ __all__ = ['ACCELERATION_TIME_S', 'FLOOR', 'MARGIN', 'POSITION_HALF_RANGE', 'SCA
 
 SCALING_SPAN_S = 1.0  # s of stream stamps the missing limits are estimated from
 MARGIN = 2.0  # estimated limit = MARGIN x the largest value seen
-ACCELERATION_TIME_S = 1.0  # s: an acceleration limit is at least velocity_max / this
+ACCELERATION_TIME_S = 0.2  # s: an acceleration limit is at least velocity_max / this
 POSITION_HALF_RANGE = np.pi  # rad (m): least half range of a joint without position limits
 FLOOR = 1.0  # least estimated velocity (rad/s, m/s) and effort (N·m, N)
 _GAP_NS = 20_000_000  # ns: the identifier's default max_gap
@@ -169,30 +172,27 @@ class StreamScaling:
         return bounds
 
     def describe(self) -> str:
-        """Which limits are whose, in one line (no joint: empty)."""
+        """Which limits are whose, in one line: each group of joints (named when there are
+        several groups) and where its limits come from, then the estimated accelerations."""
         urdf = self.urdf.names if self.urdf is not None else ()
-        parts = []
-        limited = [name for name in self.lacking if name in urdf]
-        free = [name for name in self.lacking if name not in urdf]
-        files = [name for name in self.names if name in self.files.names]
-        if files:
-            parts.append(f'{files}: all from {self.files.source}')
-        span = 0.0 if self.first_ns is None else (self.last_ns - self.first_ns) / 1e9
-        stream = (f"the stream's first {span:.2f} s ({self.samples} samples), "
-                  f'{MARGIN:g} x the largest seen')
-        if limited:
-            assert self.urdf is not None
-            parts.append(f'{limited}: position, velocity, effort from {self.urdf.source}, '
-                         f'acceleration from {stream} |q\'\'| (at least velocity_max / '
-                         f'{ACCELERATION_TIME_S:g} s)')
-        if free:
-            parts.append(f'{free} (no URDF limits): all from {stream} (position range at '
-                         f'least +-{POSITION_HALF_RANGE:.3g}, velocity and effort at least '
-                         f'{FLOOR:g})')
+        groups = [([name for name in self.names if name in self.files.names],
+                   f'all from {self.files.source}'),
+                  ([name for name in self.lacking if name in urdf],
+                   f'position, velocity, effort from {getattr(self.urdf, "source", "")}, '
+                   f'acceleration from the stream'),
+                  ([name for name in self.lacking if name not in urdf],
+                   'all from the stream (no URDF limits: position range at least '
+                   f'+-{POSITION_HALF_RANGE:.3g}, velocity and effort at least {FLOOR:g})')]
+        groups = [(names, text) for names, text in groups if names]
+        parts = [text if len(groups) == 1 else f'{names}: {text}' for names, text in groups]
         if self.lacking:
+            span = 0.0 if self.first_ns is None else (self.last_ns - self.first_ns) / 1e9
             rows = [self._row(self.names.index(name), name) for name in self.lacking]
-            parts.append('estimated acceleration_max ' + ', '.join(
-                f'{row["acceleration_max"]:.3g}' for row in rows))
+            parts.append(f"the stream's first {span:.2f} s ({self.samples} samples), "
+                         f"{MARGIN:g} x the largest |q''| seen, at least velocity_max / "
+                         f'{ACCELERATION_TIME_S:g} s, gives acceleration_max ' + ', '.join(
+                             f'{row["acceleration_max"]:.3g}' for row in rows)
+                         + ' (fixed from now on; faster motion is still predicted)')
         return '; '.join(parts)
 
     def peaks(self) -> NDArray[np.float64]:

@@ -75,7 +75,7 @@ def test_a_urdf_alone_predicts_every_sample_after_the_warm_up(robot: str) -> Non
     # one line says which limits, from where: the URDF's, and the stream's accelerations
     said = [line for line in lines if line.startswith('joint limits of')]
     assert len(said) == 1 and str(names) in said[0]
-    assert f'acceleration from the stream\'s first 1.00 s ({RATE + 1} samples)' in said[0]
+    assert f"the stream's first 1.00 s ({RATE + 1} samples)" in said[0]
     network = session.network
     assert isinstance(network, FeedForwardNet)
     limits = parse_urdf(Path(example_robot(robot).urdf).read_text()).select(names)
@@ -100,26 +100,27 @@ def test_the_scaling_is_fixed_once_set_and_larger_inputs_are_still_predicted() -
     network = session.network
     assert isinstance(network, FeedForwardNet)
     before = network._x_scaling.hi.copy()
-    # a 20 Hz tremor of 10 % of the velocity limits: q'' beyond the scaling (unbounded by
-    # the checks), velocities within the URDF's; still predicted
+    # a 20 Hz tremor of 30 % of the velocity limits: q'' beyond the scaling (unbounded by
+    # the checks), velocities within the URDF's bounds; still predicted
     n = len(names)
     t = np.arange(len(q))[:, None] / RATE
     limits = parse_urdf(Path(example_robot('panda').urdf).read_text()).select(names)
-    tremor = 0.1 * limits.velocity_max * np.sin(2 * np.pi * 20.0 * t)
+    tremor = 0.3 * limits.velocity_max * np.sin(2 * np.pi * 20.0 * t)
     fast_qd = qd + tremor
     start = len(q)
     stamps = T0 + (start + np.arange(len(q))) * MS
-    predicted = 0
+    predicted, largest = 0, 0.0
     for i, stamp in enumerate(stamps):
-        results, _, why = session.process(int(stamp), names, q[i], fast_qd[i], effort[i])
+        results, inputs, why = session.process(int(stamp), names, q[i], fast_qd[i], effort[i])
         assert why == []
+        for item in inputs:
+            largest = max(largest, np.abs(network._x_scaling.transform(item.x)).max())
         for result in results[0]:
             predicted += 1
             assert result.effort is not None and np.all(np.isfinite(result.effort))
     assert predicted == len(q)
     np.testing.assert_array_equal(network._x_scaling.hi, before)  # never re-estimated
-    peak = np.abs(np.gradient(fast_qd, axis=0) * RATE).max(axis=0)
-    assert np.all(peak > 3 * before[2 * n:])  # the inputs were beyond [-1, 1]
+    assert largest > 3.0  # the scaled inputs went far beyond [-1, 1]
     session.reset()
     assert session.network is not None
     np.testing.assert_array_equal(session.network._x_scaling.hi[2 * n:], before[2 * n:])
@@ -185,7 +186,8 @@ def test_a_continuous_joint_takes_every_limit_from_the_stream_and_is_not_bounded
     bounds = scaling.bounds(0.5)
     assert bounds is not None
     assert np.all(np.isinf(bounds.hi[:, 0])) and np.all(np.isfinite(bounds.hi[:, 1]))
-    assert "['spin'] (no URDF limits): all from the stream's first 1.10 s" in limits.source
+    assert "['spin']: all from the stream (no URDF limits" in limits.source
+    assert "the stream's first 1.10 s (1101 samples)" in limits.source
     assert FLOOR == 1.0
 
 
