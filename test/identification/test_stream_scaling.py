@@ -6,10 +6,13 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import pinocchio as pin
 import pytest
 import yaml
 
+from scara_ident_ros.dynamics.hybrid_model import HybridModel
 from scara_ident_ros.dynamics.joint_limits import JointLimits
+from scara_ident_ros.dynamics.physical_model import PhysicalModel
 from scara_ident_ros.dynamics.urdf_limits import parse_urdf
 from scara_ident_ros.identification import make_differentiator
 from scara_ident_ros.identification.session import IdentificationSession
@@ -80,11 +83,12 @@ def test_a_urdf_alone_predicts_every_sample_after_the_warm_up(robot: str) -> Non
     assert isinstance(network, FeedForwardNet)
     limits = parse_urdf(Path(example_robot(robot).urdf).read_text()).select(names)
     n = len(names)
-    x_min, x_max, y_min, y_max = (network._x_scaling.lo, network._x_scaling.hi,
-                                  network._y_scaling.lo, network._y_scaling.hi)
+    x_min, x_max = network.x_scaling.lo, network.x_scaling.hi
+    y_min, y_max = network.y_scaling.lo, network.y_scaling.hi
     np.testing.assert_array_equal(x_min[:n], limits.position_min)
     np.testing.assert_array_equal(x_max[n:2 * n], limits.velocity_max)
     np.testing.assert_array_equal(y_max, limits.effort_max)
+    np.testing.assert_array_equal(y_min, -limits.effort_max)
     # acceleration: MARGIN x the first second's largest |q''| (the estimate's, close to the
     # true one), at least velocity_max / ACCELERATION_TIME_S
     first_second = np.abs(qdd[:RATE + 1]).max(axis=0)
@@ -99,7 +103,8 @@ def test_the_scaling_is_fixed_once_set_and_larger_inputs_are_still_predicted() -
     feed(session, names, q, qd, effort)
     network = session.network
     assert isinstance(network, FeedForwardNet)
-    before = network._x_scaling.hi.copy()
+    before = network.x_scaling.hi.copy()
+    n = len(names)
     # a 20 Hz tremor of 30 % of the velocity limits: q'' beyond the scaling (unbounded by
     # the checks), velocities within the URDF's bounds; still predicted
     n = len(names)
@@ -114,16 +119,16 @@ def test_the_scaling_is_fixed_once_set_and_larger_inputs_are_still_predicted() -
         results, inputs, why = session.process(int(stamp), names, q[i], fast_qd[i], effort[i])
         assert why == []
         for item in inputs:
-            largest = max(largest, np.abs(network._x_scaling.transform(item.x)).max())
+            largest = max(largest, np.abs(network.x_scaling.transform(item.x)).max())
         for result in results[0]:
             predicted += 1
             assert result.effort is not None and np.all(np.isfinite(result.effort))
     assert predicted == len(q)
-    np.testing.assert_array_equal(network._x_scaling.hi, before)  # never re-estimated
+    np.testing.assert_array_equal(network.x_scaling.hi, before)  # never re-estimated
     assert largest > 3.0  # the scaled inputs went far beyond [-1, 1]
     session.reset()
-    assert session.network is not None
-    np.testing.assert_array_equal(session.network._x_scaling.hi[2 * n:], before[2 * n:])
+    assert isinstance(session.network, FeedForwardNet)
+    np.testing.assert_array_equal(session.network.x_scaling.hi[2 * n:], before[2 * n:])
 
 
 def test_joints_no_file_knows_stay_unknown() -> None:
@@ -151,8 +156,25 @@ def test_a_physical_model_needs_no_scaling_and_holds_the_fingers_fixed() -> None
     session = session_for('panda', lines, method='physical')
     predicted, warnings = feed(session, names, q, qd, effort)
     assert warnings == [] and predicted == len(q) - DEFAULTS['window'] // 2
-    assert session.network is not None and session.network.joint_names == tuple(names)
+    model = session.network
+    assert isinstance(model, PhysicalModel) and model.joint_names == tuple(names)
     assert any('joint limits of' in line for line in lines)
+    # the fingers, not in the stream, are held at Pinocchio's neutral position (0 m): the
+    # URDF's rigid-body efforts with them there, before anything is learnt
+    still = session_for('panda', [], method='physical', learn=False)
+    full = pin.buildModelFromUrdf(str(example_robot('panda').urdf))
+    fingers = [full.getJointId(f'panda_finger_joint{i}') for i in (1, 2)]
+    arm = pin.buildReducedModel(full, fingers, pin.neutral(full))
+    data, n, checked = arm.createData(), len(names), 0
+    for i in range(60):
+        results, inputs, _ = still.process(T0 + i * MS, names, q[i], qd[i], effort[i])
+        for result, item in zip(results[0], inputs):
+            x = item.x
+            assert result.effort is not None
+            expected = pin.rnea(arm, data, x[:n], x[n:2 * n], x[2 * n:])
+            np.testing.assert_allclose(result.effort, expected, rtol=1e-6, atol=1e-9)
+            checked += 1
+    assert checked == 60 - DEFAULTS['window'] // 2
 
 
 CONTINUOUS = """<robot name="wheel">
@@ -198,3 +220,19 @@ def test_a_sample_of_other_joints_while_scaling_is_skipped() -> None:
     results, _, warnings = session.process(T0 + 20 * MS, names[:3], q[20, :3], qd[20, :3],
                                            effort[20, :3])
     assert warnings and session.summary()['skipped'] == {SkipReason.MISSING_JOINT.value: 1}
+
+
+def test_several_methods_share_the_scaling_the_stream_gave() -> None:
+    names, q, qd, _, effort = stream('panda', 1.2)
+    lines: list[str] = []
+    session = session_for('panda', lines, methods=['ffs', 'hybrid', 'physical'])
+    feed(session, names, q, qd, effort)
+    for run in session.runs:
+        summary = session.summary(run)
+        assert summary['skipped'] == {}, run.method
+        assert summary['predicted'] == len(q) - DEFAULTS['window'] // 2, run.method
+    ffs, hybrid = session.runs[0].network, session.runs[1].network
+    assert isinstance(ffs, FeedForwardNet)
+    assert isinstance(hybrid, HybridModel)
+    np.testing.assert_array_equal(hybrid.network.x_scaling.hi,
+                                  ffs.x_scaling.hi)
