@@ -283,12 +283,8 @@ def _urdf_limits(joint_names: Sequence[str], robot_yaml: str | Path, urdf_file: 
         source = f'{urdf.source} (acceleration_max from {robot_yaml})'
         if not chosen and set(robot.joint_names) != set(urdf.names):
             acceleration = {}
-    if partial:
-        unknown = [name for name in joint_names
-                   if name not in urdf.names and name not in urdf.unlimited]
-        if unknown:
-            raise UrdfError(f'{urdf.source}: no joints {unknown} in the URDF (its joints: '
-                            f'{[*urdf.names, *urdf.unlimited]})')
+    if partial:  # only joints the URDF does not have are refused (UrdfError)
+        urdf.select([name for name in joint_names if name not in urdf.unlimited])
     limits = JointLimits.from_urdf(urdf, acceleration, required=() if partial else joint_names)
     return replace(limits, source=source)
 

@@ -285,6 +285,12 @@ class LazyCore:
         return (self.network is None and method != 'physical' and bool(lacking)
                 and not unknown)
 
+    def adopt_limits(self, other: LazyCore) -> None:
+        """Take ``other``'s limits, as the stream completed them (another method of the
+        same stream: one scaling and one set of bounds for all)."""
+        self.limits, self._stream_bounds = other.limits, other._stream_bounds
+        self.limits_note = other.limits_note
+
     def take_replay(self) -> list[RawSample]:
         """The samples taken while the stream completed the limits (once: then empty), to
         be pushed through the core, oldest first."""

@@ -361,7 +361,7 @@ class IdentificationSession:
         if skipped is None:
             self.log(first.limits_note)
             for run in self.runs[1:]:
-                run.lazy.limits = first.limits
+                run.lazy.adopt_limits(first)
                 run.lazy.early = dataclasses.replace(first.early,
                                                      skipped=dict(first.early.skipped))
             why = self._build(self.names, self.runs[1:])

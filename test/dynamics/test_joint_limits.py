@@ -161,3 +161,21 @@ def test_acceleration_limits_by_parameter() -> None:
     with pytest.raises(LimitsError, match='acceleration'):
         load_motion_limits(urdf_file=str(URDF), joint_names=['joint1', 'joint2'],
                            acceleration_max=[5.0])
+
+
+def test_partial_limits_leave_joints_without_acceleration_to_the_stream() -> None:
+    from scara_ident_ros.sim.example_robots import example_robot
+
+    panda = str(example_robot('panda').urdf)
+    arm = [f'panda_joint{i}' for i in range(1, 8)]
+    # the default robot YAML is the SCARA's: its accelerations are for its own URDF only
+    limits = load_joint_limits(urdf_file=panda, joint_names=arm, partial=True)
+    assert limits.names == ()
+    with pytest.raises(UrdfError, match='no acceleration limit'):
+        load_joint_limits(urdf_file=panda, joint_names=arm)
+    with pytest.raises(UrdfError, match=r'no joint limits for shoulder \(not in the URDF\)'):
+        load_joint_limits(urdf_file=panda, joint_names=[*arm, 'shoulder'], partial=True)
+    given = load_joint_limits(urdf_file=panda, joint_names=arm[:2], partial=True,
+                              explicit={'acceleration_max': [5.0, 6.0]})
+    assert given.names == tuple(arm[:2])
+    assert given.source == f'{panda} (acceleration_max from parameters)'
