@@ -17,15 +17,15 @@ predict, :class:`StreamScaling` takes what is missing from the first
 
 The scaling is fixed once set: it is the network's, and learning changes it no more. Samples
 outside it are still predicted: the scaling is affine and clips nothing, so the network sees
-inputs beyond [-1, 1] and extrapolates (its hidden units saturate smoothly). Only the
-limits the robot's files give bound the samples (``limit_margin``); estimated ones do not.
+inputs beyond [-1, 1] and extrapolates (finite: its hidden units saturate or grow
+logarithmically). Only the limits the robot's files give bound the samples
+(``limit_margin``); estimated ones do not.
 """
 from __future__ import annotations
 
 from collections.abc import Sequence
 
 import numpy as np
-from numpy.typing import NDArray
 
 from scara_ident_ros.dynamics.joint_limits import LIMIT_NAMES, JointLimits
 from scara_ident_ros.dynamics.urdf_limits import UrdfLimits
@@ -194,7 +194,3 @@ class StreamScaling:
                              f'{row["acceleration_max"]:.3g}' for row in rows)
                          + ' (fixed from now on; faster motion is still predicted)')
         return '; '.join(parts)
-
-    def peaks(self) -> NDArray[np.float64]:
-        """Largest |q'|, |q''|, |effort| seen so far, shape (3, n)."""
-        return self._peak.copy()
