@@ -1,8 +1,12 @@
-"""``scara-ident train``: train a network or a physical model offline from a bag's joint states.
+"""``scara-ident train``: train a network or a physical model offline from recorded joint states.
 
-Reads sensor_msgs/JointState messages from any rosbag2 bag (MCAP or sqlite3) or a bare
-.mcap file, turns them into network samples exactly as the online identifier does (its
-input stage: the same sample checks and zero-phase q'' estimate), and trains the method's
+Reads sensor_msgs/JointState messages from any rosbag2 bag (MCAP or sqlite3), a bare
+.mcap file or a ROS 1 .bag, or the joint states of a table (.npz or CSV with named
+columns, a /joint_states CSV export; FILE.npz:SPLIT for a published split, such as
+barrett_wam.npz:train), turns them into network samples exactly as the online identifier
+does (its input stage: the same sample checks, repeated samples refused, and zero-phase q''
+estimate; q' derived from q where the recording has none, q'' as given where a table gives
+it; docs/recording_and_retraining.md), and trains the method's
 3n-40-n network with Levenberg-Marquardt (or batch gradient descent), scaled to the
 training data's ranges.
 
@@ -46,13 +50,16 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from scara_ident_ros.cli import CliError
+from scara_ident_ros.cli.recording_options import (RECORDING_HELP, recording_note,
+                                                    urdf_joints_not_recorded)
 from scara_ident_ros.cli.validation_options import (add_validation_options,
                                                      check_validation_options)
 from scara_ident_ros.dynamics.physical_model import COULOMB_EPS, COULOMB_MODES
 from scara_ident_ros.identification import DIFFERENTIATOR_WINDOW
 from scara_ident_ros.identification.split import VALIDATION_BLOCK_S
 from scara_ident_ros.nn.presets import METHODS, make_network
-from scara_ident_ros.nn import ALGORITHMS, fit
+from scara_ident_ros.nn import ALGORITHMS
+from scara_ident_ros.nn.fitting import ITERATIONS, MAX_FAIL, MIN_ITERATIONS, SAMPLES
 from scara_ident_ros.paths import unwritable_file
 
 if TYPE_CHECKING:
@@ -62,11 +69,8 @@ if TYPE_CHECKING:
 __all__ = ['FRICTION_STEPS', 'HYBRID_NETWORK', 'ITERATIONS', 'MAX_FAIL', 'MIN_ITERATIONS',
            'PHYSICAL_METHODS', 'SAMPLES', 'VALIDATION_BLOCK_S', 'add_parser', 'run']
 
-#: Defaults of the options, chosen with benchmarks/bench_train_defaults.py (module docstring).
-ITERATIONS = 500           # Levenberg–Marquardt iterations at most
-SAMPLES = 8000             # training samples drawn from the training blocks
-MAX_FAIL = 50              # validation failures in a row that stop training
-MIN_ITERATIONS = 50        # iterations before validation failures count
+#: Defaults of the options (ITERATIONS, SAMPLES, MAX_FAIL, MIN_ITERATIONS: those of the
+#: models' offline training, nn.fitting), chosen with benchmarks/bench_train_defaults.py.
 FRICTION_STEPS = True      # the network starts with friction steps, as the identifier's
 #: Models built from a URDF rather than a network alone.
 PHYSICAL_METHODS = ('physical', 'hybrid')
@@ -78,8 +82,8 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     parser = subparsers.add_parser(
         'train', help='train a network offline from the joint states of a bag',
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument('bag', type=Path, metavar='BAG',
-                        help='rosbag2 bag directory (MCAP or sqlite3) or .mcap file')
+    parser.add_argument('bag', type=Path, metavar='RECORDING',
+                        help=RECORDING_HELP)
     parser.add_argument('--method', required=True, choices=[*METHODS, *PHYSICAL_METHODS],
                         help='network: ffmw (MSLOG), ffw (SLOG) or ffs (sigmoid); physical: '
                              'least squares on the URDF\'s base parameters and friction; '
@@ -181,7 +185,8 @@ def run(args: argparse.Namespace) -> int:
                  f'{(blocks[-1] + 1) * args.validation_block:.1f} s')
     print(f'scara-ident train: {args.bag} {recording.topic}: {len(samples.data)} samples '
           f'of {len(names)} joints {list(names)} over {samples.data.seconds:.1f} s '
-          f'(skipped: {skipped_text(samples)}); training on {len(train)}, validating on '
+          f'(skipped: {skipped_text(samples)}{recording_note(recording)}); training on '
+          f'{len(train)}, validating on '
           f'{len(validation)}{where}', flush=True)
 
     metadata = {
@@ -193,6 +198,10 @@ def run(args: argparse.Namespace) -> int:
         'differentiator': np.array('centred'), 'window': np.array(DIFFERENTIATOR_WINDOW)}
     if args.urdf is not None:
         metadata['urdf_file'] = np.array(str(args.urdf))
+        fixed = urdf_joints_not_recorded(args.urdf, names)
+        if fixed and args.method in PHYSICAL_METHODS:
+            print(f'{args.urdf}: joints not in the recording, held fixed at 0: '
+                  f'{", ".join(fixed)}', flush=True)
     if args.method in PHYSICAL_METHODS:
         return _train_physical(args, names, every_train, train, validation, metadata)
 
@@ -203,13 +212,15 @@ def run(args: argparse.Namespace) -> int:
         network.set_scaling(x_min, x_max, y_min, y_max)
     progress = TrainingProgress(args.iterations, label=f'{args.method.upper()} {args.algorithm}')
     started = time.perf_counter()
-    with single_blas_thread():
-        history = fit(
-            network, train.X, train.Y, algorithm=args.algorithm, iterations=args.iterations,
-            goal=args.goal,
-            validation=(validation.X, validation.Y) if len(validation) else None,
-            max_fail=args.max_fail, min_iterations=args.min_iterations, callback=progress)
+    with single_blas_thread():  # the samples and validation blocks are drawn above
+        network.fit(train.X, train.Y, validation_fraction=0.0, samples=0,
+                    algorithm=args.algorithm, iterations=args.iterations, goal=args.goal,
+                    validation=(validation.X, validation.Y) if len(validation) else None,
+                    max_fail=args.max_fail, min_iterations=args.min_iterations,
+                    callback=progress)
     progress.close()
+    history = network.history_
+    assert history is not None
     seconds = time.perf_counter() - started
 
     network.metadata.update(metadata)
@@ -272,7 +283,7 @@ def _train_physical(args: argparse.Namespace, names: Sequence[str], every_train:
     """``--method physical`` or ``hybrid``: fit, save, print errors and parameters."""
     from scara_ident_ros.blas_threads import single_blas_thread
     from scara_ident_ros.dynamics.coulomb_selection import select_coulomb
-    from scara_ident_ros.dynamics.hybrid_model import HybridModel, fit_hybrid
+    from scara_ident_ros.dynamics.hybrid_model import HybridModel
     from scara_ident_ros.dynamics.physical_model import PhysicalModel
     from scara_ident_ros.cli.evaluation import errors_markdown, evaluate
     from scara_ident_ros.cli.physical_parameters import parameters_markdown
@@ -301,7 +312,7 @@ def _train_physical(args: argparse.Namespace, names: Sequence[str], every_train:
         print(f'Coulomb friction shape: tanh {eps:g} (no validation samples to choose by)')
     model: PhysicalModel | HybridModel
     if args.method == 'physical':
-        model = physical if fitted else physical.fit_inputs(every_train.X, every_train.Y)
+        model = physical if fitted else physical.fit(every_train.X, every_train.Y)
         summary = (f'PHYSICAL fitted by least squares on {len(every_train)} samples: '
                    f'{physical.n_base} base parameters and {2 * len(names)} friction '
                    f'coefficients in {time.perf_counter() - started:.1f} s')
@@ -310,14 +321,16 @@ def _train_physical(args: argparse.Namespace, names: Sequence[str], every_train:
                                friction_steps=args.friction_steps)
         x_min, x_max, _, _ = _limit_ranges(args.urdf, names, every_train.X, every_train.Y)
         progress = TrainingProgress(args.iterations, label=f'HYBRID {HYBRID_NETWORK} lm')
-        with single_blas_thread():
-            model, history = fit_hybrid(
-                physical, network, (every_train.X, every_train.Y),
-                validation=(validation.X, validation.Y) if len(validation) else None,
-                x_range=(x_min, x_max), network_samples=args.samples, seed=args.seed,
-                iterations=args.iterations, max_fail=args.max_fail,
-                min_iterations=args.min_iterations, callback=progress)
+        hybrid = HybridModel(physical, network)
+        with single_blas_thread():  # the validation blocks are drawn above
+            hybrid.fit(every_train.X, every_train.Y, validation_fraction=0.0,
+                       validation=(validation.X, validation.Y) if len(validation) else None,
+                       x_range=(x_min, x_max), samples=args.samples,
+                       iterations=args.iterations, max_fail=args.max_fail,
+                       min_iterations=args.min_iterations, callback=progress)
         progress.close()
+        model, history = hybrid, hybrid.history_
+        assert history is not None
         metadata.update(_network_metadata(args, history))
         metadata['network'] = np.array(HYBRID_NETWORK)
         summary = (f'HYBRID: least squares on {len(every_train)} samples, then '
