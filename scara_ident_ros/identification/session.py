@@ -24,7 +24,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from scara_ident_ros.dynamics.joint_limits import LIMIT_NAMES, load_joint_limits
-from scara_ident_ros.dynamics.urdf_limits import UrdfError
+from scara_ident_ros.dynamics.urdf_limits import UrdfError, parse_urdf
 from scara_ident_ros.errors import ConfigError
 from scara_ident_ros.estimator import Estimator, load_model
 from scara_ident_ros.identification.background_lm import BackgroundLM
@@ -210,12 +210,15 @@ class IdentificationSession:
     def __init__(self, settings: Mapping[str, Any], *,
                  log: Callable[[str], None] | None = None) -> None:
         s = self.settings = settings
+        self.log = log or (lambda text: None)
         self.limits = load_joint_limits(
             joint_names=s['joint_names'], robot_config=s['robot_config'],
             urdf_file=s['urdf_file'], robot_description=s['robot_description'],
-            explicit={key: s[key] for key in LIMIT_NAMES})
+            explicit={key: s[key] for key in LIMIT_NAMES}, partial=True)
         methods = list(s['methods']) or [s['method']]
         self.urdf = self._urdf()
+        # what the stream completes: the URDF's joints without acceleration (or any) limits
+        urdf_limits = parse_urdf(self.urdf[0], source=self.urdf[1]) if self.urdf[0] else None
         if len(set(methods)) != len(methods):
             raise ConfigError(f'methods names a method twice: {methods}')
         self.several = len(s['methods']) > 0
@@ -231,13 +234,15 @@ class IdentificationSession:
             network, names = self._warm_start(method, names, log)
             self.runs.append(MethodRun(
                 method, LazyCore(self.limits, network, urdf=self.urdf[0],
-                                 urdf_source=self.urdf[1]),
+                                 urdf_source=self.urdf[1], urdf_limits=urdf_limits),
                 _contact_settings(s)))
         # checked at start (a bad window ends it in one line), used once the joints are known
         self.differentiator = self._differentiator()
         missing_limits = self._build(names) if names else ''
         if missing_limits:
             raise ConfigError(f'joint_names: {missing_limits}')
+        if self.core is not None:
+            self.log(self.first.lazy.limits_note)
         self.joints_text = str(names or '(from the first message)')
 
     # ------------------------------------------------------------------ the first method
@@ -326,6 +331,8 @@ class IdentificationSession:
         stage (the first method's, if built); return '' or why not (a joint without
         limits)."""
         stage = self.core.stage if runs is not None and self.core is not None else None
+        if any(run.lazy.needs_stream(names, run.method) for run in self.runs):
+            return ''  # built from the first samples, which complete the limits
         for run in self.runs if runs is None else runs:
             why = run.lazy.build(names, self._core_settings(run.method), self.differentiator,
                                  stage=stage, background=self.settings['lm_background'])
@@ -343,9 +350,16 @@ class IdentificationSession:
         first = self.first.lazy
         skipped = first.first(self._core_settings(self.first.method), self.differentiator,
                               stamp_ns, names, position, velocity, effort,
-                              background=self.settings['lm_background'])
+                              background=self.settings['lm_background'],
+                              wanted=self.settings['joint_names'])
+        if skipped is not None and skipped.reason is None:  # kept to complete the limits
+            if skipped.note:
+                self.log(skipped.note)
+            return []
         if skipped is None:
+            self.log(first.limits_note)
             for run in self.runs[1:]:
+                run.lazy.adopt_limits(first)
                 run.lazy.early = dataclasses.replace(first.early,
                                                      skipped=dict(first.early.skipped))
             why = self._build(self.names, self.runs[1:])
@@ -354,8 +368,9 @@ class IdentificationSession:
             self.first.built(self.names)
             return []
         warnings = [skipped.note] if skipped.note else []
-        return warnings + [f'skipped a sample ({skipped.reason.value}) before the first '
-                           'valid one']
+        reason = skipped.reason
+        assert reason is not None
+        return warnings + [f'skipped a sample ({reason.value}) before the first valid one']
 
     # ------------------------------------------------------------------ per sample
     def process(self, stamp_ns: int, names: tuple[str, ...] | list[str], position: Any,
@@ -372,6 +387,9 @@ class IdentificationSession:
             warnings = self._build_from(stamp_ns, names, position, velocity, effort)
             if self.core is None or warnings:
                 return [[] for _ in self.runs], [], warnings
+            replay = self.first.lazy.take_replay()  # samples that completed the limits
+            if len(replay) > 1:
+                return self._replay(replay)
         core = self.core
         reason, inputs = core.stage.push(stamp_ns, names, position, velocity, effort)
         results = []
@@ -387,6 +405,21 @@ class IdentificationSession:
         else:
             why = f'skipped a sample ({reason.value}); {sum(core.counts.skipped.values())} so far'
         return results, inputs, [why]
+
+    def _replay(self, samples: Sequence[Any]
+                ) -> tuple[list[list[StepResult]], list[Input], list[str]]:
+        """:meth:`process` the samples kept while the stream completed the limits (of
+        :class:`~scara_ident_ros.identification.lazy_core.RawSample`), at once."""
+        results: list[list[StepResult]] = [[] for _ in self.runs]
+        inputs: list[Input] = []
+        warnings: list[str] = []
+        for sample in samples:
+            out, new, why = self.process(*sample)
+            for mine, theirs in zip(results, out):
+                mine += theirs
+            inputs += new
+            warnings += why
+        return results, inputs, warnings[:1]
 
     def flush(self) -> tuple[list[list[StepResult]], list[Input]]:
         """On shutdown: the pending samples' predictions for each method, and the samples."""

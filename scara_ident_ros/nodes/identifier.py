@@ -88,8 +88,9 @@ PARAMETERS = (
               'and outputs; empty: the installed config/scara.yaml', fixed=LIMITS),
     ParamSpec('urdf_file', '', 'URDF whose joint <limit>s (position, velocity, effort), '
               'matched by joint name, replace those of robot_config; acceleration limits '
-              "(URDF has none) stay robot_config's, or acceleration_max with joint_names; "
-              'empty: none', fixed=LIMITS),
+              '(URDF has none) from acceleration_max with joint_names, else a robot_config '
+              "naming the joints, else 2 x the largest q'' of the stream's first second (a "
+              'continuous joint: all its limits so); empty: none', fixed=LIMITS),
     ParamSpec('robot_description', '', 'The URDF as a string, as robot_state_publisher has '
               'it: used like urdf_file', fixed=LIMITS),
     ParamSpec('position_min', [], 'Per-joint position lower limits (rad or m); with the four '
