@@ -452,16 +452,16 @@ class ExactGP:
     def _append(self, u: np.ndarray, t: np.ndarray) -> np.ndarray:
         """Predict (standardised) and learn one sample; returns the prediction."""
         n = self.n_points_
+        assert self._factor is not None
         if n == 0:
             prediction = np.zeros_like(t)
             l_row = np.zeros(0)
         else:
             k = rbf(u[None, :], self._points[:n], self.length_)[0]
+            if n >= len(self._factor) or n >= self.budget:  # full: predict only, O(n)
+                return np.asarray(k @ self._weights())
             l_row = self._forward(k)
             prediction = l_row @ self._beta[:n]
-        assert self._factor is not None
-        if n >= len(self._factor) or n >= self.budget:
-            return prediction
         if (n and self.skip_within > 0.0 and np.all(
                 np.abs(t - prediction) <= self.skip_within * np.sqrt(self.noise_))):
             return prediction
