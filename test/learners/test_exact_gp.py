@@ -75,7 +75,7 @@ def test_validation_picks_the_grid_minimum() -> None:
 
 def test_file_round_trip(tmp_path: Path) -> None:
     x, y = data()
-    model = ExactGP(length=2.0, noise=1e-2, budget=500).fit(x[:300], y[:300])
+    model = ExactGP(length=2.0, noise=1e-2, budget=500, warmup=100).fit(x[:300], y[:300])
     model.metadata['method'] = np.array('gp')
     path = tmp_path / 'gp.npz'
     model.save(path)
