@@ -25,7 +25,8 @@ copy is made). The first ``warmup`` rows are only buffered (predicted by the mea
 efforts before them); then the standardisation and kernel are set from them and they are
 factored at once. With ``budget`` points learnt, further samples are predicted and
 skipped; before that, samples the model already predicts within ``skip_within`` noise
-standard deviations on every joint are skipped too (0: learn every sample). Dropping the
+standard deviations on every joint, or whose latent predictive variance (d² − σ², free
+from the solve) is below ``min_variance``, are skipped too (0: learn every sample). Dropping the
 oldest point instead would need a Cholesky downdate (a Python loop over n columns per
 sample) and was not implemented. With ``skip_within=0`` and a large enough budget, one pass
 of ``partial_fit`` gives the factor of ``fit`` on the same rows (test/learners).
@@ -136,6 +137,9 @@ class ExactGP:
     skip_within : float, default 0.0
         Online: skip a sample predicted within this many noise standard deviations on every
         joint (0: learn every sample until the budget is full).
+    min_variance : float, default 0.0
+        Online: skip a sample whose latent predictive variance (standardised, at most 1)
+        is below this: its neighbours in the model cover it (0: learn every sample).
     select_samples : int, default 3000
         Offline: the kernel is chosen on the first this many rows of ``fit``.
     val_block, val_every : int, default 1 and 10
@@ -164,6 +168,7 @@ class ExactGP:
 
     def __init__(self, *, length: float | None = None, noise: float | None = None,
                  budget: int = BUDGET, warmup: int = WARMUP, skip_within: float = 0.0,
+                 min_variance: float = 0.0,
                  select_samples: int = SELECT_SAMPLES, val_block: int = 1,
                  val_every: int = 10) -> None:
         if (length is None) != (noise is None):
@@ -182,6 +187,7 @@ class ExactGP:
         self.budget = budget
         self.warmup = warmup
         self.skip_within = float(skip_within)
+        self.min_variance = float(min_variance)
         self.select_samples = operator.index(select_samples)
         self.val_block = int(val_block)
         self.val_every = int(val_every)
@@ -199,6 +205,7 @@ class ExactGP:
         """The constructor's hyperparameters, as data."""
         return {'length': self.length, 'noise': self.noise, 'budget': self.budget,
                 'warmup': self.warmup, 'skip_within': self.skip_within,
+                'min_variance': self.min_variance,
                 'select_samples': self.select_samples, 'val_block': self.val_block,
                 'val_every': self.val_every}
 
@@ -354,6 +361,7 @@ class ExactGP:
         given = np.array([np.nan if self.length is None else self.length,
                           np.nan if self.noise is None else self.noise])
         return {'params': params, 'given': given, 'skip_within': np.array(self.skip_within),
+                'min_variance': np.array(self.min_variance),
                 'kernel': np.array([self.length_, self.noise_]),
                 'x_mean': self.x_mean_, 'x_scale': self.x_scale_, 'y_mean': self.y_mean_,
                 'y_scale': self.y_scale_,
@@ -372,7 +380,8 @@ class ExactGP:
             given = not np.isnan(length)
             model = cls(length=length if given else None, noise=noise if given else None,
                         budget=budget, warmup=warmup,
-                        skip_within=float(arrays['skip_within']), select_samples=select,
+                        skip_within=float(arrays['skip_within']),
+                        min_variance=float(arrays['min_variance']), select_samples=select,
                         val_block=val_block, val_every=val_every)
             values = {name: np.asarray(arrays[name], dtype=np.float64) for name in
                       ('kernel', 'x_mean', 'x_scale', 'y_mean', 'y_scale', 'points',
@@ -465,7 +474,9 @@ class ExactGP:
         if (n and self.skip_within > 0.0 and np.all(
                 np.abs(t - prediction) <= self.skip_within * np.sqrt(self.noise_))):
             return prediction
-        diagonal = 1.0 + self.noise_ - float(l_row @ l_row)
+        diagonal = 1.0 + self.noise_ - float(l_row @ l_row)  # predictive variance
+        if n and diagonal - self.noise_ < self.min_variance:  # covered by its neighbours
+            return prediction
         d = np.sqrt(max(diagonal, 1e-12 * self.noise_))
         self._factor[n, :n] = l_row
         self._factor[n, n] = d

@@ -60,6 +60,9 @@ def test_predicts_before_learning_and_keeps_the_budget() -> None:
     skipper.partial_fit(x, y)
     assert 100 < skipper.n_points_ < 400 and skipper.n_seen_ == 400
     assert skipper.score(x, y) > 0.95
+    covered = ExactGP(length=2.0, noise=1e-2, budget=800, warmup=100, min_variance=0.05)
+    covered.partial_fit(*data(800))
+    assert 100 < covered.n_points_ < 800
 
 
 def test_validation_picks_the_grid_minimum() -> None:
