@@ -385,7 +385,7 @@ def main() -> int:
     parser.add_argument('--online-features', type=int, default=1000)
     parser.add_argument('--gp-budget', type=int, default=4000)
     parser.add_argument('--gp-skip', type=float, default=0.0)
-    parser.add_argument('--gp-min-variance', type=float, default=0.0)
+    parser.add_argument('--gp-min-variance', type=float, default=0.1)
     parser.add_argument('--ffs-iterations', type=int, default=500)
     parser.add_argument('--seed', type=int, default=0)
     parser.add_argument('--cache', type=Path, default=Path('/tmp/bench_realdata_hyper'))

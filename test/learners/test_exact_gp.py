@@ -25,7 +25,7 @@ def data(n: int = 400, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
 @pytest.mark.parametrize('batch', [1, 7])
 def test_online_equals_fit(batch: int) -> None:
     x, y = data(1100)  # more than two blocks of the blockwise solves
-    kernel = {'length': 2.0, 'noise': 1e-2, 'budget': 1200, 'warmup': 10}
+    kernel = {'length': 2.0, 'noise': 1e-2, 'budget': 1200, 'warmup': 10, 'min_variance': 0.0}
     offline = ExactGP(**kernel).set_kernel(x[:100], y[:100]).fit(x, y)
     online = ExactGP(**kernel).set_kernel(x[:100], y[:100])
     for start in range(0, len(x), batch):
@@ -40,7 +40,7 @@ def test_online_equals_fit(batch: int) -> None:
 
 def test_warmup_then_append_equals_fit() -> None:
     x, y = data()
-    online = ExactGP(length=2.0, noise=1e-2, budget=500, warmup=100)
+    online = ExactGP(length=2.0, noise=1e-2, budget=500, warmup=100, min_variance=0.0)
     before = online.partial_fit(x, y)
     np.testing.assert_allclose(before[50], y[:50].mean(axis=0))  # warm-up: the mean so far
     offline = ExactGP(length=2.0, noise=1e-2).set_kernel(x[:100], y[:100]).fit(x, y)
@@ -50,13 +50,15 @@ def test_warmup_then_append_equals_fit() -> None:
 
 def test_predicts_before_learning_and_keeps_the_budget() -> None:
     x, y = data()
-    model = ExactGP(length=2.0, noise=1e-2, budget=150, warmup=100).fit(x[:100], y[:100])
+    model = ExactGP(length=2.0, noise=1e-2, budget=150, warmup=100, min_variance=0.0)
+    model.fit(x[:100], y[:100])
     expected = model.predict(x[100:101])
     np.testing.assert_allclose(model.partial_fit(x[100:101], y[100:101]), expected,
                                rtol=0, atol=1e-10)
     model.partial_fit(x[101:], y[101:])
     assert model.n_points_ == 150  # full: the rest was predicted, not learnt
-    skipper = ExactGP(length=2.0, noise=1e-2, budget=400, warmup=100, skip_within=3.0)
+    skipper = ExactGP(length=2.0, noise=1e-2, budget=400, warmup=100, skip_within=3.0,
+                      min_variance=0.0)
     skipper.partial_fit(x, y)
     assert 100 < skipper.n_points_ < 400 and skipper.n_seen_ == 400
     assert skipper.score(x, y) > 0.95
@@ -78,7 +80,8 @@ def test_validation_picks_the_grid_minimum() -> None:
 
 def test_file_round_trip(tmp_path: Path) -> None:
     x, y = data()
-    model = ExactGP(length=2.0, noise=1e-2, budget=500, warmup=100).fit(x[:300], y[:300])
+    model = ExactGP(length=2.0, noise=1e-2, budget=500, warmup=100, min_variance=0.0)
+    model.fit(x[:300], y[:300])
     model.metadata['method'] = np.array('gp')
     path = tmp_path / 'gp.npz'
     model.save(path)
