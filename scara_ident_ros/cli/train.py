@@ -36,7 +36,7 @@ accelerations by the training data's largest |q''|) and a network alone its outp
 effort limits.
 
 --method gp: exact Gaussian-process regression (learners.exact_gp: one RBF kernel shared by
-the joints, its length and noise chosen on every 10th of the first 3000 training samples)
+the joints, its length and noise chosen on blocks of 50 of the first 3000 training samples)
 on every training sample, at most 12000 (a random draw of them beyond: O(N^3) time, 8 N^2
 bytes); --method kernel: the sparse-spectrum GP (random features) on every training sample.
 
