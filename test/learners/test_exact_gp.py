@@ -72,7 +72,7 @@ def test_validation_picks_the_grid_minimum() -> None:
     length, noise, scores = choose_kernel(x, y, lengths=(0.05, 1.0, 50.0), noises=(1e-4,))
     assert len(scores) == 3 and scores[length, noise] == min(scores.values())
     assert length == 1.0  # 0.05 forgets between samples, 50 cannot bend
-    model = ExactGP(select_samples=300).fit(x[:400], y[:400])
+    model = ExactGP(select_samples=300, val_block=10).fit(x[:400], y[:400])
     worse = ExactGP(length=0.05, noise=1e-4).fit(x[:400], y[:400])
     assert model.score(x[400:], y[400:]) > worse.score(x[400:], y[400:]) + 0.1
     assert len(model.selection_) == 10
