@@ -293,8 +293,9 @@ def run_gp(s: Split, args: argparse.Namespace) -> tuple[np.ndarray, str]:
 def run_shipped_gp(s: Split, args: argparse.Namespace) -> tuple[np.ndarray, str]:
     model = ExactGP().fit(s.X, s.Y)
     return model.predict(s.Xt), (f'{model.n_points_} points; length {model.length_:g}, '
-                                 f'noise {model.noise_:g} chosen by ExactGP on every 10th of '
-                                 f'the first {model.select_samples} training rows')
+                                 f'noise {model.noise_:g} chosen by ExactGP on blocks of '
+                                 f'{model.val_block} rows, 1 in {model.val_every}, of the '
+                                 f'first {model.select_samples} training rows')
 
 
 def gp_online(s: Split, budget: int, skip: float, variance: float
