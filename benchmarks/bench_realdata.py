@@ -32,6 +32,13 @@ Learners (``--methods``):
     scored on the held-out part.
 ``gp``
     the exact GP with the same kernel on every training row.
+``gpfit``
+    the shipped exact GP (``ExactGP``, kind ``gp``, as ``scara-ident train --method gp``) on
+    every training row, its kernel chosen by itself (validation blocks of its first rows).
+``gponline``
+    ``ExactGP.partial_fit`` one sample at a time in order (``--gp-budget`` points,
+    ``--gp-skip``, ``--gp-min-variance``), then frozen; time per sample at 1,000, 4,000 and
+    12,000 points. ``gponline_all``: the same with the budget at every training row.
 ``ffs``
     the FFS network as ``scara-ident train`` trains it (21-40-7 for 7 joints, friction
     steps, Levenberg–Marquardt, early stop on a tenth of the training rows / blocks), with
