@@ -31,15 +31,13 @@ oldest point instead would need a Cholesky downdate (a Python loop over n column
 sample) and was not implemented. With ``skip_within=0`` and a large enough budget, one pass
 of ``partial_fit`` gives the factor of ``fit`` on the same rows (test/learners).
 
-Measured on the WAM's published split (benchmarks/realdata.md; load 10-16 on 2 cores):
-``fit`` on the 12,000 rows scores SMSE 8.8e-5 (61 s); online, one pass in order, frozen,
-budget 12,000: 1.2e-4 (11 ms per sample at 4,000 points, 98 ms at 12,000; 1.15 GB);
-default budget 4,000 with ``min_variance`` 0.1: 0.030 (the budget fills, with 3,500
-points, in the first part of the run; learning every sample until full: 0.146). An even
-thinning (every 3rd row, 4,000 points, not a streaming rule) reaches 0.0030.
-
-Memory: the factor is a (budget, budget) float64 array (about 128 MB at 4,000 points,
-1.15 GB at 12,000), of which the lower triangle is touched.
+Measured on the WAM's published split (benchmarks/realdata.md; load 7-16 on 2 cores):
+``fit`` on the 12,000 rows scores SMSE 9.8e-4 (8.8e-5 with ``val_block=1``; 42-61 s);
+online, one pass in order, frozen: 0.026 with the defaults (budget 4,000, ``min_variance``
+0.1; the budget fills in the first part of the run; learning every sample until full:
+0.146), 0.0011 with the budget at every row (1.15 GB; 7-11 ms per sample at 4,000 points,
+24-98 ms at 12,000). An even thinning (every 3rd row, 4,000 points, not a streaming rule)
+reaches 0.0030.
 """
 from __future__ import annotations
 
