@@ -192,8 +192,10 @@ def test_physical_and_hybrid_files_round_trip(tmp_path: Path) -> None:
     hybrid.save(tmp_path / 'hybrid.npz')
     again = HybridModel.load(tmp_path / 'hybrid.npz')
     np.testing.assert_array_equal(again.predict(x), hybrid.predict(x))
+    np.testing.assert_array_equal(again.gate, hybrid.gate)  # gated on the validation samples
     np.testing.assert_allclose(hybrid.predict(x), hybrid.physical.predict(x)
-                               + hybrid.network.predict(x))
+                               + hybrid.network.predict(x) * hybrid.gate)
+    hybrid.gate = np.ones(4)
     with pytest.raises(ModelFormatError, match='a hybrid model, not a physical one'):
         PhysicalModel.load(tmp_path / 'hybrid.npz')
     # bounded, the network's correction is clipped per joint, and the file keeps the bounds
@@ -283,3 +285,53 @@ def test_a_stribeck_column_recovers_the_breakaway_excess(tmp_path: Path) -> None
     assert loaded.stribeck_velocity == 0.1
     X = np.hstack([q, qd, qdd])
     np.testing.assert_allclose(loaded.predict(X), model.predict(X), rtol=1e-12)
+
+
+def test_the_gate_withholds_a_correction_that_makes_held_out_data_worse() -> None:
+    """The hybrid's correction is kept per joint only where it lowers the held-out error of
+    the physical model alone (``HybridModel.validate_gate``)."""
+    physical = PhysicalModel.from_urdf_file(SCARA_URDF, coulomb='sign')
+    rng = np.random.default_rng(11)
+    q, qd, qdd = states(rng, 600, 4)
+    tau = (physical.regressor(q, qd, qdd) @ rng.uniform(0.1, 2.0, physical.n_parameters)
+           + 0.5 * np.sin(2.0 * q))  # a residual a network can learn
+    x = np.hstack([q, qd, qdd])
+    hybrid, _ = fit_hybrid(physical, make_network('ffs', 4, n_hidden=10),
+                           (x[:400], tau[:400]), iterations=40, min_iterations=0,
+                           max_fail=40)
+    held = (x[400:], tau[400:])
+    alone, corrected = hybrid.validate_gate(*held)
+    assert np.all(corrected < 0.5 * alone)  # the correction helps on every joint
+    np.testing.assert_array_equal(hybrid.gate, np.ones(4))
+    # spoil joint 2's correction: a bias of 3 N far larger than its residual
+    theta = hybrid.network.get_params()
+    _, output = hybrid.network.unpack(theta)
+    output[2, -1] += 3.0 / (hybrid.network.y_scaling.hi[2] - hybrid.network.y_scaling.lo[2])
+    hybrid.network.set_params(theta)
+    alone, corrected = hybrid.validate_gate(*held)
+    assert corrected[2] > alone[2]
+    np.testing.assert_array_equal(hybrid.gate, [1.0, 1.0, 0.0, 1.0])
+    predicted, base = hybrid.predict(held[0]), hybrid.physical.predict(held[0])
+    np.testing.assert_array_equal(predicted[:, 2], base[:, 2])  # withheld: physical alone
+    error = np.mean((predicted - held[1]) ** 2, axis=0)
+    assert np.all(error <= np.mean((base - held[1]) ** 2, axis=0))
+
+
+def test_fit_hybrid_gates_on_its_validation_samples(tmp_path: Path) -> None:
+    physical = PhysicalModel.from_urdf_file(SCARA_URDF, coulomb='sign')
+    rng = np.random.default_rng(12)
+    q, qd, qdd = states(rng, 500, 4)
+    tau = physical.regressor(q, qd, qdd) @ rng.uniform(0.1, 2.0, physical.n_parameters)
+    # joint 0's residual has one sign in training and the other in validation: learnt, it
+    # makes validation worse; joint 1's is the same function in both
+    tau[:, 0] += np.where(np.arange(500) < 400, 0.3, -0.3)
+    tau[:, 1] += 2.0 * np.sin(2.0 * q[:, 1])
+    x = np.hstack([q, qd, qdd])
+    hybrid, _ = fit_hybrid(physical, make_network('ffs', 4, n_hidden=10),
+                           (x[:400], tau[:400]), validation=(x[400:], tau[400:]),
+                           iterations=40, min_iterations=40, max_fail=40)
+    assert hybrid.gate[0] == 0.0 and hybrid.gate[1] == 1.0
+    hybrid.save(tmp_path / 'gated.npz')
+    loaded = HybridModel.load(tmp_path / 'gated.npz')
+    np.testing.assert_array_equal(loaded.gate, hybrid.gate)
+    np.testing.assert_array_equal(loaded.predict(x), hybrid.predict(x))
