@@ -14,7 +14,9 @@ excess over f_c,j: the friction that falls from f_c + f_s at rest to f_c in moti
 Stribeck law of ``robot_sim``'s joints, docs/nodes.md). v_s is fixed, not fitted: the
 model stays linear in θ. Real arms add two columns per joint (options): ``asymmetric``,
 diag(|s(q')|), whose coefficient f_a,j makes the Coulomb friction f_c + f_a in the positive
-direction and f_c − f_a in the negative one (gearboxes rarely rub alike both ways); and
+direction and f_c − f_a in the negative one (gearboxes rarely rub alike both ways; with
+``'sign'`` Coulomb, |s| = 1 is the offset's column, and with a narrow tanh nearly so: only
+one of the two is then identified); and
 ``offsets``, a constant column per joint whose coefficient τ_0,j is the effort sensor's
 offset (joint torque sensors drift, motor-current efforts carry a bias). An offset that the
 rigid-body columns already hold (a vertical prismatic joint carries a constant weight) is

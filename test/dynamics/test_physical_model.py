@@ -335,3 +335,38 @@ def test_fit_hybrid_gates_on_its_validation_samples(tmp_path: Path) -> None:
     loaded = HybridModel.load(tmp_path / 'gated.npz')
     np.testing.assert_array_equal(loaded.gate, hybrid.gate)
     np.testing.assert_array_equal(loaded.predict(x), hybrid.predict(x))
+
+
+def test_offsets_asymmetric_and_coupled_friction_are_recovered(tmp_path: Path) -> None:
+    """Real arms' columns: an effort offset per joint (none on the SCARA's vertical quill,
+    whose weight is already a constant effort), Coulomb friction that differs by direction,
+    and friction of a coupled joint's speed."""
+    # tanh with a wide ε: with sign(q'), |s(q')| = 1 is the offset's column itself
+    model = PhysicalModel.from_urdf_file(SCARA_URDF, coulomb_eps=0.5, offsets=True,
+                                         asymmetric=True, coupled=[('joint2', 'joint4')])
+    np.testing.assert_array_equal(model.offset_joints, [True, True, False, True])
+    assert model.parameter_names[-7:] == (
+        'joint2.fv[joint4]', 'joint4.fv[joint2]', 'joint2.fc[joint4]', 'joint4.fc[joint2]',
+        'joint1.offset', 'joint2.offset', 'joint4.offset')
+    rng = np.random.default_rng(8)
+    q, qd, qdd = states(rng, 300, 4)
+    truth = model.urdf_parameters()
+    truth[model.n_base:] = rng.uniform(0.2, 2.0, model.n_parameters - model.n_base)
+    offset = np.array([0.7, -0.4, 0.0, 0.3])
+    asymmetric = truth[model.n_base + 8:model.n_base + 12]
+    base = PhysicalModel.from_urdf_file(SCARA_URDF, coulomb_eps=0.5)
+    shape = model.coulomb_shape(qd)
+    tau = (base.regressor(q, qd, qdd) @ truth[:base.n_parameters] + offset
+           + asymmetric * np.abs(shape))
+    tau[:, 1] += truth[-7] * qd[:, 3] + truth[-5] * shape[:, 3]
+    tau[:, 3] += truth[-6] * qd[:, 1] + truth[-4] * shape[:, 1]
+    model.fit(q, qd, qdd, tau)
+    np.testing.assert_allclose(model.effort_offset, offset, atol=1e-7)
+    np.testing.assert_allclose(model.asymmetric_friction, asymmetric, rtol=1e-7)
+    np.testing.assert_allclose(model.theta[-7:-3], truth[-7:-3], rtol=1e-7)
+    np.testing.assert_allclose(model.predict(np.hstack([q, qd, qdd])), tau, atol=1e-8)
+    model.save(tmp_path / 'real.npz')
+    loaded = PhysicalModel.load(tmp_path / 'real.npz')
+    assert loaded.coupled == (('joint2', 'joint4'),) and loaded.parameter_names == \
+        model.parameter_names
+    np.testing.assert_array_equal(loaded.theta, model.theta)
