@@ -337,9 +337,8 @@ def _train_physical(args: argparse.Namespace, names: Sequence[str], every_train:
     model: PhysicalModel | HybridModel
     if args.method == 'physical':
         model = physical if fitted else physical.fit_inputs(every_train.X, every_train.Y)
-        how = ('physically consistent least squares' if args.consistent else
-               'least squares')
-        summary = (f'PHYSICAL fitted by {how} on {len(every_train)} samples: '
+        how = ' (physically consistent)' if args.consistent else ''
+        summary = (f'PHYSICAL fitted by least squares on {len(every_train)} samples{how}: '
                    f'{physical.n_base} base parameters and '
                    f'{physical.n_parameters - physical.n_base} friction and offset '
                    f'coefficients in {time.perf_counter() - started:.1f} s')
