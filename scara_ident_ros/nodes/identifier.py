@@ -47,6 +47,7 @@ from scara_ident_ros.errors import ConfigError
 from scara_ident_ros.identification import (DIFFERENTIATOR_WINDOW, DIFFERENTIATORS, TRAINERS,
                                             StepResult)
 from scara_ident_ros.identification.background_lm import NICE, prestart
+from scara_ident_ros.identification.input_stage import Input
 from scara_ident_ros.identification.lazy_core import ONLINE_METHODS
 from scara_ident_ros.identification.sample_check import GAP_PERIODS
 from scara_ident_ros.identification.session import IdentificationSession, MethodRun
@@ -241,23 +242,25 @@ class Outputs:
         self.send_external = True  # publish external_torque (parameter external_torque)
         self.deltas = Deltas()
 
-    def publish(self, results: list[StepResult], frame_id: str,
+    def publish(self, results: list[StepResult], inputs: list[Input], frame_id: str,
                 clock: StreamClock | None = None) -> None:
-        """Publish each prediction, its external torque and any contact, stamped with its
-        sample; ``clock`` records the lags (not given on shutdown)."""
+        """Publish each prediction with its sample's q and q', its external torque and any
+        contact, stamped with its sample; ``inputs`` are the samples of the predictions
+        (one per result with an effort, in order); ``clock`` records the lags (not given on
+        shutdown)."""
         if not results:
             return
         template, external = self.template, self.external_template
         if template is None or template.frame_id != frame_id:
             names = self.run.lazy.names
-            template = self.template = JointStateTemplate(names, frame_id)
+            template = self.template = JointStateTemplate(names, frame_id, state=True)
             external = self.external_template = JointStateTemplate(names, frame_id)
         assert external is not None
-        publish, run = self.send_torque, self.run
+        publish, run, samples = self.send_torque, self.run, iter(inputs)
         for result in results:
             if result.effort is None:
                 continue
-            publish(template.fill(result.stamp_ns, result.effort))
+            publish(template.fill(result.stamp_ns, result.effort, next(samples).x))
             if result.measured is not None:
                 self.publish_external(result.stamp_ns, result.measured - result.effort,
                                       external)
@@ -441,7 +444,7 @@ class IdentifierNode(Node):
         if self.session.core is not None:
             self.frame_id = msg.frame_id
         for out, method_results in zip(self.outputs, results):
-            out.publish(method_results, self.frame_id, self.clock)
+            out.publish(method_results, inputs, self.frame_id, self.clock)
         if inputs:
             self.path.out(inputs[0].stamp_ns, inputs[-1].stamp_ns, time.time_ns())
         for text in warnings:
@@ -522,7 +525,7 @@ class IdentifierNode(Node):
         weights, checkpoint and log the final statistics."""
         results, inputs = self.session.flush()
         for out, method_results in zip(self.outputs, results):
-            out.publish(method_results, self.frame_id)
+            out.publish(method_results, inputs, self.frame_id)
         if inputs:
             for out in self.outputs:
                 for publisher in (out.torque_publisher, out.external_publisher,
