@@ -120,6 +120,7 @@ def test_urdf_export_of_a_physical_model_reproduces_its_rigid_body_efforts(
     from scara_ident_ros.dynamics.hybrid_model import HybridModel
     from scara_ident_ros.dynamics.physical_model import PhysicalModel
     from scara_ident_ros.dynamics.urdf_export import rigid_body_effort
+    from scara_ident_ros.sim.pinocchio_robot import PinocchioRobot
     from physical_robots import SCARA_URDF, example_urdf, rnea, states
 
     panda = example_urdf('panda_description/urdf/panda.urdf')
@@ -144,6 +145,9 @@ def test_urdf_export_of_a_physical_model_reproduces_its_rigid_body_efforts(
         for body in model.body_names:  # every written link a real body
             inertia = loaded.inertias[loaded.frames[loaded.getFrameId(body)].parentJoint]
             assert consistency_report(inertia.toDynamicParameters())['mass'] > 0.0
+        # robot_sim (-p urdf_file:=) builds its simulated arm from it
+        robot = PinocchioRobot.from_urdf(out, joints=joints or ())
+        assert robot.n_joints == n
         root = ET.parse(out).getroot()
         for name, viscous in zip(model.joint_names, model.viscous):
             dynamics = root.find(f"joint[@name='{name}']/dynamics")
