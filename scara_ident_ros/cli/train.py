@@ -32,9 +32,9 @@ a pseudo-inertia LMI per body, solved with cvxpy) as close to least squares as t
 allow, which scara-ident export --urdf writes back as a URDF.
 --method hybrid: the physical model, then an FFS network on its residual (output scaling:
 the residual's range) with Levenberg-Marquardt on --samples of the training samples, early-
-stopped on the validation blocks' residual as above; its correction is then kept only on the
-joints where it lowers the physical model's validation error (a gate per joint: the hybrid
-is never worse than its physical part on the validation blocks). With --urdf, networks (the
+stopped as above on every other validation block; its correction is then kept only on the
+joints where it lowers the physical model's error on the remaining validation blocks (a gate
+per joint: the hybrid is not worse than its physical part on them). With --urdf, networks (the
 hybrid's too) scale their inputs by the URDF's joint limits (positions, velocities; the
 accelerations by the training data's largest |q''|) and a network alone its outputs by the
 effort limits.
@@ -216,7 +216,8 @@ def run(args: argparse.Namespace) -> int:
     if args.urdf is not None:
         metadata['urdf_file'] = np.array(str(args.urdf))
     if args.method in PHYSICAL_METHODS:
-        return _train_physical(args, names, every_train, train, validation, metadata)
+        return _train_physical(args, names, every_train, train, validation, metadata,
+                               start_ns=int(samples.data.stamp_ns[0]))
 
     network = make_network(args.method, len(names), seed=args.seed,
                            friction_steps=args.friction_steps)
@@ -290,14 +291,16 @@ def _limit_ranges(urdf: Path, names: Sequence[str], X: np.ndarray, Y: np.ndarray
 
 def _train_physical(args: argparse.Namespace, names: Sequence[str], every_train: Dataset,
                     train: Dataset, validation: Dataset,
-                    metadata: dict[str, np.ndarray]) -> int:
-    """``--method physical`` or ``hybrid``: fit, save, print errors and parameters."""
+                    metadata: dict[str, np.ndarray], *, start_ns: int) -> int:
+    """``--method physical`` or ``hybrid``: fit, save, print errors and parameters;
+    ``start_ns`` the recording's first stamp (its validation blocks count from it)."""
     from scara_ident_ros.blas_threads import single_blas_thread
     from scara_ident_ros.dynamics.coulomb_selection import select_coulomb
     from scara_ident_ros.dynamics.hybrid_model import HybridModel, fit_hybrid
     from scara_ident_ros.dynamics.physical_model import PhysicalModel
     from scara_ident_ros.cli.evaluation import errors_markdown, evaluate
     from scara_ident_ros.cli.physical_parameters import parameters_markdown
+    from scara_ident_ros.identification.split import alternate_blocks
     from scara_ident_ros.cli.progress import TrainingProgress
 
     coupled = []
@@ -347,10 +350,15 @@ def _train_physical(args: argparse.Namespace, names: Sequence[str], every_train:
                                friction_steps=args.friction_steps)
         x_min, x_max, _, _ = _limit_ranges(args.urdf, names, every_train.X, every_train.Y)
         progress = TrainingProgress(args.iterations, label=f'HYBRID {HYBRID_NETWORK} lm')
+        stop, gate = alternate_blocks(validation, block_s=args.validation_block,
+                                      start_ns=start_ns)
+        if not len(gate):  # one validation block: stop and gate on it
+            stop = gate = validation
         with single_blas_thread():
             model, history = fit_hybrid(
                 physical, network, (every_train.X, every_train.Y),
-                validation=(validation.X, validation.Y) if len(validation) else None,
+                validation=(stop.X, stop.Y) if len(stop) else None,
+                gate_validation=(gate.X, gate.Y) if len(gate) else None,
                 x_range=(x_min, x_max), network_samples=args.samples, seed=args.seed,
                 iterations=args.iterations, max_fail=args.max_fail,
                 min_iterations=args.min_iterations, callback=progress)

@@ -30,7 +30,9 @@ on each joint where it does not lower the held-out error of the physical model a
 real arm a residual network that helps on the training motion can make another motion
 worse on some joints (the TX40's joints 1-4, benchmarks/physical_real.md); gated, the
 hybrid is never worse than its physical part on the validation samples of any joint.
-Offline :func:`fit_hybrid` gates on its validation samples; online the residual learner
+Offline :func:`fit_hybrid` gates on held-out samples other than those its network stopped
+on (``scara-ident train`` deals its validation blocks alternately into the two); online the
+residual learner
 gates after every update on its own held-out blocks
 (:mod:`~scara_ident_ros.identification.residual_learner`).
 
@@ -265,6 +267,7 @@ def online_hybrid(physical: PhysicalModel,
 def fit_hybrid(physical: PhysicalModel, network: FeedForwardNet,
                train: tuple[ArrayLike, ArrayLike], *,
                validation: tuple[ArrayLike, ArrayLike] | None = None,
+               gate_validation: tuple[ArrayLike, ArrayLike] | None = None,
                x_range: tuple[ArrayLike, ArrayLike] | None = None,
                network_samples: int = 0, seed: int = 0, iterations: int = 500,
                max_fail: int = 50, min_iterations: int = 50,
@@ -282,7 +285,11 @@ def fit_hybrid(physical: PhysicalModel, network: FeedForwardNet,
     validation : (X, Y), optional
         Validation samples: the network stops after ``max_fail`` iterations without a new
         best residual error on them (counted after ``min_iterations``) and keeps its best;
-        then its correction is gated per joint on them (:meth:`HybridModel.validate_gate`).
+        then its correction is gated per joint (:meth:`HybridModel.validate_gate`) on
+        ``gate_validation``, or on them without it.
+    gate_validation : (X, Y), optional
+        Other held-out samples to gate on: the samples that chose the network's best
+        iteration favour it (``alternate_blocks`` deals validation blocks into the two).
     x_range : (x_min, x_max) of shape (3n,), optional
         The network's input ranges (e.g. from the robot's limits); default the training
         inputs' range.
@@ -324,6 +331,9 @@ def fit_hybrid(physical: PhysicalModel, network: FeedForwardNet,
                   validation=val, max_fail=max_fail, min_iterations=min_iterations,
                   callback=callback)
     model = HybridModel(physical, network)
+    if gate_validation is not None and np.asarray(gate_validation[0]).shape[0]:
+        held = (np.asarray(gate_validation[0], dtype=np.float64),
+                np.asarray(gate_validation[1], dtype=np.float64))
     if held is not None:
         model.validate_gate(*held)
     return model, history

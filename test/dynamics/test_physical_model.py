@@ -370,3 +370,19 @@ def test_offsets_asymmetric_and_coupled_friction_are_recovered(tmp_path: Path) -
     assert loaded.coupled == (('joint2', 'joint4'),) and loaded.parameter_names == \
         model.parameter_names
     np.testing.assert_array_equal(loaded.theta, model.theta)
+
+
+def test_fit_hybrid_gates_on_other_samples_than_it_stopped_on() -> None:
+    """``gate_validation``: the gate is set on those samples, not on the stop's."""
+    physical = PhysicalModel.from_urdf_file(SCARA_URDF, coulomb='sign')
+    rng = np.random.default_rng(12)
+    q, qd, qdd = states(rng, 600, 4)
+    tau = physical.regressor(q, qd, qdd) @ rng.uniform(0.1, 2.0, physical.n_parameters)
+    tau += 2.0 * np.sin(2.0 * q)  # learnt on every joint ...
+    tau[500:, 3] -= 4.0 * np.sin(2.0 * q[500:, 3])  # ... but joint 3's turns in the gate's
+    x = np.hstack([q, qd, qdd])
+    hybrid, _ = fit_hybrid(physical, make_network('ffs', 4, n_hidden=10),
+                           (x[:400], tau[:400]), validation=(x[400:500], tau[400:500]),
+                           gate_validation=(x[500:], tau[500:]), iterations=40,
+                           min_iterations=40, max_fail=40)
+    np.testing.assert_array_equal(hybrid.gate, [1.0, 1.0, 1.0, 0.0])
