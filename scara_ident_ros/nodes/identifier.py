@@ -78,6 +78,7 @@ STATS_PERIOD = 10.0  # s between statistics log lines
 WARN_PERIOD = 5.0  # s between two warnings about skipped samples
 WAIT_POLL_PERIOD = 0.02  # s between two looks at the outputs' subscriber counts
 FLUSH_TIMEOUT = 2.0  # s on shutdown for the subscribers to acknowledge the last predictions
+SETTLE_LOSS_S = 0.2  # s without a sample after which a long stamp step's losses are counted
 # Why a read-only parameter is fixed at start (shown by `ros2 param describe`)
 NETWORK = "the network's shape and inputs (a saved model keeps them)"
 HOLDOUT = 'which samples are held out must not change under the validation score'
@@ -414,6 +415,7 @@ class IdentifierNode(Node):
     def health(self, out: Outputs, period_s: float) -> Health:
         """A method's health over the last ``period_s`` s, for ``/diagnostics``."""
         figures = self.session.health_figures(out.run)
+        self._settle_loss()
         recent = out.deltas(processed=figures['processed'], skipped=figures['skipped'],
                             lost=self.loss.lost)
         return identifier_health(
@@ -466,9 +468,16 @@ class IdentifierNode(Node):
         """Samples taken from ``joint_states`` so far (a stop drains until it stays put)."""
         return self.session.processed()
 
+    def _settle_loss(self) -> None:
+        """Count the samples a long stamp step may have lost once the stream has paused (no
+        sample for :data:`SETTLE_LOSS_S`): late samples would have come by then."""
+        if self.last_sample is not None and time.monotonic() - self.last_sample > SETTLE_LOSS_S:
+            self.loss.settle()
+
     def stream(self) -> dict[str, Any]:
         """Figures of the ``joint_states`` stream: losses, pauses, delays, publishers."""
         watch = self.publisher_watch
+        self._settle_loss()
         return {
             'lost': self.loss.lost, 'pauses': self.loss.pauses, 'paused_s': self.loss.paused_s,
             'path_delay_p50_ms': self.path.delays.percentile_ms(50),

@@ -378,6 +378,8 @@ class RecorderNode(Node):
         except (BagError, OSError, SystemExit) as exc:
             self.get_logger().error(f'closing {self.writer.path} failed: {exc}')
             self.writer.abort()
+        for _, loss in self._watches.values():  # the stream ended: count what is pending
+            loss.settle()
         counters = self.counters()
         per_topic = ', '.join(f'{t} {n}' for t, n in counters['topics'].items()) or 'no topics'
         self.get_logger().info(
