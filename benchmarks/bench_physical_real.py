@@ -9,8 +9,8 @@ phase, as ``scara-ident train``'s input stage estimates q''), then every 5th sam
 Split: 0.5 s blocks, 1 in 5 held out (``block_split``, fraction 0.2, seed 0), never seen by
 any fit. Of the other blocks, 1 in 5 again validate (seed 1): the Coulomb shape is chosen
 on them (``coulomb_selection``); as ``scara-ident train`` does, the hybrid's network
-early-stops on every other validation block and its gate is set on the others
-(``alternate_blocks``); the rest train.
+early-stops on every other validation block (``alternate_blocks``) and its gate is set on
+all of them, block by block; the rest train.
 
 Models (rows):
 
@@ -27,10 +27,11 @@ Models (rows):
 ``hybrid (before), no gate``
     physical (before) plus an FFS network on its residual (``fit_hybrid``) early-stopped on
     all validation blocks, no gate: the hybrid as it was.
-``hybrid (after), no gate`` / ``gated on its stop blocks`` / ``gated``
+``hybrid (after), no gate`` / ``gated on the other blocks`` / ``gated``
     physical (after) plus the network stopped on half the validation blocks: without a
-    gate, gated on the blocks it stopped on, and gated on the other blocks (the model
-    ``train --method hybrid`` fits).
+    gate; gated on the mean error of the other validation blocks; and gated block by block
+    on all validation blocks (a joint keeps its correction only if it lowers the error in
+    each: the model ``train --method hybrid`` fits).
 
 For each, the held-out NMSE per joint (MSE over the held-out efforts' variance); the
 hybrids per network seed (``--seeds``) and their mean. Writes ``benchmarks/physical_real.md``
@@ -61,7 +62,8 @@ from scara_ident_ros.dynamics.coulomb_selection import select_coulomb  # noqa: E
 from scara_ident_ros.dynamics.hybrid_model import HybridModel, fit_hybrid  # noqa: E402
 from scara_ident_ros.dynamics.physical_model import PhysicalModel  # noqa: E402
 from scara_ident_ros.identification.dataset import Dataset  # noqa: E402
-from scara_ident_ros.identification.split import alternate_blocks, block_split  # noqa: E402
+from scara_ident_ros.identification.split import (alternate_blocks, block_index,  # noqa: E402
+                                                  block_split)
 from scara_ident_ros.nn.presets import make_network  # noqa: E402
 
 REALDATA = ROOT.parent.parent / 'shared' / 'realdata'
@@ -110,14 +112,13 @@ def physical(urdf: Path, names: list[str], fit: Dataset, validation: Dataset,
 
 
 def hybrid(model: PhysicalModel, fit: Dataset, validation: Dataset, seed: int,
-           iterations: int, gate: Dataset | None = None) -> HybridModel:
+           iterations: int) -> HybridModel:
     """``train --method hybrid``'s fit on ``model``'s options and Coulomb shape."""
     fresh = PhysicalModel.from_arrays(model.to_arrays(), source=model.source)
     network = make_network('ffs', model.n_joints, seed=seed, friction_steps=True)
     with single_blas_thread():
         out, _ = fit_hybrid(fresh, network, (fit.X, fit.Y),
                             validation=(validation.X, validation.Y),
-                            gate_validation=None if gate is None else (gate.X, gate.Y),
                             seed=seed,
                             iterations=iterations, max_fail=50, min_iterations=50)
     return out
@@ -165,21 +166,23 @@ def main() -> int:
         print(lines[-1], flush=True)
     hybrids: dict[str, list[np.ndarray]] = {'hybrid (before), no gate': [],
                                             'hybrid (after), no gate': [],
-                                            'hybrid (after), gated on its stop blocks': [],
+                                            'hybrid (after), gated on the other blocks': [],
                                             'hybrid (after), gated': []}
     for seed in args.seeds:
         before = hybrid(models['physical (before)'], fit, validation, seed, args.iterations)
         before.gate = np.ones(before.n_outputs)
-        after = hybrid(models['physical (after)'], fit, stop, seed, args.iterations, gate_set)
+        after = hybrid(models['physical (after)'], fit, stop, seed, args.iterations)
+        after.validate_gate(validation.X, validation.Y, groups=block_index(
+            validation.stamp_ns, block_s=BLOCK_S, start_ns=int(data.stamp_ns[0])))
         gate = after.gate.copy()
         results = {'hybrid (before), no gate': (before, None)}
         after.gate = np.ones(after.n_outputs)
         results['hybrid (after), no gate'] = (after, None)
         results['hybrid (after), gated'] = (after, gate)
-        after_stop = HybridModel(after.physical, after.network)
-        after_stop.bounds = after.bounds
-        after_stop.validate_gate(stop.X, stop.Y)
-        results['hybrid (after), gated on its stop blocks'] = (after_stop, after_stop.gate)
+        other = HybridModel(after.physical, after.network)
+        other.bounds = after.bounds
+        other.validate_gate(gate_set.X, gate_set.Y)
+        results['hybrid (after), gated on the other blocks'] = (other, other.gate)
         for key in hybrids:
             model, chosen = results[key]
             if chosen is not None:
@@ -229,7 +232,7 @@ def main() -> int:
         f'Savitzky-Golay fit of {args.window} samples, then 1 kHz: {len(data)} samples). '
         f'0.5 s blocks, 1 in 5 held out ({len(held)} samples, never fitted); of the rest 1 '
         f'in 5 validate ({len(validation)}: the Coulomb shape; the network\'s early stop on '
-        f'every other block, {len(stop)}, the gate on the others, {len(gate_set)}), '
+        f'every other block, {len(stop)}; the gate on all, block by block), '
         f'{len(fit)} train. Network: FFS 18-40-6 with friction steps, Levenberg-Marquardt up '
         f'to {args.iterations} iterations (max_fail 50, min_iterations 50), seeds '
         f'{args.seeds}.', '',

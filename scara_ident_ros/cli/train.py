@@ -37,8 +37,8 @@ allow, which scara-ident export --urdf writes back as a URDF.
 --method hybrid: the physical model, then an FFS network on its residual (output scaling:
 the residual's range) with Levenberg-Marquardt on --samples of the training samples, early-
 stopped as above on every other validation block; its correction is then kept only on the
-joints where it lowers the physical model's error on the remaining validation blocks (a gate
-per joint: the hybrid is not worse than its physical part on them). With --urdf, networks (the
+joints where it lowers the physical model's error in every validation block (a gate per
+joint: the hybrid is not worse than its physical part on any of them). With --urdf, networks (the
 hybrid's too) scale their inputs by the URDF's joint limits (positions, velocities; the
 accelerations by the training data's largest |q''|) and a network alone its outputs by the
 effort limits.
@@ -311,7 +311,7 @@ def _train_physical(args: argparse.Namespace, names: Sequence[str], every_train:
     from scara_ident_ros.dynamics.physical_model import PhysicalModel
     from scara_ident_ros.cli.evaluation import errors_markdown, evaluate
     from scara_ident_ros.cli.physical_parameters import parameters_markdown
-    from scara_ident_ros.identification.split import alternate_blocks
+    from scara_ident_ros.identification.split import alternate_blocks, block_index
     from scara_ident_ros.cli.progress import TrainingProgress
 
     coupled = []
@@ -361,15 +361,17 @@ def _train_physical(args: argparse.Namespace, names: Sequence[str], every_train:
                                friction_steps=args.friction_steps)
         x_min, x_max, _, _ = _limit_ranges(args.urdf, names, every_train.X, every_train.Y)
         progress = TrainingProgress(args.iterations, label=f'HYBRID {HYBRID_NETWORK} lm')
-        stop, gate = alternate_blocks(validation, block_s=args.validation_block,
-                                      start_ns=start_ns)
-        if not len(gate):  # one validation block: stop and gate on it
-            stop = gate = validation
+        stop, other = alternate_blocks(validation, block_s=args.validation_block,
+                                       start_ns=start_ns)
+        if not len(other):  # one validation block: stop on it
+            stop = validation
         with single_blas_thread():
             model, history = fit_hybrid(
                 physical, network, (every_train.X, every_train.Y),
                 validation=(stop.X, stop.Y) if len(stop) else None,
-                gate_validation=(gate.X, gate.Y) if len(gate) else None,
+                gate_validation=(validation.X, validation.Y) if len(validation) else None,
+                gate_groups=block_index(validation.stamp_ns, block_s=args.validation_block,
+                                        start_ns=start_ns),
                 x_range=(x_min, x_max), network_samples=args.samples, seed=args.seed,
                 iterations=args.iterations, max_fail=args.max_fail,
                 min_iterations=args.min_iterations, callback=progress)

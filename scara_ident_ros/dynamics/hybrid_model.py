@@ -30,9 +30,10 @@ on each joint where it does not lower the held-out error of the physical model a
 real arm a residual network that helps on the training motion can make another motion
 worse on some joints (the TX40's joints 1-4, benchmarks/physical_real.md); gated, the
 hybrid is never worse than its physical part on the validation samples of any joint.
-Offline :func:`fit_hybrid` gates on held-out samples other than those its network stopped
-on (``scara-ident train`` deals its validation blocks alternately into the two); online the
-residual learner
+Offline :func:`fit_hybrid` gates on held-out samples, block by block (``scara-ident
+train``: its network early-stops on every other validation block, and a joint keeps its
+correction only if it lowers the error in every validation block); online the residual
+learner
 gates after every update on its own held-out blocks
 (:mod:`~scara_ident_ros.identification.residual_learner`).
 
@@ -129,9 +130,11 @@ class HybridModel:
             return out
         return np.clip(out, self.bounds[0], self.bounds[1])
 
-    def validate_gate(self, X: ArrayLike, Y: ArrayLike) -> tuple[FloatArray, FloatArray]:
+    def validate_gate(self, X: ArrayLike, Y: ArrayLike, *,
+                      groups: ArrayLike | None = None) -> tuple[FloatArray, FloatArray]:
         """Set :attr:`gate` on held-out samples: 1 on the joints where the correction lowers
-        the physical model's mean squared error on them, 0 elsewhere.
+        the physical model's mean squared error on them (in every group, with ``groups``),
+        0 elsewhere.
 
         Parameters
         ----------
@@ -139,6 +142,11 @@ class HybridModel:
             Held-out inputs [q, q', q''] that neither part was fitted to.
         Y : array_like of shape (N, n)
             Their efforts (N·m, N).
+        groups : array_like of shape (N,), optional
+            A label per sample (e.g. its time block): the correction is kept on a joint
+            only if it lowers the error within every group, not only over all samples
+            (stricter: on the TX40 a correction that helps on average can hurt some blocks
+            of motion, and then held-out ones too).
 
         Returns
         -------
@@ -158,8 +166,18 @@ class HybridModel:
             raise ValueError(f'need held-out X (N, {self.n_inputs}) and Y (N, '
                              f'{self.n_outputs}), N > 0; got {x.shape} and {y.shape}')
         residual = y - self.physical.predict(x)
-        physical, corrected = gate_errors(self.raw_correction(x), residual)
-        self.gate = (corrected < physical).astype(np.float64)
+        correction = self.raw_correction(x)
+        physical, corrected = gate_errors(correction, residual)
+        keep = corrected < physical
+        if groups is not None:
+            labels = np.asarray(groups).reshape(-1)
+            if labels.shape != (x.shape[0],):
+                raise ValueError(f'need a group per sample ({x.shape[0]}), got {labels.shape}')
+            for label in np.unique(labels):
+                part = labels == label
+                alone, fixed = gate_errors(correction[part], residual[part])
+                keep &= fixed < alone
+        self.gate = keep.astype(np.float64)
         return physical, corrected
 
     def partial_fit(self, X: FloatArray, Y: FloatArray) -> FloatArray:
@@ -268,6 +286,7 @@ def fit_hybrid(physical: PhysicalModel, network: FeedForwardNet,
                train: tuple[ArrayLike, ArrayLike], *,
                validation: tuple[ArrayLike, ArrayLike] | None = None,
                gate_validation: tuple[ArrayLike, ArrayLike] | None = None,
+               gate_groups: ArrayLike | None = None,
                x_range: tuple[ArrayLike, ArrayLike] | None = None,
                network_samples: int = 0, seed: int = 0, iterations: int = 500,
                max_fail: int = 50, min_iterations: int = 50,
@@ -288,8 +307,10 @@ def fit_hybrid(physical: PhysicalModel, network: FeedForwardNet,
         then its correction is gated per joint (:meth:`HybridModel.validate_gate`) on
         ``gate_validation``, or on them without it.
     gate_validation : (X, Y), optional
-        Other held-out samples to gate on: the samples that chose the network's best
-        iteration favour it (``alternate_blocks`` deals validation blocks into the two).
+        Held-out samples to gate on (default ``validation``).
+    gate_groups : array_like of shape (N,), optional
+        Their time blocks: the correction must help in each
+        (:meth:`HybridModel.validate_gate`'s ``groups``).
     x_range : (x_min, x_max) of shape (3n,), optional
         The network's input ranges (e.g. from the robot's limits); default the training
         inputs' range.
@@ -335,5 +356,5 @@ def fit_hybrid(physical: PhysicalModel, network: FeedForwardNet,
         held = (np.asarray(gate_validation[0], dtype=np.float64),
                 np.asarray(gate_validation[1], dtype=np.float64))
     if held is not None:
-        model.validate_gate(*held)
+        model.validate_gate(*held, groups=gate_groups)
     return model, history

@@ -315,6 +315,17 @@ def test_the_gate_withholds_a_correction_that_makes_held_out_data_worse() -> Non
     np.testing.assert_array_equal(predicted[:, 2], base[:, 2])  # withheld: physical alone
     error = np.mean((predicted - held[1]) ** 2, axis=0)
     assert np.all(error <= np.mean((base - held[1]) ** 2, axis=0))
+    # by groups (time blocks): a correction that helps over all samples but hurts within
+    # one group is withheld; joint 0's residual of the last 40 samples is the correction's
+    # opposite
+    hybrid.gate = np.ones(4)
+    x, y = held[0], held[1].copy()
+    y[160:, 0] = (hybrid.physical.predict(x[160:])[:, 0]
+                  - hybrid.raw_correction(x[160:])[:, 0])
+    alone, corrected = hybrid.validate_gate(x, y)
+    assert corrected[0] < alone[0] and hybrid.gate[0] == 1.0  # better over all samples
+    hybrid.validate_gate(x, y, groups=np.arange(200) >= 160)
+    np.testing.assert_array_equal(hybrid.gate, [0.0, 1.0, 0.0, 1.0])
 
 
 def test_fit_hybrid_gates_on_its_validation_samples(tmp_path: Path) -> None:
