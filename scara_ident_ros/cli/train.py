@@ -66,7 +66,8 @@ from scara_ident_ros.dynamics.physical_model import COULOMB_EPS, COULOMB_MODES
 from scara_ident_ros.identification import DIFFERENTIATOR_WINDOW
 from scara_ident_ros.identification.split import VALIDATION_BLOCK_S
 from scara_ident_ros.nn.presets import METHODS, make_network
-from scara_ident_ros.nn import ALGORITHMS, fit
+from scara_ident_ros.nn import ALGORITHMS
+from scara_ident_ros.nn.fitting import ITERATIONS, MAX_FAIL, MIN_ITERATIONS, SAMPLES
 from scara_ident_ros.paths import unwritable_file
 
 if TYPE_CHECKING:
@@ -76,11 +77,8 @@ if TYPE_CHECKING:
 __all__ = ['FRICTION_STEPS', 'HYBRID_NETWORK', 'ITERATIONS', 'MAX_FAIL', 'MIN_ITERATIONS',
            'PHYSICAL_METHODS', 'SAMPLES', 'VALIDATION_BLOCK_S', 'add_parser', 'run']
 
-#: Defaults of the options, chosen with benchmarks/bench_train_defaults.py (module docstring).
-ITERATIONS = 500           # Levenberg–Marquardt iterations at most
-SAMPLES = 8000             # training samples drawn from the training blocks
-MAX_FAIL = 50              # validation failures in a row that stop training
-MIN_ITERATIONS = 50        # iterations before validation failures count
+#: Defaults of the options (ITERATIONS, SAMPLES, MAX_FAIL, MIN_ITERATIONS: those of the
+#: models' offline training, nn.fitting), chosen with benchmarks/bench_train_defaults.py.
 FRICTION_STEPS = True      # the network starts with friction steps, as the identifier's
 #: Models built from a URDF rather than a network alone.
 PHYSICAL_METHODS = ('physical', 'hybrid')
@@ -237,13 +235,15 @@ def run(args: argparse.Namespace) -> int:
         network.set_scaling(x_min, x_max, y_min, y_max)
     progress = TrainingProgress(args.iterations, label=f'{args.method.upper()} {args.algorithm}')
     started = time.perf_counter()
-    with single_blas_thread():
-        history = fit(
-            network, train.X, train.Y, algorithm=args.algorithm, iterations=args.iterations,
-            goal=args.goal,
-            validation=(validation.X, validation.Y) if len(validation) else None,
-            max_fail=args.max_fail, min_iterations=args.min_iterations, callback=progress)
+    with single_blas_thread():  # the samples and validation blocks are drawn above
+        network.fit(train.X, train.Y, validation_fraction=0.0, samples=0,
+                    algorithm=args.algorithm, iterations=args.iterations, goal=args.goal,
+                    validation=(validation.X, validation.Y) if len(validation) else None,
+                    max_fail=args.max_fail, min_iterations=args.min_iterations,
+                    callback=progress)
     progress.close()
+    history = network.history_
+    assert history is not None
     seconds = time.perf_counter() - started
 
     network.metadata.update(metadata)
@@ -307,7 +307,7 @@ def _train_physical(args: argparse.Namespace, names: Sequence[str], every_train:
     ``start_ns`` the recording's first stamp (its validation blocks count from it)."""
     from scara_ident_ros.blas_threads import single_blas_thread
     from scara_ident_ros.dynamics.coulomb_selection import select_coulomb
-    from scara_ident_ros.dynamics.hybrid_model import HybridModel, fit_hybrid
+    from scara_ident_ros.dynamics.hybrid_model import HybridModel
     from scara_ident_ros.dynamics.physical_model import PhysicalModel
     from scara_ident_ros.cli.evaluation import errors_markdown, evaluate
     from scara_ident_ros.cli.physical_parameters import parameters_markdown
@@ -350,7 +350,7 @@ def _train_physical(args: argparse.Namespace, names: Sequence[str], every_train:
         print(f'Coulomb friction shape: tanh {eps:g} (no validation samples to choose by)')
     model: PhysicalModel | HybridModel
     if args.method == 'physical':
-        model = physical if fitted else physical.fit_inputs(every_train.X, every_train.Y)
+        model = physical if fitted else physical.fit(every_train.X, every_train.Y)
         how = ' (physically consistent)' if args.consistent else ''
         summary = (f'PHYSICAL fitted by least squares on {len(every_train)} samples{how}: '
                    f'{physical.n_base} base parameters and '
@@ -365,17 +365,21 @@ def _train_physical(args: argparse.Namespace, names: Sequence[str], every_train:
                                        start_ns=start_ns)
         if not len(other):  # one validation block: stop on it
             stop = validation
-        with single_blas_thread():
-            model, history = fit_hybrid(
-                physical, network, (every_train.X, every_train.Y),
-                validation=(stop.X, stop.Y) if len(stop) else None,
-                gate_validation=(validation.X, validation.Y) if len(validation) else None,
-                gate_groups=block_index(validation.stamp_ns, block_s=args.validation_block,
-                                        start_ns=start_ns),
-                x_range=(x_min, x_max), network_samples=args.samples, seed=args.seed,
-                iterations=args.iterations, max_fail=args.max_fail,
-                min_iterations=args.min_iterations, callback=progress)
+        hybrid = HybridModel(physical, network)
+        with single_blas_thread():  # the validation blocks are drawn above
+            hybrid.fit(every_train.X, every_train.Y, validation_fraction=0.0,
+                       validation=(stop.X, stop.Y) if len(stop) else None,
+                       gate_validation=(validation.X, validation.Y) if len(validation)
+                       else None,
+                       gate_groups=block_index(validation.stamp_ns,
+                                               block_s=args.validation_block,
+                                               start_ns=start_ns),
+                       x_range=(x_min, x_max), samples=args.samples,
+                       iterations=args.iterations, max_fail=args.max_fail,
+                       min_iterations=args.min_iterations, callback=progress)
         progress.close()
+        model, history = hybrid, hybrid.history_
+        assert history is not None
         metadata.update(_network_metadata(args, history))
         metadata['network'] = np.array(HYBRID_NETWORK)
         summary = (f'HYBRID: least squares on {len(every_train)} samples, then '

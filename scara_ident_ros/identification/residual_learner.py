@@ -144,7 +144,7 @@ class ResidualLearner:
         net = self.model.network
         r_val = self._residual(snap.stored_val, snap.theta)
         scale = np.maximum(snap.stored_val[:, :self._shape[0]].var(axis=0), 1e-300)
-        before = net.get_params()
+        before = net.get_theta()
         residual = self._residual(snap.stored, snap.theta)
         self.model.bounds = (residual.min(axis=0), residual.max(axis=0))
         zero, raw = (e / scale for e in gate_errors(self.model.raw_correction(snap.X_val),
@@ -155,7 +155,7 @@ class ResidualLearner:
             return False
         raw = gate_errors(self.model.raw_correction(snap.X_val), r_val)[1] / scale
         if raw.sum() > error.sum():  # worse over all joints, before gating: undone
-            net.set_params(before)
+            net.set_theta(before)
             self.undone += 1
             return False
         self.model.gate = (raw < zero).astype(np.float64)

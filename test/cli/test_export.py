@@ -131,7 +131,7 @@ def test_urdf_export_of_a_physical_model_reproduces_its_rigid_body_efforts(
         rng = np.random.default_rng(5)
         q, qd, qdd = states(rng, 200, n)
         tau = rnea(urdf, joints, q, qd, qdd) * 1.1 + 0.4 * qd + 0.9 * np.tanh(qd / 0.05)
-        model.fit(q, qd, qdd, tau)
+        model.fit_states(q, qd, qdd, tau)
         model.save(tmp_path / 'physical.npz')
         out = tmp_path / f'{urdf.stem}_identified.urdf'
         code, stdout, err = run_cli(capsys, 'export', tmp_path / 'physical.npz', '--urdf', out)

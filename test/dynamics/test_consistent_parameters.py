@@ -50,8 +50,8 @@ def test_the_consistent_fit_is_feasible_and_predicts_like_least_squares(urdf: Pa
     consistent = PhysicalModel.from_urdf_file(urdf, coulomb_eps=0.05, consistent=True)
     x, tau = noisy_data(urdf, plain, 240, seed=3)
     held_x, held_tau = noisy_data(urdf, plain, 200, seed=4)
-    plain.fit_inputs(x, tau)
-    consistent.fit_inputs(x, tau)
+    plain.fit(x, tau)
+    consistent.fit(x, tau)
     assert consistent.standard_theta is not None
     standard = consistent.standard_theta
     for body in range(consistent.n_bodies):
