@@ -6,10 +6,14 @@ a learner process beside the stream
 (:class:`~scara_ident_ros.identification.background_lm.BackgroundLM`). Why each part is
 there: the module docstring of :mod:`~scara_ident_ros.identification.hybrid_trainer`.
 
-Samples (x, τ) are kept with their regressor rows Y(x) in a reservoir, or, in whole blocks
-of :data:`VALIDATION_BLOCK` samples drawn with probability :data:`VALIDATION_SHARE`, in a
-validation reservoir the network never learns (blocks, not single samples: neighbours at 1
-kHz are nearly equal, so a single held-out sample would be learnt through them). An update
+Samples (x, τ) are kept with their regressor rows Y(x) in a reservoir, or, in blocks of
+:data:`VALIDATION_BLOCK` consecutive samples drawn with probability :data:`VALIDATION_SHARE`,
+in a validation reservoir the network never learns. The block is 1 sample: blocks of 100
+were tried (neighbours at 1 kHz are nearly equal, so a single held-out sample is partly
+learnt through them) and made the online Panda's worst held-out joint worse (6.3e-5 and
+6.5e-5 against 4.2e-5 and 4.9e-5 at 120 s, seeds 0 and 1, benchmarks/
+learning_curves_panda.md): the gate and the check had fewer distinct states to judge by.
+An update
 (:meth:`ResidualLearner.step`) fits the network to τ − Y(x) θ with the θ given to it (the
 physical model's latest), keeps it only if its validation error (summed over joints) does
 not rise, gates the correction per joint (:attr:`HybridModel.gate`: withheld on the joints
@@ -37,8 +41,8 @@ __all__ = ['MIN_VALIDATION', 'ResidualLearner', 'Snapshot', 'VALIDATION_BLOCK',
 FloatArray = NDArray[np.float64]
 #: Share of a hybrid's samples kept to check its network's updates.
 VALIDATION_SHARE = 0.2
-#: Consecutive samples held out (or not) together.
-VALIDATION_BLOCK = 100
+#: Consecutive samples held out (or not) together (1: each drawn alone; module docstring).
+VALIDATION_BLOCK = 1
 #: Validation samples needed before the network's first update.
 MIN_VALIDATION = 100
 
