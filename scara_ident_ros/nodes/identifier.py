@@ -12,8 +12,11 @@ messages, publishes, checkpoints and logs.
 With ``methods`` (e.g. ``[ffmw, ffw, ffs]``) one subscription serves several networks: each
 sample is checked and differentiated once, and each network publishes under ``<method>/``.
 
-``external_torque`` carries measured − predicted effort; once the validation NMSE is below
-``contact_arm_nmse``, joints over their threshold are reported on ``contact``
+``external_torque`` carries measured − predicted effort; joints over their threshold are
+reported on ``contact`` while detection is armed: every ``contact_calibration_period`` s the
+held-out residuals set the thresholds, and detection is armed only when the model identifies
+(validation NMSE below ``contact_arm_nmse``) and the false-alarm rate the residuals give is
+at most ``contact_false_alarms_per_hour``; ``contact_armed`` says whether it is
 (:mod:`scara_ident_ros.identification.contact_detector`). ``identification_mse`` carries
 the windowed and validation errors (layout: :mod:`scara_ident_ros.mse_layout`).
 
@@ -35,11 +38,11 @@ import numpy as np
 from numpy.typing import NDArray
 from rclpy.duration import Duration
 from rclpy.node import Node
-from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.subscription import Subscription
 from rclpy.timer import Timer
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Float64MultiArray, MultiArrayDimension
+from std_msgs.msg import Bool, Float64MultiArray, MultiArrayDimension
 from std_srvs.srv import Trigger
 
 from scara_ident_ros.blas_threads import single_blas_thread
@@ -47,6 +50,7 @@ from scara_ident_ros.errors import ConfigError
 from scara_ident_ros.identification import (DIFFERENTIATOR_WINDOW, DIFFERENTIATORS, TRAINERS,
                                             StepResult)
 from scara_ident_ros.identification.background_lm import NICE, prestart
+from scara_ident_ros.identification.input_stage import Input
 from scara_ident_ros.identification.lazy_core import ONLINE_METHODS
 from scara_ident_ros.identification.sample_check import GAP_PERIODS
 from scara_ident_ros.identification.session import IdentificationSession, MethodRun
@@ -63,6 +67,8 @@ from scara_ident_ros.nodes.runtime import run_node
 from scara_ident_ros.paths import unwritable_file
 from scara_ident_ros.topics import CONTACT, EXTERNAL_TORQUE, JOINT_STATES, MSE, TORQUE
 
+CONTACT_ARMED = 'contact_armed'  # std_msgs/Bool: whether contact detection is armed
+
 __all__ = ['IdentifierNode', 'main']
 
 QOS_DEPTH = 5000  # messages: 5 s at 1 kHz may queue before any is dropped
@@ -76,6 +82,7 @@ INPUT_QOS = QoSProfile(depth=QOS_DEPTH, history=HistoryPolicy.KEEP_ALL,
 STATS_PERIOD = 10.0  # s between statistics log lines
 WARN_PERIOD = 5.0  # s between two warnings about skipped samples
 WAIT_POLL_PERIOD = 0.02  # s between two looks at the outputs' subscriber counts
+DEFAULT_PERIOD = 1e-3  # s: the sample period assumed until the stream shows its own
 FLUSH_TIMEOUT = 2.0  # s on shutdown for the subscribers to acknowledge the last predictions
 # Why a read-only parameter is fixed at start (shown by `ros2 param describe`)
 NETWORK = "the network's shape and inputs (a saved model keeps them)"
@@ -201,12 +208,24 @@ PARAMETERS = (
     ParamSpec('stats_file', '', 'Write the final counters and errors here as JSON on '
               'shutdown (with methods, {method} in the path stands for each method); empty: '
               'never', fixed='checked writable at start'),
-    ParamSpec('contact_sigma', 12.0, "Contact threshold of each joint, in robust standard "
-              "deviations (1.4826 x MAD) of the model's residuals on the held-out samples",
+    ParamSpec('contact_false_alarms_per_hour', 1.0, 'Contact detection is armed only when '
+              'the false-alarm rate on free motion, estimated from the tail of the model\'s '
+              'residuals on the held-out segments (their size counted), is at most this; the '
+              'thresholds are set to meet it', min=1e-6, max=1e6, read_only=False),
+    ParamSpec('contact_sigma', 5.0, 'Lowest contact threshold of each joint, in robust '
+              "standard deviations (1.4826 x MAD) of the model's residuals on the held-out "
+              'samples (the false-alarm bound usually sets a higher one)',
               min=0.1, max=1000.0, read_only=False),
-    ParamSpec('contact_arm_nmse', 0.01, 'Contact detection is armed while the validation '
-              'NMSE (mean over the joints) is below this, never before', min=1e-12, max=10.0,
+    ParamSpec('contact_arm_nmse', 0.01, 'Contact detection is armed only while the '
+              'validation NMSE (mean over the joints) is below this', min=1e-12, max=10.0,
               read_only=False),
+    ParamSpec('contact_envelope_margin', 0.1, 'Samples whose q, q\' or q\'\' leave the range '
+              'of the held-out segments the thresholds come from, widened by this fraction of '
+              'it, are not checked for contact (diagnostics count them)', min=0.0, max=10.0,
+              read_only=False),
+    ParamSpec('contact_calibration_period', 5.0, 'Seconds between two calibrations of the '
+              'contact thresholds on the held-out segments (each predicts them all)', 's',
+              min=0.1, max=3600.0, fixed=START),
     ParamSpec('contact_min_samples', 1, 'Consecutive samples over the threshold before a '
               'joint is reported on contact', min=1, max=1000, read_only=False),
     ParamSpec('external_torque', True, 'Publish external_torque (measured - predicted) for '
@@ -216,6 +235,10 @@ PARAMETERS = (
 #: contact messages are rare: a few seconds of them at 1 kHz
 CONTACT_QOS = QoSProfile(depth=1000, history=HistoryPolicy.KEEP_LAST,
                          reliability=ReliabilityPolicy.RELIABLE)
+#: contact_armed: the latest state, kept for subscribers that join later
+ARMED_QOS = QoSProfile(depth=1, history=HistoryPolicy.KEEP_LAST,
+                       reliability=ReliabilityPolicy.RELIABLE,
+                       durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
 
 class Outputs:
@@ -230,6 +253,8 @@ class Outputs:
         self.contact_publisher = node.create_publisher(JointState, prefix + CONTACT,
                                                        CONTACT_QOS)
         self.mse_publisher = node.create_publisher(Float64MultiArray, prefix + MSE, 10)
+        self.armed_publisher = node.create_publisher(Bool, prefix + CONTACT_ARMED, ARMED_QOS)
+        self.armed: bool | None = None  # as last published
         # Serialized messages go straight to the publishers' handles: rclpy's
         # Publisher.publish checks the type and guards the handle on every call (a third
         # of a publication's CPU); this node publishes from its one thread while they live.
@@ -241,12 +266,24 @@ class Outputs:
         self.send_external = True  # publish external_torque (parameter external_torque)
         self.deltas = Deltas()
 
+    def publish_armed(self) -> None:
+        """Publish ``contact_armed`` when it changes (and the first time)."""
+        detector = self.run.detector
+        armed = detector is not None and detector.armed
+        if armed != self.armed:
+            self.armed = armed
+            self.armed_publisher.publish(Bool(data=armed))
+
     def publish(self, results: list[StepResult], frame_id: str,
-                clock: StreamClock | None = None) -> None:
+                clock: StreamClock | None = None, inputs: list[Input] | None = None) -> None:
         """Publish each prediction, its external torque and any contact, stamped with its
-        sample; ``clock`` records the lags (not given on shutdown)."""
+        sample; ``clock`` records the lags (not given on shutdown); ``inputs``: the samples
+        predicted (the last results), whose q, q', q'' the contact check takes."""
         if not results:
             return
+        xs: list[NDArray[np.float64] | None] = [None] * len(results)
+        if inputs:
+            xs[len(results) - len(inputs):] = [item.x for item in inputs]
         template, external = self.template, self.external_template
         if template is None or template.frame_id != frame_id:
             names = self.run.lazy.names
@@ -305,6 +342,7 @@ class IdentifierNode(Node):
                         for run in session.runs]
         for out in self.outputs:
             out.send_external = s['external_torque']
+            out.publish_armed()
         if s['trainer'] == 'lm' and s['lm_background']:
             prestart(len(self.outputs))  # their interpreters start now, not with the stream
         self.frame_id = ''  # header.frame_id of the latest sample, given to its predictions
@@ -313,6 +351,7 @@ class IdentifierNode(Node):
         self.publisher_watch: PublisherWatch | None = None  # once subscribed
         self.mse_timer = self.create_timer(1.0 / s['mse_rate_hz'], self.publish_mse)
         self.create_timer(STATS_PERIOD, self.log_stats)
+        self.create_timer(s['contact_calibration_period'], self.calibrate_contacts)
         self.checkpoint_timer: Timer | None = None
         self._start_checkpoints()
         # samples missing from the stream, from the stamps; longer jumps than the q''
@@ -373,6 +412,7 @@ class IdentifierNode(Node):
         self.session.apply(changed)
         for out in self.outputs:
             out.send_external = s['external_torque']
+            out.publish_armed()
         if 'mse_rate_hz' in changed:
             self.destroy_timer(self.mse_timer)
             self.mse_timer = self.create_timer(1.0 / s['mse_rate_hz'], self.publish_mse)
@@ -404,6 +444,8 @@ class IdentifierNode(Node):
         response.success, response.message, why = self.session.reset(stream=self.stream())
         if why:
             self._warn(why)
+        for out in self.outputs:
+            out.publish_armed()
         if response.success:
             self.get_logger().info(f'~/reset: {response.message}')
         return response
@@ -441,7 +483,7 @@ class IdentifierNode(Node):
         if self.session.core is not None:
             self.frame_id = msg.frame_id
         for out, method_results in zip(self.outputs, results):
-            out.publish(method_results, self.frame_id, self.clock)
+            out.publish(method_results, self.frame_id, self.clock, inputs)
         if inputs:
             self.path.out(inputs[0].stamp_ns, inputs[-1].stamp_ns, time.time_ns())
         for text in warnings:
@@ -454,6 +496,14 @@ class IdentifierNode(Node):
             self.get_logger().warning(text)
 
     # ------------------------------------------------------------------ periodic
+    def calibrate_contacts(self) -> None:
+        """Timer: calibrate each method's contact thresholds on its held-out segments, and
+        publish ``contact_armed`` where it changed."""
+        period_ns = self.loss.period_ns
+        for out in self.outputs:
+            out.run.calibrate_contacts(period_ns / 1e9 if period_ns else DEFAULT_PERIOD)
+            out.publish_armed()
+
     def publish_mse(self) -> None:
         """Publish each method's windowed per-joint and overall MSE and NMSE."""
         for out in self.outputs:
@@ -522,7 +572,7 @@ class IdentifierNode(Node):
         weights, checkpoint and log the final statistics."""
         results, inputs = self.session.flush()
         for out, method_results in zip(self.outputs, results):
-            out.publish(method_results, self.frame_id)
+            out.publish(method_results, self.frame_id, inputs=inputs)
         if inputs:
             for out in self.outputs:
                 for publisher in (out.torque_publisher, out.external_publisher,
