@@ -81,7 +81,7 @@ def correlation_time(segments: NDArray[np.float64]) -> NDArray[np.int64]:
     k, length, n = segments.shape
     if length < 2:
         return np.ones(n, dtype=np.int64)
-    centred = segments - segments.mean(axis=1, keepdims=True)
+    centred = segments - segments.mean(axis=(0, 1))
     var = np.mean(centred * centred, axis=(0, 1))
     result = np.full(n, length, dtype=np.int64)
     open_ = var > 0
@@ -327,7 +327,7 @@ class ContactDetector:
             why = (f'{independent:.0f} independent held-out segments, need {MIN_SEGMENTS}')
         elif not np.all(np.isfinite(thresholds) & (thresholds > 0)):
             why = 'a threshold is not positive and finite'
-        elif per_hour > self.false_alarms_per_hour:
+        elif per_hour > self.false_alarms_per_hour * (1.0 + 1e-9):  # rounding
             why = (f'estimated {per_hour:.3g} false alarms/h > '
                    f'{self.false_alarms_per_hour:g}')
         elif over:
