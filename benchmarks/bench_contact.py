@@ -95,7 +95,8 @@ def main() -> int:
           f"({'with' if args.noise else 'without'} sensor noise): FFS learnt "
           f'{args.seconds:g} s (validation NMSE {nmse:.3g}), seed {seed}, load average '
           f'{os.getloadavg()[0]:.1f}\n')
-    print(f'{len(segments)} held-out segments of {segments.shape[1]} samples; residual spread '
+    print(f'{len(segments)} held-out segments of {segments.shape[1]} samples '
+          f'({len(set(trained.blocks.tolist()))} blocks); residual spread '
           '1.4826·MAD per joint: ' + ', '.join(f'{v:.3g}' for v in spread)
           + f' (N·m, N·m, N, N·m); pulses {args.amplitude:.0%} of the effort limit = '
           + ', '.join(f'{args.amplitude * v:.3g}' for v in params.array('effort_max'))
@@ -114,7 +115,7 @@ def main() -> int:
             for b in args.bounds]
     for name, detector in rows:
         calibration = detector.calibrate(segments, nmse, inputs=trained.inputs,
-                                         sample_period_s=dt)
+                                         sample_period_s=dt, blocks=trained.blocks)
         clean_flags = detect(detector, clean_ext, clean_x)
         held_clean, detector.held = detector.held, 0
         pulse_flags = detect(detector, pulse_ext, pulse_x)

@@ -13,15 +13,18 @@ that the residuals keep their course in time).
 matters for false alarms is how often the free-motion residual does that, a far tail of its
 distribution that a spread (MAD) does not describe: model errors are heavy-tailed (a
 friction step, a turn of the motion). Residuals are autocorrelated, so single samples are
-not independent draws; a segment is, once the residual's correlation time τ (the first lag
-where its autocorrelation falls below 0.1, measured within the segments) is short against
-the segment: the independent draws are the segments' maxima ``M_kj`` of
-``|τ_ext_j − c_j|`` (of its running minimum over ``min_samples``, the statistic an alarm
-needs), and the number of independent segments counted is ``K · min(1, L / (2τ))``.
+not independent draws. The draws are maxima ``M_kj`` of ``|τ_ext_j − c_j|`` (of its running
+minimum over ``min_samples``, the statistic an alarm needs) over units of samples long
+against the residual's correlation time τ (the first lag where its autocorrelation falls
+below 0.1, measured within the segments): a segment of L samples when ``2τ <= L``, counted
+as ``K · min(1, L / (2τ))`` independent ones; else (the model's error outlasts a segment,
+as on a noise-free stream) all the kept segments of one held-out block together, one draw
+per block.
 
-The exceedance probability a bound of ``λ`` false alarms per hour allows per segment and
-joint is ``p = λ · L·dt / 3600 / n`` (the union over the n joints stays within ``λ``), far
-beyond what K segments show directly (1 per hour at 1 kHz, 0.1 s segments: p ≈ 7e-6). So the
+The exceedance probability a bound of ``λ`` false alarms per hour allows per draw and
+joint is ``p = λ · D / 3600 / n``, D the mean duration of a draw's samples (the union over
+the n joints stays within ``λ``), far beyond what the draws show directly (1 per hour at
+1 kHz, 0.1 s segments: p ≈ 7e-6). So the
 tail is extrapolated (peaks over a threshold): above ``u_j``, the (k+1)-th largest segment
 maximum, the excesses are taken as exponential (the Gumbel domain of most noise and model
 errors) with their mean ``s_j``; the margin for the calibration's size is the *predictive*
@@ -32,9 +35,10 @@ exponential (method-of-moments generalised-Pareto shape ξ > 0), the generalised
 quantile is taken when it is larger. ``T_j = max(u_j + t_j, sigma · 1.4826 · MAD_j)``.
 
 **Armed** only when all hold: the validation NMSE is below ``arm_nmse`` (the model
-identifies); at least :data:`MIN_SEGMENTS` independent segments; the false-alarm rate the
-tail model gives at the thresholds (with the margin) is at most ``false_alarms_per_hour``;
-and no calibration segment is over its thresholds. An unarmed detector never flags.
+identifies); at least :data:`MIN_SEGMENTS` independent draws (fewer excesses widen the
+predictive margin; below that the tail's shape is a guess); the false-alarm rate the tail
+model gives at the thresholds (with the margin) is at most ``false_alarms_per_hour``; and
+no calibration draw is over its thresholds. An unarmed detector never flags.
 
 **Envelope.** The thresholds hold for the motion they were calibrated on: q, q', q'' within
 the held-out segments' range per input, widened by ``envelope_margin`` of that range. A
@@ -55,7 +59,7 @@ __all__ = ['Calibration', 'ContactDetector', 'MAD_TO_SIGMA', 'MIN_SEGMENTS',
            'Tail', 'correlation_time', 'robust_spread']
 
 MAD_TO_SIGMA = 1.4826  # a Gaussian's standard deviation over its median absolute deviation
-MIN_SEGMENTS = 100  # independent held-out segments before detection can be armed
+MIN_SEGMENTS = 30  # independent draws (segments or blocks) before detection can be armed
 ACF_LEVEL = 0.1  # autocorrelation below which residuals count as decorrelated
 SECONDS_PER_HOUR = 3600.0
 
@@ -164,7 +168,7 @@ class Calibration:
     segments : int
         Calibration segments K (held-out runs of ``length`` samples).
     independent : float
-        Independent segments counted, ``K · min(1, L / (2τ))`` (smallest over the joints).
+        Independent draws counted: ``K · min(1, L / (2τ))`` segments, or the blocks.
     correlation_samples : ndarray of int
         The residuals' correlation time τ (samples).
     centre, thresholds : ndarray or None
@@ -250,7 +254,8 @@ class ContactDetector:
     def calibrate(self, residuals: NDArray[np.float64] | None,
                   validation_nmse: float | None, *,
                   inputs: NDArray[np.float64] | None = None,
-                  sample_period_s: float = 1e-3) -> Calibration:
+                  sample_period_s: float = 1e-3,
+                  blocks: NDArray[np.int64] | None = None) -> Calibration:
         """Take the current model's held-out residuals and validation NMSE; arm or disarm.
 
         Parameters
@@ -265,11 +270,13 @@ class ContactDetector:
             them every sample is checked.
         sample_period_s : float
             The stream's sample period (s): a segment lasts ``L · sample_period_s``.
+        blocks : ndarray of shape (K,), optional
+            The held-out block of each segment; without them each segment is its own.
         """
         nmse = None if validation_nmse is None or not math.isfinite(validation_nmse) \
             else float(validation_nmse)
         self.validation_nmse = nmse
-        self.calibration = self._calibrate(residuals, nmse, inputs, sample_period_s)
+        self.calibration = self._calibrate(residuals, nmse, inputs, sample_period_s, blocks)
         c = self.calibration
         self._active = ((c.centre, c.thresholds) if not c.why_not and c.centre is not None
                         and c.thresholds is not None else None)
@@ -277,7 +284,8 @@ class ContactDetector:
         return c
 
     def _calibrate(self, residuals: NDArray[np.float64] | None, nmse: float | None,
-                   inputs: NDArray[np.float64] | None, period: float) -> Calibration:
+                   inputs: NDArray[np.float64] | None, period: float,
+                   blocks: NDArray[np.int64] | None) -> Calibration:
         if residuals is None:
             return Calibration(why_not='no held-out residuals yet')
         r = np.asarray(residuals, dtype=float)
@@ -289,19 +297,32 @@ class ContactDetector:
         finite = np.all(np.isfinite(r), axis=(1, 2))
         r = r[finite]
         count, length = r.shape[0], r.shape[1]
-        if count < 20 or length < self.min_samples:
+        if count < MIN_SEGMENTS or length < self.min_samples:
             return Calibration(segments=count, why_not=f'{count} held-out segments, need '
                                f'{MIN_SEGMENTS} independent ones')
         flat = r.reshape(-1, self.n_joints)
         centre = np.median(flat, axis=0)
         spread = robust_spread(flat)
         tau = correlation_time(r)
-        independent = float(count * min(1.0, length / (2.0 * float(tau.max()))))
         deviation = np.abs(r - centre)
         if self.min_samples > 1:  # an alarm needs min_samples in a row: the run's minimum
             deviation = sliding_window_view(deviation, self.min_samples, axis=1).min(axis=3)
         maxima = deviation.max(axis=1)  # (K, n)
-        p = (self.false_alarms_per_hour / SECONDS_PER_HOUR * length * period
+        samples = float(length)  # per draw
+        if 2 * int(tau.max()) <= length or blocks is None:
+            independent = float(count * min(1.0, length / (2.0 * float(tau.max()))))
+        else:  # one draw per block: the maximum over its kept segments
+            _, group = np.unique(np.asarray(blocks)[finite], return_inverse=True)
+            grouped = np.zeros((int(group.max()) + 1, self.n_joints))
+            np.maximum.at(grouped, group, maxima)
+            samples = length * count / len(grouped)
+            maxima, independent = grouped, float(len(grouped))
+        if independent < MIN_SEGMENTS:
+            return Calibration(segments=count, independent=independent,
+                               correlation_samples=tau,
+                               why_not=f'{independent:.0f} independent held-out draws, need '
+                               f'{MIN_SEGMENTS}')
+        p = (self.false_alarms_per_hour / SECONDS_PER_HOUR * samples * period
              / self.n_joints)
         thresholds = np.empty(self.n_joints)
         rate = 0.0
@@ -309,7 +330,7 @@ class ContactDetector:
             tail = Tail.fit(maxima[:, j], independent)
             thresholds[j] = max(tail.level(p), self.sigma * spread[j])
             rate += tail.exceedance(thresholds[j])
-        per_hour = rate / (length * period) * SECONDS_PER_HOUR
+        per_hour = rate / (samples * period) * SECONDS_PER_HOUR
         over = int(np.count_nonzero(np.any(maxima > thresholds, axis=1)))
         lo = hi = None
         if inputs is not None:
@@ -323,8 +344,6 @@ class ContactDetector:
             why = 'no validation NMSE yet'
         elif nmse >= self.arm_nmse:
             why = f'validation NMSE {nmse:.3g} >= {self.arm_nmse:g}'
-        elif independent < MIN_SEGMENTS:
-            why = (f'{independent:.0f} independent held-out segments, need {MIN_SEGMENTS}')
         elif not np.all(np.isfinite(thresholds) & (thresholds > 0)):
             why = 'a threshold is not positive and finite'
         elif per_hour > self.false_alarms_per_hour * (1.0 + 1e-9):  # rounding

@@ -43,6 +43,9 @@ class SegmentReservoir:
     X : ndarray of shape (K, length, n_inputs)
     Y : ndarray of shape (K, length, n_outputs)
         The kept segments (views), K = ``len(self)``.
+    blocks : ndarray of shape (K,)
+        The block each kept segment comes from (segments of one block are neighbours in
+        time).
     """
 
     def __init__(self, capacity: int, length: int, n_inputs: int, n_outputs: int, *,
@@ -52,6 +55,7 @@ class SegmentReservoir:
         self.capacity, self.length = int(capacity), int(length)
         self._x = np.empty((self.capacity, self.length, n_inputs))
         self._y = np.empty((self.capacity, self.length, n_outputs))
+        self._blocks = np.empty(self.capacity, dtype=np.int64)
         self._stage_x = np.empty((self.length, n_inputs))
         self._stage_y = np.empty((self.length, n_outputs))
         self._fill = 0  # samples in the segment being filled
@@ -64,11 +68,18 @@ class SegmentReservoir:
 
     @property
     def X(self) -> NDArray[np.float64]:
+        """The kept segments' inputs (a view)."""
         return self._x[:len(self)]
 
     @property
     def Y(self) -> NDArray[np.float64]:
+        """The kept segments' outputs (a view)."""
         return self._y[:len(self)]
+
+    @property
+    def blocks(self) -> NDArray[np.int64]:
+        """The block of each kept segment (a view)."""
+        return self._blocks[:len(self)]
 
     def add(self, block: int, x: NDArray[np.float64], y: NDArray[np.float64]) -> None:
         """Take one held-out sample (x (n_inputs,), y (n_outputs,)) of block ``block``."""
@@ -86,6 +97,7 @@ class SegmentReservoir:
         if slot < self.capacity:
             self._x[slot] = self._stage_x
             self._y[slot] = self._stage_y
+            self._blocks[slot] = block
 
 
 class Holdout:

@@ -151,7 +151,8 @@ class MethodRun:
         X, Y = segments.X, segments.Y
         predicted = np.asarray(core.model.predict(X.reshape(-1, X.shape[-1])))
         residuals = Y - predicted.reshape(Y.shape)
-        return detector.calibrate(residuals, nmse, inputs=X, sample_period_s=sample_period_s)
+        return detector.calibrate(residuals, nmse, inputs=X, sample_period_s=sample_period_s,
+                                  blocks=segments.blocks)
 
     def record_lag(self, lag_ns: int) -> None:
         """Take how late (ns) a prediction was published."""

@@ -291,23 +291,27 @@ class Outputs:
             external = self.external_template = JointStateTemplate(names, frame_id)
         assert external is not None
         publish, run = self.send_torque, self.run
-        for result in results:
+        for result, x in zip(results, xs):
             if result.effort is None:
                 continue
             publish(template.fill(result.stamp_ns, result.effort))
             if result.measured is not None:
                 self.publish_external(result.stamp_ns, result.measured - result.effort,
-                                      external)
+                                      external, x)
+                if clock is not None:
+                    run.record_decision(clock.lag_ns(result.stamp_ns, time.time_ns()))
             if clock is not None:
                 run.record_lag(clock.lag_ns(result.stamp_ns, time.time_ns()))
 
     def publish_external(self, stamp_ns: int, torque: NDArray[np.float64],
-                         template: JointStateTemplate) -> None:
+                         template: JointStateTemplate,
+                         x: NDArray[np.float64] | None = None) -> None:
         """Publish a sample's external torque (n,) (unless switched off) and, if some joints
-        are over their threshold, a contact message naming them."""
+        are over their threshold (given the sample's input ``x`` (3n,), for the envelope),
+        a contact message naming them."""
         if self.send_external:
             self.send_external_torque(template.fill(stamp_ns, torque))
-        over = self.run.check_contact(torque)
+        over = self.run.check_contact(torque, x)
         if over.any():
             names = [name for name, hit in zip(template.names, over) if hit]
             self.contact_publisher.publish(joint_state(stamp_ns, names, effort=torque[over],

@@ -93,6 +93,8 @@ class Trained:
         Its measured − predicted effort (N·m or N) on the held-out segments.
     inputs : ndarray of shape (K, L, 12)
         The segments' inputs [q, q', q''].
+    blocks : ndarray of shape (K,)
+        The held-out block of each segment.
     nmse : float
         Its validation NMSE (mean over the joints).
     lag : int
@@ -102,6 +104,7 @@ class Trained:
     net: FeedForwardNet
     residuals: FloatArray
     inputs: FloatArray
+    blocks: npt.NDArray[np.int64]
     nmse: float
     lag: int
 
@@ -141,7 +144,8 @@ def train_model(params: ScaraParams, *, seconds: float, seed: int, config: SimCo
         raise ValueError(f'{seconds} s of stream held out too few samples to score')
     X = segments.X.copy()
     residuals = segments.Y - net.predict(X.reshape(-1, 12)).reshape(segments.Y.shape)
-    return Trained(net, residuals, X, float(stats.nmse_total), ident.lag)
+    return Trained(net, residuals, X, segments.blocks.copy(), float(stats.nmse_total),
+                   ident.lag)
 
 
 def pulse_record(params: ScaraParams, *, seconds: float, seed: int, config: SimConfig,

@@ -79,12 +79,15 @@ def test_armed_only_when_identified_with_enough_independent_segments() -> None:
     assert detector.thresholds is not None and not detector.armed
     assert 'NMSE' in detector.calibration.why_not
     assert not detector.check(big).any()
-    detector.calibrate(residuals[:50], 0.001)  # too few segments
+    detector.calibrate(residuals[:20], 0.001)  # too few segments
     assert not detector.armed and 'segments' in detector.calibration.why_not
     assert not detector.check(big).any()
-    correlated = ar1_segments(rng, 150, 100, 0.99, (1.0, 1.0))  # τ ≈ L: ~75 independent
-    detector.calibrate(correlated, 0.001)
-    assert not detector.armed and detector.calibration.independent < MIN_SEGMENTS
+    # residuals correlated beyond a segment, 10 segments from each of 15 blocks: one draw a
+    # block, too few
+    correlated = ar1_segments(rng, 150, 100, 0.99, (1.0, 1.0))
+    detector.calibrate(correlated, 0.001, blocks=np.repeat(np.arange(15), 10))
+    assert not detector.armed and detector.calibration.independent == 15
+    assert 'draws' in detector.calibration.why_not
     detector.calibrate(residuals, None)  # no validation score
     assert not detector.armed
     calibration = detector.calibrate(residuals, 0.001)
@@ -146,6 +149,7 @@ def test_held_out_segments_are_contiguous_samples_of_one_block() -> None:
     segments = holdout.segments
     assert segments is not None and len(segments) > 50
     X = segments.X[:, :, 0]
+    np.testing.assert_array_equal(X[:, 0] // 250, segments.blocks)
     np.testing.assert_array_equal(np.diff(X, axis=1), 1.0)  # consecutive samples
     assert np.all(X[:, 0] // 250 == X[:, -1] // 250)  # within one block
 
