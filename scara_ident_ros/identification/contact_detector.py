@@ -72,32 +72,36 @@ def robust_spread(residuals: NDArray[np.float64]) -> NDArray[np.float64]:
     r = np.asarray(residuals, dtype=float)
     if r.ndim != 2:
         raise ValueError(f'residuals must have shape (K, n), got {r.shape}')
-    r = r[np.all(np.isfinite(r), axis=1)]
-    if r.shape[0] == 0:
-        return np.full(r.shape[1], np.nan)
-    deviation = np.abs(r - np.median(r, axis=0))
-    return np.asarray(MAD_TO_SIGMA * np.median(deviation, axis=0))
+    r = np.ascontiguousarray(r[np.all(np.isfinite(r), axis=1)].T)  # joints in rows: faster
+    if r.shape[1] == 0:
+        return np.full(r.shape[0], np.nan)
+    deviation = np.abs(r - np.median(r, axis=1, keepdims=True))
+    return np.asarray(MAD_TO_SIGMA * np.median(deviation, axis=1))
 
 
 def correlation_time(segments: NDArray[np.float64]) -> NDArray[np.int64]:
     """Per joint, the first lag (samples) where the residuals' autocorrelation within the
-    segments (K, L, n) falls below 0.1; ``L`` if it never does; 1 for L = 1."""
+    segments (K, L, n) falls below 0.1; ``L`` if it never does; 1 for L = 1.
+
+    The autocovariance of every lag at once, by FFT along the segments (zero-padded to 2L:
+    no wrap-around), about the mean over all segments.
+    """
     k, length, n = segments.shape
     if length < 2:
         return np.ones(n, dtype=np.int64)
     centred = segments - segments.mean(axis=(0, 1))
-    var = np.mean(centred * centred, axis=(0, 1))
+    spectrum = np.fft.rfft(centred, n=2 * length, axis=1)
+    power = (spectrum * spectrum.conj()).real.sum(axis=0)  # (L + 1, n)
+    acov = np.fft.irfft(power, n=2 * length, axis=0)[:length]  # (L, n), lag 0..L-1
+    acov /= (k * (length - np.arange(length)))[:, None]  # the pairs at each lag
     result = np.full(n, length, dtype=np.int64)
-    open_ = var > 0
-    result[~open_] = 1
-    for lag in range(1, length):
-        acf = np.mean(centred[:, lag:] * centred[:, :-lag], axis=(0, 1)) / np.where(
-            open_, var, 1.0)
-        done = open_ & (acf < ACF_LEVEL)
-        result[done] = lag
-        open_ &= ~done
-        if not open_.any():
-            break
+    for j in range(n):
+        if acov[0, j] <= 0:
+            result[j] = 1
+            continue
+        below = np.flatnonzero(acov[1:, j] / acov[0, j] < ACF_LEVEL)
+        if below.size:
+            result[j] = below[0] + 1
     return result
 
 
@@ -301,7 +305,7 @@ class ContactDetector:
             return Calibration(segments=count, why_not=f'{count} held-out segments, need '
                                f'{MIN_SEGMENTS} independent ones')
         flat = r.reshape(-1, self.n_joints)
-        centre = np.median(flat, axis=0)
+        centre = np.median(np.ascontiguousarray(flat.T), axis=1)
         spread = robust_spread(flat)
         tau = correlation_time(r)
         deviation = np.abs(r - centre)

@@ -71,6 +71,17 @@ def _contact_settings(settings: Mapping[str, Any]) -> dict[str, Any]:
             'envelope_margin': settings['contact_envelope_margin']}
 
 
+class _Round:
+    """A calibration under way: the held-out segments as they were at its start (inputs
+    (K, L, 3n), efforts (K, L, n), blocks (K,)), their residuals as far as predicted."""
+
+    def __init__(self, X: NDArray[np.float64], Y: NDArray[np.float64],
+                 blocks: NDArray[np.int64]) -> None:
+        self.X, self.Y, self.blocks = X, Y, blocks
+        self.residuals = np.empty_like(Y)
+        self.done = 0  # segments predicted
+
+
 class MethodRun:
     """One method (of ``lazy_core.ONLINE_METHODS``) in a session: its ``lazy`` core, a
     contact detector of the ``contact`` settings (:class:`ContactDetector`'s keywords), its
@@ -94,6 +105,7 @@ class MethodRun:
         self.previous: list[dict[str, Any]] = []  # summaries from before each reset
         self._validation: ErrorStats | None = None
         self._validated_at = -math.inf  # monotonic s
+        self._round: _Round | None = None  # a calibration under way
 
     @property
     def core(self) -> OnlineIdentifier | None:
@@ -117,6 +129,7 @@ class MethodRun:
         """The core is built for ``names``: a disarmed contact detector, no score yet."""
         self.detector = ContactDetector(len(names), **self.contact_settings)
         self._validation, self._validated_at = None, -math.inf
+        self._round = None
 
     def set_contact(self, **settings: Any) -> None:
         """Change the contact detector's settings: a new, unarmed detector until the next
@@ -136,23 +149,53 @@ class MethodRun:
             self._validation, self._validated_at = self.core.validation_stats(), now
         return self._validation
 
-    def calibrate_contacts(self, sample_period_s: float) -> Calibration | None:
+    def calibrate_contacts(self, sample_period_s: float, *, budget: int | None = None
+                           ) -> Calibration | None:
         """The explicit calibration step: the current model's residuals on the held-out
         segments and a fresh validation score set the contact thresholds and arm or disarm
-        detection; ``sample_period_s`` is the stream's (s). None before the core exists."""
+        detection; ``sample_period_s`` is the stream's (s).
+
+        ``budget``: held-out samples to predict in this call (a round's segments are copied
+        at its start, predicted over several calls, then the detector calibrated in a call
+        of its own), so that no call holds the message path long; None: all at once.
+        Returns the :class:`Calibration` when a round ends, else None (also before the
+        core exists).
+        """
         core, detector = self.core, self.detector
         if core is None or detector is None:
             return None
+        segments = core.holdout.segments if core.holdout is not None else None
+        if self._round is None:
+            if segments is None or len(segments) == 0:
+                validation = self.validation(fresh=True)
+                return detector.calibrate(
+                    None, None if validation is None else float(validation.nmse_total))
+            self._round = _Round(segments.X.copy(), segments.Y.copy(),
+                                 segments.blocks.copy())
+            if budget is not None:
+                return None
+        rnd = self._round
+        n_in = rnd.X.shape[-1]
+        while rnd.done < len(rnd.X) and (budget is None or budget > 0):
+            step = len(rnd.X) - rnd.done if budget is None else max(
+                1, budget // rnd.X.shape[1])
+            part = slice(rnd.done, min(rnd.done + step, len(rnd.X)))
+            X = rnd.X[part]
+            rnd.residuals[part] = rnd.Y[part] - np.asarray(
+                core.model.predict(X.reshape(-1, n_in))).reshape(rnd.Y[part].shape)
+            rnd.done = part.stop
+            if budget is not None:
+                return None
+        self._round = None
         validation = self.validation(fresh=True)
         nmse = None if validation is None else float(validation.nmse_total)
-        segments = core.holdout.segments if core.holdout is not None else None
-        if segments is None or len(segments) == 0:
-            return detector.calibrate(None, nmse)
-        X, Y = segments.X, segments.Y
-        predicted = np.asarray(core.model.predict(X.reshape(-1, X.shape[-1])))
-        residuals = Y - predicted.reshape(Y.shape)
-        return detector.calibrate(residuals, nmse, inputs=X, sample_period_s=sample_period_s,
-                                  blocks=segments.blocks)
+        return detector.calibrate(rnd.residuals, nmse, inputs=rnd.X,
+                                  sample_period_s=sample_period_s, blocks=rnd.blocks)
+
+    @property
+    def calibrating(self) -> bool:
+        """Whether a calibration round is under way (:meth:`calibrate_contacts`)."""
+        return self._round is not None
 
     def record_lag(self, lag_ns: int) -> None:
         """Take how late (ns) a prediction was published."""

@@ -29,6 +29,7 @@ from __future__ import annotations
 import json
 import sys
 import time
+from collections import deque
 from collections.abc import Callable
 from functools import partial
 from pathlib import Path
@@ -83,6 +84,8 @@ STATS_PERIOD = 10.0  # s between statistics log lines
 WARN_PERIOD = 5.0  # s between two warnings about skipped samples
 WAIT_POLL_PERIOD = 0.02  # s between two looks at the outputs' subscriber counts
 DEFAULT_PERIOD = 1e-3  # s: the sample period assumed until the stream shows its own
+CALIBRATION_TICK = 0.05  # s between two steps of the contact calibration
+CALIBRATION_SLICE = 2000  # held-out samples a calibration step predicts
 FLUSH_TIMEOUT = 2.0  # s on shutdown for the subscribers to acknowledge the last predictions
 # Why a read-only parameter is fixed at start (shown by `ros2 param describe`)
 NETWORK = "the network's shape and inputs (a saved model keeps them)"
@@ -223,9 +226,10 @@ PARAMETERS = (
               'of the held-out segments the thresholds come from, widened by this fraction of '
               'it, are not checked for contact (diagnostics count them)', min=0.0, max=10.0,
               read_only=False),
-    ParamSpec('contact_calibration_period', 5.0, 'Seconds between two calibrations of the '
-              'contact thresholds on the held-out segments (each predicts them all)', 's',
-              min=0.1, max=3600.0, fixed=START),
+    ParamSpec('contact_calibration_period', 5.0, 'Seconds between the starts of two '
+              'calibrations of the contact thresholds on the held-out segments (each predicts '
+              'them all, in steps of 2000 samples every 50 ms)', 's', min=0.1, max=3600.0,
+              read_only=False),
     ParamSpec('contact_min_samples', 1, 'Consecutive samples over the threshold before a '
               'joint is reported on contact', min=1, max=1000, read_only=False),
     ParamSpec('external_torque', True, 'Publish external_torque (measured - predicted) for '
@@ -355,7 +359,11 @@ class IdentifierNode(Node):
         self.publisher_watch: PublisherWatch | None = None  # once subscribed
         self.mse_timer = self.create_timer(1.0 / s['mse_rate_hz'], self.publish_mse)
         self.create_timer(STATS_PERIOD, self.log_stats)
-        self.create_timer(s['contact_calibration_period'], self.calibrate_contacts)
+        # contact calibration: every contact_calibration_period a round per method, done
+        # in steps of CALIBRATION_SLICE held-out samples, one step every CALIBRATION_TICK
+        self.calibration_queue: deque[Outputs] = deque()
+        self.next_calibration = 0.0  # monotonic s
+        self.create_timer(CALIBRATION_TICK, self.calibrate_contacts)
         self.checkpoint_timer: Timer | None = None
         self._start_checkpoints()
         # samples missing from the stream, from the stamps; longer jumps than the q''
@@ -501,11 +509,22 @@ class IdentifierNode(Node):
 
     # ------------------------------------------------------------------ periodic
     def calibrate_contacts(self) -> None:
-        """Timer: calibrate each method's contact thresholds on its held-out segments, and
-        publish ``contact_armed`` where it changed."""
+        """Timer: one step of the contact calibration (a round for each method every
+        ``contact_calibration_period``), publishing ``contact_armed`` where a round changed
+        it. A step predicts at most :data:`CALIBRATION_SLICE` held-out samples, or fits the
+        thresholds: the message path waits for no more than that."""
+        queue, now = self.calibration_queue, time.monotonic()
+        if not queue and now >= self.next_calibration:
+            queue.extend(self.outputs)
+            self.next_calibration = now + self.settings['contact_calibration_period']
+        if not queue:
+            return
+        out = queue[0]
         period_ns = self.loss.period_ns
-        for out in self.outputs:
-            out.run.calibrate_contacts(period_ns / 1e9 if period_ns else DEFAULT_PERIOD)
+        out.run.calibrate_contacts(period_ns / 1e9 if period_ns else DEFAULT_PERIOD,
+                                   budget=CALIBRATION_SLICE)
+        if not out.run.calibrating:
+            queue.popleft()
             out.publish_armed()
 
     def publish_mse(self) -> None:
