@@ -26,6 +26,7 @@ and ``~/reset`` (``std_srvs/Trigger``) save now or start again from fresh weight
 """
 from __future__ import annotations
 
+import gc
 import json
 import sys
 import time
@@ -378,6 +379,11 @@ class IdentifierNode(Node):
             for out in self.outputs]
         self.create_service(Trigger, '~/save_model', self.on_save_model)
         self.create_service(Trigger, '~/reset', self.on_reset)
+        # The objects made so far (modules, ROS handles) and once built the cores live as
+        # long as the node: out of the collector's sight (gc.freeze) a full collection
+        # does not walk them all while samples wait (it did, for tens of ms).
+        self.frozen_with_cores = False
+        gc.freeze()
         if s['wait_for_subscribers'] > 0:
             self.wait_deadline = time.monotonic() + s['wait_timeout']
             self.wait_timer = self.create_timer(WAIT_POLL_PERIOD, self._subscribe_when_heard)
@@ -494,6 +500,9 @@ class IdentifierNode(Node):
             stamp_ns, msg.names, msg.position, msg.velocity, msg.effort)
         if self.session.core is not None:
             self.frame_id = msg.frame_id
+            if not self.frozen_with_cores:
+                self.frozen_with_cores = True
+                gc.freeze()
         for out, method_results in zip(self.outputs, results):
             out.publish(method_results, self.frame_id, self.clock, inputs)
         if inputs:
