@@ -113,6 +113,9 @@ def main() -> int:
                                                 false_alarms_per_hour=b,
                                                 arm_nmse=max(2.0 * nmse, ARM_NMSE)))
             for b in args.bounds]
+    rows.append((f"bound {args.bounds[0]:g}/h, envelope with q''", ContactDetector(
+        4, min_samples=args.min_samples, false_alarms_per_hour=args.bounds[0],
+        arm_nmse=max(2.0 * nmse, ARM_NMSE), envelope_acceleration=True)))
     for name, detector in rows:
         calibration = detector.calibrate(segments, nmse, inputs=trained.inputs,
                                          sample_period_s=dt, blocks=trained.blocks)

@@ -52,7 +52,8 @@ METHOD_FIELD = '{method}'  # stands for each method in a path parameter, with me
 PATH_PARAMETERS = ('save_path', 'stats_file', 'model_path')
 VALIDATION_PERIOD = 1.0  # s: the held-out score is recomputed at most this often per method
 CONTACT_PARAMETERS = {'contact_sigma', 'contact_arm_nmse', 'contact_min_samples',
-                      'contact_false_alarms_per_hour', 'contact_envelope_margin'}
+                      'contact_false_alarms_per_hour', 'contact_envelope_margin',
+                      'contact_envelope_acceleration'}
 #: Rejections that mean the message's joints are not the identifier's
 JOINT_SET_REASONS = (SkipReason.UNKNOWN_JOINT, SkipReason.MISSING_JOINT,
                      SkipReason.DUPLICATE_JOINT, SkipReason.JOINT_COUNT)
@@ -68,7 +69,8 @@ def _contact_settings(settings: Mapping[str, Any]) -> dict[str, Any]:
     return {'sigma': settings['contact_sigma'], 'arm_nmse': settings['contact_arm_nmse'],
             'min_samples': settings['contact_min_samples'],
             'false_alarms_per_hour': settings['contact_false_alarms_per_hour'],
-            'envelope_margin': settings['contact_envelope_margin']}
+            'envelope_margin': settings['contact_envelope_margin'],
+            'envelope_acceleration': settings['contact_envelope_acceleration']}
 
 
 class _Round:

@@ -223,9 +223,13 @@ PARAMETERS = (
     ParamSpec('contact_arm_nmse', 0.01, 'Contact detection is armed only while the '
               'validation NMSE (mean over the joints) is below this', min=1e-12, max=10.0,
               read_only=False),
-    ParamSpec('contact_envelope_margin', 0.1, 'Samples whose q, q\' or q\'\' leave the range '
-              'of the held-out segments the thresholds come from, widened by this fraction of '
-              'it, are not checked for contact (diagnostics count them)', min=0.0, max=10.0,
+    ParamSpec('contact_envelope_margin', 0.1, 'Samples whose q or q\' (and q\'\' with '
+              'contact_envelope_acceleration) leave the range of the held-out segments the '
+              'thresholds come from, widened by this fraction of it, are not checked for '
+              'contact (diagnostics count them)', min=0.0, max=10.0, read_only=False),
+    ParamSpec('contact_envelope_acceleration', False, "Bound q'' too by the calibrated "
+              "envelope; false: q and q' only (a contact is itself an acceleration the free "
+              'motion does not have: bounding q\'\' holds the samples a collision makes)',
               read_only=False),
     ParamSpec('contact_calibration_period', 5.0, 'Seconds between the starts of two '
               'calibrations of the contact thresholds on the held-out segments (each predicts '

@@ -114,15 +114,22 @@ def test_outside_the_calibrated_envelope_nothing_fires() -> None:
     rng = np.random.default_rng(4)
     residuals = rng.normal(size=(200, 100, 1))
     inputs = rng.uniform(-1.0, 1.0, size=(200, 100, 3))  # q, q', q'' within [-1, 1]
-    detector = ContactDetector(1, envelope_margin=0.1)
+    detector = ContactDetector(1, envelope_margin=0.1, envelope_acceleration=True)
     detector.calibrate(residuals, 0.001, inputs=inputs)
     assert detector.armed
     big = np.array([100.0])
     assert detector.check(big, np.array([0.0, 0.5, -1.1])).tolist() == [True]  # in margin
     assert detector.check(big, np.array([0.0, 0.5, 5.0])).tolist() == [False]  # q'' out
     assert detector.check(big, np.array([-3.0, 0.0, 0.0])).tolist() == [False]  # q out
-    assert detector.held == 2
+    assert detector.check(big, np.array([0.0, 1.3, 0.0])).tolist() == [False]  # q' out
+    assert detector.held == 3
     assert detector.check(big).tolist() == [True]  # no input given: checked
+    # by default q'' is not bounded (a contact is an acceleration), q and q' are
+    default = ContactDetector(1, envelope_margin=0.1)
+    default.calibrate(residuals, 0.001, inputs=inputs)
+    assert default.check(big, np.array([0.0, 0.5, 5.0])).tolist() == [True]
+    assert default.check(big, np.array([0.0, 1.3, 0.0])).tolist() == [False]
+    assert default.held == 1
 
 
 def test_min_samples_needs_a_run_over_the_threshold() -> None:
