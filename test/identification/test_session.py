@@ -246,7 +246,7 @@ def test_contact_calibration_is_an_explicit_step_and_arms_on_the_rate_bound() ->
     record = simulated(4000)
     rng = np.random.default_rng(0)
     record.effort[:] += rng.normal(size=record.effort.shape) * 0.05 * SCARA.array(
-        'effort_max')  # residuals independent from sample to sample: segments are draws
+        'effort_max')  # sensor noise; 40 held-out blocks: enough draws either way
     session = IdentificationSession(settings(
         joint_names=NAMES, validation_fraction=0.5, validation_block=50,
         contact_arm_nmse=10.0))
