@@ -10,6 +10,13 @@ PYTHON ?= $(shell command -v python3.11 || command -v python3)
 VENV ?= .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.scara_ident_ros-installed
+ROS_ENV := $(VENV)/.scara_ident_ros-ros-env
+
+# The project runs on its venv's own ROS libraries whatever the calling shell holds: the
+# venv's interpreter restarts itself on them (scara_ident_ros/nodes/rosenv.py, installed as
+# a .pth by make venv), and the ROS wheels' bootstrap mark another venv's process passed on
+# is not passed to ours.
+unexport _ROS_WHEELS_BOOTSTRAP_COMPLETE
 
 # Keep DDS on this machine unless the user chose otherwise.
 export ROS_AUTOMATIC_DISCOVERY_RANGE ?= LOCALHOST
@@ -19,7 +26,7 @@ DEMO_OUT ?= out/demo
 
 .PHONY: demo test test-core lint docs bench venv clean
 
-venv: $(STAMP)
+venv: $(ROS_ENV)
 
 $(STAMP): requirements.txt constraints.txt setup.py setup.cfg package.xml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -28,7 +35,11 @@ $(STAMP): requirements.txt constraints.txt setup.py setup.cfg package.xml
 	$(PY) -m pip install --quiet --no-deps --no-build-isolation -e .
 	touch $(STAMP)
 
-demo: $(STAMP)
+$(ROS_ENV): $(STAMP) scara_ident_ros/nodes/rosenv.py
+	$(PY) -c 'from scara_ident_ros.nodes.rosenv import install_pth; install_pth()'
+	touch $(ROS_ENV)
+
+demo: $(ROS_ENV)
 	@if [ -e $(DEMO_OUT) ]; then \
 	  kept=$(DEMO_OUT)-$$(date +%Y%m%d-%H%M%S); mv $(DEMO_OUT) $$kept; \
 	  echo "previous demo kept as $$kept"; fi
@@ -37,7 +48,7 @@ demo: $(STAMP)
 # A crash of the test process itself (a signal: once, a segmentation fault in an in-process
 # rclpy listener, not reproduced since) runs the suite once more and says so; a test that
 # fails (exit 1) is never run again.
-test: $(STAMP)
+test: $(ROS_ENV)
 	@$(PY) -m pytest test; status=$$?; \
 	if [ $$status -gt 128 ]; then \
 	  echo "make test: pytest was killed by signal $$((status - 128)); running the suite again"; \
@@ -51,21 +62,21 @@ test: $(STAMP)
 # tests 5-10 times slower (46 s instead of 18 s).
 CORE_BLAS_THREADS ?= 1
 
-test-core: $(STAMP)
+test-core: $(ROS_ENV)
 	OPENBLAS_NUM_THREADS=$(CORE_BLAS_THREADS) OMP_NUM_THREADS=$(CORE_BLAS_THREADS) \
 	MKL_NUM_THREADS=$(CORE_BLAS_THREADS) \
 	$(PY) -m pytest -m 'not ros and not slow' test
 
 # ruff (ruff.toml) and mypy (mypy.ini), as .ci/run runs them before the tests.
-lint: $(STAMP)
+lint: $(ROS_ENV)
 	$(VENV)/bin/ruff check .
 	$(PY) -m mypy
 
 # docs/parameters.md from the nodes' ParamSpec tables (a test checks it is up to date).
-docs: $(STAMP)
+docs: $(ROS_ENV)
 	$(PY) -m scara_ident_ros.nodes.parameter_reference docs/parameters.md
 
-bench: $(STAMP)
+bench: $(ROS_ENV)
 	$(PY) -m pip install --quiet -r requirements-bench.txt -c constraints.txt
 	$(PY) benchmarks/run_all.py
 

@@ -14,7 +14,11 @@ after SIGINT before SIGTERM, 10 s more before SIGKILL) is shorter, so each node 
 
 When the recorder exits, for whatever reason (``bag:=`` names a directory that exists
 already, a full disk, a SIGINT of its own), the launch ends: the simulator and the
-identifiers would otherwise go on with nothing recording them.
+identifiers would otherwise go on with nothing recording them. When any node exits with a
+non-zero code (it refused to start: a bad parameter, an existing bag; or it failed), the
+launch ends too and ``ros2 launch`` exits 1: ``LaunchService.run`` returns 1 when an event
+handler raises, and returns 0 after a ``Shutdown`` action whatever its reason, so the
+handler raises (:func:`end_on_failure`).
 
 ``launch`` and ``launch_ros`` are imported when the description is generated, not when
 the file is imported, so that the file can be read and checked without them.
@@ -25,6 +29,25 @@ from scara_ident_ros.topics import JOINT_STATES, in_namespace
 METHODS = ('ffmw', 'ffw', 'ffs')
 WAIT_TIMEOUT = 60.0  # s, longest wait of the simulator for its subscribers (as scara-ident run)
 STOP_GRACE = STOP_TIMEOUT + 5.0  # s after SIGINT before launch sends SIGTERM (and SIGKILL)
+
+
+def end_on_failure(name, *, end_launch=False, log_info=None, shutdown=None):
+    """An ``OnProcessExit`` callback for the node ``name``.
+
+    A non-zero exit code (negative: a signal) raises ``RuntimeError``, which launch logs
+    (``Caught exception in launch ...: <message>``) before it shuts every node down and
+    returns 1. A clean exit ends the launch only if ``end_launch`` (through ``log_info`` and
+    ``shutdown``, the launch classes, passed in so that this file imports without launch).
+    """
+    def on_exit(event, context):
+        if event.returncode:
+            raise RuntimeError(f'{name} exited with code {event.returncode}: ending the '
+                               'launch')
+        if end_launch:
+            return [log_info(msg=f'{name} has exited: ending the launch'),
+                    shutdown(reason=f'{name} exited')]
+        return None
+    return on_exit
 
 
 def generate_launch_description():
@@ -41,6 +64,16 @@ def generate_launch_description():
     recorder = Node(package='scara_ident_ros', executable='recorder', name='recorder',
                     parameters=[PathJoinSubstitution([config, 'recorder.yaml']),
                                 {'output': LaunchConfiguration('bag')}], **grace)
+    simulator = Node(package='scara_ident_ros', executable='scara_sim', name='scara_sim',
+                     parameters=[PathJoinSubstitution([config, 'scara_sim.yaml']),
+                                 {'wait_for_subscribers': 2, 'wait_timeout': WAIT_TIMEOUT}],
+                     condition=IfCondition(LaunchConfiguration('sim')), **grace)
+    identifier = Node(
+        package='scara_ident_ros', executable='identifier', name='identifier',
+        parameters=[PathJoinSubstitution([config, 'identifier.yaml']),
+                    {'methods': list(METHODS), 'wait_for_subscribers': 1,
+                     'wait_timeout': WAIT_TIMEOUT}],
+        remappings=[(JOINT_STATES, in_namespace(JOINT_STATES))], **grace)
     actions = [
         DeclareLaunchArgument('bag', default_value='scara_ident_run',
                               description='Directory of the MCAP bag to record'),
@@ -50,21 +83,19 @@ def generate_launch_description():
         # and the recorder below are subscribed to /joint_states, and the identifier
         # subscribes only once the recorder records its outputs, so that nothing misses
         # the first samples or predictions.
-        Node(package='scara_ident_ros', executable='scara_sim', name='scara_sim',
-             parameters=[PathJoinSubstitution([config, 'scara_sim.yaml']),
-                         {'wait_for_subscribers': 2, 'wait_timeout': WAIT_TIMEOUT}],
-             condition=IfCondition(LaunchConfiguration('sim')), **grace),
-        recorder,
+        # The handlers first, so that they hear a node that exits at once.
         # Nothing is worth running once nothing records: end the launch with the recorder.
         RegisterEventHandler(OnProcessExit(
             target_action=recorder,
-            on_exit=[LogInfo(msg='the recorder has exited: ending the launch'),
-                     Shutdown(reason='the recorder exited')])),
+            on_exit=end_on_failure('the recorder', end_launch=True, log_info=LogInfo,
+                                   shutdown=Shutdown))),
+        # A node that fails (or refuses to start) ends the launch, with exit code 1.
+        RegisterEventHandler(OnProcessExit(target_action=simulator,
+                                           on_exit=end_on_failure('scara_sim'))),
+        RegisterEventHandler(OnProcessExit(target_action=identifier,
+                                           on_exit=end_on_failure('the identifier'))),
+        simulator,
+        recorder,
+        identifier,
     ]
-    actions.append(Node(
-        package='scara_ident_ros', executable='identifier', name='identifier',
-        parameters=[PathJoinSubstitution([config, 'identifier.yaml']),
-                    {'methods': list(METHODS), 'wait_for_subscribers': 1,
-                     'wait_timeout': WAIT_TIMEOUT}],
-        remappings=[(JOINT_STATES, in_namespace(JOINT_STATES))], **grace))
     return LaunchDescription(actions)

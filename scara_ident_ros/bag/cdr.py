@@ -13,7 +13,9 @@ bytes mean equal name lists, so a caller decodes each distinct list once) and th
 byte spans of the three float arrays: several times faster than rosbags'
 ``Typestore.deserialize_cdr`` or ``mcap_ros2``'s dynamic decoder (docs/results.md), and
 unlike rosbags it also accepts the slack bytes ``rclpy.serialization`` leaves at the
-end of a message with empty arrays.
+end of a message with an empty array (its size estimate counts the 8-byte alignment of
+an empty float64 sequence, which the data never take). ``end`` is where the data really
+end: the exact length of the message as Fast DDS sends it, and as rosbags wants it.
 Big-endian messages (never produced by Fast DDS on x86/ARM) are left to rosbags.
 :func:`header_stamp_ns` reads the stamp of any message that starts with a std_msgs/Header.
 """
@@ -44,6 +46,9 @@ class JointStateSpans(NamedTuple):
     position, velocity, effort : tuple of (int, int)
         ``(offset, count)``: ``count`` little-endian float64 values start at byte
         ``offset`` of the message.
+    end : int
+        Bytes of the message up to the end of its data (encapsulation header included):
+        its exact CDR length, without the slack after it.
     """
 
     stamp_ns: int
@@ -51,6 +56,7 @@ class JointStateSpans(NamedTuple):
     position: tuple[int, int]
     velocity: tuple[int, int]
     effort: tuple[int, int]
+    end: int
 
 
 def header_stamp_ns(data: bytes) -> int | None:
@@ -108,7 +114,8 @@ def _split(raw: bytes) -> JointStateSpans:
         pos += 8 * count
     if pos > size:
         raise ValueError(f'JointState of {size} bytes is truncated (arrays end at {pos})')
-    return JointStateSpans(sec * 1_000_000_000 + nanosec, names, spans[0], spans[1], spans[2])
+    return JointStateSpans(sec * 1_000_000_000 + nanosec, names, spans[0], spans[1], spans[2],
+                           pos)
 
 
 def decode_names(block: bytes) -> tuple[str, ...]:

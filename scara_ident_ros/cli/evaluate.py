@@ -1,11 +1,12 @@
-"""``scara-ident evaluate``: errors of a saved model on the joint states of a bag.
+"""``scara-ident evaluate``: errors of a saved model on the joint states of a recording.
 
 Loads a model written by ``scara-ident train`` (a network, a physical or a hybrid model)
-or by an identifier (FeedForwardNet.save),
-reads the bag's JointState messages, maps them to the model's joints BY NAME (metadata
-joint_names; a model without names needs a bag with as many joints, taken in message
-order), builds the network inputs as the identifier does (its input stage: q'' from q' by
-the zero-phase centred estimate, bad samples dropped) and prints, as a Markdown table,
+or by an identifier (FeedForwardNet.save), reads the recording's joint states (a bag or a
+table, as train reads them: FILE.npz:SPLIT for a published split), maps them to the
+model's joints BY NAME (metadata joint_names; a model without names needs a recording with
+as many joints, taken in message order), builds the network inputs as the identifier
+does (its input stage: q'' from q' by the zero-phase centred estimate, bad samples
+dropped) and prints, as a Markdown table,
 each joint's MSE ((N·m)² or N²) and normalised MSE (MSE / variance of the joint's effort
 over the evaluated samples; 1 = no better than the mean effort). Typical use: a model
 trained on one run evaluated on another (held-out) run. For a physical or hybrid model it
@@ -17,6 +18,7 @@ import argparse
 from pathlib import Path
 
 from scara_ident_ros.cli import CliError
+from scara_ident_ros.cli.recording_options import RECORDING_HELP, recording_note
 
 __all__ = ['add_parser', 'run']
 
@@ -27,8 +29,8 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
         'evaluate', help='per-joint MSE and NMSE of a saved model on a bag',
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument('model', type=Path, metavar='MODEL', help='model file (.npz)')
-    parser.add_argument('bag', type=Path, metavar='BAG',
-                        help='rosbag2 bag directory (MCAP or sqlite3) or .mcap file')
+    parser.add_argument('bag', type=Path, metavar='RECORDING',
+                        help=RECORDING_HELP)
     parser.add_argument('--topic', default=None,
                         help='JointState topic (default: the only one, or /joint_states)')
     parser.set_defaults(func=run)
@@ -55,7 +57,7 @@ def run(args: argparse.Namespace) -> int:
     mapping = 'mapped by name' if names is not None else 'in message order (model has no names)'
     print(f'{method} model {args.model} on {args.bag} {recording.topic}: '
           f'{len(samples.data)} samples over {samples.data.seconds:.1f} s, joints {mapping} '
-          f'(skipped: {skipped_text(samples)})\n')
+          f'(skipped: {skipped_text(samples)}{recording_note(recording)})\n')
     stats = evaluate(model, samples.data.X, samples.data.Y)
     print(errors_markdown(samples.names, {args.bag.name or str(args.bag): stats}))
     physical = model.physical if isinstance(model, HybridModel) else model

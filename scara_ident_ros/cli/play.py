@@ -1,4 +1,7 @@
-"""``scara-ident play BAG``: publish a recorded bag again (the ``player`` node, in-process).
+"""``scara-ident play RECORDING``: publish a recording again (the ``player`` node, in-process).
+
+A rosbag2 bag is played as recorded; a ROS 1 bag or a table (``.npz``, CSV, a /joint_states
+CSV export, ``FILE.npz:SPLIT``) as its joint states on /joint_states, at its own timing.
 
 ``scara-ident play run1 --rate 2 --loop --clock --topics /joint_states
 --remap /joint_states:=/replay/joint_states`` runs the same node as ``ros2 run
@@ -14,6 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from scara_ident_ros.cli import CliError
+from scara_ident_ros.cli.recording_options import RECORDING_HELP
 
 __all__ = ['add_parser', 'run']
 
@@ -23,7 +27,9 @@ def add_parser(subparsers: Any) -> None:
     parser = subparsers.add_parser(
         'play', help='publish a recorded bag again, timed as recorded',
         description=__doc__.split('\n\n')[0].replace('``', ''))
-    parser.add_argument('bag', type=Path, help='bag directory, .mcap or .db3 file')
+    parser.add_argument('bag', type=Path, metavar='RECORDING',
+                        help=RECORDING_HELP + '; a ROS 1 bag or a table is played as '
+                        '/joint_states, timed by its stamps')
     parser.add_argument('--rate', default='1.0',
                         help="playback speed factor (default 1); 0 or 'max' = as fast as "
                              'possible')
@@ -44,13 +50,14 @@ def add_parser(subparsers: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Check the options and the bag, then run the player node until the bag is done."""
-    from scara_ident_ros.bag import open_bag, parse_rate, parse_remaps
+    from scara_ident_ros.bag import parse_rate, parse_remaps
+    from scara_ident_ros.bag.series_source import open_recording_source
 
     rate = parse_rate(args.rate)  # a bad rate, remapping or bag: one line from cli.main
     parse_remaps(args.remap)
     if args.wait_timeout < 0 or args.clock_rate <= 0:
         raise CliError('--wait-timeout must be >= 0 and --clock-rate > 0')
-    with open_bag(args.bag):
+    with open_recording_source(args.bag):  # a table is read twice: once here to check it
         pass
 
     from rclpy.parameter import Parameter

@@ -27,6 +27,7 @@ import argparse
 from pathlib import Path
 
 from scara_ident_ros.cli import CliError
+from scara_ident_ros.cli.recording_options import RECORDING_HELP
 from scara_ident_ros.cli.validation_options import (add_validation_options,
                                                      check_validation_options)
 from scara_ident_ros.identification.split import SplitError
@@ -44,7 +45,9 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
         'tables', help="the paper's Tables 2-3 and Figures 6-15 from recorded runs",
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument('bags', type=Path, nargs='+', metavar='BAG',
-                        help='the run to analyse, then any held-out runs (MORE_BAGS)')
+                        help='the run to analyse, then any held-out runs (MORE_BAGS); each '
+                             'a recording of any kind (a ROS 1 bag or a table has no online '
+                             'results: Table 3 is then empty): ' + RECORDING_HELP)
     parser.add_argument('--out', type=Path, required=True, metavar='DIR',
                         help='output directory (created; its files are overwritten)')
     parser.add_argument('--methods', nargs='+', default=list(METHODS), choices=list(METHODS),

@@ -1,8 +1,12 @@
-"""``scara-ident train``: train a network or a physical model offline from a bag's joint states.
+"""``scara-ident train``: train a network or a physical model offline from recorded joint states.
 
-Reads sensor_msgs/JointState messages from any rosbag2 bag (MCAP or sqlite3) or a bare
-.mcap file, turns them into network samples exactly as the online identifier does (its
-input stage: the same sample checks and zero-phase q'' estimate), and trains the method's
+Reads sensor_msgs/JointState messages from any rosbag2 bag (MCAP or sqlite3), a bare
+.mcap file or a ROS 1 .bag, or the joint states of a table (.npz or CSV with named
+columns, a /joint_states CSV export; FILE.npz:SPLIT for a published split, such as
+barrett_wam.npz:train), turns them into network samples exactly as the online identifier
+does (its input stage: the same sample checks, repeated samples refused, and zero-phase q''
+estimate; q' derived from q where the recording has none, q'' as given where a table gives
+it; docs/recording_and_retraining.md), and trains the method's
 3n-40-n network with Levenberg-Marquardt (or batch gradient descent), scaled to the
 training data's ranges.
 
@@ -46,6 +50,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from scara_ident_ros.cli import CliError
+from scara_ident_ros.cli.recording_options import (RECORDING_HELP, recording_note,
+                                                    urdf_joints_not_recorded)
 from scara_ident_ros.cli.validation_options import (add_validation_options,
                                                      check_validation_options)
 from scara_ident_ros.dynamics.physical_model import COULOMB_EPS, COULOMB_MODES
@@ -78,8 +84,8 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     parser = subparsers.add_parser(
         'train', help='train a network offline from the joint states of a bag',
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument('bag', type=Path, metavar='BAG',
-                        help='rosbag2 bag directory (MCAP or sqlite3) or .mcap file')
+    parser.add_argument('bag', type=Path, metavar='RECORDING',
+                        help=RECORDING_HELP)
     parser.add_argument('--method', required=True, choices=[*METHODS, *PHYSICAL_METHODS],
                         help='network: ffmw (MSLOG), ffw (SLOG) or ffs (sigmoid); physical: '
                              'least squares on the URDF\'s base parameters and friction; '
@@ -181,7 +187,8 @@ def run(args: argparse.Namespace) -> int:
                  f'{(blocks[-1] + 1) * args.validation_block:.1f} s')
     print(f'scara-ident train: {args.bag} {recording.topic}: {len(samples.data)} samples '
           f'of {len(names)} joints {list(names)} over {samples.data.seconds:.1f} s '
-          f'(skipped: {skipped_text(samples)}); training on {len(train)}, validating on '
+          f'(skipped: {skipped_text(samples)}{recording_note(recording)}); training on '
+          f'{len(train)}, validating on '
           f'{len(validation)}{where}', flush=True)
 
     metadata = {
@@ -193,6 +200,10 @@ def run(args: argparse.Namespace) -> int:
         'differentiator': np.array('centred'), 'window': np.array(DIFFERENTIATOR_WINDOW)}
     if args.urdf is not None:
         metadata['urdf_file'] = np.array(str(args.urdf))
+        fixed = urdf_joints_not_recorded(args.urdf, names)
+        if fixed and args.method in PHYSICAL_METHODS:
+            print(f'{args.urdf}: joints not in the recording, held fixed at 0: '
+                  f'{", ".join(fixed)}', flush=True)
     if args.method in PHYSICAL_METHODS:
         return _train_physical(args, names, every_train, train, validation, metadata)
 

@@ -23,6 +23,7 @@ from scara_ident_ros.identification.differentiator import AccelerationEstimate
 from scara_ident_ros.identification.input_stage import InputStage
 from scara_ident_ros.identification.joint_map import JointMap
 from scara_ident_ros.identification.sample_check import DEFAULT_MAX_GAP_NS
+from scara_ident_ros.identification.skip_reason import SkipReason
 
 __all__ = ['ACCELERATIONS', 'Dataset', 'JointStateArrays', 'RecordedDataset',
            'dataset_from_joint_states', 'make_dataset']
@@ -149,12 +150,13 @@ class JointStateArrays(Protocol):
 
 class RecordedDataset(NamedTuple):
     """Samples from a recording: the joint ``names`` (column order of ``data.Y`` and of each
-    third of ``data.X``), the estimated-q'' ``data``, and the messages ``skipped`` per
-    :class:`SkipReason` value."""
+    third of ``data.X``), the estimated-q'' ``data``, the messages ``skipped`` per
+    :class:`SkipReason` value, and the clock ``gaps`` (each restarted the q'' estimate)."""
 
     names: tuple[str, ...]
     data: Dataset
     skipped: dict[str, int]
+    gaps: int = 0
 
 
 def dataset_from_joint_states(series: JointStateArrays, *,
@@ -175,7 +177,9 @@ def dataset_from_joint_states(series: JointStateArrays, *,
     Returns
     -------
     RecordedDataset
-        One sample per valid message with a q'' estimate.
+        One sample per valid message with a q'' estimate. A series with an
+        ``acceleration`` array (a table that gives q'') is taken with that q'' instead
+        (``data.acceleration`` ``'true'``): every finite row not equal to the previous one.
     """
     names = tuple(str(joint) for joint in series.names)
     n = len(names)
@@ -186,11 +190,37 @@ def dataset_from_joint_states(series: JointStateArrays, *,
     position = np.asarray(series.position, dtype=np.float64).reshape(count, -1)
     velocity = np.asarray(series.velocity, dtype=np.float64).reshape(count, -1)
     effort = np.asarray(series.effort, dtype=np.float64).reshape(count, -1)
+    given = getattr(series, 'acceleration', None)
+    if given is not None:
+        return _given_accelerations(names, stamps, position, velocity, effort,
+                                    np.asarray(given, dtype=np.float64).reshape(count, -1),
+                                    name)
     stage = InputStage(JointMap(names, n_joints=n), need_effort=True, max_gap_ns=max_gap_ns,
                        differentiator=differentiator)
     kept, X, Y = stage.batch(stamps, names, position, velocity,
                              effort if effort.shape[1] == n else None)
     data = Dataset(kept, X, Y, 'estimated', name)
     skipped = {reason.value: k for reason, k in stage.skipped.items() if k}
-    return RecordedDataset(names, data, skipped)
+    return RecordedDataset(names, data, skipped, stage.gaps)
 
+
+
+def _given_accelerations(names: tuple[str, ...], stamps: NDArray[np.int64],
+                         position: FloatArray, velocity: FloatArray, effort: FloatArray,
+                         acceleration: FloatArray, name: str) -> RecordedDataset:
+    """Samples whose q'' the recording gives (a table): taken as they are, in stamp order,
+    but for rows with a non-finite value (``non_finite``) and rows equal to the previous
+    kept one (``repeated``)."""
+    order = np.argsort(stamps, kind='stable')
+    rows = np.hstack([position, velocity, acceleration, effort])[order]
+    finite = np.isfinite(rows).all(axis=1)
+    keep = finite.copy()
+    kept_rows = np.flatnonzero(finite)
+    repeated = np.zeros(rows.shape[0], dtype=bool)
+    repeated[kept_rows[1:]] = (rows[kept_rows[1:]] == rows[kept_rows[:-1]]).all(axis=1)
+    keep &= ~repeated
+    n = len(names)
+    data = Dataset(stamps[order][keep], rows[keep, :3 * n], rows[keep, 3 * n:], 'true', name)
+    counts = {SkipReason.NON_FINITE.value: int((~finite).sum()),
+              SkipReason.REPEATED.value: int(repeated.sum())}
+    return RecordedDataset(names, data, {k: v for k, v in counts.items() if v})

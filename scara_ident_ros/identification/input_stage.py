@@ -11,7 +11,8 @@ a history out with an off-centre fit. The causal :class:`Differentiator` estimat
 ``lag`` 0, with the filter's delay in q''.
 
 Counting: every sample pushed is, at any time, either rejected or dropped (``skipped``, per
-:class:`SkipReason`), out (``emitted``) or still ``pending``.
+:class:`SkipReason`), out (``emitted``) or still ``pending``; ``gaps`` counts the clock
+gaps (forwards or a restarted clock) the accepted samples came after.
 """
 from __future__ import annotations
 
@@ -73,6 +74,7 @@ class InputStage:
                                else CentredDifferentiator())
         self.skipped: dict[SkipReason, int] = dict.fromkeys(SkipReason, 0)
         self.emitted = 0
+        self.gaps = 0  # accepted samples after a clock gap (each restarts the q'' estimate)
         self._history: list[Sample] = []  # centred: the last <= W accepted samples
         self._length = 0  # centred: samples in the current history, all told
         centred = isinstance(self.differentiator, CentredDifferentiator)
@@ -114,6 +116,7 @@ class InputStage:
         if isinstance(sample, SkipReason):
             self.skipped[sample] += 1
             return sample, []
+        self.gaps += sample.gap
         if isinstance(self.differentiator, Differentiator):
             return self._push_causal(sample)
         out = self.flush() if sample.gap else []

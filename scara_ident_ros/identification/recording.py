@@ -1,8 +1,9 @@
-"""A recorded run read from a bag into network samples, or one clear error.
+"""A recorded run read from a bag or a table into network samples, or one clear error.
 
-Joins the bag reader (:func:`scara_ident_ros.bag.read_joint_states`: any rosbag2 bag, MCAP
-or sqlite3, or a bare ``.mcap`` file) and :func:`~scara_ident_ros.identification.dataset.
-dataset_from_joint_states` (the identifier's sample check and acceleration estimate), and
+Joins the reader of recordings (:func:`scara_ident_ros.bag.recording_file.read_recording`:
+rosbag2 bags, MCAP or sqlite3, bare ``.mcap`` files, ROS 1 bags, ``.npz`` and CSV tables)
+and :func:`~scara_ident_ros.identification.dataset.dataset_from_joint_states` (the
+identifier's sample check and acceleration estimate), and
 refuses recordings with too few usable samples. Every failure is a
 :class:`~scara_ident_ros.bag.BagError` or a :class:`RecordingError` whose message is one
 line naming the bag.
@@ -44,24 +45,25 @@ class Recording(NamedTuple):
 def load_recording(path: Path, *, topic: str | None = None,
                    joints: Sequence[str] | None = None,
                    minimum: int = MIN_SAMPLES) -> Recording:
-    """Read joint states from a bag and turn them into network samples.
+    """Read joint states from any recording and turn them into network samples.
 
-    ``topic`` and ``joints`` default as :func:`~scara_ident_ros.bag.read_joint_states` says;
-    ``minimum`` is the fewest usable samples accepted.
+    ``path`` is anything :func:`~scara_ident_ros.bag.recording_file.read_recording` reads
+    (rosbag2 or ROS 1 bag, ``.npz``/CSV table, ``FILE.npz:SPLIT``); ``topic`` and ``joints``
+    default as it says; ``minimum`` is the fewest usable samples accepted.
 
     Raises
     ------
     BagError
-        If the bag is missing, unreadable, truncated, or has no (such) JointState topic or
-        joints.
+        If the recording is missing, unreadable, truncated, or has no (such) JointState
+        topic or joints.
     RecordingError
-        If a joint of ``joints`` is in no message, no message gives a joint's position,
-        velocity or effort, or fewer than ``minimum`` samples are usable.
+        If a joint of ``joints`` is in no message, no message gives a joint's position or
+        effort, or fewer than ``minimum`` samples are usable.
     """
-    from scara_ident_ros.bag import read_joint_states
+    from scara_ident_ros.bag.recording_file import read_recording
 
+    series = read_recording(path, topic=topic, joints=list(joints) if joints else None)
     path = Path(path)
-    series = read_joint_states(path, topic=topic, joints=list(joints) if joints else None)
     name = str(getattr(series, 'topic', None) or topic or 'the JointState topic')
     missing = {field: [joint for j, joint in enumerate(series.names)
                        if np.isnan(getattr(series, field)[:, j]).all()]
@@ -69,7 +71,7 @@ def load_recording(path: Path, *, topic: str | None = None,
     absent = [joint for joint in missing['position']
               if joint in missing['velocity'] and joint in missing['effort']]
     if joints and absent:
-        present = read_joint_states(path, topic=name).names
+        present = read_recording(path, topic=topic, derive=False).names
         raise RecordingError(f'{path}: {name} has no joint {", ".join(absent)} (its joints: '
                              f'{", ".join(present)})')
     for field, lacking in missing.items():

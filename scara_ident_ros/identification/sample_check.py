@@ -12,6 +12,10 @@ Real drivers differ from the simulator in two ways handled here:
   What counts as a clock gap therefore scales with the observed sample period (the median
   of the last :data:`PERIOD_SAMPLES` intervals): more than ``max_gap_ns`` *and* more than
   :data:`GAP_PERIODS` periods.
+- **Repeated samples.** Some drivers send their last state again under a new stamp when
+  no new one is ready: a sample whose q, q' and effort all equal the last accepted one's
+  is refused as ``REPEATED`` (learnt twice it would weigh double, and its stamp is not
+  that of the state).
 - **Missing effort.** A broadcaster fills NaN for a joint without an effort interface, and
   some drivers publish no effort at all. Unless the effort is required (``need_effort``),
   such a sample is accepted without effort (``Sample.effort`` None): it can be predicted,
@@ -131,7 +135,9 @@ class SampleCheck:
     -----
     Checks run in this order, and the first that fails names the reason: stamp (repeated,
     backwards), presence (``NO_VELOCITY``, ``NO_POSITION``, ``NO_EFFORT``), lengths, names
-    (see :meth:`JointMap.permutation`), finiteness, bounds. Stamps are compared with the last
+    (see :meth:`JointMap.permutation`), finiteness, bounds, then ``REPEATED``: a sample with
+    effort whose positions, velocities and efforts all equal the last accepted one's (a
+    driver re-sending its last state under a new stamp). Stamps are compared with the last
     *accepted* sample only. The observed period is the median of the last
     :data:`PERIOD_SAMPLES` forward intervals between accepted samples, gaps included (a
     median is not moved by a few lost samples, and a slow stream still learns its period);
@@ -151,6 +157,7 @@ class SampleCheck:
         self._period: int | None = None
         self._gap_ns = self.max_gap_ns
         self._behind: list[int] = []  # stamps far behind the last accepted, consecutive
+        self._last_values: NDArray[np.float64] | None = None  # (2 or 3, n) of the last accepted
 
     @property
     def period_ns(self) -> int | None:
@@ -177,6 +184,7 @@ class SampleCheck:
         self._period = None
         self._gap_ns = self.max_gap_ns
         self._behind.clear()
+        self._last_values = None
 
     def check(self, stamp_ns: int, names: Sequence[str], position: FloatArrayLike,
               velocity: FloatArrayLike, effort: FloatArrayLike = ()) -> Sample | SkipReason:
@@ -222,9 +230,13 @@ class SampleCheck:
             rows = values.shape[0]
             if (values < bounds.lo[:rows]).any() or (values > bounds.hi[:rows]).any():
                 return SkipReason.OUT_OF_LIMITS
+        last_values = self._last_values
+        if has_effort and last_values is not None and np.array_equal(values, last_values):
+            return SkipReason.REPEATED
         if self.joint_map.names is None:
             self.joint_map.adopt(names)
         self._last_stamp = stamp_ns
+        self._last_values = values
         self._behind.clear()
         if dt > 0:
             self._observe(dt)

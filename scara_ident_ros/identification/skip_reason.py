@@ -27,6 +27,10 @@ class SkipReason(str, Enum):
     - ``JOINT_COUNT``: no joint set is configured yet and the message's joint count differs
       from the model's.
     - ``STAMP_REPEATED``: the stamp equals that of the last accepted sample.
+    - ``REPEATED``: the same positions, velocities and efforts as the last accepted sample,
+      under a new stamp: a driver that sends its last state again (it would be learnt twice,
+      and its stamp is not that of the state). Only samples with effort are compared: a
+      robot at rest without effort sensors still gets its predictions.
     - ``STAMP_BACKWARDS``: the stamp is earlier than that of the last accepted sample (by at
       most the maximum gap; a larger jump is a ``GAP``).
     - ``OUT_OF_LIMITS``: a finite position, velocity or effort that the robot cannot have:
@@ -51,6 +55,7 @@ class SkipReason(str, Enum):
     DUPLICATE_JOINT = 'duplicate_joint'
     JOINT_COUNT = 'joint_count'
     STAMP_REPEATED = 'stamp_repeated'
+    REPEATED = 'repeated'
     STAMP_BACKWARDS = 'stamp_backwards'
     OUT_OF_LIMITS = 'out_of_limits'
     GAP = 'gap'

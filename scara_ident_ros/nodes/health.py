@@ -28,6 +28,10 @@ LOST_GAP = 1.5  # stamp gap, in sample periods, from which samples count as lost
 LOST_SPAN = 1.0  # s: a longer stamp jump is a restart of the stream, not lost samples
 JITTER_MADS = 6.0  # robust standard deviations of the stamp differences that are jitter
 PERIOD_SAMPLES = 64  # stamp differences whose median is the stream's period
+LOSS_HORIZON = 100  # steps after a long one within which late samples may catch up
+QUIET_MADS = 3.0  # robust standard deviations by which a step is short when catching up
+QUIET_PERIODS = 0.25  # ... and at least this fraction of a period
+MEAN_STEPS = 1000  # steps averaged (exponentially) into the period that lateness is measured by
 
 
 class Level(IntEnum):
@@ -70,12 +74,23 @@ class LossCounter:
 
     The period is the median of the latest :data:`PERIOD_SAMPLES` stamp differences, the
     jitter ``JITTER_MADS`` scaled median absolute deviations of them; a difference ``dt``
-    longer than ``LOST_GAP`` periods and than one period plus the jitter (so that jitter is
-    not loss), and at most ``span_s``, counts ``round(dt / period) - 1`` lost samples.
-    Longer jumps (a replayed bag's gap, a simulator restart) count as ``pauses``, and only
-    if also longer than ``pause_periods`` periods. Stamps repeated or going back count
-    nothing. A recorder passes a long ``span_s`` (a network partition is loss); an
-    identifier passes its ``max_gap`` (its q'' estimate restarts there).
+    longer than ``LOST_GAP`` periods and than one period plus the jitter, and at most
+    ``span_s``, may hide ``round(dt / period) - 1`` lost samples. Whether it does shows in
+    the stamps after it: samples that were merely late (uneven stamps, e.g. 0.7-8.8 ms steps
+    at a nominal 1 kHz) are followed by short steps that bring the stream back on its
+    schedule; lost ones leave it behind. So a long step's samples are counted ``lost`` when
+    the stream is back on schedule (none) or after :data:`LOSS_HORIZON` more steps (the
+    periods it is still behind). Behind is the long step's excess over the period less what
+    the steps short by more than :data:`QUIET_MADS` jitters (measured before the long step:
+    catching up widens them) and :data:`QUIET_PERIODS` periods caught up (and are left out
+    of the period's median); other steps count nothing. Behind is measured in periods of
+    the mean step (over about :data:`MEAN_STEPS`, neither long nor catching up): a median
+    of 64 steps off by 1-2 % would make 26 catching-up steps look like a lost sample. ``lost`` only
+    grows; :meth:`settle` counts what is pending at the end of a stream. Longer jumps (a
+    replayed bag's gap, a simulator restart) count as ``pauses``, and only if also longer
+    than ``pause_periods`` periods. Stamps repeated or going back count nothing. A recorder
+    passes a long ``span_s`` (a network partition is loss); an identifier passes its
+    ``max_gap`` (its q'' estimate restarts there).
     """
 
     def __init__(self, *, span_s: float = LOST_SPAN, pause_periods: float = 0.0) -> None:
@@ -88,6 +103,17 @@ class LossCounter:
         self.gap_ns: float | None = None  #: shortest difference counted as a loss, once known
         self._last_ns: int | None = None
         self._dts: list[int] = []  # the latest stamp differences, ns
+        self._behind = 0.0  # ns the stream is behind its schedule since a long step
+        self._steps_left = 0  # steps until the samples of that long step are counted
+        self._spread_ns = 0.0  # robust std of the steps, ns
+        self._mean_ns: float | None = None  # mean of the steps that are no loss, ns
+        self._mean_steps = 0  # steps in it (at most MEAN_STEPS, then an exponential mean)
+        self._quiet_ns = 0.0  # smaller deviations from the period are jitter, not catching up
+
+    @property
+    def pending(self) -> int:
+        """Samples the stream is behind its schedule by, not yet counted lost."""
+        return max(round(self._behind / self._mean_ns), 0) if self._mean_ns else 0
 
     def observe(self, stamp_ns: int) -> bool:
         """Take the stamp (integer ns) of the next sample received; return whether it
@@ -101,22 +127,48 @@ class LossCounter:
         dt = stamp_ns - last
         if dt > self.span_ns and (self.period_ns is None
                                   or dt > self.pause_periods * self.period_ns):
+            self.settle()
             self.pauses += 1
             self.paused_s += dt / 1e9
             return True
         dts = self._dts
-        dts.append(dt)
+        catching_up = (self._steps_left and self.period_ns is not None
+                       and dt < self.period_ns - self._quiet_ns)
+        if not catching_up:  # short steps after a long one would bias the period low
+            dts.append(dt)
+            mean = self._mean_ns
+            if mean is not None and self.gap_ns is not None and dt < self.gap_ns:
+                self._mean_steps = min(self._mean_steps + 1, MEAN_STEPS)
+                self._mean_ns = mean + (dt - mean) / self._mean_steps
         if len(dts) == PERIOD_SAMPLES or (self.period_ns is None and len(dts) >= 3):
             period = float(statistics.median(dts))
             spread = 1.4826 * statistics.median(abs(d - period) for d in dts)  # ≈ std
             self.period_ns = period
             self.gap_ns = max(LOST_GAP * period, period + JITTER_MADS * spread)
+            self._spread_ns = spread
+            if self._mean_ns is None or abs(self._mean_ns - period) > 0.1 * period:
+                self._mean_ns, self._mean_steps = period, 0  # the first, or the rate changed
             if len(dts) == PERIOD_SAMPLES:
                 dts.clear()
-        period_ns, gap_ns = self.period_ns, self.gap_ns
-        if period_ns is not None and gap_ns is not None and dt >= gap_ns:
-            self.lost += round(dt / period_ns) - 1
+        period_ns, gap_ns = self._mean_ns, self.gap_ns
+        if period_ns is None or gap_ns is None:
+            return False
+        long_step = dt >= gap_ns
+        if long_step or self._steps_left:
+            excess = dt - period_ns
+            if long_step and not self._steps_left:
+                self._quiet_ns = max(QUIET_MADS * self._spread_ns, QUIET_PERIODS * period_ns)
+            if long_step or excess < -self._quiet_ns:  # catching up, not a steady clock's jitter
+                self._behind += excess
+            self._steps_left = LOSS_HORIZON if long_step else self._steps_left - 1
+            if self._behind < 0.5 * period_ns or not self._steps_left:
+                self.settle()  # back on schedule (nothing lost), or given up waiting
         return False
+
+    def settle(self) -> None:
+        """Count what the stream is still behind its schedule by as lost (end of stream)."""
+        self.lost += self.pending
+        self._behind, self._steps_left = 0.0, 0
 
 
 def _level(problems: list[tuple[Level, str]], summary: str) -> tuple[Level, str]:

@@ -88,6 +88,7 @@ DEFAULT_PERIOD = 1e-3  # s: the sample period assumed until the stream shows its
 CALIBRATION_TICK = 0.05  # s between two steps of the contact calibration
 CALIBRATION_SLICE = 2000  # held-out samples a calibration step predicts
 FLUSH_TIMEOUT = 2.0  # s on shutdown for the subscribers to acknowledge the last predictions
+SETTLE_LOSS_S = 0.2  # s without a sample after which a long stamp step's losses are counted
 # Why a read-only parameter is fixed at start (shown by `ros2 param describe`)
 NETWORK = "the network's shape and inputs (a saved model keeps them)"
 HOLDOUT = 'which samples are held out must not change under the validation score'
@@ -283,27 +284,26 @@ class Outputs:
             self.armed = armed
             self.armed_publisher.publish(Bool(data=armed))
 
-    def publish(self, results: list[StepResult], frame_id: str,
-                clock: StreamClock | None = None, inputs: list[Input] | None = None) -> None:
-        """Publish each prediction, its external torque and any contact, stamped with its
-        sample; ``clock`` records the lags (not given on shutdown); ``inputs``: the samples
-        predicted (the last results), whose q, q', q'' the contact check takes."""
+    def publish(self, results: list[StepResult], inputs: list[Input], frame_id: str,
+                clock: StreamClock | None = None) -> None:
+        """Publish each prediction with its sample's q and q', its external torque and any
+        contact (the sample's q, q', q'' against the calibrated envelope), stamped with its
+        sample; ``inputs`` are the samples of the predictions (one per result with an
+        effort, in order); ``clock`` records the lags (not given on shutdown)."""
         if not results:
             return
-        xs: list[NDArray[np.float64] | None] = [None] * len(results)
-        if inputs:
-            xs[len(results) - len(inputs):] = [item.x for item in inputs]
         template, external = self.template, self.external_template
         if template is None or template.frame_id != frame_id:
             names = self.run.lazy.names
-            template = self.template = JointStateTemplate(names, frame_id)
+            template = self.template = JointStateTemplate(names, frame_id, state=True)
             external = self.external_template = JointStateTemplate(names, frame_id)
         assert external is not None
-        publish, run = self.send_torque, self.run
-        for result, x in zip(results, xs):
+        publish, run, samples = self.send_torque, self.run, iter(inputs)
+        for result in results:
             if result.effort is None:
                 continue
-            publish(template.fill(result.stamp_ns, result.effort))
+            x = next(samples).x
+            publish(template.fill(result.stamp_ns, result.effort, x))
             if result.measured is not None:
                 self.publish_external(result.stamp_ns, result.measured - result.effort,
                                       external, x)
@@ -475,6 +475,7 @@ class IdentifierNode(Node):
     def health(self, out: Outputs, period_s: float) -> Health:
         """A method's health over the last ``period_s`` s, for ``/diagnostics``."""
         figures = self.session.health_figures(out.run)
+        self._settle_loss()
         recent = out.deltas(processed=figures['processed'], skipped=figures['skipped'],
                             lost=self.loss.lost)
         return identifier_health(
@@ -508,7 +509,7 @@ class IdentifierNode(Node):
                 self.frozen_with_cores = True
                 gc.freeze()
         for out, method_results in zip(self.outputs, results):
-            out.publish(method_results, self.frame_id, self.clock, inputs)
+            out.publish(method_results, inputs, self.frame_id, self.clock)
         if inputs:
             self.path.out(inputs[0].stamp_ns, inputs[-1].stamp_ns, time.time_ns())
         for text in warnings:
@@ -549,9 +550,16 @@ class IdentifierNode(Node):
         """Samples taken from ``joint_states`` so far (a stop drains until it stays put)."""
         return self.session.processed()
 
+    def _settle_loss(self) -> None:
+        """Count the samples a long stamp step may have lost once the stream has paused (no
+        sample for :data:`SETTLE_LOSS_S`): late samples would have come by then."""
+        if self.last_sample is not None and time.monotonic() - self.last_sample > SETTLE_LOSS_S:
+            self.loss.settle()
+
     def stream(self) -> dict[str, Any]:
         """Figures of the ``joint_states`` stream: losses, pauses, delays, publishers."""
         watch = self.publisher_watch
+        self._settle_loss()
         return {
             'lost': self.loss.lost, 'pauses': self.loss.pauses, 'paused_s': self.loss.paused_s,
             'path_delay_p50_ms': self.path.delays.percentile_ms(50),
@@ -608,7 +616,7 @@ class IdentifierNode(Node):
         weights, checkpoint and log the final statistics."""
         results, inputs = self.session.flush()
         for out, method_results in zip(self.outputs, results):
-            out.publish(method_results, self.frame_id, inputs=inputs)
+            out.publish(method_results, inputs, self.frame_id)
         if inputs:
             for out in self.outputs:
                 for publisher in (out.torque_publisher, out.external_publisher,

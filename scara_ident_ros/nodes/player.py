@@ -6,7 +6,10 @@
 
 - The bag is anything :func:`~scara_ident_ros.bag.open_bag` reads; a missing, corrupt
   or truncated one ends the node at once with one error line (exit 2; exit 1 if the
-  damage only shows half-way through).
+  damage only shows half-way through). A ROS 1 bag or a table (``.npz``, CSV, a
+  /joint_states CSV export, ``FILE.npz:SPLIT``) is played as its joint states on
+  ``/joint_states``, one JointState per sample at the sample's stamp
+  (:mod:`scara_ident_ros.bag.series_source`).
 - Messages are published as the bytes that were recorded (``Publisher.publish(bytes)``,
   nothing is deserialized), each when its log time comes, scaled by ``rate``
   (0 = as fast as possible); the timing is :func:`~scara_ident_ros.bag.schedule`.
@@ -46,7 +49,8 @@ from scara_ident_ros.bag.errors import BagError
 from scara_ident_ros.bag.message_class import message_class
 from scara_ident_ros.bag.playback import Scheduled, Timeline, parse_remaps, schedule
 from scara_ident_ros.bag.qos import adapt_to_offers
-from scara_ident_ros.bag.reader import BagSource, open_bag
+from scara_ident_ros.bag.reader import BagSource
+from scara_ident_ros.bag.series_source import SeriesSource, open_recording_source
 from scara_ident_ros.bag.topic_filter import TopicFilter
 from scara_ident_ros.errors import ConfigError
 from scara_ident_ros.nodes.parameters import ParamSpec, declare_parameters
@@ -66,7 +70,8 @@ PROFILE_VARIABLES = ('FASTRTPS_DEFAULT_PROFILES_FILE', 'FASTDDS_DEFAULT_PROFILES
 FAST_DDS = ('', 'rmw_fastrtps_cpp', 'rmw_fastrtps_dynamic_cpp')  # RMW_IMPLEMENTATION values
 
 PARAMETERS = (
-    ParamSpec('bag', '', 'Bag directory, .mcap or .db3 file to play (required)'),
+    ParamSpec('bag', '', 'Recording to play (required): bag directory, .mcap, .db3 or ROS 1 '
+              '.bag file, or an .npz/CSV table of joint states'),
     ParamSpec('rate', 1.0, 'Playback speed: 1 = as recorded, 2 = twice as fast; '
               '0 = as fast as possible', min=0.0),
     ParamSpec('loop', False, 'Start over after the last message, until stopped'),
@@ -96,7 +101,7 @@ class PlayerNode(Node):
         self._remap = parse_remaps(p['remap'])
         selection = TopicFilter(p['topics'] or ['/**'])
         self._timeline = Timeline(p['rate'])
-        self.bag: BagSource = open_bag(p['bag'])
+        self.bag: BagSource | SeriesSource = open_recording_source(p['bag'])
         try:
             self._outputs = self._create_publishers(selection)
         except ConfigError:

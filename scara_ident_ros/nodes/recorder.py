@@ -12,7 +12,10 @@ after splits), written by :class:`~scara_ident_ros.bag.BagWriter`.
   adapts to them as rosbag2 does (reliable unless one is best effort, transient-local if
   all are), with a history of ``qos_depth`` (0 = keep all).
 - Subscriptions are raw: the serialized bytes are stamped with the reception time (as
-  rosbag2 does) and handed to the writer in batches, never deserialized.
+  rosbag2 does) and handed to the writer in batches, never deserialized. They are stored
+  as DDS delivered them, as rosbag2 stores them: Fast DDS sends a message it serializes
+  at its exact CDR length, which every reader takes; bytes a publisher sends raw come as
+  sent (the identifier's are cut to the exact length, ``nodes/joint_state_cdr.py``).
 - Chunks are written and flushed at ``max_chunk_size`` bytes or ``max_chunk_duration``
   seconds, so a SIGKILL loses at most that (:func:`~scara_ident_ros.bag.recover_bag`).
   On SIGINT/SIGTERM the bag is closed properly.
@@ -375,6 +378,8 @@ class RecorderNode(Node):
         except (BagError, OSError, SystemExit) as exc:
             self.get_logger().error(f'closing {self.writer.path} failed: {exc}')
             self.writer.abort()
+        for _, loss in self._watches.values():  # the stream ended: count what is pending
+            loss.settle()
         counters = self.counters()
         per_topic = ', '.join(f'{t} {n}' for t, n in counters['topics'].items()) or 'no topics'
         self.get_logger().info(

@@ -163,8 +163,11 @@ def read_online_predictions(bag: Path, method: str,
     ``measured`` (the bag's ``/joint_states``) by name; None if the bag has no such topic.
     """
     from scara_ident_ros.bag import open_bag, read_joint_states
+    from scara_ident_ros.bag.recording_file import is_rosbag2
 
     topic = torque_topic(method)
+    if not is_rosbag2(bag):  # a table or a ROS 1 bag: joint states only
+        return None
     with open_bag(bag) as reader:
         if topic not in reader.topics:
             return None
@@ -199,7 +202,10 @@ def read_identifier_mse(bag: Path, method: str
         std_msgs__msg__Float64MultiArray as Float64MultiArray)
 
     from scara_ident_ros.bag import open_bag
+    from scara_ident_ros.bag.recording_file import is_rosbag2
 
+    if not is_rosbag2(bag):  # a table or a ROS 1 bag: joint states only
+        return None
     topic = mse_topic(method)
     store = get_typestore(Stores.ROS2_JAZZY)
     times: list[int] = []

@@ -1,7 +1,10 @@
 """Arms of the ``example-robot-data`` package, by name: where their URDF is installed.
 
 ``example-robot-data`` (PyPI, a cmeel wheel; the Gepetto team's robot descriptions) installs
-its URDFs and meshes under ``<site-packages>/cmeel.prefix/share/example-robot-data/robots``.
+its URDFs and meshes under ``<site-packages>/cmeel.prefix/share/example-robot-data/robots``;
+on a ROS install, ``ros-jazzy-example-robot-data`` (what ``rosdep`` installs) puts them under
+``<prefix>/share/example-robot-data/robots`` of a prefix in ``AMENT_PREFIX_PATH``. The PyPI
+package is looked at first, then each ament prefix in order.
 It is installed with the tests, benchmarks and demos (``requirements.txt``), not copied into
 this repository. Each entry names the URDF and, for a robot with more joints than its arm
 (a gripper), the joints to simulate; the others are locked (see
@@ -10,17 +13,19 @@ this repository. Each entry names the URDF and, for a robot with more joints tha
 from __future__ import annotations
 
 from dataclasses import dataclass
+import os
 from importlib import metadata
 from pathlib import Path
 
 from scara_ident_ros.errors import ScaraIdentError
 
 __all__ = ['EXAMPLE_ROBOTS', 'ExampleRobot', 'ExampleRobotError', 'example_robot',
-           'DISTRIBUTION']
+           'DISTRIBUTION', 'robot_roots']
 
 #: The PyPI distribution that holds the descriptions.
 DISTRIBUTION = 'example-robot-data'
-_ROBOTS_DIR = 'cmeel.prefix/share/example-robot-data/robots'
+_SHARE_DIR = 'share/example-robot-data/robots'
+_ROBOTS_DIR = f'cmeel.prefix/{_SHARE_DIR}'
 
 
 class ExampleRobotError(ScaraIdentError, ValueError):
@@ -73,13 +78,29 @@ def example_robot(name: str) -> ExampleRobot:
         raise ExampleRobotError(f'unknown robot {name!r}; known robots are '
                                 f'{", ".join(sorted(EXAMPLE_ROBOTS))}')
     robot = EXAMPLE_ROBOTS[name]
-    try:
-        root = Path(str(metadata.distribution(DISTRIBUTION).locate_file(_ROBOTS_DIR)))
-    except metadata.PackageNotFoundError:
+    roots = robot_roots()
+    if not roots:
         raise ExampleRobotError(f'robot {name!r} needs the {DISTRIBUTION} package: '
-                                f'pip install {DISTRIBUTION}') from None
-    path = root / robot.urdf
+                                f'pip install {DISTRIBUTION} (or, on a ROS install, '
+                                f'ros-jazzy-example-robot-data)')
+    path = next((root / robot.urdf for root in roots if (root / robot.urdf).is_file()),
+                roots[0] / robot.urdf)
     if not path.is_file():
         raise ExampleRobotError(f'robot {name!r}: {path} is missing; is {DISTRIBUTION} '
                                 f'installed completely?')
     return ExampleRobot(str(path), robot.joints)
+
+
+def robot_roots() -> list[Path]:
+    """The installed ``robots`` folders of ``example-robot-data``: the PyPI package's, then
+    ``<prefix>/share/example-robot-data/robots`` of each ``AMENT_PREFIX_PATH`` entry that has
+    one (a ROS install); empty if neither is installed."""
+    roots = []
+    try:
+        roots.append(Path(str(metadata.distribution(DISTRIBUTION).locate_file(_ROBOTS_DIR))))
+    except metadata.PackageNotFoundError:
+        pass
+    for prefix in os.environ.get('AMENT_PREFIX_PATH', '').split(os.pathsep):
+        if prefix:
+            roots.append(Path(prefix) / _SHARE_DIR)
+    return [root for root in roots if root.is_dir()]

@@ -6,11 +6,15 @@ import random
 import numpy as np
 import pytest
 from rclpy.serialization import deserialize_message, serialize_message
+from rosbags.typesys import Stores, get_typestore
 from sensor_msgs.msg import JointState
 
 from scara_ident_ros.bag.cdr import decode_names, header_stamp_ns, split_joint_state
 
 pytestmark = pytest.mark.ros
+
+STORE = get_typestore(Stores.ROS2_JAZZY)
+JOINT_STATE = 'sensor_msgs/msg/JointState'
 
 
 def random_message(rng: random.Random) -> JointState:
@@ -38,6 +42,10 @@ def test_random_messages_decode_like_rclpy() -> None:
             offset, count = getattr(spans, field)
             values = np.frombuffer(raw, '<f8', count, offset)
             np.testing.assert_array_equal(values, np.asarray(getattr(ref, field)))
+        # end: the exact CDR length, rosbags' (it writes no slack), which it reads back
+        exact = STORE.serialize_cdr(STORE.deserialize_cdr(raw[:spans.end], JOINT_STATE),
+                                    JOINT_STATE)
+        assert spans.end == len(exact) <= len(raw)
 
 
 def test_equal_name_lists_give_equal_name_blocks() -> None:

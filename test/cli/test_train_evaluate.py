@@ -321,7 +321,7 @@ def test_help_explains(command: str, capsys: pytest.CaptureFixture[str]) -> None
         main([command, '--help'])
     assert exit_info.value.code == 0
     text = capsys.readouterr().out
-    assert 'JointState' in text and 'BAG' in text
+    assert 'JointState' in text and 'RECORDING' in text and 'ROS 1' in text
 
 
 def test_an_unwritable_model_path_is_refused_before_training(

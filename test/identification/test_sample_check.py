@@ -21,7 +21,10 @@ def make_check(need_effort: bool = True, names: list[str] | None = NAMES) -> Sam
 
 
 def good(check: SampleCheck, stamp: int) -> Sample:
-    sample = check.check(stamp, NAMES, [1.0, 2.0, 3.0], [4.0, 5.0, 6.0], [7.0, 8.0, 9.0])
+    """A valid sample whose effort moves with its stamp (so that it repeats nothing)."""
+    moved = (stamp - T0) / MS * 1e-3
+    sample = check.check(stamp, NAMES, [1.0, 2.0, 3.0], [4.0, 5.0, 6.0],
+                         [7.0 + moved, 8.0, 9.0])
     assert isinstance(sample, Sample)
     return sample
 
@@ -167,7 +170,7 @@ def test_joint_order_adopted_from_the_first_valid_message_only() -> None:
     assert check.check(T0, ['a', 'b'], [1, 2], [4, 5], [7, 8]) is SkipReason.JOINT_COUNT
     assert isinstance(check.check(T0, ['c', 'a', 'b'], [1, 2, 3], [4, 5, 6], [7, 8, 9]), Sample)
     assert check.joint_map.names == ('c', 'a', 'b')
-    sample = check.check(T0 + MS, ['a', 'b', 'c'], [2, 3, 1], [5, 6, 4], [8, 9, 7])
+    sample = check.check(T0 + MS, ['a', 'b', 'c'], [2, 3, 1], [5, 6, 4], [8, 9, 7.5])
     assert isinstance(sample, Sample) and sample.position.tolist() == [1.0, 2.0, 3.0]
 
 
@@ -194,3 +197,20 @@ def test_values_beyond_the_limits_are_refused_and_change_nothing() -> None:
     check = SampleCheck(JointMap(('a', 'b'), n_joints=2), need_effort=False, bounds=bounds)
     assert check.check(3, ('b', 'a'), [0.25, 1.9], [1.4, -2.9], []).effort is None
     assert check.check(4, ('b', 'a'), [1.9, 0.25], [0, 0], []) is SkipReason.OUT_OF_LIMITS
+
+
+def test_a_state_sent_again_under_a_new_stamp_is_repeated() -> None:
+    check = make_check()
+    first = good(check, T0)
+    again = (NAMES, first.position, first.velocity, first.effort)
+    assert check.check(T0 + MS, *again) is SkipReason.REPEATED
+    assert check.last_stamp_ns == T0  # refused: nothing changed
+    reordered = (['joint3', 'joint1', 'joint2'], [3.0, 1.0, 2.0], [6.0, 4.0, 5.0],
+                 [9.0, 7.0, 8.0])
+    assert check.check(T0 + 2 * MS, *reordered) is SkipReason.REPEATED  # compared by name
+    assert not good(check, T0 + 3 * MS).gap  # a new state is accepted
+    # without effort (a robot without effort sensors, at rest): never refused as repeated
+    loose = make_check(need_effort=False)
+    for k in range(3):
+        assert isinstance(loose.check(T0 + k * MS, NAMES, [1.0, 2.0, 3.0], [0.0, 0.0, 0.0]),
+                          Sample)

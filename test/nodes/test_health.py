@@ -6,7 +6,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from scara_ident_ros.nodes.health import (Deltas, Level, LossCounter,
+from scara_ident_ros.nodes.health import (LOSS_HORIZON, Deltas, Level, LossCounter,
                                                    identifier_health, recorder_health,
                                                    simulator_health)
 from scara_ident_ros.sim.jitter import StampJitter
@@ -136,10 +136,14 @@ def test_loss_counter_counts_missing_samples_from_stamp_gaps() -> None:
     for stamp in stamps:
         counter.observe(stamp * MS)
     assert counter.period_ns == MS
-    assert counter.lost == 4
-    for stamp in range(13, 13 + 128):  # a slower stream: its period replaces the old one
+    assert counter.lost == 0 and counter.pending == 4  # counted when the stream is not late
+    for stamp in range(13, 13 + LOSS_HORIZON):
+        counter.observe(stamp * MS)
+    assert counter.lost == 4 and counter.pending == 0
+    for stamp in range(57, 57 + 128):  # a slower stream: its period replaces the old one
         counter.observe(stamp * 2 * MS)
     assert counter.period_ns == 2 * MS
+    counter.settle()
     lost = counter.lost
     for stamp in range(141, 141 + 50):
         counter.observe(stamp * 2 * MS)
@@ -168,7 +172,30 @@ def test_loss_counter_counts_no_loss_in_a_jittered_stream_and_finds_real_ones() 
         for k, stamp in enumerate(stamps):
             if k % 1000 != 500:  # 30 single samples missing
                 dropped.observe(int(stamp))
+        dropped.settle()
         assert dropped.lost in found  # never more than were lost
+
+
+def test_late_samples_of_uneven_stamps_are_not_lost_but_missing_ones_are() -> None:
+    """A nominal 1 kHz whose stamps step 0.7 to 8.8 ms (a real arm's): a long step
+    followed by short ones that catch up is lateness; 5 samples left out are lost."""
+    rng = np.random.default_rng(0)
+    stamps, t = [], 0.0
+    for k in range(20_000):
+        late = k % 500 == 250
+        t += 8.8 if late else (0.7 if 0 < k % 500 - 250 <= 26 else rng.uniform(0.95, 1.05))
+        stamps.append(round(t * MS))
+    counter = LossCounter(span_s=0.02, pause_periods=5)
+    for stamp in stamps:
+        counter.observe(stamp)
+    counter.settle()
+    assert counter.lost == 0 and counter.pauses == 0
+    dropped = LossCounter(span_s=0.02, pause_periods=5)
+    for k, stamp in enumerate(stamps):
+        if not 10_100 <= k < 10_105:
+            dropped.observe(stamp)
+    dropped.settle()
+    assert dropped.lost == 5
 
 
 @pytest.mark.parametrize('changes', [{'update_overdue_s': 9.0},

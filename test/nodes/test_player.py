@@ -276,3 +276,35 @@ def test_scara_ident_play_errors(tmp_path: Path, domain: int, args: list[str],
     assert len(lines) == 1 and lines[0].startswith('scara-ident play: error:'), err
     assert expected in lines[0]
 
+
+
+def test_plays_a_csv_export_as_joint_states_at_its_own_timing(tmp_path: Path,
+                                                              listener: Any) -> None:
+    """A /joint_states CSV export (three files, uneven stamps 7.7-12.3 ms, as TIAGo's):
+    one JointState per row, stamped as the row, spaced as the stamps."""
+    import numpy as np
+    from sensor_msgs.msg import JointState
+
+    rng = np.random.default_rng(0)
+    t = np.concatenate(([0.0], np.cumsum(rng.uniform(7.7e-3, 12.3e-3, 59))))  # 0.6 s
+    folder = tmp_path / 'export'
+    folder.mkdir()
+    for k, field in enumerate(('position', 'velocity', 'effort')):
+        values = np.column_stack([t, np.sin(t + k), np.cos(t + k)])
+        np.savetxt(folder / f'arm_{field}.csv', values, delimiter=',', comments='',
+                   header=f't,- a_{field},- b_{field}', fmt='%.17g')
+    from rclpy.serialization import deserialize_message
+
+    raw = subscribe_raw(listener, JointState, JOINT_STATES)
+    with play('-p', f'bag:={folder / "arm_effort.csv"}') as player:
+        output = spin_until_exit(listener, player)
+    assert output.returncode == 0, output.stderr
+    assert len(raw) == 60, output.stderr
+    received = [deserialize_message(data, JointState) for _, data in raw]
+    arrivals = [arrived for arrived, _ in raw]
+    stamps = [m.header.stamp.sec * 10**9 + m.header.stamp.nanosec for m in received]
+    assert stamps == np.round(t * 1e9).astype(np.int64).tolist()
+    assert list(received[0].name) == ['a', 'b']
+    np.testing.assert_allclose(received[30].velocity, [np.sin(t[30] + 1), np.cos(t[30] + 1)])
+    span = arrivals[-1] - arrivals[0]
+    assert 0.5 < span < t[-1] + 0.4, span

@@ -3,7 +3,8 @@
 There is no ``launch`` or ``launch_ros`` here (no full ROS 2 install): the file is run
 against stand-ins for their classes, which only keep the arguments they were given,
 and the tests look at the description it builds: the nodes ``scara-ident run`` starts,
-and a handler that ends the launch when the recorder exits.
+a handler that ends the launch when the recorder exits, and handlers that make the
+launch fail (``ros2 launch`` exits 1) when a node exits with an error.
 """
 from __future__ import annotations
 
@@ -84,15 +85,51 @@ def test_it_starts_the_graph_of_scara_ident_run(description: list[StandIn]) -> N
     assert arguments == {'bag', 'sim'}
 
 
+class Exited:
+    """launch's ProcessExited event, as far as the handlers read it."""
+
+    def __init__(self, returncode: int) -> None:
+        self.returncode = returncode
+
+
+def on_exit_of(description: list[StandIn]) -> dict[str, Any]:
+    """The OnProcessExit callback registered for each node, by executable."""
+    handlers = [register.args[0] for register in of_type(description, 'RegisterEventHandler')]
+    on_exit = [handler for handler in handlers if type(handler).__name__ == 'OnProcessExit']
+    return {handler.kwargs['target_action'].kwargs['executable']: handler.kwargs['on_exit']
+            for handler in on_exit}
+
+
 def test_the_launch_ends_when_the_recorder_exits(description: list[StandIn]) -> None:
     recorder = next(node for node in of_type(description, 'Node')
                     if node.kwargs['executable'] == 'recorder')
+    callbacks = on_exit_of(description)
+    actions = callbacks['recorder'](Exited(0), None)
+    assert [type(action).__name__ for action in actions] == ['LogInfo', 'Shutdown']
+    assert 'recorder' in actions[1].kwargs['reason']
     handlers = [register.args[0] for register in of_type(description, 'RegisterEventHandler')]
-    on_exit = [handler for handler in handlers if type(handler).__name__ == 'OnProcessExit']
-    assert len(on_exit) == 1, handlers
-    assert on_exit[0].kwargs['target_action'] is recorder
-    assert [type(action).__name__ for action in on_exit[0].kwargs['on_exit']] == \
-        ['LogInfo', 'Shutdown']
+    assert any(h.kwargs['target_action'] is recorder for h in handlers)
+
+
+@pytest.mark.parametrize('returncode', [1, 2, -9])
+def test_a_node_that_fails_ends_the_launch_with_an_error(
+        description: list[StandIn], returncode: int) -> None:
+    """ros2 launch returns LaunchService.run's code: 1 once an event handler has raised (a
+    Shutdown action alone ends it with 0). A node refusing its parameters exits 2."""
+    callbacks = on_exit_of(description)
+    assert sorted(callbacks) == ['identifier', 'recorder', 'scara_sim']  # every node
+    for callback in callbacks.values():
+        with pytest.raises(RuntimeError, match=rf'exited with code {returncode}:'):
+            callback(Exited(returncode), None)
+    assert callbacks['identifier'](Exited(0), None) is None  # a clean exit: the rest go on
+    assert callbacks['scara_sim'](Exited(0), None) is None
+
+
+def test_the_handlers_are_registered_before_the_nodes_start(
+        description: list[StandIn]) -> None:
+    names = [type(action).__name__ for action in description]
+    assert max(i for i, n in enumerate(names) if n == 'RegisterEventHandler') < \
+        min(i for i, n in enumerate(names) if n == 'Node')
 
 
 def test_every_node_gets_the_grace_its_stop_needs(description: list[StandIn]) -> None:

@@ -1,0 +1,62 @@
+"""What the commands that read a recording say about it: its help text and its summary line.
+
+``train``, ``evaluate``, ``tables`` and ``play`` take any recording
+:func:`~scara_ident_ros.bag.recording_file.read_recording` reads.
+"""
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+__all__ = ['RECORDING_HELP', 'recording_note', 'urdf_joints_not_recorded']
+
+RECORDING_HELP = ('the recording: a rosbag2 bag (directory, .mcap or .db3), a ROS 1 .bag, an '
+                  '.npz table (q, qd, qdd, tau, t, names; or X_<split>/Y_<split> named '
+                  'FILE.npz:SPLIT), a CSV table with named columns, or a /joint_states CSV '
+                  'export (its folder or one of its files)')
+
+
+def recording_note(recording: Any) -> str:
+    """The recording's rate, gaps and what the reader made up, for the summary line, e.g.
+    ``'; 5000 Hz (median step); q\\' derived from q for joint_1, joint_2'``.
+
+    ``recording`` is an :class:`~scara_ident_ros.identification.recording.Recording`.
+    """
+    series = recording.series
+    notes = []
+    steps = np.diff(np.sort(np.asarray(series.stamp_ns)))
+    steps = steps[steps > 0]
+    if getattr(series, 'timed', True) and steps.size:
+        median = float(np.median(steps))
+        notes.append(f'{1e9 / median:.4g} Hz (median step; steps {steps.min() * 1e-6:.3g}-'
+                     f'{steps.max() * 1e-6:.3g} ms)')
+    gaps = getattr(recording.samples, 'gaps', 0)
+    if gaps:
+        notes.append(f'{gaps} gap{"s" if gaps > 1 else ""} (q\'\' restarted)')
+    if not getattr(series, 'timed', True):
+        notes.append('rows without time, in order')
+    derived = getattr(series, 'velocity_derived', ())
+    if derived:
+        notes.append(f"q' derived from q for {', '.join(derived)}")
+    if getattr(series, 'acceleration', None) is not None:
+        notes.append("q'' as given")
+    return ''.join(f'; {note}' for note in notes)
+
+
+def urdf_joints_not_recorded(urdf: Path, names: Sequence[str]) -> list[str]:
+    """The moving joints (revolute, continuous, prismatic) of ``urdf`` that are not among the
+    recording's ``names``: a physical model holds them fixed at 0 (e.g. a gripper's). An
+    unreadable URDF gives [] here (its reader says what is wrong)."""
+    import xml.etree.ElementTree as ElementTree
+
+    try:
+        root = ElementTree.parse(urdf).getroot()
+    except (OSError, ElementTree.ParseError):
+        return []
+    moving = [joint.get('name', '') for joint in root.iter('joint')
+              if joint.get('type') in ('revolute', 'continuous', 'prismatic')
+              and joint.find('mimic') is None]
+    return [name for name in moving if name not in names]
