@@ -221,7 +221,7 @@ class ContactDetector:
 
     def __init__(self, n_joints: int, *, sigma: float = 5.0, arm_nmse: float = 0.01,
                  min_samples: int = 1, false_alarms_per_hour: float = 1.0,
-                 envelope_margin: float = 0.1, envelope_acceleration: bool = False) -> None:
+                 envelope_margin: float = 0.25, envelope_acceleration: bool = False) -> None:
         if n_joints < 1:
             raise ValueError(f'n_joints must be at least 1, got {n_joints}')
         if not (math.isfinite(sigma) and sigma > 0):

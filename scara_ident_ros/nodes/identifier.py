@@ -224,7 +224,7 @@ PARAMETERS = (
     ParamSpec('contact_arm_nmse', 0.01, 'Contact detection is armed only while the '
               'validation NMSE (mean over the joints) is below this', min=1e-12, max=10.0,
               read_only=False),
-    ParamSpec('contact_envelope_margin', 0.1, 'Samples whose q or q\' (and q\'\' with '
+    ParamSpec('contact_envelope_margin', 0.25, 'Samples whose q or q\' (and q\'\' with '
               'contact_envelope_acceleration) leave the range of the held-out segments the '
               'thresholds come from, widened by this fraction of it, are not checked for '
               'contact (diagnostics count them)', min=0.0, max=10.0, read_only=False),
