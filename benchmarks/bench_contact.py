@@ -1,23 +1,28 @@
-"""Contact detection from the identified model against a fixed raw-effort threshold.
+"""Contact detection on unseen motion: false alarms, pulses detected, the decision's delay.
 
-An FFS network learns ``--seconds`` of ``scara_sim``'s default stream (``sequence``, 1 kHz,
-sensor noise: position 1e-4, velocity 1e-3, effort 0.5 % of its limit) online as the
-identifier does, then is frozen; the contact detector takes its thresholds from the held-out
-residuals. On motion never learnt: ``--clean-seconds`` without contact (false alarms) and
-``--pulse-seconds`` with external effort pulses (``--amplitude`` of a random joint's effort
-limit for ``--pulse-ms``, about every 1.5 s) injected into the simulated dynamics (detection
-rate, delay). The raw-effort baseline is set to the detector's false-alarm count on the clean
-run (:mod:`scara_ident_ros.paper.contact`). One row per ``--sigmas`` value.
-
-    .venv/bin/python benchmarks/bench_contact.py [--seconds 120] [--clean-seconds 600]
-        [--pulse-seconds 300] [--sigmas 6 8 10] [--min-samples 1]
-
-CI-sized: ``--seconds 20 --clean-seconds 10 --pulse-seconds 10``.
+An FFS network learns ``--seconds`` of a stream online as the identifier does (synchronous
+``lm``, 10 % held-out blocks), then is frozen; the contact detector is calibrated as the node
+calibrates it (:class:`~scara_ident_ros.identification.contact_detector.ContactDetector` on
+the held-out segments: thresholds from the tail of the residuals for
+``contact_false_alarms_per_hour``, the arming rule, the q, q' envelope). On motion never
+learnt: ``--clean-seconds`` without contact (false alarms: rising edges of "some joint
+flagged") and ``--pulse-seconds`` with external effort pulses (``--amplitude`` of the effort
+limit of each joint in turn, random sign, ``--pulse-ms`` long, about every 1.5 s) applied to
+the simulated dynamics (detected per joint; the decision's delay from the pulse's start: the
+first flagged sample's stamp plus the q'' estimate's lag, the machine's own delay apart: the
+node reports it, ``bench_graph.py``). One row per ``--bounds`` value, one with the envelope
+bounding q'' too, and the detector before (12 robust sigmas of the held-out residuals).
 
 ``--stream loop`` (default): the issue's loop, ``excitation`` -> ``scara_sim
 trajectory:=external`` (:func:`~scara_ident_ros.paper.contact.loop_record`), without sensor
-noise as scara_sim by default; the detector calibrated as the node does (held-out segments,
-``contact_false_alarms_per_hour``, envelope), beside the detector before (12 robust sigmas).
+noise as ``scara_sim`` by default (``--noise``: the noisy learning curves' sensor noise);
+``--stream sequence``: ``scara_sim``'s own ``sequence``.
+
+    .venv/bin/python benchmarks/bench_contact.py [--seconds 120] [--clean-seconds 600]
+        [--pulse-seconds 300] [--bounds 1] [--seed 0] [--stream loop|sequence] [--noise]
+
+CI-sized: ``--seconds 20 --clean-seconds 5 --pulse-seconds 5`` (too few held-out blocks to
+arm: the row says so).
 """
 from __future__ import annotations
 
