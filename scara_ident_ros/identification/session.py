@@ -140,15 +140,23 @@ class MethodRun:
         if self.detector is not None:
             self.detector = ContactDetector(self.detector.n_joints, **self.contact_settings)
 
-    def validation(self, *, fresh: bool = False) -> ErrorStats | None:
+    @property
+    def validation_stale(self) -> bool:
+        """Whether :meth:`validation` would score the held-out samples now."""
+        return self.core is not None and (
+            self._validation is None
+            or time.monotonic() - self._validated_at >= VALIDATION_PERIOD)
+
+    def validation(self, *, fresh: bool = False, refresh: bool = True) -> ErrorStats | None:
         """The held-out score, recomputed at most every :data:`VALIDATION_PERIOD` s once
         there is one (scoring the whole held-out set at the error topic's rate would load
-        the message path); until then, while there are few held-out samples, each time.
-        It changes nothing else (the contact thresholds: :meth:`calibrate_contacts`)."""
-        now = time.monotonic()
-        stale = self._validation is None or now - self._validated_at >= VALIDATION_PERIOD
-        if self.core is not None and (fresh or stale):
-            self._validation, self._validated_at = self.core.validation_stats(), now
+        the message path); until then, while there are few held-out samples, each time;
+        ``refresh`` False: the score as it is (a caller spreading the methods' scoring over
+        its calls). It changes nothing else (the contact thresholds:
+        :meth:`calibrate_contacts`)."""
+        if self.core is not None and (fresh or (refresh and self.validation_stale)):
+            self._validation = self.core.validation_stats()
+            self._validated_at = time.monotonic()
         return self._validation
 
     def calibrate_contacts(self, sample_period_s: float, *, budget: int | None = None

@@ -326,16 +326,19 @@ class Outputs:
             self.contact_publisher.publish(joint_state(stamp_ns, names, effort=torque[over],
                                                        frame_id=template.frame_id))
 
-    def publish_mse(self) -> None:
-        """Publish the windowed per-joint and overall MSE and NMSE."""
+    def publish_mse(self, *, refresh: bool = True) -> bool:
+        """Publish the windowed per-joint and overall MSE and NMSE; ``refresh`` False: with
+        the validation score as it is. Return whether the held-out samples were scored."""
         core = self.run.core
         if core is None or core.errors.count == 0:
-            return
+            return False
+        scored = refresh and self.run.validation_stale
         dims, data = encode_mse(self.run.lazy.names, core.error_stats(),
-                                self.run.validation())
+                                self.run.validation(refresh=refresh))
         msg = Float64MultiArray(data=data)
         msg.layout.dim = [MultiArrayDimension(**dim._asdict()) for dim in dims]
         self.mse_publisher.publish(msg)
+        return scored
 
 
 class IdentifierNode(Node):
@@ -542,9 +545,12 @@ class IdentifierNode(Node):
             out.publish_armed()
 
     def publish_mse(self) -> None:
-        """Publish each method's windowed per-joint and overall MSE and NMSE."""
+        """Publish each method's windowed per-joint and overall MSE and NMSE; at most one
+        method's held-out samples are scored per call (the others' on the next calls), so
+        that the message path does not wait for all of them at once."""
+        scored = False
         for out in self.outputs:
-            out.publish_mse()
+            scored |= out.publish_mse(refresh=not scored)
 
     def handled(self) -> int:
         """Samples taken from ``joint_states`` so far (a stop drains until it stays put)."""
