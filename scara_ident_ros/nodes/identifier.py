@@ -232,7 +232,7 @@ PARAMETERS = (
               "envelope; false: q and q' only (a contact is itself an acceleration the free "
               'motion does not have: bounding q\'\' holds the samples a collision makes)',
               read_only=False),
-    ParamSpec('contact_calibration_period', 5.0, 'Seconds between the starts of two '
+    ParamSpec('contact_calibration_period', 10.0, 'Seconds between the starts of two '
               'calibrations of the contact thresholds on the held-out segments (each predicts '
               'them all, in steps of 2000 samples every 50 ms)', 's', min=0.1, max=3600.0,
               read_only=False),
