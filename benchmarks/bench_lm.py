@@ -69,7 +69,7 @@ class ScipyRun:
 
     def jacobian(self, theta: np.ndarray) -> np.ndarray:
         self.njev += 1
-        self.net.set_params(theta)
+        self.net.set_theta(theta)
         return jacobian(self.net, self.x)  # the same analytic Jacobian LM uses, dense
 
     def run(self, theta0: np.ndarray) -> None:
@@ -108,7 +108,7 @@ def main() -> None:
             net = FeedForwardNet(12, 40, 4, activation, seed=0)
             fit(net, x, y, iterations=0)  # the same scaling ours used, weights untouched
             scipy_run = ScipyRun(net, x, y, target, args.limit)
-            scipy_run.run(net.get_params())
+            scipy_run.run(net.get_theta())
             rows.append((activation, history, statistics.median(times), min(times),
                          max(times), scipy_run))
         load_after = os.getloadavg()[0]

@@ -58,7 +58,7 @@ def ours(activation: str, x: np.ndarray, y: np.ndarray) -> tuple[Step, Callable[
                          momentum=MOMENTUM)
     net.set_scaling(x.min(axis=0), x.max(axis=0), y.min(axis=0), y.max(axis=0))
     partial_fit = net.partial_fit
-    return (lambda i: partial_fit(x[i], y[i])), net.get_params
+    return (lambda i: partial_fit(x[i], y[i])), net.get_theta
 
 
 def torch_sgd(activation: str, xs: np.ndarray, ys: np.ndarray,
@@ -66,7 +66,7 @@ def torch_sgd(activation: str, xs: np.ndarray, ys: np.ndarray,
     import torch
 
     k, a, b = reference.constants
-    Vt, Wt = reference.unpack(reference.get_params())
+    Vt, Wt = reference.unpack(reference.get_theta())
     shifts = (0.0,) if activation == 'sigmoid' else (2.0, 3.0, -3.0, -1.0)
     signs = (1.0,) if activation == 'sigmoid' else (1.0, -1.0, -1.0, 1.0)
 
@@ -114,7 +114,7 @@ def sklearn_sgd(xs: np.ndarray, ys: np.ndarray,
     with warnings.catch_warnings():
         warnings.simplefilter('ignore')
         model.partial_fit(xs[:1], ys[:1])  # allocates; then start from our weights
-    Vt, Wt = reference.unpack(reference.get_params())
+    Vt, Wt = reference.unpack(reference.get_theta())
     model.coefs_[0][...] = Vt[:12]
     model.intercepts_[0][...] = Vt[12]
     model.coefs_[1][...] = Wt[:, :40].T

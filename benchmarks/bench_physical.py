@@ -156,7 +156,7 @@ def run_robot(robot: str, urdf: Path, train_all: Dataset, held_out: Dataset,
     for coulomb, eps in COULOMB_VARIANTS:
         started = time.perf_counter()
         model = PhysicalModel.from_urdf_file(urdf, coulomb=coulomb, coulomb_eps=eps)
-        model.fit_inputs(train.X, train.Y)
+        model.fit(train.X, train.Y)
         label = 'physical[sign]' if coulomb == 'sign' else f'physical[tanh {eps:g}]'
         rows.append(row(robot, label, nmse(model.predict, held_out),
                         time.perf_counter() - started))

@@ -1,0 +1,44 @@
+"""Online identification of robot inverse dynamics (ROS 2): the models a user fits on arrays.
+
+Every effort model keeps one estimator contract (:mod:`scara_ident_ros.estimator`)::
+
+    from scara_ident_ros import FeedForwardNet, load_model
+
+    model = FeedForwardNet(21, 40, 7, 'sigmoid')   # X (N, 3n) = [q, q', q''], Y (N, n)
+    model.fit(X, Y)
+    model.score(X_test, Y_test)                    # R²
+    model.save('wam.npz')
+    same = load_model('wam.npz')                   # the kind is read from the file
+
+The model classes are imported on first use (the physical models bring Pinocchio).
+"""
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+from scara_ident_ros.estimator import (Estimator, OnlineEstimator, load_model, r2_score,
+                                       register_kind)
+
+if TYPE_CHECKING:
+    from scara_ident_ros.dynamics.hybrid_model import HybridModel
+    from scara_ident_ros.dynamics.physical_model import PhysicalModel
+    from scara_ident_ros.nn.network import FeedForwardNet
+    from scara_ident_ros.nn.presets import make_network
+
+__all__ = ['Estimator', 'FeedForwardNet', 'HybridModel', 'OnlineEstimator', 'PhysicalModel',
+           'load_model', 'make_network', 'r2_score', 'register_kind']
+
+_LAZY = {'FeedForwardNet': 'scara_ident_ros.nn.network',
+         'make_network': 'scara_ident_ros.nn.presets',
+         'PhysicalModel': 'scara_ident_ros.dynamics.physical_model',
+         'HybridModel': 'scara_ident_ros.dynamics.hybrid_model'}
+
+
+def __getattr__(name: str) -> Any:
+    """The model classes, imported when first asked for."""
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f'module {__name__!r} has no attribute {name!r}')
+    import importlib
+
+    return getattr(importlib.import_module(module), name)

@@ -41,6 +41,24 @@ class Estimator(Protocol):
 
     #: The model file's kind, read back by :func:`load_model`.
     kind: str
+    #: Saved with the model (numbers, booleans, strings): ``joint_names``, ``method``, ...
+    metadata: dict[str, np.ndarray]
+
+    @property
+    def n_inputs(self) -> int:
+        """3n: the columns of X."""
+
+    @property
+    def n_outputs(self) -> int:
+        """n: the columns of Y."""
+
+    @property
+    def joint_names(self) -> tuple[str, ...] | None:
+        """The joints of Y's columns, in order, or None if not recorded."""
+
+    @property
+    def method(self) -> str:
+        """The method key the model was made by (``'ffs'``, ``'physical'``, ...)."""
 
     def fit(self, X: npt.ArrayLike, Y: npt.ArrayLike) -> Any:
         """Learn from samples X (N, 3n) and efforts Y (N, n); returns the model."""
@@ -135,4 +153,7 @@ def _import_models() -> None:
 
 
 #: Modules that call :func:`register_kind` when imported.
-_MODEL_MODULES: list[str] = []
+_MODEL_MODULES: list[str] = ['scara_ident_ros.nn.network',
+                             'scara_ident_ros.dynamics.physical_model',
+                             'scara_ident_ros.dynamics.hybrid_model',
+                             'scara_ident_ros.learners.sparse_spectrum_gp']

@@ -1,4 +1,5 @@
-"""``scara-ident compare``: the paper's comparison of FFMW, FFW and FFS on simulated data.
+"""``scara-ident compare``: the paper's comparison of FFMW, FFW and FFS on simulated data,
+or on a recording (``--recording``) with held-out validation blocks.
 
 Argument parsing only; the comparison is :mod:`scara_ident_ros.paper.comparison`.
 """
@@ -12,6 +13,8 @@ from pathlib import Path
 from typing import Any
 
 from scara_ident_ros.cli import CliError
+from scara_ident_ros.cli.validation_options import (add_validation_options,
+                                                    check_validation_options)
 from scara_ident_ros.paper.table2 import DEFAULT_GOAL
 from scara_ident_ros.paper.table3 import DEFAULT_WINDOW
 from scara_ident_ros.paper.tables import PAPER_ITERATIONS
@@ -55,7 +58,8 @@ DEFAULT_WALL_TIME = ('a few minutes without the learning curves (--curve-seconds
 def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Register ``scara-ident compare``."""
     parser = subparsers.add_parser(
-        'compare', help="reproduce the paper's Tables 2 and 3 on simulated data",
+        'compare', help="reproduce the paper's Tables 2 and 3 on simulated data or a "
+                        'recording',
         description=comparison.__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     for key, default in DEFAULTS.items():  # the type of each option is its default's
         parser.add_argument(f'--{key.replace("_", "-")}', type=type(default), default=None,
@@ -77,6 +81,19 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
                         help='excitation seed of the held-out run (default 1)')
     parser.add_argument('--no-search', dest='search', action='store_false',
                         help='skip the grid search; use the METHODS defaults')
+    parser.add_argument('--recording', metavar='FILE', default=None,
+                        help='compare on this recording instead of simulated data: anything '
+                             'train reads (rosbag2 or ROS 1 bag, CSV export, .npz/CSV table, '
+                             'FILE.npz:SPLIT); held-out: its validation blocks; '
+                             '--train-seconds and --online-seconds default to the whole '
+                             'training part')
+    parser.add_argument('--topic', default=None,
+                        help='JointState topic of a bag (default: the only one, or '
+                             '/joint_states); with --recording')
+    parser.add_argument('--joints', nargs='+', default=None, metavar='NAME',
+                        help='joints to compare on, in this order (default all); with '
+                             '--recording')
+    add_validation_options(parser)
     parser.add_argument('--quick', action='store_true',
                         help='tiny sizes for tests: ' + ', '.join(
                             f'{k.replace("_", "-")} {v:g}' for k, v in QUICK.items()))
@@ -86,10 +103,19 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
 
 
 def _settings(args: argparse.Namespace) -> CompareSettings:
-    base = QUICK if args.quick else DEFAULTS
+    base = dict(QUICK if args.quick else DEFAULTS)
+    recording = args.recording is not None
+    if recording:  # the whole training part unless limited
+        base.update(train_seconds=math.inf, online_seconds=math.inf)
+        check_validation_options(args)
+        if args.validation_fraction == 0.0:
+            raise CliError('--validation-fraction must be > 0 with --recording: the held-out '
+                           'part is the validation blocks')
+    elif args.topic is not None or args.joints is not None:
+        raise CliError('--topic and --joints need --recording')
     s = {k: (getattr(args, k) if getattr(args, k) is not None else v) for k, v in base.items()}
     for key in ('train_seconds', 'test_seconds', 'online_seconds', 'search_seconds'):
-        if not (math.isfinite(s[key]) and s[key] > 0.0):
+        if not (s[key] > 0.0 and (math.isfinite(s[key]) or recording)):
             raise CliError(f'--{key.replace("_", "-")} must be > 0, got {s[key]}')
     if not (math.isfinite(s['curve_seconds']) and s['curve_seconds'] >= 0.0):
         raise CliError(f'--curve-seconds must be >= 0, got {s["curve_seconds"]}')
@@ -101,13 +127,17 @@ def _settings(args: argparse.Namespace) -> CompareSettings:
                        'the start of the stream)')
     if not args.goal >= 0.0:
         raise CliError(f'--goal must be >= 0, got {args.goal}')
-    if args.train_seed == args.test_seed:
+    if args.train_seed == args.test_seed and not recording:
         raise CliError('--train-seed and --test-seed must differ (held-out data must be '
                        'another excitation)')
     return CompareSettings(**s, goal=args.goal, acceleration=args.acceleration,
                            methods=tuple(args.methods), preset=args.preset,
                            train_seed=args.train_seed, test_seed=args.test_seed,
-                           search=args.search, quick=args.quick, out=args.out)
+                           search=args.search, quick=args.quick, out=args.out,
+                           recording=args.recording, topic=args.topic,
+                           joints=tuple(args.joints) if args.joints else None,
+                           validation_fraction=args.validation_fraction,
+                           validation_block=args.validation_block)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -1,49 +1,40 @@
 """A saved model checked against a recording, evaluated, and its errors as a table.
 
-A model file holds a network, a physical model or a hybrid (its ``kind``,
-:mod:`scara_ident_ros.nn.model_file`); all three predict efforts from X = [q, q', q''].
+A model file holds a network, a physical model, a hybrid or another model of the estimator
+contract (its ``kind``, :mod:`scara_ident_ros.estimator`); all predict efforts from
+X = [q, q', q''].
 """
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Union
 
 import numpy as np
 import numpy.typing as npt
 
-from scara_ident_ros.identification.metrics import effort_errors
-from scara_ident_ros.paper.tables import format_value
-from scara_ident_ros.identification import ErrorStats
-from scara_ident_ros.dynamics.hybrid_model import KIND as HYBRID
-from scara_ident_ros.dynamics.hybrid_model import HybridModel
-from scara_ident_ros.dynamics.physical_model import KIND as PHYSICAL
-from scara_ident_ros.dynamics.physical_model import PhysicalModel
 from scara_ident_ros.dynamics.urdf_limits import UrdfError
+from scara_ident_ros.estimator import Estimator
+from scara_ident_ros.estimator import load_model as load_estimator
+from scara_ident_ros.identification import ErrorStats
+from scara_ident_ros.identification.metrics import effort_errors
 from scara_ident_ros.identification.warm_start import ModelMismatch, check_warm_start
-from scara_ident_ros.identification.warm_start import model_joint_names as network_joint_names
-from scara_ident_ros.nn.presets import METHODS
-from scara_ident_ros.nn import FeedForwardNet, ModelFormatError
-from scara_ident_ros.nn.model_file import read_model_file
+from scara_ident_ros.nn import ModelFormatError
 from scara_ident_ros.paper.figures import effort_unit
+from scara_ident_ros.paper.tables import format_value
 
-__all__ = ['ModelMismatch', 'SavedModel', 'errors_markdown', 'evaluate', 'load_model',
-           'model_joint_names', 'model_method']
-
-#: What a model file holds.
-SavedModel = Union[FeedForwardNet, PhysicalModel, HybridModel]
+__all__ = ['ModelMismatch', 'errors_markdown', 'evaluate', 'load_model']
 
 
-def load_model(path: Path) -> SavedModel:
-    """Read a model file of any kind (network, physical, hybrid) that maps [q, q', q''] to
-    efforts.
+def load_model(path: Path) -> Estimator:
+    """Read a model file of any kind (:func:`scara_ident_ros.estimator.load_model`) that
+    maps [q, q', q''] to efforts.
 
     Raises
     ------
     ModelMismatch
         If the file is missing, the path is a directory, the file is not a model of
-        ours (not a .npz archive, another format, corrupt), a network's sizes are not 3n
-        inputs for n outputs, or it records another number of joints
+        ours (not a .npz archive, another format, corrupt), its sizes are not 3n inputs
+        for n outputs, or it records another number of joints
         (:func:`~scara_ident_ros.identification.warm_start.check_warm_start`).
     """
     path = Path(path)
@@ -54,47 +45,17 @@ def load_model(path: Path) -> SavedModel:
     if not path.is_file():
         raise ModelMismatch(f'{path}: not a regular file, not a model file')
     try:
-        kind = read_model_file(path).kind
-        model: SavedModel
-        if kind == PHYSICAL:
-            model = PhysicalModel.load(path)
-        elif kind == HYBRID:
-            model = HybridModel.load(path)
-        else:
-            model = FeedForwardNet.load(path)
+        model = load_estimator(path)
     except (ModelFormatError, UrdfError) as exc:
         raise ModelMismatch(' '.join(str(exc).split())) from None
     except (OSError, ValueError, KeyError, EOFError) as exc:
         raise ModelMismatch(f'{path}: not a scara-ident model file '
                             f'({type(exc).__name__}: {" ".join(str(exc).split())})') from None
-    if isinstance(model, FeedForwardNet):
-        check_warm_start(model, source=str(path))
+    check_warm_start(model, source=str(path))
     return model
 
 
-def model_joint_names(model: SavedModel) -> tuple[str, ...] | None:
-    """The joints the model was trained for, in output order, or None if not recorded."""
-    if isinstance(model, FeedForwardNet):
-        return network_joint_names(model)
-    return model.joint_names
-
-
-def model_method(model: SavedModel) -> str:
-    """The method key: ``metadata['method']`` if recorded, else from the activation (or
-    the kind)."""
-    method = model.metadata.get('method')
-    if not isinstance(model, FeedForwardNet):
-        return str(method) if method is not None else (
-            PHYSICAL if isinstance(model, PhysicalModel) else HYBRID)
-    if method is not None and str(method) in METHODS:
-        return str(method)
-    for key, spec in METHODS.items():
-        if spec.activation == model.activation:
-            return key
-    return model.activation
-
-
-def evaluate(model: SavedModel, X: npt.ArrayLike, Y: npt.ArrayLike) -> ErrorStats:
+def evaluate(model: Estimator, X: npt.ArrayLike, Y: npt.ArrayLike) -> ErrorStats:
     """Per-joint MSE and NMSE of the model's predictions of Y (N, n) from X (N, 3n)."""
     return effort_errors(Y, model.predict(np.asarray(X, dtype=np.float64)))
 

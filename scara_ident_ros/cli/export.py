@@ -45,7 +45,7 @@ def run(args: argparse.Namespace) -> int:
     from scara_ident_ros.nn import FeedForwardNet
     from scara_ident_ros.nn.onnx_export import (INPUT_NAME, OUTPUT_NAME, network_to_onnx,
                                                 onnx_agreement, save_onnx)
-    from scara_ident_ros.cli.evaluation import load_model, model_joint_names, model_method
+    from scara_ident_ros.cli.evaluation import load_model
 
     out: Path = args.out if args.out is not None else args.model.with_suffix('.onnx')
     network = load_model(args.model)
@@ -57,8 +57,8 @@ def run(args: argparse.Namespace) -> int:
     problem = unwritable_file(out)
     if problem:
         raise CliError(f'--out {out} {problem}')
-    method = model_method(network)
-    names = model_joint_names(network)
+    method = network.method
+    names = network.joint_names
     try:
         model = network_to_onnx(network, method=method, joint_names=names)
     except ValueError as exc:

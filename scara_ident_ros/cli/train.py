@@ -58,24 +58,25 @@ from scara_ident_ros.dynamics.physical_model import COULOMB_EPS, COULOMB_MODES
 from scara_ident_ros.identification import DIFFERENTIATOR_WINDOW
 from scara_ident_ros.identification.split import VALIDATION_BLOCK_S
 from scara_ident_ros.nn.presets import METHODS, make_network
-from scara_ident_ros.nn import ALGORITHMS, fit
+from scara_ident_ros.nn import ALGORITHMS
+from scara_ident_ros.nn.fitting import ITERATIONS, MAX_FAIL, MIN_ITERATIONS, SAMPLES
 from scara_ident_ros.paths import unwritable_file
 
 if TYPE_CHECKING:
     from scara_ident_ros.identification.dataset import Dataset
     from scara_ident_ros.nn import FitHistory
 
-__all__ = ['FRICTION_STEPS', 'HYBRID_NETWORK', 'ITERATIONS', 'MAX_FAIL', 'MIN_ITERATIONS',
-           'PHYSICAL_METHODS', 'SAMPLES', 'VALIDATION_BLOCK_S', 'add_parser', 'run']
+__all__ = ['FRICTION_STEPS', 'HYBRID_NETWORK', 'ITERATIONS', 'KERNEL_METHOD', 'MAX_FAIL',
+           'MIN_ITERATIONS', 'PHYSICAL_METHODS', 'SAMPLES', 'VALIDATION_BLOCK_S', 'add_parser',
+           'run']
 
-#: Defaults of the options, chosen with benchmarks/bench_train_defaults.py (module docstring).
-ITERATIONS = 500           # Levenberg–Marquardt iterations at most
-SAMPLES = 8000             # training samples drawn from the training blocks
-MAX_FAIL = 50              # validation failures in a row that stop training
-MIN_ITERATIONS = 50        # iterations before validation failures count
+#: Defaults of the options (ITERATIONS, SAMPLES, MAX_FAIL, MIN_ITERATIONS: those of the
+#: models' offline training, nn.fitting), chosen with benchmarks/bench_train_defaults.py.
 FRICTION_STEPS = True      # the network starts with friction steps, as the identifier's
 #: Models built from a URDF rather than a network alone.
 PHYSICAL_METHODS = ('physical', 'hybrid')
+#: The sparse-spectrum GP (``learners.sparse_spectrum_gp``): no URDF, no iterations.
+KERNEL_METHOD = 'kernel'
 HYBRID_NETWORK = 'ffs'     # the hybrid's residual network
 
 
@@ -86,10 +87,12 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument('bag', type=Path, metavar='RECORDING',
                         help=RECORDING_HELP)
-    parser.add_argument('--method', required=True, choices=[*METHODS, *PHYSICAL_METHODS],
+    parser.add_argument('--method', required=True,
+                        choices=[*METHODS, *PHYSICAL_METHODS, KERNEL_METHOD],
                         help='network: ffmw (MSLOG), ffw (SLOG) or ffs (sigmoid); physical: '
                              'least squares on the URDF\'s base parameters and friction; '
-                             'hybrid: physical plus an FFS network on its residual')
+                             'hybrid: physical plus an FFS network on its residual; '
+                             'kernel: sparse-spectrum GP regression (random features)')
     parser.add_argument('--urdf', type=Path, default=None, metavar='ROBOT.urdf',
                         help='the robot\'s URDF: required by physical and hybrid; gives a '
                              'network its limit scaling')
@@ -174,7 +177,7 @@ def run(args: argparse.Namespace) -> int:
     every_train = train  # least squares takes them all
     if args.samples:
         train = train.subsample(args.samples, seed=args.seed, name='train')
-    if args.method == 'physical':
+    if args.method in ('physical', KERNEL_METHOD):
         train = every_train
     where = ''
     if len(validation):
@@ -206,6 +209,8 @@ def run(args: argparse.Namespace) -> int:
                   f'{", ".join(fixed)}', flush=True)
     if args.method in PHYSICAL_METHODS:
         return _train_physical(args, names, every_train, train, validation, metadata)
+    if args.method == KERNEL_METHOD:
+        return _train_kernel(args, names, train, validation, metadata)
 
     network = make_network(args.method, len(names), seed=args.seed,
                            friction_steps=args.friction_steps)
@@ -214,13 +219,15 @@ def run(args: argparse.Namespace) -> int:
         network.set_scaling(x_min, x_max, y_min, y_max)
     progress = TrainingProgress(args.iterations, label=f'{args.method.upper()} {args.algorithm}')
     started = time.perf_counter()
-    with single_blas_thread():
-        history = fit(
-            network, train.X, train.Y, algorithm=args.algorithm, iterations=args.iterations,
-            goal=args.goal,
-            validation=(validation.X, validation.Y) if len(validation) else None,
-            max_fail=args.max_fail, min_iterations=args.min_iterations, callback=progress)
+    with single_blas_thread():  # the samples and validation blocks are drawn above
+        network.fit(train.X, train.Y, validation_fraction=0.0, samples=0,
+                    algorithm=args.algorithm, iterations=args.iterations, goal=args.goal,
+                    validation=(validation.X, validation.Y) if len(validation) else None,
+                    max_fail=args.max_fail, min_iterations=args.min_iterations,
+                    callback=progress)
     progress.close()
+    history = network.history_
+    assert history is not None
     seconds = time.perf_counter() - started
 
     network.metadata.update(metadata)
@@ -234,6 +241,31 @@ def run(args: argparse.Namespace) -> int:
     print(f'\n{args.method.upper()} trained with {args.algorithm.upper()}: '
           f'{history.iterations} iterations in {seconds:.1f} s (stopped: '
           f'{history.stop_reason}; weights of iteration {history.best_iteration})\n')
+    print(errors_markdown(names, results))
+    print(f'model written to {args.out}')
+    return 0
+
+
+def _train_kernel(args: argparse.Namespace, names: Sequence[str], train: Dataset,
+                  validation: Dataset, metadata: dict[str, np.ndarray]) -> int:
+    """``--method kernel``: the sparse-spectrum GP's batch solution on every training
+    sample (its kernel from an exact GP on 1500 of them); save and print the errors."""
+    from scara_ident_ros.blas_threads import single_blas_thread
+    from scara_ident_ros.cli.evaluation import errors_markdown, evaluate
+    from scara_ident_ros.learners import SparseSpectrumGP
+
+    started = time.perf_counter()
+    model = SparseSpectrumGP(seed=args.seed)
+    with single_blas_thread():
+        model.fit(train.X, train.Y)
+    seconds = time.perf_counter() - started
+    model.metadata.update(metadata)
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    model.save(args.out)
+    results = {'train': evaluate(model, train.X, train.Y)}
+    if len(validation):
+        results['validation'] = evaluate(model, validation.X, validation.Y)
+    print(f'\nKERNEL ({model.n_features} random features) fitted in {seconds:.1f} s\n')
     print(errors_markdown(names, results))
     print(f'model written to {args.out}')
     return 0
@@ -283,7 +315,7 @@ def _train_physical(args: argparse.Namespace, names: Sequence[str], every_train:
     """``--method physical`` or ``hybrid``: fit, save, print errors and parameters."""
     from scara_ident_ros.blas_threads import single_blas_thread
     from scara_ident_ros.dynamics.coulomb_selection import select_coulomb
-    from scara_ident_ros.dynamics.hybrid_model import HybridModel, fit_hybrid
+    from scara_ident_ros.dynamics.hybrid_model import HybridModel
     from scara_ident_ros.dynamics.physical_model import PhysicalModel
     from scara_ident_ros.cli.evaluation import errors_markdown, evaluate
     from scara_ident_ros.cli.physical_parameters import parameters_markdown
@@ -312,7 +344,7 @@ def _train_physical(args: argparse.Namespace, names: Sequence[str], every_train:
         print(f'Coulomb friction shape: tanh {eps:g} (no validation samples to choose by)')
     model: PhysicalModel | HybridModel
     if args.method == 'physical':
-        model = physical if fitted else physical.fit_inputs(every_train.X, every_train.Y)
+        model = physical if fitted else physical.fit(every_train.X, every_train.Y)
         summary = (f'PHYSICAL fitted by least squares on {len(every_train)} samples: '
                    f'{physical.n_base} base parameters and {2 * len(names)} friction '
                    f'coefficients in {time.perf_counter() - started:.1f} s')
@@ -321,14 +353,16 @@ def _train_physical(args: argparse.Namespace, names: Sequence[str], every_train:
                                friction_steps=args.friction_steps)
         x_min, x_max, _, _ = _limit_ranges(args.urdf, names, every_train.X, every_train.Y)
         progress = TrainingProgress(args.iterations, label=f'HYBRID {HYBRID_NETWORK} lm')
-        with single_blas_thread():
-            model, history = fit_hybrid(
-                physical, network, (every_train.X, every_train.Y),
-                validation=(validation.X, validation.Y) if len(validation) else None,
-                x_range=(x_min, x_max), network_samples=args.samples, seed=args.seed,
-                iterations=args.iterations, max_fail=args.max_fail,
-                min_iterations=args.min_iterations, callback=progress)
+        hybrid = HybridModel(physical, network)
+        with single_blas_thread():  # the validation blocks are drawn above
+            hybrid.fit(every_train.X, every_train.Y, validation_fraction=0.0,
+                       validation=(validation.X, validation.Y) if len(validation) else None,
+                       x_range=(x_min, x_max), samples=args.samples,
+                       iterations=args.iterations, max_fail=args.max_fail,
+                       min_iterations=args.min_iterations, callback=progress)
         progress.close()
+        model, history = hybrid, hybrid.history_
+        assert history is not None
         metadata.update(_network_metadata(args, history))
         metadata['network'] = np.array(HYBRID_NETWORK)
         summary = (f'HYBRID: least squares on {len(every_train)} samples, then '

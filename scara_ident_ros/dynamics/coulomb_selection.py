@@ -109,7 +109,7 @@ def select_coulomb(build: Callable[[str, float], PhysicalModel],
     scores = {_label(c, e): float(v) for (c, e), v in zip(candidates, score)}
     best = int(np.argmin(score))
     coulomb, eps = candidates[best]
-    return (models[best].fit_inputs(x, y),  # the same θ, and its residual_rms
+    return (models[best].fit(x, y),  # the same θ, and its residual_rms
             CoulombChoice(coulomb, eps, scores))
 
 

@@ -24,6 +24,9 @@ range of the residuals it was fitted to. A network extrapolates badly outside th
 has seen; bounded, its error on a motion never seen is at most the residual's own range,
 so the hybrid cannot do much worse there than the physical model alone.
 
+The hybrid keeps the estimator contract (:mod:`scara_ident_ros.estimator`): :meth:`HybridModel.fit`
+is :func:`fit_hybrid` with the project's defaults of offline training.
+
 Files: kind ``'hybrid'`` (:mod:`scara_ident_ros.nn.model_file`): the physical model's entries
 prefixed ``physical.``, the network's ``network.``, the bounds (if any) ``residual_low``
 and ``residual_high``.
@@ -32,12 +35,16 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from scara_ident_ros.dynamics.physical_model import PhysicalModel
+from scara_ident_ros.estimator import r2_score, register_kind
 from scara_ident_ros.nn import FeedForwardNet, FitHistory, ModelFormatError, fit
+from scara_ident_ros.nn.fitting import ITERATIONS, MAX_FAIL, MIN_ITERATIONS, SAMPLES
+from scara_ident_ros.nn.validation_blocks import VALIDATION_FRACTION, row_split
 from scara_ident_ros.nn.presets import make_network
 from scara_ident_ros.nn.model_file import NETWORK_PREFIX, read_model_file, write_model
 from scara_ident_ros.nn.training import Callback
@@ -70,7 +77,12 @@ class HybridModel:
     bounds : (low, high) of ndarrays of shape (n,), or None
         The network's correction is clipped to [low, high] per joint (N·m, N); None: not
         bounded.
+    history_ : FitHistory or None
+        The network's training in the last :meth:`fit`.
     """
+
+    #: The model file's kind (:func:`scara_ident_ros.estimator.load_model`).
+    kind = KIND
 
     def __init__(self, physical: PhysicalModel, network: FeedForwardNet) -> None:
         if (network.n_inputs, network.n_outputs) != (physical.n_inputs, physical.n_outputs):
@@ -80,6 +92,7 @@ class HybridModel:
         self.bounds: tuple[FloatArray, FloatArray] | None = None
         self.metadata: dict[str, np.ndarray] = {
             'joint_names': np.array(physical.joint_names)}
+        self.history_: FitHistory | None = None
 
     @property
     def n_inputs(self) -> int:
@@ -95,6 +108,68 @@ class HybridModel:
     def joint_names(self) -> tuple[str, ...]:
         """The joints, in input and output order."""
         return self.physical.joint_names
+
+    @property
+    def method(self) -> str:
+        """The method key: ``metadata['method']`` if recorded, else the kind."""
+        return str(self.metadata.get('method', KIND))
+
+    def get_params(self) -> dict[str, Any]:
+        """The hyperparameters of both parts, as data: ``{'physical': {...},
+        'network': {...}}``."""
+        return {'physical': self.physical.get_params(), 'network': self.network.get_params()}
+
+    def fit(self, X: ArrayLike, Y: ArrayLike, *,
+            validation: tuple[ArrayLike, ArrayLike] | None = None,
+            validation_fraction: float = VALIDATION_FRACTION,
+            x_range: tuple[ArrayLike, ArrayLike] | None = None,
+            samples: int = SAMPLES, iterations: int = ITERATIONS, max_fail: int = MAX_FAIL,
+            min_iterations: int = MIN_ITERATIONS,
+            callback: Callback | None = None) -> HybridModel:
+        """Least squares, then the network on the residual (:func:`fit_hybrid`), in place.
+
+        Parameters
+        ----------
+        X : array_like of shape (N, 3n)
+            [q, q', q''], rows in time order.
+        Y : array_like of shape (N, n)
+            Efforts (N·m, N).
+        validation : (X, Y), optional
+            Validation samples; if None, blocks of consecutive rows (a
+            ``validation_fraction`` of them, spread over the rows, drawn with the network's
+            seed: ``nn.validation_blocks.row_split``) validate and the others train.
+        x_range, iterations, max_fail, min_iterations, callback
+            :func:`fit_hybrid`'s.
+        samples : int
+            The network trains on at most this many training samples (0: all).
+
+        Returns
+        -------
+        HybridModel
+            ``self``, the network's training in :attr:`history_`.
+        """
+        x = np.asarray(X, dtype=np.float64)
+        y = np.asarray(Y, dtype=np.float64)
+        seed = self.network.seed
+        if validation is None and x.ndim == 2 and x.shape[0] == y.shape[0]:
+            train, held = row_split(x.shape[0], validation_fraction, seed=seed)
+            if held.shape[0]:
+                validation = (x[held], y[held])
+                x, y = x[train], y[train]
+        fitted, history = fit_hybrid(
+            self.physical, self.network, (x, y), validation=validation, x_range=x_range,
+            network_samples=samples, seed=seed, iterations=iterations, max_fail=max_fail,
+            min_iterations=min_iterations, callback=callback)
+        # the fitted hybrid's state (its parts are this one's; bounds and the like), this
+        # one's metadata kept
+        state = {key: value for key, value in vars(fitted).items() if key != 'metadata'}
+        vars(self).update(state, history_=history)
+        return self
+
+    def score(self, X: ArrayLike, Y: ArrayLike) -> float:
+        """R² of the predictions of Y (N, n) from X (N, 3n)
+        (:func:`scara_ident_ros.estimator.r2_score`)."""
+        return r2_score(Y, self.predict(X))
 
     def predict(self, X: ArrayLike) -> FloatArray:
         """Efforts of X (N, 3n) = [q, q', q''] (or (3n,)): physical plus network, (N, n)."""
@@ -114,9 +189,10 @@ class HybridModel:
         Raises
         ------
         NotImplementedError
-            Always: offline only (:func:`fit_hybrid`).
+            Always: offline only (:meth:`fit`), or online through the identifier's
+            ``HybridTrainer``.
         """
-        raise NotImplementedError('a HybridModel is fitted offline (fit_hybrid)')
+        raise NotImplementedError('a HybridModel is fitted offline (fit)')
 
     def save(self, path: str | Path) -> None:
         """Write both parts (kind ``'hybrid'``) with :attr:`metadata`, atomically."""
@@ -156,15 +232,18 @@ class HybridModel:
         return model
 
 
+register_kind(KIND, HybridModel.load)
+
+
 def start_at_zero(network: FeedForwardNet) -> None:
     """Make ``network`` (scaling set) predict 0 everywhere: output weights 0, the output
     bias the scaled value of 0. Its hidden units keep their initial weights; Levenberg–
     Marquardt's first step fits the output layer on them, later steps move them too."""
-    theta = network.get_params()
+    theta = network.get_theta()
     _, output = network.unpack(theta)
     output[:, :-1] = 0.0
     output[:, -1] = network.y_scaling.transform(np.zeros(network.n_outputs))
-    network.set_params(theta)
+    network.set_theta(theta)
 
 
 def online_hybrid(physical: PhysicalModel,
@@ -200,8 +279,8 @@ def fit_hybrid(physical: PhysicalModel, network: FeedForwardNet,
                train: tuple[ArrayLike, ArrayLike], *,
                validation: tuple[ArrayLike, ArrayLike] | None = None,
                x_range: tuple[ArrayLike, ArrayLike] | None = None,
-               network_samples: int = 0, seed: int = 0, iterations: int = 500,
-               max_fail: int = 50, min_iterations: int = 50,
+               network_samples: int = 0, seed: int = 0, iterations: int = ITERATIONS,
+               max_fail: int = MAX_FAIL, min_iterations: int = MIN_ITERATIONS,
                callback: Callback | None = None) -> tuple[HybridModel, FitHistory]:
     """Least squares, then the network on the residual, early-stopped on validation.
 
@@ -237,7 +316,7 @@ def fit_hybrid(physical: PhysicalModel, network: FeedForwardNet,
     """
     x = np.asarray(train[0], dtype=np.float64)
     y = np.asarray(train[1], dtype=np.float64)
-    physical.fit_inputs(x, y)
+    physical.fit(x, y)
     if network_samples and network_samples < x.shape[0]:
         rows = np.sort(np.random.default_rng(seed).choice(x.shape[0], network_samples,
                                                           replace=False))

@@ -214,7 +214,8 @@ class JointLimits:
 
 def load_joint_limits(*, joint_names: Sequence[str] = (), robot_config: str = '',
                       urdf_file: str = '', robot_description: str = '',
-                      explicit: Mapping[str, Sequence[float]] | None = None) -> JointLimits:
+                      explicit: Mapping[str, Sequence[float]] | None = None,
+                      partial: bool = False) -> JointLimits:
     """The joint limits the identifier's parameters name.
 
     Parameters
@@ -229,6 +230,11 @@ def load_joint_limits(*, joint_names: Sequence[str] = (), robot_config: str = ''
     explicit : mapping of str to sequence of float
         ``position_min`` ... ``effort_max`` (:data:`LIMIT_NAMES`), each empty or one value
         per joint of ``joint_names``.
+    partial : bool
+        With a URDF: accept ``joint_names`` that it has without all limits (no acceleration
+        limit, continuous): they are left out, for the stream to complete
+        (:mod:`~scara_ident_ros.identification.stream_scaling`); only joints the URDF does
+        not have are refused.
 
     Raises
     ------
@@ -238,7 +244,8 @@ def load_joint_limits(*, joint_names: Sequence[str] = (), robot_config: str = ''
     explicit = {key: (explicit or {}).get(key, ()) for key in LIMIT_NAMES}
     robot_yaml = robot_config or config_path('scara.yaml')
     if urdf_file or robot_description:
-        return _urdf_limits(joint_names, robot_yaml, urdf_file, robot_description, explicit)
+        return _urdf_limits(joint_names, robot_yaml, urdf_file, robot_description, explicit,
+                            partial=partial, chosen=bool(robot_config))
     given = [key for key in LIMIT_NAMES if len(explicit[key])]
     if given:
         lengths = {len(explicit[key]) for key in LIMIT_NAMES}
@@ -254,9 +261,11 @@ def load_joint_limits(*, joint_names: Sequence[str] = (), robot_config: str = ''
 
 
 def _urdf_limits(joint_names: Sequence[str], robot_yaml: str | Path, urdf_file: str,
-                 robot_description: str, explicit: Mapping[str, Sequence[float]]
-                 ) -> JointLimits:
-    """A URDF's limits, with acceleration limits from ``acceleration_max`` or the robot YAML."""
+                 robot_description: str, explicit: Mapping[str, Sequence[float]], *,
+                 partial: bool = False, chosen: bool = True) -> JointLimits:
+    """A URDF's limits, with acceleration limits from ``acceleration_max`` or the robot YAML
+    (the default one, not ``chosen``, only for a URDF of its joints: another arm's joints
+    may share its names, ``joint1``...)."""
     if urdf_file and robot_description:
         raise LimitsError('give urdf_file or robot_description, not both')
     clash = [key for key in LIMIT_NAMES if key != 'acceleration_max' and len(explicit[key])]
@@ -267,10 +276,17 @@ def _urdf_limits(joint_names: Sequence[str], robot_yaml: str | Path, urdf_file: 
         if len(explicit['acceleration_max']) != len(joint_names):
             raise LimitsError('acceleration_max needs joint_names, one name per value')
         acceleration = dict(zip(joint_names, explicit['acceleration_max']))
+        source = f'{urdf.source} (acceleration_max from parameters)'
     else:
         robot = ScaraParams.from_yaml(robot_yaml)
         acceleration = dict(zip(robot.joint_names, robot.array('acceleration_max')))
-    return JointLimits.from_urdf(urdf, acceleration, required=joint_names)
+        source = f'{urdf.source} (acceleration_max from {robot_yaml})'
+        if not chosen and set(robot.joint_names) != set(urdf.names):
+            acceleration = {}
+    if partial:  # only joints the URDF does not have are refused (UrdfError)
+        urdf.select([name for name in joint_names if name not in urdf.unlimited])
+    limits = JointLimits.from_urdf(urdf, acceleration, required=() if partial else joint_names)
+    return replace(limits, source=source)
 
 
 def load_motion_limits(*, urdf_file: str = '', robot_description: str = '',

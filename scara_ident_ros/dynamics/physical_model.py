@@ -26,9 +26,10 @@ of the URDF (a gripper's fingers) are locked at their neutral position. Revolute
 and continuous joints are supported (a continuous joint's q is its angle). Gravity is
 Pinocchio's, 9.81 m/s² along −z of the URDF's root.
 
-:meth:`PhysicalModel.fit` is linear least squares on the stacked regressor (QR of blocks of
-samples, memory bounded); :meth:`PhysicalModel.predict` takes the networks' X, so the model
-stands wherever the identifier's ``EffortModel`` does (it learns online through
+:meth:`PhysicalModel.fit` (X, Y) and :meth:`PhysicalModel.fit_states` (q, q', q'', τ) are
+linear least squares on the stacked regressor (QR of blocks of samples, memory bounded);
+:meth:`PhysicalModel.predict` takes the networks' X: the model keeps the estimator contract
+(:mod:`scara_ident_ros.estimator`) and stands wherever a network does (it learns online through
 :class:`~scara_ident_ros.identification.rls_trainer.RecursiveLeastSquaresTrainer`, not
 ``partial_fit``). Files: ``.npz`` of kind ``'physical'`` (:mod:`scara_ident_ros.nn.model_file`),
 holding the URDF text, the joints, the base reduction and θ.
@@ -53,6 +54,7 @@ from scara_ident_ros.dynamics.base_reduction import BaseReduction, reduce_column
 from scara_ident_ros.dynamics.least_squares import fit_least_squares
 from scara_ident_ros.dynamics.urdf_limits import UrdfError
 from scara_ident_ros.errors import ScaraIdentError
+from scara_ident_ros.estimator import r2_score, register_kind
 from scara_ident_ros.nn.errors import ModelFormatError
 from scara_ident_ros.nn.model_file import read_model_file, write_model
 
@@ -110,12 +112,15 @@ class PhysicalModel:
     ----------
     theta : ndarray of shape (n_parameters,)
         [θ_b, f_v, f_c] (and f_s with a Stribeck velocity); zeros until :meth:`fit` (or
-        :meth:`set_theta`).
+        :meth:`fit_states`, :meth:`set_theta`).
     metadata : dict of str to ndarray
         Saved with the model, as a network's (``joint_names``, ``method``, ...).
     residual_rms : ndarray of shape (n,) or None
         RMS effort residual per joint on the data of the last :meth:`fit` (N·m, N).
     """
+
+    #: The model file's kind (:func:`scara_ident_ros.estimator.load_model`).
+    kind = KIND
 
     def __init__(self, urdf: str, *, joint_names: Sequence[str] | None = None,
                  coulomb: str = 'tanh', coulomb_eps: float = COULOMB_EPS,
@@ -213,6 +218,19 @@ class PhysicalModel:
     def n_base(self) -> int:
         """Number of rigid-body (and armature) base parameters."""
         return self.reduction.n_base
+
+    @property
+    def method(self) -> str:
+        """The method key: ``metadata['method']`` if recorded, else the kind."""
+        return str(self.metadata.get('method', KIND))
+
+    def get_params(self) -> dict[str, Any]:
+        """The constructor's hyperparameters (URDF text and source, joints, friction law,
+        armature), as data."""
+        return {'urdf': self.urdf, 'joint_names': list(self.joint_names),
+                'coulomb': self.coulomb, 'coulomb_eps': self.coulomb_eps,
+                'armature': self.armature, 'source': self.source,
+                'stribeck_velocity': self.stribeck_velocity}
 
     # ------------------------------------------------------------------------- regressors
     def standard_regressor(self, q: ArrayLike, qd: ArrayLike, qdd: ArrayLike) -> FloatArray:
@@ -366,8 +384,19 @@ class PhysicalModel:
         return self.reduction.definitions()
 
     # ------------------------------------------------------------------------ fit, predict
-    def fit(self, q: ArrayLike, qd: ArrayLike, qdd: ArrayLike,
-            tau: ArrayLike) -> PhysicalModel:
+    def fit(self, X: ArrayLike, Y: ArrayLike) -> PhysicalModel:
+        """:meth:`fit_states` on the networks' layout: X (N, 3n) = [q, q', q''], Y (N, n).
+
+        Returns
+        -------
+        PhysicalModel
+            ``self``, with :attr:`theta` and :attr:`residual_rms` set.
+        """
+        q, qd, qdd = self._split(X)
+        return self.fit_states(q, qd, qdd, Y)
+
+    def fit_states(self, q: ArrayLike, qd: ArrayLike, qdd: ArrayLike,
+                   tau: ArrayLike) -> PhysicalModel:
         """θ by linear least squares, min Σ ||Y θ − τ||², over all samples.
 
         :func:`~scara_ident_ros.dynamics.least_squares.fit_least_squares` of the states and
@@ -382,11 +411,6 @@ class PhysicalModel:
         (q, qd, qdd), _ = self._states(q, qd, qdd)
         self.theta, self.residual_rms = fit_least_squares(self, q, qd, qdd, tau, block=_CHUNK)
         return self
-
-    def fit_inputs(self, X: ArrayLike, Y: ArrayLike) -> PhysicalModel:
-        """:meth:`fit` on the networks' layout: X (N, 3n) = [q, q', q''], Y (N, n)."""
-        q, qd, qdd = self._split(X)
-        return self.fit(q, qd, qdd, Y)
 
     def predict(self, X: ArrayLike) -> FloatArray:
         """Efforts Y θ for X = [q, q', q''] of shape (N, 3n), or (3n,) for one sample.
@@ -403,6 +427,11 @@ class PhysicalModel:
                               for s in range(0, q.shape[0], _CHUNK)]) if q.shape[0] else \
             np.zeros((0, self._n))
         return tau[0] if x.ndim == 1 else tau
+
+    def score(self, X: ArrayLike, Y: ArrayLike) -> float:
+        """R² of the predictions of Y (N, n) from X (N, 3n)
+        (:func:`scara_ident_ros.estimator.r2_score`)."""
+        return r2_score(Y, self.predict(X))
 
     def partial_fit(self, X: FloatArray, Y: FloatArray) -> FloatArray:
         """Not a per-sample gradient model: learn online with the RLS trainer instead.
@@ -518,3 +547,6 @@ class PhysicalModel:
         if x.ndim != 2 or x.shape[1] != 3 * n:
             raise ValueError(f'X must have shape (N, {3 * n}) = [q, qd, qdd], got {x.shape}')
         return x[:, :n], x[:, n:2 * n], x[:, 2 * n:]
+
+
+register_kind(KIND, PhysicalModel.load)

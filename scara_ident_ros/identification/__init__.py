@@ -20,8 +20,8 @@ from scara_ident_ros.identification.input_stage import Input, InputStage
 from scara_ident_ros.identification.joint_map import JointMap
 from scara_ident_ros.identification.metrics import ErrorStats, effort_errors
 from scara_ident_ros.identification.lazy_core import CoreSettings, LazyCore, Skipped
-from scara_ident_ros.identification.online_identifier import (Counts, EffortModel,
-                                                              OnlineIdentifier, StepResult)
+from scara_ident_ros.identification.online_identifier import (Counts, OnlineIdentifier,
+                                                              StepResult)
 from scara_ident_ros.identification.sample_check import (DEFAULT_MAX_GAP_NS, Bounds, Sample,
                                                          SampleCheck)
 from scara_ident_ros.identification.reservoir import Reservoir
@@ -29,15 +29,14 @@ from scara_ident_ros.identification.reservoir_lm import ReservoirLM
 from scara_ident_ros.identification.skip_reason import SkipReason
 from scara_ident_ros.identification.trainer import (TRAINERS, BackPropagation, Trainer,
                                                     make_trainer)
-from scara_ident_ros.identification.warm_start import (ModelMismatch, check_warm_start,
-                                                       model_joint_names)
+from scara_ident_ros.identification.warm_start import ModelMismatch, check_warm_start
 
 __all__ = [
     'AccelerationEstimate', 'BackPropagation', 'Bounds', 'CentredDifferentiator', 'CoreSettings',
     'Counts', 'DEFAULT_MAX_GAP_NS', 'DIFFERENTIATORS', 'DIFFERENTIATOR_WINDOW', 'Differentiator',
-    'EffortModel', 'ErrorStats', 'ErrorWindow', 'Holdout', 'Input', 'InputStage', 'JointMap',
+    'ErrorStats', 'ErrorWindow', 'Holdout', 'Input', 'InputStage', 'JointMap',
     'LazyCore', 'ModelMismatch', 'OnlineIdentifier',
     'PAPER_WINDOW', 'Reservoir', 'ReservoirLM', 'Sample', 'SampleCheck', 'SkipReason',
     'Skipped', 'StepResult', 'TRAINERS', 'Trainer', 'check_warm_start', 'effort_errors',
-    'make_differentiator', 'make_trainer', 'model_joint_names',
+    'make_differentiator', 'make_trainer',
 ]

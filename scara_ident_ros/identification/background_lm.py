@@ -55,7 +55,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from scara_ident_ros.identification.reservoir_lm import ReservoirLM
+from scara_ident_ros.identification.reservoir_lm import (LM_INTERVAL, LM_STEPS, RESERVOIR_SIZE,
+                                                         ReservoirLM)
 from scara_ident_ros.nn import FeedForwardNet
 
 if TYPE_CHECKING:
@@ -79,13 +80,13 @@ LEARNER_COMMAND = f'from {__name__} import main; main()'
 class LearnerSettings:
     """What the learner process builds its :class:`ReservoirLM` from (see there)."""
 
-    capacity: int = 4000
-    interval: int = 200
-    steps: int = 2
+    reservoir_size: int = RESERVOIR_SIZE
+    lm_interval: int = LM_INTERVAL
+    lm_steps: int = LM_STEPS
     seed: int = 0
-    float64: bool = False
-    slow_share: float = 0.0
-    nice: int = NICE
+    lm_float64: bool = False
+    lm_slow_share: float = 0.0
+    lm_nice: int = NICE
     label: str = 'lm'  # names the learner (e.g. the method): its process title, for ps/top
 
 
@@ -98,7 +99,7 @@ class BackgroundLM:
         The network the caller predicts with (its scaling set); the learner starts from a
         copy of its weights, and every update it sends is copied into it.
     settings : LearnerSettings
-        The reservoir and the steps. ``interval`` is the least number of new samples
+        The reservoir and the steps. ``lm_interval`` is the least number of new samples
         between two updates: with the CPU to spare, an update starts as soon as that many
         have come; without, later.
     hybrid : HybridModel, optional
@@ -113,8 +114,8 @@ class BackgroundLM:
     dropped : int
         Samples not learnt because the learner could not take them (backlog full).
     updates : int
-        Updates (``steps`` LM steps each) whose weights the model has taken.
-    steps : int
+        Updates (``lm_steps`` LM steps each) whose weights the model has taken.
+    steps_taken : int
         LM steps the learner has taken, as of its latest update.
     undone : int
         A hybrid's updates undone by the learner's validation check.
@@ -137,13 +138,13 @@ class BackgroundLM:
         self.sent = 0
         self.dropped = 0
         self.updates = 0
-        self.steps = 0
+        self.steps_taken = 0
         self.undone = 0
         self.ready = False  # the learner has started and waits for samples
         self._update_times: deque[float] = deque()
-        # an update is due once `interval` samples are sent after the learner's last
+        # an update is due once `lm_interval` samples are sent after the learner's last
         # finished one (or its start): _mark is `sent` then, _due when the update fell due
-        self._interval = settings.interval
+        self._interval = settings.lm_interval
         self._mark = 0
         self._due: float | None = None
         self._process, self._to_learner, self._from_learner = (
@@ -192,9 +193,9 @@ class BackgroundLM:
                 if kind in ('weights', 'bounds', 'unchanged'):  # an update has finished
                     self._mark, self._due = self.sent, None
                 if kind == 'weights':
-                    self.model.set_params(theta)
+                    self.model.set_theta(theta)
                     self.updates += 1
-                    self.steps = steps
+                    self.steps_taken = steps
                     self._update_times.append(time.monotonic())
                     got = True
                 if extra and self.hybrid is not None:  # a hybrid's bounds (and undone)
@@ -220,15 +221,15 @@ class BackgroundLM:
         return len(times) / RATE_SPAN
 
     def overdue(self) -> float | None:
-        """Seconds since an update fell due (``interval`` samples sent since the learner's
+        """Seconds since an update fell due (``lm_interval`` samples sent since the learner's
         last finished update, or since it started) without one finishing; None if none is
         due. A hybrid's update its check undoes counts as finished."""
         return None if self._due is None else time.monotonic() - self._due
 
-    def set_schedule(self, *, interval: int, steps: int) -> None:
+    def set_schedule(self, *, lm_interval: int, lm_steps: int) -> None:
         """Change the least samples between updates and the steps per update, from now on."""
-        self._interval = int(interval)
-        self._send(('schedule', int(interval), int(steps)))
+        self._interval = int(lm_interval)
+        self._send(('schedule', int(lm_interval), int(lm_steps)))
 
     @property
     def alive(self) -> bool:
@@ -331,14 +332,15 @@ def _learner(inbox: Connection, outbox: Connection, model: FeedForwardNet,
     from scara_ident_ros.blas_threads import single_blas_thread
 
     try:
-        os.nice(settings.nice)
+        os.nice(settings.lm_nice)
     except OSError:
         pass
     _set_title(f'scara_ident_ros learner {settings.label}')
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the node stops it (close), not Ctrl-C
-    trainer = ReservoirLM(model, capacity=settings.capacity, interval=settings.interval,
-                          steps=settings.steps, seed=settings.seed, float64=settings.float64,
-                          slow_share=settings.slow_share)
+    trainer = ReservoirLM(model, reservoir_size=settings.reservoir_size,
+                          lm_interval=settings.lm_interval, lm_steps=settings.lm_steps,
+                          seed=settings.seed, lm_float64=settings.lm_float64,
+                          lm_slow_share=settings.lm_slow_share)
     residual = None
     if physical is not None:
         from scara_ident_ros.dynamics.hybrid_model import HybridModel
@@ -366,7 +368,7 @@ def _learner(inbox: Connection, outbox: Connection, model: FeedForwardNet,
                         residual.model.physical.theta = item[2]
                         state['new'] += batch.shape[0]
                     elif item[0] == 'schedule':
-                        trainer.interval, trainer.steps_per_update = item[1], item[2]
+                        trainer.lm_interval, trainer.lm_steps = item[1], item[2]
                     elif item[0] == 'stop':
                         state['stop'] = True
                     lock.notify()
@@ -386,7 +388,7 @@ def _learner(inbox: Connection, outbox: Connection, model: FeedForwardNet,
     with single_blas_thread():
         while True:
             with lock:
-                while not state['stop'] and state['new'] < trainer.interval:
+                while not state['stop'] and state['new'] < trainer.lm_interval:
                     lock.wait(0.5)
                 # the stop takes one last update if samples came since the previous one
                 if state['stop'] and not state['new']:
@@ -399,14 +401,14 @@ def _learner(inbox: Connection, outbox: Connection, model: FeedForwardNet,
             # every pass answers, so that the caller knows the learner keeps up
             if residual is None:
                 message: tuple[Any, ...] = (
-                    ('weights', model.get_params(), trainer.steps)
-                    if trainer.step_on(X, Y) else ('unchanged', None, trainer.steps))
+                    ('weights', model.get_theta(), trainer.steps_taken)
+                    if trainer.step_on(X, Y) else ('unchanged', None, trainer.steps_taken))
             elif snap is None:  # too few validation samples yet
-                message = ('unchanged', None, trainer.steps)
+                message = ('unchanged', None, trainer.steps_taken)
             else:
                 changed = residual.step(snap)
                 message = ('weights' if changed else 'bounds',
-                           model.get_params() if changed else None, trainer.steps,
+                           model.get_theta() if changed else None, trainer.steps_taken,
                            (residual.model.bounds, residual.undone))
             try:
                 outbox.send(message)
@@ -415,7 +417,7 @@ def _learner(inbox: Connection, outbox: Connection, model: FeedForwardNet,
             if last:
                 break
     try:
-        outbox.send(('stopped', None, trainer.steps))
+        outbox.send(('stopped', None, trainer.steps_taken))
     except (BrokenPipeError, OSError):
         pass
 

@@ -128,7 +128,7 @@ class HybridTrainer:
         predicted = physical + self.model.correction(x)
         self.residual.add(x, y, rows)
         self._since += 1
-        if self._since >= self._lm.interval:
+        if self._since >= self._lm.lm_interval:
             self._since = 0
             self.step()
         return predicted

@@ -3,89 +3,61 @@
 Without ``joint_names`` the identifier learns the joints of the first valid message: until
 then there is no network to predict with (its size is the number of joints), and the
 samples skipped meanwhile are counted apart, then added to the core's counters.
-:class:`LazyCore` holds that state; :class:`CoreSettings` what the core is built from.
+:class:`LazyCore` holds that state; :class:`CoreSettings` is what the core is built from,
+by :func:`~scara_ident_ros.identification.identifier_builder.build_identifier`.
+
+When the robot's files lack some limits of the joints (a URDF has no acceleration limit,
+nothing for a continuous joint), the network's scaling is completed from the stream's first
+second (:class:`~scara_ident_ros.identification.stream_scaling.StreamScaling`): those
+samples are kept and, once the core is built, :meth:`LazyCore.take_replay` hands them back
+to be predicted and learnt like any other. Only joints that no file knows are
+``unknown_joint``.
 """
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, fields
-from typing import Any, NamedTuple
+import copy
+from collections.abc import Sequence
+from typing import NamedTuple
 
-import numpy as np
-
-from scara_ident_ros.dynamics.hybrid_model import HybridModel, online_hybrid
 from scara_ident_ros.dynamics.joint_limits import JointLimits
-from scara_ident_ros.dynamics.physical_model import PhysicalModel
-from scara_ident_ros.identification.background_lm import BackgroundLM
-from scara_ident_ros.identification.holdout import Holdout
-from scara_ident_ros.identification.hybrid_trainer import HybridTrainer
+from scara_ident_ros.dynamics.urdf_limits import UrdfLimits
+from scara_ident_ros.estimator import Estimator
+from scara_ident_ros.identification.core_settings import (ONLINE_METHODS, PHYSICAL_METHODS,
+                                                          CoreSettings)
 from scara_ident_ros.identification.differentiator import AccelerationEstimate
+from scara_ident_ros.identification.identifier_builder import (background_learner,
+                                                               build_identifier, make_model)
 from scara_ident_ros.identification.input_stage import InputStage
 from scara_ident_ros.identification.joint_map import JointMap
 from scara_ident_ros.identification.online_identifier import Counts, OnlineIdentifier
-from scara_ident_ros.identification.sample_check import FloatArrayLike, SampleCheck, joint_bounds
+from scara_ident_ros.identification.sample_check import (Bounds, FloatArrayLike, SampleCheck,
+                                                         joint_bounds)
 from scara_ident_ros.identification.skip_reason import SkipReason
-from scara_ident_ros.identification.rls_trainer import RecursiveLeastSquaresTrainer
-from scara_ident_ros.identification.trainer import (Trainer, make_trainer,
-                                                    starts_with_friction_steps)
-from scara_ident_ros.nn.presets import METHODS, make_network
-from scara_ident_ros.nn import FeedForwardNet
+from scara_ident_ros.identification.stream_scaling import StreamScaling, stream_joints
 
-__all__ = ['CoreSettings', 'LazyCore', 'ONLINE_METHODS', 'OnlineModel', 'PHYSICAL_METHODS',
+__all__ = ['CoreSettings', 'LazyCore', 'ONLINE_METHODS', 'PHYSICAL_METHODS', 'RawSample',
            'Skipped']
 
-#: Models on the robot's URDF (they need it): its rigid-body model alone, learnt by RLS, or
-#: with an FFS network of its residual.
-PHYSICAL_METHODS = ('physical', 'hybrid')
-#: Every model an identifier learns online: the networks and the physical ones.
-ONLINE_METHODS = (*METHODS, *PHYSICAL_METHODS)
-OnlineModel = FeedForwardNet | PhysicalModel | HybridModel
-
-
-@dataclass(frozen=True)
-class CoreSettings:
-    """The identifier's parameters the network and the core are built from.
-
-    ``learning_rate`` 0 and a negative ``momentum`` take the method's defaults; ``k``,
-    ``a``, ``b`` are used by ``ffmw`` only; ``max_gap`` is in seconds; a negative
-    ``limit_margin`` checks no sample against the limits.
-    """
-
-    method: str
-    hidden_units: int
-    seed: int
-    learning_rate: float
-    momentum: float
-    k: float
-    a: float
-    b: float
-    trainer: str
-    reservoir_size: int
-    lm_steps: int
-    lm_interval: int
-    lm_nice: int
-    lm_float64: bool
-    lm_slow_share: float
-    lm_friction_steps: bool
-    validation_fraction: float
-    validation_block: int
-    mse_window: int
-    learn: bool
-    max_gap: float
-    limit_margin: float
-    min_joints: int
-
-    @classmethod
-    def of(cls, values: Mapping[str, Any]) -> CoreSettings:
-        """The settings among ``values`` (e.g. all the node's parameters)."""
-        return cls(**{field.name: values[field.name] for field in fields(cls)})
+_JOINT_REASONS = (SkipReason.UNKNOWN_JOINT, SkipReason.MISSING_JOINT,
+                  SkipReason.DUPLICATE_JOINT)
 
 
 class Skipped(NamedTuple):
-    """A sample before the core was built: why it was skipped, and what to do (or '')."""
+    """A sample before the core was built: why it was skipped, and what to do (or '');
+    reason None: kept while the stream completes the limits (:meth:`LazyCore.first`)."""
 
-    reason: SkipReason
+    reason: SkipReason | None
     note: str = ''
+
+
+class RawSample(NamedTuple):
+    """A joint-state sample as it came (see :meth:`LazyCore.first`), kept to be replayed."""
+
+    stamp_ns: int
+    names: tuple[str, ...]
+    position: FloatArrayLike
+    velocity: FloatArrayLike
+    effort: FloatArrayLike
 
 
 class LazyCore:
@@ -95,25 +67,36 @@ class LazyCore:
     ----------
     limits : JointLimits
         Scale a fresh network and bound the samples of the joints they name.
-    network : FeedForwardNet, optional
+    network : Estimator, optional
         A warm start (checked with :func:`~scara_ident_ros.identification.warm_start.
-        check_warm_start`); else a fresh network of the settings' method is made.
+        check_warm_start` to be a model of the settings' method); else a fresh model of
+        the settings' method is made.
+    urdf_limits : UrdfLimits, optional
+        The URDF's limits: its joints that ``limits`` lacks get the rest from the stream.
 
     Attributes
     ----------
-    network : FeedForwardNet or None
-        The warm start, or the network once built.
+    network : Estimator or None
+        The warm start, or the model once built.
     core : OnlineIdentifier or None
         Once the joints are known.
     names : list of str
         The joints, once the core is built (else empty).
     early : Counts
         Samples skipped before the core was built.
+    limits_note : str
+        Which limits scale the network and where each came from, once built (one line).
     """
 
-    def __init__(self, limits: JointLimits, network: OnlineModel | None = None, *,
-                 urdf: str = '', urdf_source: str = 'robot_description') -> None:
+    def __init__(self, limits: JointLimits, network: Estimator | None = None, *,
+                 urdf: str = '', urdf_source: str = 'robot_description',
+                 urdf_limits: UrdfLimits | None = None) -> None:
         self.limits = limits
+        self.urdf_limits = urdf_limits
+        self.scaling: StreamScaling | None = None  # while the stream completes the limits
+        self.replay: list[RawSample] = []  # the samples it took, until taken back
+        self.limits_note = ''
+        self._stream_bounds: tuple[Bounds | None] | None = None  # once the stream gave some
         self.urdf, self.urdf_source = urdf, urdf_source
         self.network = network
         self.core: OnlineIdentifier | None = None
@@ -129,6 +112,7 @@ class LazyCore:
         """Forget the network, the core and the early counters (fresh weights next build)."""
         self.close()
         self.network, self.core, self.names, self.early = None, None, [], Counts()
+        self.scaling, self.replay = None, []
 
     def build(self, names: Sequence[str], settings: CoreSettings,
               differentiator: AccelerationEstimate, *, stage: InputStage | None = None,
@@ -143,100 +127,99 @@ class LazyCore:
         names = list(names)
         network = self.network
         if network is None:
-            missing = self.limits.missing(names)
-            if missing:
-                return (f'no joint limits for {missing} (limits are known for '
-                        f'{list(self.limits.names)}, from {self.limits.source}): set '
-                        'urdf_file, robot_config or position_min, position_max, '
+            lacking, unknown = stream_joints(self.limits, self.urdf_limits, names)
+            if unknown:
+                urdf = self.urdf_limits.names if self.urdf_limits is not None else ()
+                known = [*self.limits.names,
+                         *(name for name in urdf if name not in self.limits.names)]
+                return (f'no joint limits for {unknown} (limits are known for {known}, from '
+                        f'{self.limits.source}'
+                        + (f' and {self.urdf_limits.source}' if self.urdf_limits else '')
+                        + '): set urdf_file, robot_config or position_min, position_max, '
                         'velocity_max, acceleration_max, effort_max and joint_names')
+            if lacking and settings.method != 'physical':
+                return (f'the scaling of {lacking} comes from the stream: build from '
+                        'samples (LazyCore.first)')
             if settings.method in PHYSICAL_METHODS and not self.urdf:
                 return (f'method {settings.method} needs the robot\'s URDF: set urdf_file or '
                         'robot_description')
             network = self._fresh(names, settings)
-        network.metadata['joint_names'] = np.array(names)
-        network.metadata['method'] = np.array(settings.method)
-        bounds = (None if self.limits.missing(names)
-                  else joint_bounds(self.limits.select(names), settings.limit_margin))
-        n = len(names)
-        holdout = (Holdout(3 * n, n, fraction=settings.validation_fraction,
-                           block=settings.validation_block, seed=settings.seed)
-                   if settings.validation_fraction > 0 else None)
-        self.network, self.names = network, names
-
-        def trainer_of(net: FeedForwardNet, hybrid: HybridModel | None = None) -> Trainer:
-            return make_trainer(settings.trainer, net, capacity=settings.reservoir_size,
-                                interval=settings.lm_interval, steps=settings.lm_steps,
-                                seed=settings.seed, float64=settings.lm_float64,
-                                slow_share=settings.lm_slow_share, background=background,
-                                nice=settings.lm_nice,
-                                label=f'lm-{settings.method}', hybrid=hybrid)
-
-        trainer: Trainer
-        if isinstance(network, PhysicalModel):
-            trainer = RecursiveLeastSquaresTrainer(network)
-        elif isinstance(network, HybridModel):
-            trainer = HybridTrainer(network, trainer_of(network.network, network),
-                                    seed=settings.seed)
+        if self.scaling is not None:  # the stream completed the limits: bound the files' only
+            self._stream_bounds = (self.scaling.bounds(settings.limit_margin),)
+        if self._stream_bounds is not None:
+            bounds = self._stream_bounds[0]
         else:
-            trainer = trainer_of(network)
-        self.core = OnlineIdentifier(
-            network, joint_names=names, differentiator=differentiator, trainer=trainer,
-            holdout=holdout, mse_window=settings.mse_window, learn=settings.learn,
-            max_gap_ns=round(settings.max_gap * 1e9), bounds=bounds, stage=stage)
+            bounds = (None if self.limits.missing(names)
+                      else joint_bounds(self.limits.select(names), settings.limit_margin))
+        if not self.limits_note and not self.limits.missing(names):
+            self.limits_note = f'joint limits of {names} from {self.limits.source}'
+        if not self.limits_note:
+            self.limits_note = (f'joint limits of {names}: none for {self.limits.missing(names)}'
+                                ' (physical model: its URDF needs none)')
+        self.network, self.names = network, names
+        self.core = build_identifier(names, settings, model=network,
+                                     differentiator=differentiator, bounds=bounds,
+                                     stage=stage, background=background)
         counts = self.core.counts
         counts.processed += self.early.processed
         for reason, skipped in self.early.skipped.items():
             counts.skipped[reason] += skipped
         return ''
 
-    def _fresh(self, names: list[str], settings: CoreSettings) -> OnlineModel:
-        """A fresh model of ``settings.method`` for the joints ``names``.
-
-        ``physical``: the URDF's rigid-body model with friction and rotor inertia, from the
-        URDF's own inertias (RLS's prior). ``hybrid``: that plus an FFS network of its
-        residual, starting at zero output, its outputs scaled to ``RESIDUAL_SHARE`` of
-        the effort limits (a residual is a fraction of the effort:
-        :func:`~scara_ident_ros.dynamics.hybrid_model.online_hybrid`).
-        """
-        s = settings
-        scaling = self.limits.select(names).scaling()
-        if s.method in PHYSICAL_METHODS:
-            physical = PhysicalModel(self.urdf, joint_names=names, source=self.urdf_source)
-            if s.method == 'physical':
-                physical.set_theta(physical.urdf_parameters())
-                return physical
-            return online_hybrid(physical, scaling, n_hidden=s.hidden_units, seed=s.seed,
-                                 friction_steps=s.lm_friction_steps)
-        ffmw = s.method == 'ffmw'
-        network = make_network(
-            s.method, len(names), n_hidden=s.hidden_units, seed=s.seed,
-            learning_rate=s.learning_rate or None,
-            momentum=s.momentum if s.momentum >= 0 else None,
-            k=s.k if ffmw else None, a=s.a if ffmw else None, b=s.b if ffmw else None,
-            friction_steps=starts_with_friction_steps(s.trainer, s.lm_friction_steps))
-        network.set_scaling(*scaling)
-        return network
+    def _fresh(self, names: list[str], settings: CoreSettings) -> Estimator:
+        """A fresh model of ``settings.method`` for the joints ``names``
+        (:func:`~scara_ident_ros.identification.identifier_builder.make_model`)."""
+        return make_model(names, settings, self.limits, urdf=self.urdf,
+                          urdf_source=self.urdf_source)
 
     def close(self) -> None:
         """End the core's trainers that run beside the stream (their last weights are the
         network's)."""
-        trainer = self.core.trainer if self.core is not None else None
-        if isinstance(trainer, HybridTrainer):
-            trainer = trainer.network
-        if isinstance(trainer, BackgroundLM):
-            trainer.close()
+        learner = background_learner(self.core.trainer if self.core is not None else None)
+        if learner is not None:
+            learner.close()
+
+    def needs_stream(self, names: Sequence[str], method: str) -> bool:
+        """Whether the network's scaling of ``names`` needs the stream (the files lack some
+        limits of them, no file lacks all, and there is no warm start to take it from)."""
+        lacking, unknown = stream_joints(self.limits, self.urdf_limits, names)
+        return (self.network is None and method != 'physical' and bool(lacking)
+                and not unknown)
+
+    def adopt_limits(self, other: LazyCore) -> None:
+        """Take ``other``'s limits, as the stream completed them (another method of the
+        same stream: one scaling and one set of bounds for all)."""
+        self.limits, self._stream_bounds = other.limits, other._stream_bounds
+        self.limits_note = other.limits_note
+
+    def take_replay(self) -> list[RawSample]:
+        """The samples taken while the stream completed the limits (once: then empty), to
+        be pushed through the core, oldest first."""
+        replay, self.replay = self.replay, []
+        return replay
 
     def first(self, settings: CoreSettings, differentiator: AccelerationEstimate,
               stamp_ns: int, names: Sequence[str], position: FloatArrayLike,
               velocity: FloatArrayLike, effort: FloatArrayLike, *,
-              background: bool = False) -> Skipped | None:
+              background: bool = False, wanted: Sequence[str] = ()) -> Skipped | None:
         """Build for the joints of this sample if it is valid (None); else count it skipped.
 
         A sample without effort fixes the joints too (it is predicted, not learnt); one
-        naming fewer than ``settings.min_joints`` joints does not.
+        naming fewer than ``settings.min_joints`` joints does not. ``wanted``: the joints
+        to build for (``joint_names``), if known.
+
+        When the files lack some limits of the joints (:meth:`needs_stream`), valid samples
+        are kept until :data:`~scara_ident_ros.identification.stream_scaling.SCALING_SPAN_S`
+        of them complete the limits; meanwhile the result is ``Skipped(None, note)`` (not
+        counted, a note on the first one), and after the build :meth:`take_replay` holds
+        them, this one last.
         """
+        if self.scaling is not None:
+            return self._scale(settings, differentiator, stamp_ns, names, position, velocity,
+                               effort, background=background)
         n_joints = self.network.n_outputs if self.network is not None else None
-        check = SampleCheck(JointMap(n_joints=n_joints), need_effort=False)
+        check = SampleCheck(JointMap(list(wanted) or None, n_joints=n_joints),
+                            need_effort=False)
         reason = check.check(stamp_ns, names, position, velocity, effort)
         note = ''
         if not isinstance(reason, SkipReason) and len(names) < settings.min_joints:
@@ -244,10 +227,44 @@ class LazyCore:
             note = (f'waiting for a message naming at least {settings.min_joints} joints '
                     f'(min_joints); this one names {list(names)}')
         if not isinstance(reason, SkipReason):
-            note = self.build(names, settings, differentiator, background=background)
+            joints = list(wanted) or list(names)
+            if self.needs_stream(joints, settings.method):
+                self.scaling = StreamScaling(
+                    self.limits, self.urdf_limits, joints, copy.deepcopy(differentiator),
+                    max_gap_ns=round(settings.max_gap * 1e9))
+                return self._scale(settings, differentiator, stamp_ns, names, position,
+                                   velocity, effort, background=background)
+            note = self.build(joints, settings, differentiator, background=background)
             if not note:
                 return None
             reason = SkipReason.UNKNOWN_JOINT
         self.early.processed += 1
         self.early.skipped[reason] += 1
         return Skipped(reason, note)
+
+    def _scale(self, settings: CoreSettings, differentiator: AccelerationEstimate,
+               stamp_ns: int, names: Sequence[str], position: FloatArrayLike,
+               velocity: FloatArrayLike, effort: FloatArrayLike, *,
+               background: bool) -> Skipped | None:
+        """A sample while the stream completes the limits (see :meth:`first`)."""
+        scaling = self.scaling
+        assert scaling is not None
+        reason = scaling.add(stamp_ns, names, position, velocity, effort)
+        if reason is not None:
+            self.early.processed += 1
+            self.early.skipped[reason] += 1
+            return Skipped(reason, f'a sample naming {list(names)} while the scaling of '
+                           f'{list(scaling.names)} is taken from the stream'
+                           if reason in _JOINT_REASONS else '')
+        self.replay.append(RawSample(stamp_ns, tuple(names), position, velocity, effort))
+        if not scaling.ready:
+            return (Skipped(None, f'taking the scaling of {scaling.lacking} (limits the '
+                            'robot\'s files lack) from the first samples of the stream')
+                    if scaling.samples == 1 else Skipped(None))
+        self.limits = scaling.limits()
+        self.limits_note = f'joint limits of {list(scaling.names)}: {self.limits.source}'
+        note = self.build(scaling.names, settings, differentiator, background=background)
+        self.scaling = None
+        if note:  # cannot happen: every joint's limits are complete now
+            raise RuntimeError(note)
+        return None

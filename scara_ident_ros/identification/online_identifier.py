@@ -9,11 +9,11 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Protocol
 
 import numpy as np
 from numpy.typing import NDArray
 
+from scara_ident_ros.estimator import Estimator
 from scara_ident_ros.identification.error_window import PAPER_WINDOW, ErrorWindow
 from scara_ident_ros.identification.metrics import ErrorStats
 from scara_ident_ros.identification.holdout import Holdout
@@ -25,32 +25,7 @@ from scara_ident_ros.identification.sample_check import (DEFAULT_MAX_GAP_NS, Bou
 from scara_ident_ros.identification.skip_reason import SkipReason
 from scara_ident_ros.identification.trainer import BackPropagation, Trainer
 
-__all__ = ['EffortModel', 'StepResult', 'Counts', 'OnlineIdentifier']
-
-
-class EffortModel(Protocol):
-    """A network: efforts from x = [q, q', q''] (physical units), and learning."""
-
-    @property
-    def n_inputs(self) -> int:
-        """Number of inputs, 3n."""
-        ...
-
-    @property
-    def n_outputs(self) -> int:
-        """Number of outputs (joint efforts), n."""
-        ...
-
-    def predict(self, X: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Efforts (N, n) for X (N, 3n), or (n,) for (3n,), in a new array."""
-        ...
-
-    def partial_fit(self, X: NDArray[np.float64],
-                    Y: NDArray[np.float64]) -> NDArray[np.float64]:
-        """One learning step per row of X (N, 3n) towards Y (N, n); return the a-priori
-        errors ``Y − predict(X)`` (N, n) from the forward pass of each step. Raises
-        ValueError, weights unchanged, if a step would not be finite."""
-        ...
+__all__ = ['StepResult', 'Counts', 'OnlineIdentifier']
 
 
 @dataclass(frozen=True, slots=True)
@@ -120,8 +95,9 @@ class OnlineIdentifier:
 
     Parameters
     ----------
-    model : EffortModel
-        The network; ``model.n_inputs`` must be ``3 * model.n_outputs``.
+    model : Estimator
+        The model, learnt by ``trainer`` (a network's ``partial_fit`` by default);
+        ``model.n_inputs`` must be ``3 * model.n_outputs``.
     joint_names : sequence of str, optional
         Joint order of the model's inputs and outputs; by default the first valid sample's.
     differentiator : AccelerationEstimate, optional
@@ -150,7 +126,7 @@ class OnlineIdentifier:
         If the model's sizes, ``joint_names`` or ``mse_window`` do not fit.
     """
 
-    def __init__(self, model: EffortModel, *, joint_names: Sequence[str] | None = None,
+    def __init__(self, model: Estimator, *, joint_names: Sequence[str] | None = None,
                  differentiator: AccelerationEstimate | None = None,
                  trainer: Trainer | None = None, holdout: Holdout | None = None,
                  mse_window: int = 1000, learn: bool = True,

@@ -132,7 +132,7 @@ class ResidualLearner:
         net = self.model.network
         r_val = self._residual(snap.stored_val, snap.theta)
         scale = np.maximum(snap.stored_val[:, :self._shape[0]].var(axis=0), 1e-300)
-        before = net.get_params()
+        before = net.get_theta()
         error = _errors(self.model, snap.X_val, r_val) / scale
         residual = self._residual(snap.stored, snap.theta)
         self.model.bounds = (residual.min(axis=0), residual.max(axis=0))
@@ -140,7 +140,7 @@ class ResidualLearner:
             return False
         after = _errors(self.model, snap.X_val, r_val) / scale
         if after.sum() > error.sum():
-            net.set_params(before)
+            net.set_theta(before)
             self.undone += 1
             return False
         worse = after > np.mean(r_val ** 2, axis=0) / scale  # than predicting no residual
@@ -161,8 +161,8 @@ def _errors(model: HybridModel, X: FloatArray, residual: FloatArray) -> FloatArr
 
 def _zero_outputs(net: FeedForwardNet, joints: NDArray[np.bool_]) -> None:
     """Make ``net`` predict 0 for ``joints`` (n,) (their output rows as ``start_at_zero``)."""
-    theta = net.get_params()
+    theta = net.get_theta()
     _, output = net.unpack(theta)
     output[joints, :-1] = 0.0
     output[joints, -1] = net.y_scaling.transform(np.zeros(net.n_outputs))[joints]
-    net.set_params(theta)
+    net.set_theta(theta)

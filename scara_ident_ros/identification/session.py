@@ -23,26 +23,25 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from scara_ident_ros.dynamics.hybrid_model import HybridModel
 from scara_ident_ros.dynamics.joint_limits import LIMIT_NAMES, load_joint_limits
-from scara_ident_ros.dynamics.physical_model import PhysicalModel
-from scara_ident_ros.dynamics.urdf_limits import UrdfError
+from scara_ident_ros.dynamics.urdf_limits import UrdfError, parse_urdf
 from scara_ident_ros.errors import ConfigError
+from scara_ident_ros.estimator import Estimator, load_model
 from scara_ident_ros.identification.background_lm import BackgroundLM
 from scara_ident_ros.identification.contact_detector import Calibration, ContactDetector
 from scara_ident_ros.identification.differentiator import (AccelerationEstimate,
                                                            make_differentiator)
 from scara_ident_ros.identification.error_window import ErrorWindow
-from scara_ident_ros.identification.hybrid_trainer import HybridTrainer
+from scara_ident_ros.identification.identifier_builder import background_learner
 from scara_ident_ros.identification.input_stage import Input
-from scara_ident_ros.identification.lazy_core import CoreSettings, LazyCore, OnlineModel
+from scara_ident_ros.identification.lazy_core import CoreSettings, LazyCore
 from scara_ident_ros.identification.metrics import ErrorStats
 from scara_ident_ros.identification.online_identifier import OnlineIdentifier, StepResult
 from scara_ident_ros.identification.skip_reason import SkipReason
 from scara_ident_ros.identification.stream_clock import LagHistogram
 from scara_ident_ros.identification.reservoir_lm import ReservoirLM
 from scara_ident_ros.identification.warm_start import check_warm_start
-from scara_ident_ros.nn import FeedForwardNet, ModelFormatError
+from scara_ident_ros.nn import ModelFormatError
 from scara_ident_ros.nn.presets import METHODS
 
 __all__ = ['CONTACT_PARAMETERS', 'JOINT_SET_REASONS', 'METHOD_FIELD', 'PATH_PARAMETERS',
@@ -62,6 +61,15 @@ JOINT_SET_REASONS = (SkipReason.UNKNOWN_JOINT, SkipReason.MISSING_JOINT,
 def method_path(path: str, method: str) -> str:
     """``path`` for ``method``: ``{method}`` in it replaced by the method's name."""
     return path.replace(METHOD_FIELD, method)
+
+
+def _set_step(model: Estimator, learning_rate: float | None, momentum: float | None
+              ) -> None:
+    """Set the per-sample step's learning rate and momentum of a model that has one (a
+    network; not a physical model nor a hybrid); None leaves one as it is."""
+    for key, value in (('learning_rate', learning_rate), ('momentum', momentum)):
+        if value is not None and hasattr(model, key):
+            setattr(model, key, value)
 
 
 def _contact_settings(settings: Mapping[str, Any]) -> dict[str, Any]:
@@ -115,17 +123,14 @@ class MethodRun:
         return self.lazy.core
 
     @property
-    def network(self) -> OnlineModel | None:
+    def network(self) -> Estimator | None:
         """The model: a warm start, or built with the core."""
         return self.lazy.network
 
     @property
     def background(self) -> BackgroundLM | None:
         """The trainer, if it learns beside the stream (a hybrid's: its network's)."""
-        trainer = self.core.trainer if self.core is not None else None
-        if isinstance(trainer, HybridTrainer):
-            trainer = trainer.network
-        return trainer if isinstance(trainer, BackgroundLM) else None
+        return background_learner(self.core.trainer if self.core is not None else None)
 
     def built(self, names: Sequence[str]) -> None:
         """The core is built for ``names``: a disarmed contact detector, no score yet."""
@@ -256,18 +261,18 @@ class MethodRun:
         if background is None:
             return {}
         return {'updates': background.updates, 'updates_per_s': background.rate(),
-                'lm_steps_taken': background.steps, 'learn_dropped': background.dropped}
+                'lm_steps_taken': background.steps_taken, 'learn_dropped': background.dropped}
 
     def apply(self, settings: Mapping[str, Any], changed: Mapping[str, Any]) -> None:
         """Make parameters set while running take effect."""
         network, core = self.network, self.core
-        if isinstance(network, FeedForwardNet) and self.method in METHODS:
+        if network is not None and self.method in METHODS:
             preset = METHODS[self.method]
-            if 'learning_rate' in changed:
-                network.learning_rate = settings['learning_rate'] or preset.learning_rate
-            if 'momentum' in changed:
-                network.momentum = (settings['momentum'] if settings['momentum'] >= 0
-                                    else preset.momentum)
+            _set_step(network,
+                      (settings['learning_rate'] or preset.learning_rate
+                       if 'learning_rate' in changed else None),
+                      ((settings['momentum'] if settings['momentum'] >= 0 else preset.momentum)
+                       if 'momentum' in changed else None))
         if CONTACT_PARAMETERS & set(changed):
             self.set_contact(**_contact_settings(settings))
         if core is None:
@@ -278,10 +283,11 @@ class MethodRun:
             core.errors = ErrorWindow(core.n_joints, settings['mse_window'])
         trainer = core.trainer
         if isinstance(trainer, ReservoirLM):
-            trainer.interval = settings['lm_interval']
-            trainer.steps_per_update = settings['lm_steps']
+            trainer.lm_interval = settings['lm_interval']
+            trainer.lm_steps = settings['lm_steps']
         elif isinstance(trainer, BackgroundLM) and {'lm_interval', 'lm_steps'} & set(changed):
-            trainer.set_schedule(interval=settings['lm_interval'], steps=settings['lm_steps'])
+            trainer.set_schedule(lm_interval=settings['lm_interval'],
+                                 lm_steps=settings['lm_steps'])
 
 
 class IdentificationSession:
@@ -295,12 +301,15 @@ class IdentificationSession:
     def __init__(self, settings: Mapping[str, Any], *,
                  log: Callable[[str], None] | None = None) -> None:
         s = self.settings = settings
+        self.log = log or (lambda text: None)
         self.limits = load_joint_limits(
             joint_names=s['joint_names'], robot_config=s['robot_config'],
             urdf_file=s['urdf_file'], robot_description=s['robot_description'],
-            explicit={key: s[key] for key in LIMIT_NAMES})
+            explicit={key: s[key] for key in LIMIT_NAMES}, partial=True)
         methods = list(s['methods']) or [s['method']]
         self.urdf = self._urdf()
+        # what the stream completes: the URDF's joints without acceleration (or any) limits
+        urdf_limits = parse_urdf(self.urdf[0], source=self.urdf[1]) if self.urdf[0] else None
         if len(set(methods)) != len(methods):
             raise ConfigError(f'methods names a method twice: {methods}')
         self.several = len(s['methods']) > 0
@@ -316,13 +325,15 @@ class IdentificationSession:
             network, names = self._warm_start(method, names, log)
             self.runs.append(MethodRun(
                 method, LazyCore(self.limits, network, urdf=self.urdf[0],
-                                 urdf_source=self.urdf[1]),
+                                 urdf_source=self.urdf[1], urdf_limits=urdf_limits),
                 _contact_settings(s)))
         # checked at start (a bad window ends it in one line), used once the joints are known
         self.differentiator = self._differentiator()
         missing_limits = self._build(names) if names else ''
         if missing_limits:
             raise ConfigError(f'joint_names: {missing_limits}')
+        if self.core is not None:
+            self.log(self.first.lazy.limits_note)
         self.joints_text = str(names or '(from the first message)')
 
     # ------------------------------------------------------------------ the first method
@@ -337,7 +348,7 @@ class IdentificationSession:
         return self.first.core
 
     @property
-    def network(self) -> OnlineModel | None:
+    def network(self) -> Estimator | None:
         """The first method's model: a warm start, or built with the core."""
         return self.first.network
 
@@ -361,35 +372,27 @@ class IdentificationSession:
         return model_path
 
     def _warm_start(self, method: str, names: list[str], log: Callable[[str], None] | None
-                    ) -> tuple[OnlineModel | None, list[str]]:
+                    ) -> tuple[Estimator | None, list[str]]:
         """``method``'s warm start, if any, and the joints it fixes."""
         source = self.model_source(method)
         if not source:
             return None, names
-        network = self._load(source, method)
-        if isinstance(network, FeedForwardNet):
-            names = check_warm_start(network, names, source=source, method=method)
-        elif names and list(network.joint_names) != names:
-            raise ConfigError(f'cannot warm-start: {source} models the joints '
-                              f'{list(network.joint_names)}, not joint_names {names}')
-        else:
-            names = list(network.joint_names)
+        network = self._load(source)
+        names = check_warm_start(network, names, source=source, method=method)
         if source != self.paths['model_path'][method] and log is not None:
             log(f'{method}: continuing from the model at save_path {source}')
         return network, names
 
-    def _load(self, path: str, method: str) -> OnlineModel:
+    def _load(self, path: str) -> Estimator:
+        """The model file at ``path``, of the kind it holds, with the online step's
+        ``learning_rate`` and ``momentum`` if set (and the model has them)."""
         try:
-            network: OnlineModel = (PhysicalModel.load(path) if method == 'physical'
-                                    else HybridModel.load(path) if method == 'hybrid'
-                                    else FeedForwardNet.load(path))
+            network = load_model(path)
         except (ModelFormatError, UrdfError, OSError) as exc:
             raise ConfigError(f'cannot warm-start: {exc}') from None
-        if isinstance(network, FeedForwardNet):
-            if self.settings['learning_rate'] > 0:
-                network.learning_rate = self.settings['learning_rate']
-            if self.settings['momentum'] >= 0:
-                network.momentum = self.settings['momentum']
+        s = self.settings
+        _set_step(network, s['learning_rate'] if s['learning_rate'] > 0 else None,
+                  s['momentum'] if s['momentum'] >= 0 else None)
         return network
 
     def _urdf(self) -> tuple[str, str]:
@@ -419,6 +422,8 @@ class IdentificationSession:
         stage (the first method's, if built); return '' or why not (a joint without
         limits)."""
         stage = self.core.stage if runs is not None and self.core is not None else None
+        if any(run.lazy.needs_stream(names, run.method) for run in self.runs):
+            return ''  # built from the first samples, which complete the limits
         for run in self.runs if runs is None else runs:
             why = run.lazy.build(names, self._core_settings(run.method), self.differentiator,
                                  stage=stage, background=self.settings['lm_background'])
@@ -436,9 +441,16 @@ class IdentificationSession:
         first = self.first.lazy
         skipped = first.first(self._core_settings(self.first.method), self.differentiator,
                               stamp_ns, names, position, velocity, effort,
-                              background=self.settings['lm_background'])
+                              background=self.settings['lm_background'],
+                              wanted=self.settings['joint_names'])
+        if skipped is not None and skipped.reason is None:  # kept to complete the limits
+            if skipped.note:
+                self.log(skipped.note)
+            return []
         if skipped is None:
+            self.log(first.limits_note)
             for run in self.runs[1:]:
+                run.lazy.adopt_limits(first)
                 run.lazy.early = dataclasses.replace(first.early,
                                                      skipped=dict(first.early.skipped))
             why = self._build(self.names, self.runs[1:])
@@ -447,8 +459,9 @@ class IdentificationSession:
             self.first.built(self.names)
             return []
         warnings = [skipped.note] if skipped.note else []
-        return warnings + [f'skipped a sample ({skipped.reason.value}) before the first '
-                           'valid one']
+        reason = skipped.reason
+        assert reason is not None
+        return warnings + [f'skipped a sample ({reason.value}) before the first valid one']
 
     # ------------------------------------------------------------------ per sample
     def process(self, stamp_ns: int, names: tuple[str, ...] | list[str], position: Any,
@@ -465,6 +478,9 @@ class IdentificationSession:
             warnings = self._build_from(stamp_ns, names, position, velocity, effort)
             if self.core is None or warnings:
                 return [[] for _ in self.runs], [], warnings
+            replay = self.first.lazy.take_replay()  # samples that completed the limits
+            if len(replay) > 1:
+                return self._replay(replay)
         core = self.core
         reason, inputs = core.stage.push(stamp_ns, names, position, velocity, effort)
         results = []
@@ -480,6 +496,21 @@ class IdentificationSession:
         else:
             why = f'skipped a sample ({reason.value}); {sum(core.counts.skipped.values())} so far'
         return results, inputs, [why]
+
+    def _replay(self, samples: Sequence[Any]
+                ) -> tuple[list[list[StepResult]], list[Input], list[str]]:
+        """:meth:`process` the samples kept while the stream completed the limits (of
+        :class:`~scara_ident_ros.identification.lazy_core.RawSample`), at once."""
+        results: list[list[StepResult]] = [[] for _ in self.runs]
+        inputs: list[Input] = []
+        warnings: list[str] = []
+        for sample in samples:
+            out, new, why = self.process(*sample)
+            for mine, theirs in zip(results, out):
+                mine += theirs
+            inputs += new
+            warnings += why
+        return results, inputs, warnings[:1]
 
     def flush(self) -> tuple[list[list[StepResult]], list[Input]]:
         """On shutdown: the pending samples' predictions for each method, and the samples."""

@@ -19,12 +19,11 @@ import numpy.typing as npt
 
 from scara_ident_ros.errors import ScaraIdentError
 from scara_ident_ros.identification.dataset import Dataset
+from scara_ident_ros.nn.validation_blocks import VALIDATION_FRACTION, choose_blocks
 
 __all__ = ['SplitError', 'VALIDATION_BLOCK_S', 'VALIDATION_FRACTION', 'block_index',
            'block_split']
 
-#: Defaults of ``scara-ident train`` and ``tables``: a fifth of the 1 s blocks validate.
-VALIDATION_FRACTION = 0.2
 VALIDATION_BLOCK_S = 1.0  # s, length of the validation time blocks
 
 
@@ -83,10 +82,7 @@ def block_split(data: Dataset, validation_fraction: float, *,
     if k < 2:
         raise SplitError(f'{data.seconds:.3g} s of samples fill {k} block of {block_s:g} s; '
                          'a validation split needs at least 2')
-    m = min(max(1, round(validation_fraction * k)), k - 1)
-    edges = (np.arange(m + 1) * k) // m  # strata [edges[i], edges[i + 1]), none empty
-    rng = np.random.default_rng(seed)
-    chosen = present[rng.integers(edges[:-1], edges[1:])]
+    chosen = choose_blocks(present, validation_fraction, seed)
     mask = np.isin(blocks, chosen)
     return data.take(~mask, 'train'), data.take(mask, 'validation')
 

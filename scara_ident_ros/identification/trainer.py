@@ -29,7 +29,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from scara_ident_ros.identification.background_lm import NICE, BackgroundLM, LearnerSettings
-from scara_ident_ros.identification.reservoir_lm import ReservoirLM
+from scara_ident_ros.identification.reservoir_lm import (LM_INTERVAL, LM_STEPS, RESERVOIR_SIZE,
+                                                         ReservoirLM)
 from scara_ident_ros.nn import FeedForwardNet
 from scara_ident_ros.nn.scaling import MinMaxScaling
 
@@ -70,12 +71,12 @@ class SteppedModel(Protocol):
     """What :class:`BackPropagation` needs of a network: steps, and its weights to undo one."""
 
     def predict(self, X: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Efforts (n,) of one input (3n,) (see ``EffortModel``)."""
+        """Efforts (n,) of one input (3n,) (see ``estimator.OnlineEstimator``)."""
         ...
 
     def partial_fit(self, X: NDArray[np.float64],
                     Y: NDArray[np.float64]) -> NDArray[np.float64]:
-        """One step per row; the a-priori errors (see ``EffortModel``)."""
+        """One step per row; the a-priori errors (see ``estimator.OnlineEstimator``)."""
         ...
 
     @property
@@ -83,11 +84,11 @@ class SteppedModel(Protocol):
         """The outputs' scaling (errors are compared in scaled units)."""
         ...
 
-    def get_params(self) -> NDArray[np.float64]:
+    def get_theta(self) -> NDArray[np.float64]:
         """A copy of the weights, shape (n_params,)."""
         ...
 
-    def set_params(self, theta: NDArray[np.float64]) -> None:
+    def set_theta(self, theta: NDArray[np.float64]) -> None:
         """Copy weights of shape (n_params,) in."""
         ...
 
@@ -110,7 +111,7 @@ class BackPropagation:
 
     Parameters
     ----------
-    model : SteppedModel or EffortModel
+    model : SteppedModel or OnlineEstimator
         The network, with its scaling set; learning rate and momentum are its own. The
         guard needs a :class:`SteppedModel`; another effort model is stepped unguarded.
 
@@ -141,7 +142,7 @@ class BackPropagation:
         model = self.model
         if not self.guarded:
             return y - model.partial_fit(x[np.newaxis], y[np.newaxis])[0]
-        before = model.get_params()
+        before = model.get_theta()
         prior = model.partial_fit(x[np.newaxis], y[np.newaxis])[0]
         gain = model.y_scaling.gain
         post = (y - model.predict(x)) * gain
@@ -150,7 +151,7 @@ class BackPropagation:
         self._typical += TYPICAL_WEIGHT * (prior_sq - self._typical)
         limit = GROWTH * max(prior_sq, self._typical) + GUARD_FLOOR * y.shape[0]
         if not float(post @ post) <= limit:
-            model.set_params(before)
+            model.set_theta(before)
             model.reset_momentum()
             model.learning_rate = model.learning_rate / 2.0
             self.undone += 1
@@ -161,30 +162,33 @@ class BackPropagation:
         return y - prior
 
 
-def make_trainer(name: str, model: FeedForwardNet, *, capacity: int = 4000,
-                 interval: int = 200, steps: int = 2, seed: int = 0, float64: bool = False,
-                 slow_share: float = 0.0, background: bool = False, label: str = 'lm',
-                 hybrid: HybridModel | None = None, nice: int = NICE
+def make_trainer(name: str, model: FeedForwardNet, *, reservoir_size: int = RESERVOIR_SIZE,
+                 lm_interval: int = LM_INTERVAL, lm_steps: int = LM_STEPS, seed: int = 0,
+                 lm_float64: bool = False, lm_slow_share: float = 0.0,
+                 background: bool = False, label: str = 'lm',
+                 hybrid: HybridModel | None = None, lm_nice: int = NICE
                  ) -> BackPropagation | ReservoirLM | BackgroundLM:
     """Build the trainer called ``name`` (one of :data:`TRAINERS`) for ``model``.
 
-    ``capacity``, ``interval``, ``steps``, ``seed``, ``float64`` and ``slow_share`` are
-    :class:`ReservoirLM`'s; BP uses the network's own learning rate and momentum.
-    ``background``: ``lm`` learns in a process beside the caller (:class:`BackgroundLM`,
-    ``interval`` then the least samples between two updates, ``label`` naming its process,
-    ``hybrid`` the hybrid ``model`` is the network of, learnt on its residuals there,
-    ``nice`` the niceness the process adds);
-    BP stays per sample.
+    ``reservoir_size``, ``lm_interval``, ``lm_steps``, ``seed``, ``lm_float64`` and
+    ``lm_slow_share`` are :class:`ReservoirLM`'s (the node's parameters of those names);
+    BP uses the network's own learning rate and momentum. ``background``: ``lm`` learns in
+    a process beside the caller (:class:`BackgroundLM`, ``lm_interval`` then the least
+    samples between two updates, ``label`` naming its process, ``hybrid`` the hybrid
+    ``model`` is the network of, learnt on its residuals there, ``lm_nice`` the niceness
+    the process adds); BP stays per sample.
     """
     if name == 'bp':
         return BackPropagation(model)
     if name == 'lm' and background:
         return BackgroundLM(model, LearnerSettings(
-            capacity=capacity, interval=interval, steps=steps, seed=seed, float64=float64,
-            slow_share=slow_share, nice=nice, label=label), hybrid=hybrid)
+            reservoir_size=reservoir_size, lm_interval=lm_interval, lm_steps=lm_steps,
+            seed=seed, lm_float64=lm_float64, lm_slow_share=lm_slow_share, lm_nice=lm_nice,
+            label=label), hybrid=hybrid)
     if name == 'lm':
-        return ReservoirLM(model, capacity=capacity, interval=interval, steps=steps,
-                           seed=seed, float64=float64, slow_share=slow_share)
+        return ReservoirLM(model, reservoir_size=reservoir_size, lm_interval=lm_interval,
+                           lm_steps=lm_steps, seed=seed, lm_float64=lm_float64,
+                           lm_slow_share=lm_slow_share)
     raise ValueError(f'unknown trainer {name!r}; choose from {TRAINERS}')
 
 

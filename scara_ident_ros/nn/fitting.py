@@ -1,4 +1,11 @@
-"""Offline training of a `FeedForwardNet` on a batch: the entry point over the algorithms."""
+"""Offline training of a `FeedForwardNet` on a batch: the entry point over the algorithms.
+
+`fit` runs one algorithm on given data; `train_offline` is the project's default offline
+training over it (what ``scara-ident train`` and ``FeedForwardNet.fit`` do): validation
+blocks held out of the samples, at most `SAMPLES` training samples, Levenberg–Marquardt
+early-stopped on the validation blocks. Its defaults were chosen with
+benchmarks/bench_train_defaults.py (docs/results.md).
+"""
 from __future__ import annotations
 
 import operator
@@ -13,14 +20,21 @@ from scara_ident_ros.nn.gradient_descent import GradientDescent
 from scara_ident_ros.nn.levenberg_marquardt import LevenbergMarquardt
 from scara_ident_ros.nn.scaling import MinMaxScaling
 from scara_ident_ros.nn.training import Callback, FitHistory, run_training
+from scara_ident_ros.nn.validation_blocks import VALIDATION_FRACTION, row_split
 
 if TYPE_CHECKING:
     from scara_ident_ros.nn.network import FeedForwardNet
 
-__all__ = ['ALGORITHMS', 'fit']
+__all__ = ['ALGORITHMS', 'ITERATIONS', 'MAX_FAIL', 'MIN_ITERATIONS', 'SAMPLES', 'fit',
+           'train_offline']
 
 #: Offline training algorithms accepted by `fit`.
 ALGORITHMS = ('lm', 'gd')
+#: Defaults of `train_offline` (and so of ``scara-ident train``).
+ITERATIONS = 500           # Levenberg–Marquardt iterations at most
+SAMPLES = 8000             # training samples drawn from the training blocks
+MAX_FAIL = 50              # validation failures in a row that stop training
+MIN_ITERATIONS = 50        # iterations before validation failures count
 
 
 def fit(net: FeedForwardNet, X: npt.ArrayLike, Y: npt.ArrayLike, *, algorithm: str = 'lm',
@@ -94,3 +108,54 @@ def fit(net: FeedForwardNet, X: npt.ArrayLike, Y: npt.ArrayLike, *, algorithm: s
                            min_iterations=min_iterations, callback=callback)
     net.reset_momentum()
     return history
+
+
+def train_offline(net: FeedForwardNet, X: npt.ArrayLike, Y: npt.ArrayLike, *,
+                  validation: tuple[npt.ArrayLike, npt.ArrayLike] | None = None,
+                  validation_fraction: float = VALIDATION_FRACTION, samples: int = SAMPLES,
+                  seed: int = 0, algorithm: str = 'lm', iterations: int = ITERATIONS,
+                  goal: float = 0.0, max_fail: int = MAX_FAIL,
+                  min_iterations: int = MIN_ITERATIONS,
+                  callback: Callback | None = None) -> FitHistory:
+    """The project's default offline training of ``net`` (module docstring), in place.
+
+    Parameters
+    ----------
+    net : FeedForwardNet
+    X : array_like of shape (n_samples, n_inputs)
+        Physical inputs, rows in time order.
+    Y : array_like of shape (n_samples, n_outputs)
+        Physical targets.
+    validation : (X_val, Y_val), optional
+        Validation samples; if None, blocks of consecutive rows of X, Y (a
+        ``validation_fraction`` of them, spread over the rows:
+        `validation_blocks.row_split`) validate and the others train.
+    validation_fraction : float, default 0.2
+        See ``validation``; 0: no validation, no early stop.
+    samples : int, default 8000
+        Train on at most this many training samples drawn at random (0: all).
+    seed : int, default 0
+        Seed of the validation blocks and of the draw.
+    algorithm, iterations, goal, max_fail, min_iterations, callback
+        As `fit`.
+
+    Returns
+    -------
+    FitHistory
+    """
+    x = np.asarray(X, dtype=np.float64)
+    y = np.asarray(Y, dtype=np.float64)
+    samples = operator.index(samples)
+    if samples < 0:
+        raise ValueError(f'samples must not be negative, got {samples}')
+    if validation is None and x.ndim == 2 and x.shape[0] == y.shape[0]:
+        train, held = row_split(x.shape[0], validation_fraction, seed=seed)
+        if held.shape[0]:
+            validation = (x[held], y[held])
+            x, y = x[train], y[train]
+    if samples and samples < x.shape[0]:
+        rows = np.sort(np.random.default_rng(seed).choice(x.shape[0], samples, replace=False))
+        x, y = x[rows], y[rows]
+    return fit(net, x, y, algorithm=algorithm, iterations=iterations, goal=goal,
+               validation=validation, max_fail=max_fail, min_iterations=min_iterations,
+               callback=callback)

@@ -17,25 +17,33 @@ Public methods take and return physical units; training minimises errors of scal
 The batch forward pass in scaled units (`forward_scaled`, `predict_scaled`) is here, with the
 model; what training needs of a batch (MSE, gradient, Jacobian) is in `batch`, the
 per-sample path of `predict` and `partial_fit` in `sample_step`, offline training in
-`fitting` (``fit(net, X, Y)``), friction-step initialisation in `friction_steps`. None of
-them is imported here: they build on the model.
+`fitting` (``fit(net, X, Y)``, which `FeedForwardNet.fit` calls), friction-step
+initialisation in `friction_steps`. They build on the model: imported here only inside the
+methods that call them.
+
+The network keeps the estimator contract (:mod:`scara_ident_ros.estimator`): ``fit``,
+``partial_fit``, ``predict``, ``score``, ``get_params``, ``save``/``load``, kind ``'network'``.
 """
 from __future__ import annotations
 
 import math
 import operator
 from pathlib import Path
-from typing import NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 import numpy.typing as npt
 
+from scara_ident_ros.estimator import r2_score, register_kind
 from scara_ident_ros.nn.activations import (ACTIVATIONS, DEFAULT_CONSTANTS,
                                             ActivationConstants, TanhForm, hidden_layer,
                                             tanh_form)
 from scara_ident_ros.nn.model_file import read_model, write_model
 from scara_ident_ros.nn.sample_step import HotScaling, build_sample_path
 from scara_ident_ros.nn.scaling import MinMaxScaling
+
+if TYPE_CHECKING:
+    from scara_ident_ros.nn.training import Callback, FitHistory
 
 __all__ = ['CHUNK', 'FeedForwardNet', 'Layers', 'forward_scaled', 'predict_scaled']
 
@@ -68,15 +76,25 @@ class FeedForwardNet:
     momentum : float, default 0.9
         Momentum of the same; 0 gives plain gradient descent.
 
+    Attributes
+    ----------
+    metadata : dict of str to ndarray
+        Saved with the network (``joint_names``, ``method``, ...).
+    history_ : FitHistory or None
+        The training of the last `fit`.
+
     Notes
     -----
-    Before `set_scaling` or ``fit(net, ...)``, inputs and outputs are taken as already scaled
+    Before `set_scaling` or `fit`, inputs and outputs are taken as already scaled
     (identity scaling), `predict` works, and `partial_fit` refuses to learn.
 
     Not thread-safe: single-sample `predict` and `partial_fit` share preallocated buffers.
     Call one network from one thread at a time (a ROS callback group that is mutually
     exclusive does that).
     """
+
+    #: The model file's kind (:func:`scara_ident_ros.estimator.load_model`).
+    kind = 'network'
 
     def __init__(self, n_inputs: int, n_hidden: int, n_outputs: int,
                  activation: str = 'mslog', *, seed: int = 0, k: float | None = None,
@@ -111,6 +129,7 @@ class FeedForwardNet:
         self._momentum = _check_momentum(momentum)
         #: Free-form arrays saved with the network, e.g. ``{'joint_names': np.array([...])}``.
         self.metadata: dict[str, np.ndarray] = {}
+        self.history_: FitHistory | None = None
 
         self._form = tanh_form(activation, constants)
 
@@ -212,12 +231,41 @@ class FeedForwardNet:
         """Whether the scaling was set by `set_scaling`, `fit` or `load`."""
         return self._scaling_set
 
+    @property
+    def joint_names(self) -> tuple[str, ...] | None:
+        """The joints of the outputs, as recorded in `metadata`, or None if not recorded."""
+        names = self.metadata.get('joint_names')
+        return None if names is None else tuple(str(name) for name in np.atleast_1d(names))
+
+    @property
+    def method(self) -> str:
+        """The method key (``'ffs'``, ...): ``metadata['method']`` if it names one, else
+        the method of the activation (or the activation's name)."""
+        from scara_ident_ros.nn.presets import METHODS
+
+        method = self.metadata.get('method')
+        if method is not None and str(method) in METHODS:
+            return str(method)
+        for key, spec in METHODS.items():
+            if spec.activation == self._activation:
+                return key
+        return self._activation
+
+    def get_params(self) -> dict[str, Any]:
+        """The hyperparameters given to the constructor (sizes, activation and its
+        constants, seed, weight scale, learning rate, momentum), as data."""
+        k, a, b = self._constants
+        return {'n_inputs': self._n_in, 'n_hidden': self._n_hid, 'n_outputs': self._n_out,
+                'activation': self._activation, 'seed': self._seed, 'k': k, 'a': a, 'b': b,
+                'weight_scale': self._weight_scale, 'learning_rate': self._learning_rate,
+                'momentum': self._momentum}
+
     # ------------------------------------------------------------------------------ weights
     # What the training algorithms and `batch` use, in scaled units: `theta`, `unpack`.
     @property
     def theta(self) -> FloatArray:
         """The packed weights θ (n_params,): the network's own array, which trainers update
-        in place (`get_params` returns a copy)."""
+        in place (`get_theta` returns a copy; `get_params` returns the hyperparameters)."""
         return self._theta
 
     def unpack(self, theta: FloatArray) -> tuple[FloatArray, FloatArray]:
@@ -238,11 +286,11 @@ class FeedForwardNet:
         return (theta[:split].reshape(self._n_in + 1, self._n_hid),
                 theta[split:].reshape(self._n_out, self._n_hid + 1))
 
-    def get_params(self) -> FloatArray:
+    def get_theta(self) -> FloatArray:
         """Return a copy of the packed weights θ, shape (n_params,)."""
         return self._theta.copy()
 
-    def set_params(self, theta: npt.ArrayLike) -> None:
+    def set_theta(self, theta: npt.ArrayLike) -> None:
         """Copy packed weights θ of shape (n_params,) into the network."""
         theta = np.asarray(theta, dtype=np.float64)
         if theta.shape != self._theta.shape:
@@ -252,7 +300,7 @@ class FeedForwardNet:
         np.copyto(self._theta, theta)
 
     def reset_momentum(self) -> None:
-        """Forget the momentum of `partial_fit`; `fit` does it, `set_params` does not."""
+        """Forget the momentum of `partial_fit`; `fit` does it, `set_theta` does not."""
         self._velocity.fill(0.0)
 
     def _initialise_weights(self) -> None:
@@ -316,6 +364,53 @@ class FeedForwardNet:
         return self._y_scaling.inverse_transform(predict_scaled(
             self, self._x_scaling.transform(xs)))
 
+    def score(self, X: npt.ArrayLike, Y: npt.ArrayLike) -> float:
+        """R² of the predictions of Y (N, n_outputs) from X (N, n_inputs): 1 − mean NMSE
+        over the outputs (:func:`scara_ident_ros.estimator.r2_score`)."""
+        return r2_score(Y, self.predict(X))
+
+    # ------------------------------------------------------------------------ offline learning
+    def fit(self, X: npt.ArrayLike, Y: npt.ArrayLike, *,
+            validation: tuple[npt.ArrayLike, npt.ArrayLike] | None = None,
+            validation_fraction: float | None = None, samples: int | None = None,
+            algorithm: str = 'lm', iterations: int | None = None, goal: float = 0.0,
+            max_fail: int | None = None, min_iterations: int | None = None,
+            callback: Callback | None = None) -> FeedForwardNet:
+        """Train offline with the project's defaults (``scara-ident train``'s), in place.
+
+        `fitting.train_offline`: blocks of consecutive rows validate (or ``validation``),
+        Levenberg–Marquardt on at most 8000 samples of the others, stopped after 50
+        iterations without a new best validation error (counted from iteration 50, at most
+        500) with the best weights kept. Draws use the network's `seed`. If the scaling
+        was never set, it is fitted to the ranges of X and Y.
+
+        Parameters
+        ----------
+        X : array_like of shape (n_samples, n_inputs)
+            Physical inputs, rows in time order.
+        Y : array_like of shape (n_samples, n_outputs)
+            Physical targets.
+        validation, validation_fraction, samples : optional
+            `fitting.train_offline`'s; None takes its default.
+        algorithm, iterations, goal, max_fail, min_iterations, callback : optional
+            `fitting.fit`'s; None takes `fitting.train_offline`'s default.
+
+        Returns
+        -------
+        FeedForwardNet
+            ``self``, its training in `history_`.
+        """
+        from scara_ident_ros.nn.fitting import train_offline
+
+        options: dict[str, Any] = {
+            'validation_fraction': validation_fraction, 'samples': samples,
+            'iterations': iterations, 'max_fail': max_fail, 'min_iterations': min_iterations}
+        self.history_ = train_offline(
+            self, X, Y, validation=validation, seed=self._seed, algorithm=algorithm,
+            goal=goal, callback=callback,
+            **{key: value for key, value in options.items() if value is not None})
+        return self
+
     # ------------------------------------------------------------------------ online learning
     def partial_fit(self, X: npt.ArrayLike, Y: npt.ArrayLike) -> FloatArray:
         """Learn online: one back-propagation step per sample, in order.
@@ -363,7 +458,7 @@ class FeedForwardNet:
     def _step_unscaled(self, x: FloatArray, y: FloatArray) -> FloatArray:
         raise RuntimeError('partial_fit needs the input and output scaling: call '
                            'set_scaling(x_min, x_max, y_min, y_max) with the physical '
-                           'ranges (e.g. the robot limits) or fit(net, ...) first')
+                           'ranges (e.g. the robot limits) or fit(X, Y) first')
 
     def _build_single_sample_path(self) -> None:
         """(Re)build the per-sample closures over the buffers and the training options;
@@ -415,7 +510,7 @@ class FeedForwardNet:
         net = cls(n_in, n_hid, n_out, str(arrays['activation']), seed=int(arrays['seed']),
                   k=k, a=a, b=b, weight_scale=weight_scale, learning_rate=lr,
                   momentum=momentum)
-        net.set_params(arrays['params'])
+        net.set_theta(arrays['params'])
         np.copyto(net._velocity, arrays['velocity'])
         if bool(arrays['scaling_set']):
             net.set_scaling(arrays['x_min'], arrays['x_max'], arrays['y_min'], arrays['y_max'])
@@ -468,6 +563,9 @@ class FeedForwardNet:
         k, a, b = self._constants
         return (f'FeedForwardNet({self._n_in}, {self._n_hid}, {self._n_out}, '
                 f'{self._activation!r}, k={k:g}, a={a:g}, b={b:g}, seed={self._seed})')
+
+
+register_kind(FeedForwardNet.kind, FeedForwardNet.load)
 
 
 class Layers(NamedTuple):

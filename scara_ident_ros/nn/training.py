@@ -101,10 +101,10 @@ class FitHistory:
 class Weights(Protocol):
     """What `run_training` reads of a network: its packed weights, to keep the best."""
 
-    def get_params(self) -> FloatArray:
+    def get_theta(self) -> FloatArray:
         """Return a copy of the packed weights."""
 
-    def set_params(self, theta: npt.ArrayLike) -> None:
+    def set_theta(self, theta: npt.ArrayLike) -> None:
         """Copy packed weights into the network."""
 
 
@@ -170,7 +170,7 @@ def run_training(net: Weights, algorithm: str, step: TrainingStep, *,
     if validation_mse is not None:
         history.val_mse = [validation_mse()]
         best_val = history.val_mse[0]
-        best_params = net.get_params()
+        best_params = net.get_theta()
     reason = STOP_GOAL if history.mse[0] <= goal else ''
     while not reason:
         if history.iterations >= iterations:
@@ -189,7 +189,7 @@ def run_training(net: Weights, algorithm: str, step: TrainingStep, *,
             history.val_mse.append(val)
             if val < best_val:
                 best_val, fails = val, 0
-                best_params = net.get_params()
+                best_params = net.get_theta()
                 history.best_iteration = history.iterations
             elif history.iterations > min_iterations:
                 fails += 1
@@ -204,5 +204,5 @@ def run_training(net: Weights, algorithm: str, step: TrainingStep, *,
             reason = STOP_CALLBACK
     history.stop_reason = reason
     if best_params is not None:
-        net.set_params(best_params)
+        net.set_theta(best_params)
     return history

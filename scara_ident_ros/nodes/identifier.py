@@ -49,11 +49,10 @@ from std_srvs.srv import Trigger
 
 from scara_ident_ros.blas_threads import single_blas_thread
 from scara_ident_ros.errors import ConfigError
-from scara_ident_ros.identification import (DIFFERENTIATOR_WINDOW, DIFFERENTIATORS, TRAINERS,
-                                            StepResult)
-from scara_ident_ros.identification.background_lm import NICE, prestart
+from scara_ident_ros.identification import StepResult
+from scara_ident_ros.identification.background_lm import prestart
 from scara_ident_ros.identification.input_stage import Input
-from scara_ident_ros.identification.lazy_core import ONLINE_METHODS
+from scara_ident_ros.identification.parameters import IDENTIFICATION_PARAMETERS, LIMITS
 from scara_ident_ros.identification.sample_check import GAP_PERIODS
 from scara_ident_ros.identification.session import IdentificationSession, MethodRun
 from scara_ident_ros.identification.stream_clock import PathDelays, StreamClock
@@ -89,109 +88,19 @@ CALIBRATION_TICK = 0.05  # s between two steps of the contact calibration
 CALIBRATION_SLICE = 2000  # held-out samples a calibration step predicts
 FLUSH_TIMEOUT = 2.0  # s on shutdown for the subscribers to acknowledge the last predictions
 SETTLE_LOSS_S = 0.2  # s without a sample after which a long stamp step's losses are counted
-# Why a read-only parameter is fixed at start (shown by `ros2 param describe`)
-NETWORK = "the network's shape and inputs (a saved model keeps them)"
-HOLDOUT = 'which samples are held out must not change under the validation score'
-ESTIMATE = "the q'' estimate keeps a history of samples"
-LIMITS = "the network's input and output scaling"
+# Why a read-only parameter is fixed at start (shown by `ros2 param describe`; the others in
+# identification.parameters)
 START = 'used at start only'
 
 PARAMETERS = (
-    ParamSpec('method', 'ffs', 'Model: the networks FFS (sigmoid, default: it identifies '
-              "best, docs/results.md), FFMW (MSLOG, the paper's) or FFW (SLOG); physical "
-              "(the URDF's rigid-body model with friction and rotor inertia, recursive least "
-              'squares) or hybrid (physical plus an FFS network of its residual): these need '
-              'urdf_file or robot_description', choices=ONLINE_METHODS, fixed=NETWORK),
-    ParamSpec('methods', [], 'Several networks from one subscription, each publishing under '
-              '<method>/ in the node\'s namespace (the samples are checked and q\'\' '
-              'estimated once); empty: method alone, publishing in the node\'s namespace',
-              items=str, choices=ONLINE_METHODS, fixed=NETWORK),
-    ParamSpec('joint_names', [], 'Joints to identify, in this order; empty: the joints of '
-              'the first valid message (or of the warm-start model)', items=str, fixed=NETWORK),
-    ParamSpec('min_joints', 1, 'Without joint_names: take the joints of the first valid '
-              'message naming at least this many (a partial message does not fix the set)',
-              min=1, max=1000, fixed=NETWORK),
-    ParamSpec('hidden_units', 40, 'Hidden units of the network', min=1, max=10_000,
-              fixed=NETWORK),
-    ParamSpec('seed', 0, 'Seed of the initial weights, the reservoir and the validation '
-              'blocks', min=0, fixed='the weights are drawn once (~/reset draws them again)'),
-    ParamSpec('learning_rate', 0.0, "Online learning rate of trainer bp; 0: the method's "
-              'default', min=0.0, max=10.0, read_only=False),
-    ParamSpec('momentum', -1.0, "Online momentum in [0, 1) of trainer bp; negative: the "
-              "method's default", min=-1.0, max=0.999, read_only=False),
-    ParamSpec('k', 2.5, 'MSLOG gain K (ffmw only)', fixed=NETWORK),
-    ParamSpec('a', 5.0, 'MSLOG divisor a in z = (x·v − b)/a (ffmw only)', fixed=NETWORK),
-    ParamSpec('b', 5.0, 'MSLOG offset b (ffmw only)', fixed=NETWORK),
-    ParamSpec('learn', True, 'Learn online; false: predict only (samples without effort are '
-              'then predicted too)', read_only=False),
-    ParamSpec('trainer', 'lm', 'Online training: lm (Levenberg-Marquardt steps on a reservoir '
-              'of the whole stream, generalizes) or bp (the paper: one back-propagation step '
-              'per sample, tracks)', choices=TRAINERS, fixed='the trainer keeps its state'),
-    ParamSpec('reservoir_size', 4000, 'Samples of the stream kept for the lm trainer',
-              min=10, max=1_000_000, fixed='the reservoir is allocated once'),
-    ParamSpec('lm_steps', 2, 'Levenberg-Marquardt steps of the lm trainer per update', min=1,
-              max=100, read_only=False),
-    ParamSpec('lm_interval', 200, 'Samples between two updates of the lm trainer (beside '
-              'the stream: the least new samples between two)', min=1,
-              max=1_000_000, read_only=False),
-    ParamSpec('lm_background', True, 'lm trainer: learn in a process beside the stream, at '
-              'lower CPU priority, so that no sample waits for a step (when the CPU is short, '
-              'learning slows down and the updates/s say so); false: steps in the message '
-              'path every lm_interval samples (reproducible, for experiments)',
-              fixed='the trainer is built once'),
-    ParamSpec('lm_nice', NICE, 'lm trainer beside the stream: niceness its learner process adds '
-              "to the node's: above 0 the stream's processes go first when the CPU is short "
-              '(learning slows down, the stream does not); 0 gives learning an equal share',
-              min=0, max=19, fixed='the learner process is started once'),
-    ParamSpec('lm_float64', False, 'lm trainer: assemble its normal equations in float64 '
-              '(more CPU)', fixed='the trainer is built once'),
-    ParamSpec('lm_slow_share', 0.0, 'lm trainer: share of reservoir_size kept for samples '
-              'where some joint moves slower than 1 % of its velocity limit (the friction '
-              'step at zero speed); 0: one uniform reservoir', min=0.0, max=0.5,
-              fixed='the reservoir is allocated once'),
-    ParamSpec('lm_friction_steps', True, 'lm trainer: the first hidden units start as steps '
-              "of each joint's speed at 0, the shape of Coulomb friction (half-widths 6.4, "
-              '1.6, 0.4, 0.1 and 0.025 % of the velocity limit), the others random; false: all '
-              'random (a Coulomb step is then learnt slowly, docs/results.md)', fixed=NETWORK),
-    ParamSpec('validation_fraction', 0.1, 'Fraction of the samples (in blocks) never learnt, '
-              'whose error is the validation NMSE; 0: none', min=0.0, max=0.9,
-              fixed=HOLDOUT),
-    ParamSpec('validation_block', 500, 'Samples per held-out block', min=1, max=1_000_000,
-              fixed=HOLDOUT),
-    ParamSpec('model_path', '', 'Warm-start from this saved model (.npz; with methods, '
-              '{method} in the path stands for each method); empty: fresh',
-              fixed='read once, at start'),
-    ParamSpec('save_path', '', 'Save the model here periodically and on shutdown (atomically; '
-              'with methods, {method} in the path stands for each method); '
-              'a model already there is continued from, not replaced (unless model_path is '
-              'given); empty: never', fixed='a model there is continued from at start'),
-    ParamSpec('checkpoint_period', 60.0, 'Seconds between checkpoints to save_path; 0: only '
-              'on shutdown (and ~/save_model)', 's', min=0.0, read_only=False),
-    ParamSpec('mse_window', 1000, 'Samples in the windowed MSE (a change starts the window '
-              'anew)', min=100, read_only=False),
-    ParamSpec('mse_rate_hz', 10.0, 'Rate of identification_mse', 'Hz', min=0.01, max=1000.0,
-              read_only=False),
-    ParamSpec('differentiator', 'centred', 'How acceleration is estimated from velocity: '
-              'centred (zero-phase, window // 2 samples late) or a causal filter',
-              choices=DIFFERENTIATORS, fixed=ESTIMATE),
-    ParamSpec('cutoff_hz', 50.0, 'Cut-off of the lowpass differentiator', 'Hz', min=0.1,
-              fixed=ESTIMATE),
-    ParamSpec('window', DIFFERENTIATOR_WINDOW,
-              'Samples of the centred (odd) and polynomial differentiators', min=3, max=101,
-              fixed=ESTIMATE),
-    ParamSpec('limit_margin', 0.5, 'Refuse samples (out_of_limits) whose position leaves the '
-              'joint range by more than this fraction of the range, or whose velocity or '
-              'effort exceeds its limit by more than this fraction; negative: no check',
-              min=-1.0, max=100.0, fixed=LIMITS),
-    ParamSpec('max_gap', 0.02, 'A larger gap between stamps, if also longer than 5 observed '
-              'sample periods (100 Hz: 50 ms), restarts the differentiator', 's', min=0.0,
-              fixed=ESTIMATE),
+    *IDENTIFICATION_PARAMETERS,
     ParamSpec('robot_config', '', "Robot YAML whose joint limits scale the network's inputs "
               'and outputs; empty: the installed config/scara.yaml', fixed=LIMITS),
     ParamSpec('urdf_file', '', 'URDF whose joint <limit>s (position, velocity, effort), '
               'matched by joint name, replace those of robot_config; acceleration limits '
-              "(URDF has none) stay robot_config's, or acceleration_max with joint_names; "
-              'empty: none', fixed=LIMITS),
+              '(URDF has none) from acceleration_max with joint_names, else a robot_config '
+              "naming the joints, else 2 x the largest q'' of the stream's first second (a "
+              'continuous joint: all its limits so); empty: none', fixed=LIMITS),
     ParamSpec('robot_description', '', 'The URDF as a string, as robot_state_publisher has '
               'it: used like urdf_file', fixed=LIMITS),
     ParamSpec('position_min', [], 'Per-joint position lower limits (rad or m); with the four '

@@ -12,7 +12,10 @@
   (:mod:`scara_ident_ros.bag.series_source`).
 - Messages are published as the bytes that were recorded (``Publisher.publish(bytes)``,
   nothing is deserialized), each when its log time comes, scaled by ``rate``
-  (0 = as fast as possible); the timing is :func:`~scara_ident_ros.bag.schedule`.
+  (0 = as fast as possible); the timing is :func:`~scara_ident_ros.bag.schedule`. A
+  JointState goes out at its exact CDR length: bags of earlier versions hold
+  ``identified_torque`` messages with 8 bytes past their data, which rosbags refuses
+  (:func:`~scara_ident_ros.bag.exact_cdr.exact_joint_state`).
 - Publishers are reliable with a history of ``qos_depth`` (1 s at 1 kHz by default) and
   transient-local when every recorded publisher was; each needs the message package of
   its type (topics without one are skipped with a warning).
@@ -46,6 +49,7 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from rosgraph_msgs.msg import Clock
 
 from scara_ident_ros.bag.errors import BagError
+from scara_ident_ros.bag.exact_cdr import JOINT_STATE, exact_joint_state
 from scara_ident_ros.bag.message_class import message_class
 from scara_ident_ros.bag.playback import Scheduled, Timeline, parse_remaps, schedule
 from scara_ident_ros.bag.qos import adapt_to_offers
@@ -222,7 +226,10 @@ class PlayerNode(Node):
                 last_clock = item.clock_ns
                 self._publish_clock(last_clock)
                 next_clock_wall = now + round(clock_period / rate) if rate else now
-            publishers[item.message.topic].publish(item.message.data)
+            data = item.message.data
+            if item.message.msgtype == JOINT_STATE:
+                data = exact_joint_state(data)
+            publishers[item.message.topic].publish(data)
             self.published += 1
             last_item = item
             unacknowledged += 1

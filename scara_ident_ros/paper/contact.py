@@ -22,18 +22,18 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import cast
 
 import numpy as np
 import numpy.typing as npt
 
 from scara_ident_ros.dynamics import ScaraParams
-from scara_ident_ros.dynamics.joint_limits import LIMIT_NAMES
-from scara_ident_ros.identification import (Holdout, InputStage, JointMap, OnlineIdentifier,
-                                            make_differentiator, make_trainer)
+from scara_ident_ros.dynamics.joint_limits import LIMIT_NAMES, JointLimits
+from scara_ident_ros.estimator import Estimator
+from scara_ident_ros.identification import InputStage, JointMap
 from scara_ident_ros.identification.contact_detector import ContactDetector
-from scara_ident_ros.identification.online_identifier import EffortModel
-from scara_ident_ros.identification.trainer import starts_with_friction_steps
-from scara_ident_ros.nn.presets import limit_scaling, make_network
+from scara_ident_ros.identification.core_settings import CoreSettings
+from scara_ident_ros.identification.identifier_builder import build_identifier
 from scara_ident_ros.nn import FeedForwardNet
 from scara_ident_ros.dynamics.joint_limits import load_motion_limits
 from scara_ident_ros.excitation import LoopSettings
@@ -127,13 +127,11 @@ def train_model(params: ScaraParams, *, seconds: float, seed: int, config: SimCo
     record = (loop_record(params, seconds=seconds, seed=seed, config=config)
               if stream == 'loop' else
               Simulator(params, make_trajectory('sequence', params, seed), config).simulate(n))
-    net = make_network('ffs', 4, n_hidden=hidden, seed=seed,
-                       friction_steps=starts_with_friction_steps('lm', True))
-    net.set_scaling(*limit_scaling(*(params.array(name) for name in LIMIT_NAMES)))
-    ident = OnlineIdentifier(net, joint_names=params.joint_names,
-                             differentiator=make_differentiator('centred'),
-                             trainer=make_trainer('lm', net, seed=seed),
-                             holdout=Holdout(12, 4, block=500, seed=seed))
+    limits = JointLimits.of(params.joint_names,
+                            {name: params.array(name) for name in LIMIT_NAMES}, source='robot')
+    ident = build_identifier(params.joint_names, CoreSettings.defaults(
+        method='ffs', trainer='lm', hidden_units=hidden, seed=seed), limits)
+    net = cast(FeedForwardNet, ident.model)
     names = params.joint_names
     for i in range(len(record)):
         ident.process(int(record.stamp_ns[i]), names, record.q[i], record.qd[i],
@@ -192,7 +190,7 @@ def pulse_record(params: ScaraParams, *, seconds: float, seed: int, config: SimC
     return SimRecord(stamps, *columns), pulses
 
 
-def residuals_of(net: EffortModel, record: SimRecord, names: tuple[str, ...]
+def residuals_of(net: Estimator, record: SimRecord, names: tuple[str, ...]
                  ) -> tuple[npt.NDArray[np.int64], FloatArray, FloatArray]:
     """The frozen model's τ_ext = measured − predicted on a record, through the input stage.
 

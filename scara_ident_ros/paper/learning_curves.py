@@ -32,7 +32,7 @@ Public API::
     regressor_curves(record, held_out, *, seed, checkpoints, physical=None)
         -> (LS Curve, RLS Curve)
     run_curves(robot, *, seeds, methods, trainers, seconds, noise=False, workers=2,
-               held_out_s=(6, 30), lm_steps=2, references=True, reservoir_size=4000,
+               held_out_s=(6, 30), lm_steps=None, references=True, reservoir_size=None,
                stribeck=False)
         -> list[Curve]                             every curve, the jobs in worker processes
     noisy_config(params, seed) -> SimConfig        the simulator's sensor-noise options
@@ -55,18 +55,16 @@ import numpy.typing as npt
 from scara_ident_ros.blas_threads import single_blas_thread
 from scara_ident_ros.dynamics import ScaraParams
 from scara_ident_ros.dynamics.joint_limits import LIMIT_NAMES
-from scara_ident_ros.dynamics.hybrid_model import HybridModel, online_hybrid
+from scara_ident_ros.dynamics.joint_limits import JointLimits
 from scara_ident_ros.dynamics.physical_model import PhysicalModel
 from scara_ident_ros.dynamics.recursive_least_squares import RecursiveLeastSquares
-from scara_ident_ros.identification import (DIFFERENTIATOR_WINDOW, Holdout, InputStage, JointMap,
-                                            OnlineIdentifier, make_differentiator, make_trainer)
+from scara_ident_ros.identification import InputStage, JointMap, make_differentiator
+from scara_ident_ros.identification.core_settings import CoreSettings
 from scara_ident_ros.identification.dataset import Dataset
-from scara_ident_ros.identification.background_lm import BackgroundLM
-from scara_ident_ros.identification.hybrid_trainer import HybridTrainer
+from scara_ident_ros.identification.identifier_builder import (background_learner,
+                                                               build_identifier)
 from scara_ident_ros.identification.metrics import effort_errors
-from scara_ident_ros.identification.trainer import Trainer, starts_with_friction_steps
-from scara_ident_ros.nn import FeedForwardNet
-from scara_ident_ros.nn.presets import limit_scaling, make_network, method as method_spec
+from scara_ident_ros.nn.presets import method as method_spec
 from scara_ident_ros.paper.datasets import dataset_from_record, simulate_record
 from scara_ident_ros.paper.reference import fit_reference, predict_reference
 from scara_ident_ros.paper.tables import format_value
@@ -170,55 +168,50 @@ def _nmse(Y: FloatArray, predicted: FloatArray) -> FloatArray:
 
 
 def network_curve(record: SimRecord, held_out: Dataset, params: Robot, *, method: str,
-                  trainer: str, seed: int = 0, lm_steps: int = 2,
+                  trainer: str, seed: int = 0, lm_steps: int | None = None,
                   checkpoints: Sequence[float] = CHECKPOINTS_S,
-                  window: int = DIFFERENTIATOR_WINDOW,
-                  lm_interval: int = 200, validation_block: int = 500,
-                  lm_float64: bool = False, lm_slow_share: float = 0.0,
-                  lm_friction_steps: bool = True, reservoir_size: int = 4000,
-                  physical: PhysicalModel | None = None, background: bool = False) -> Curve:
-    """Stream ``record`` through an identifier of ``method`` and ``trainer`` (node defaults).
+                  window: int | None = None, lm_interval: int | None = None,
+                  validation_block: int | None = None, lm_float64: bool | None = None,
+                  lm_slow_share: float | None = None, lm_friction_steps: bool | None = None,
+                  reservoir_size: int | None = None, physical: PhysicalModel | None = None,
+                  background: bool = False) -> Curve:
+    """Stream ``record`` through the node's identifier of ``method`` and ``trainer``.
+
+    The identifier is the node's (:func:`~scara_ident_ros.identification.
+    identifier_builder.build_identifier` with ``CoreSettings.defaults()``): the network
+    scaled by the robot's limits, the samples checked against them, a tenth of the samples
+    (blocks of ``validation_block``) held back for its own validation. ``lm_steps``,
+    ``lm_interval``, ``lm_float64``, ``lm_slow_share``, ``lm_friction_steps``, ``window``,
+    ``validation_block`` and ``reservoir_size`` are the node's parameters of those names
+    (the ``lm`` trainer's steps per update, samples between updates, float64 normal
+    equations, share of slow samples, friction-step units and reservoir samples; the
+    centred q'' fit's samples); None: the node's default.
 
     Method ``hybrid`` needs ``physical``, the arm's (fresh) physical model: it learns by
     RLS, its residual network by ``trainer`` (``lm``).
-
-    The network's scaling comes from the robot's limits, as in the node; 10 % of the
-    samples (blocks of ``validation_block``) are held back for the identifier's own
-    validation, as in the node. ``lm_steps``, ``lm_interval``, ``lm_float64``,
-    ``lm_slow_share``, ``lm_friction_steps``, ``window``, ``validation_block`` and
-    ``reservoir_size`` are the node's parameters of those names (the ``lm`` trainer's steps
-    per update, samples between updates, float64 normal equations, share of slow samples,
-    friction-step units and reservoir samples; the centred q'' fit's samples).
 
     ``background``: ``lm`` learns in a learner process, as in the node by default
     (``lm_background``); the stream is then fed at its own rate in wall time (a node's
     pace: the learner's updates depend on it), the latest weights taken at each checkpoint.
     """
-    n = len(params.joint_names)
-    scaling = limit_scaling(*(params.array(name) for name in LIMIT_NAMES))
-    friction_steps = starts_with_friction_steps(trainer, lm_friction_steps)
-    model: FeedForwardNet | HybridModel
-    if method == 'hybrid':
-        if physical is None:
-            raise ValueError('method hybrid needs the physical model of a URDF arm')
-        model = online_hybrid(physical, scaling, seed=seed, friction_steps=friction_steps)
-        net = model.network
-    else:
-        model = net = make_network(method, n, seed=seed, friction_steps=friction_steps)
-        net.set_scaling(*scaling)
-    learner: Trainer = make_trainer(trainer, net, steps=lm_steps, capacity=reservoir_size,
-                                    interval=lm_interval, seed=seed, float64=lm_float64,
-                                    slow_share=lm_slow_share, background=background,
-                                    hybrid=model if isinstance(model, HybridModel) else None)
-    beside = learner if isinstance(learner, BackgroundLM) else None
+    if method == 'hybrid' and physical is None:
+        raise ValueError('method hybrid needs the physical model of a URDF arm')
+    changes = {'lm_steps': lm_steps, 'lm_interval': lm_interval,
+               'validation_block': validation_block, 'lm_float64': lm_float64,
+               'lm_slow_share': lm_slow_share, 'lm_friction_steps': lm_friction_steps,
+               'reservoir_size': reservoir_size}
+    settings = CoreSettings.defaults(method=method, trainer=trainer, seed=seed,
+                                     **{k: v for k, v in changes.items() if v is not None})
+    limits = JointLimits.of(params.joint_names,
+                            {name: params.array(name) for name in LIMIT_NAMES}, source='robot')
+    ident = build_identifier(
+        params.joint_names, settings, limits, physical=physical, background=background,
+        differentiator=(None if window is None
+                        else make_differentiator('centred', window=window)))
+    model = ident.model
+    beside = background_learner(ident.trainer)
     if beside is not None:
         beside.wait_ready(30.0)
-    if isinstance(model, HybridModel):
-        learner = HybridTrainer(model, learner, seed=seed)
-    ident = OnlineIdentifier(model, joint_names=params.joint_names,
-                             differentiator=make_differentiator('centred', window=window),
-                             trainer=learner,
-                             holdout=Holdout(3 * n, n, block=validation_block, seed=seed))
     names = params.joint_names
     stamps = record.stamp_ns
     marks = [int(stamps[0] + round(s * 1e9)) for s in checkpoints]
@@ -243,10 +236,11 @@ def network_curve(record: SimRecord, held_out: Dataset, params: Robot, *, method
     if beside is not None:
         beside.close()
     label = 'hybrid' if method == 'hybrid' else f'{method_spec(method).label} {trainer}'
-    if trainer == 'lm' and lm_steps != 2:
-        label += f' ×{lm_steps}'
-    if trainer == 'lm' and reservoir_size != 4000:
-        label += f' ({reservoir_size} samples)'
+    node = CoreSettings.defaults()
+    if trainer == 'lm' and settings.lm_steps != node.lm_steps:
+        label += f' ×{settings.lm_steps}'
+    if trainer == 'lm' and settings.reservoir_size != node.reservoir_size:
+        label += f' ({settings.reservoir_size} samples)'
     if beside is not None:
         label += ' (background)'
     return Curve(label, seed, np.asarray(checkpoints, float), np.array(scores), cpu)
@@ -278,7 +272,7 @@ def regressor_curves(record: SimRecord, held_out: Dataset, *, seed: int = 0,
             ls_cpu = time.process_time() - began  # a batch fit: the last one is the cost
             ls_predicted = predict_reference(fit.identifier, held_out.X)
         else:
-            physical.fit_inputs(X[:stop], Y[:stop])
+            physical.fit(X[:stop], Y[:stop])
             ls_cpu = time.process_time() - began
             ls_predicted = physical.predict(held_out.X)
         ls_scores.append(_nmse(held_out.Y, ls_predicted))
@@ -341,8 +335,8 @@ def noise_floor(params: Robot, held_out: Dataset) -> FloatArray:
     return np.asarray(effort_std ** 2 / held_out.Y.var(axis=0))
 
 
-def _job(job: tuple[ScaraParams | str, str, str, int, float, bool, tuple[float, float], int,
-                    int, bool]) -> list[Curve]:
+def _job(job: tuple[ScaraParams | str, str, str, int, float, bool, tuple[float, float],
+                    int | None, int | None, bool]) -> list[Curve]:
     # One BLAS thread: a worker's LM systems gain nothing from more, and two workers with
     # two threads each on 2 cores doubled the CPU time measured per curve.
     with single_blas_thread():
@@ -350,8 +344,8 @@ def _job(job: tuple[ScaraParams | str, str, str, int, float, bool, tuple[float, 
 
 
 def _curves(robot: ScaraParams | str, method: str, trainer: str, seed: int, seconds: float,
-            noise: bool, held_out_s: tuple[float, float], lm_steps: int,
-            reservoir_size: int, stribeck: bool) -> list[Curve]:
+            noise: bool, held_out_s: tuple[float, float], lm_steps: int | None,
+            reservoir_size: int | None, stribeck: bool) -> list[Curve]:
     params = robot_by_name(robot) if isinstance(robot, str) else robot
     physical = (physical_model_of(robot, stribeck=stribeck)
                 if isinstance(robot, str) and robot != 'scara' else None)
@@ -373,8 +367,8 @@ def _curves(robot: ScaraParams | str, method: str, trainer: str, seed: int, seco
 def run_curves(robot: ScaraParams | str, *, seeds: Sequence[int], methods: Sequence[str],
                trainers: Sequence[str], seconds: float = 120.0, noise: bool = False,
                workers: int = 2, held_out_s: tuple[float, float] = (6.0, 30.0),
-               lm_steps: int = 2, references: bool = True,
-               reservoir_size: int = 4000, stribeck: bool = False,
+               lm_steps: int | None = None, references: bool = True,
+               reservoir_size: int | None = None, stribeck: bool = False,
                finished: Callable[[list[Curve]], None] | None = None) -> list[Curve]:
     """Every curve: LS and RLS, then each trainer and method, for each seed.
 
@@ -384,8 +378,9 @@ def run_curves(robot: ScaraParams | str, *, seeds: Sequence[int], methods: Seque
     with the sensor noise of :func:`noisy_config` if ``noise`` (held-out data noisy too).
     ``held_out_s`` are the seconds of each held-out excitation and of the held-out
     sequence (:func:`held_out_set`); ``lm_steps`` the ``lm`` trainer's steps per update,
-    ``reservoir_size`` its samples; ``references`` False leaves out LS and RLS; ``stribeck``
-    gives a URDF arm's physical model (LS, RLS, ``hybrid``) its Stribeck column;
+    ``reservoir_size`` its samples (None: the node's); ``references`` False leaves out LS
+    and RLS; ``stribeck`` gives a URDF arm's physical model (LS, RLS, ``hybrid``) its
+    Stribeck column;
     ``finished`` is called with each job's curves as it ends (a long run on a busy machine
     keeps what it has done).
     The jobs run in ``workers`` processes, each with one BLAS thread. The CPU figures are

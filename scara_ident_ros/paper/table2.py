@@ -24,7 +24,6 @@ from scara_ident_ros.paper.rows import ResultRow
 from scara_ident_ros.paper.tables import PAPER_ITERATIONS
 from scara_ident_ros.nn.presets import METHODS, make_network
 from scara_ident_ros.nn.presets import method as method_spec
-from scara_ident_ros import nn
 from scara_ident_ros.nn import FeedForwardNet, FitHistory
 
 __all__ = ['DEFAULT_GOAL', 'OfflineFit', 'OfflineRuns', 'fit_offline', 'goal_iteration',
@@ -75,8 +74,10 @@ def fit_offline(method: str, X: npt.ArrayLike, Y: npt.ArrayLike, *, seed: int = 
     if scaling is not None:
         net.set_scaling(*scaling)
     wall, cpu = time.perf_counter(), time.process_time()
-    history = nn.fit(net, x, y, algorithm='lm', iterations=iterations, goal=0.0)
-    return OfflineFit(method, seed, net, history, time.perf_counter() - wall,
+    net.fit(x, y, validation_fraction=0.0, samples=0, algorithm='lm', iterations=iterations,
+            goal=0.0)  # the paper's protocol: every sample, no early stop
+    assert net.history_ is not None
+    return OfflineFit(method, seed, net, net.history_, time.perf_counter() - wall,
                       time.process_time() - cpu, int(x.shape[0]))
 
 

@@ -113,3 +113,42 @@ def write_bare_mcap(path: Path, states: Robot, *, topic: str = '/joint_states') 
                 log_time=stamp, publish_time=stamp)
         writer.finish()
     return path
+
+
+#: What rclpy's ``serialize_message`` left after a JointState with empty position and
+#: velocity (uninitialized memory, so any bytes): earlier versions of the identifier
+#: published and recorded these.
+OLD_SLACK = b'\x00\x00d\tS\x00\x00\xd8'
+
+
+def write_old_identifier_bag(path: Path, states: Robot, *, methods: Sequence[str] = ('ffs',),
+                             compression: str = 'zstd', offered_qos: Sequence[Any] = ()
+                             ) -> dict[str, list[tuple[int, bytes]]]:
+    """A run bag as earlier versions recorded it, written with the package's BagWriter:
+    ``/joint_states`` (exact), and per method ``/<m>/identified_torque`` and
+    ``/<m>/external_torque`` with efforts only and :data:`OLD_SLACK` after the data, and
+    ``/<m>/identification_mse``; small chunks so there are several. Return the messages
+    written per topic, ``[(log_ns, data)]``."""
+    from scara_ident_ros.bag import BagWriter
+
+    topics: dict[str, tuple[str, list[tuple[int, bytes]]]] = {
+        '/joint_states': (JOINT_STATE, list(zip(states.stamp_ns.tolist(),
+                                                robot_messages(states))))}
+    for k, m in enumerate(methods):
+        predicted = states.effort * (1.0 + 0.01 * (k + 1))
+        for suffix, values in (('identified_torque', predicted),
+                               ('external_torque', states.effort - predicted)):
+            topics[f'/{m}/{suffix}'] = (JOINT_STATE, [
+                (int(t) + 1000, joint_state(int(t), states.names, effort=row) + OLD_SLACK)
+                for t, row in zip(states.stamp_ns.tolist(), values)])
+        topics[f'/{m}/identification_mse'] = (FLOAT64_ARRAY, [
+            (int(t) + 2000, float_array([0.1 * i, 0.2, 0.3]))
+            for i, t in enumerate(states.stamp_ns[::10].tolist())])
+    entries = []
+    with BagWriter(path, compression=compression, chunk_size=4096) as writer:
+        for rank, (topic, (msgtype, messages)) in enumerate(topics.items()):
+            connection = writer.add_connection(topic, msgtype, offered_qos=offered_qos)
+            entries.extend((log_ns, rank, connection.id, data) for log_ns, data in messages)
+        writer.write_batch([(cid, log_ns, data)
+                            for log_ns, _, cid, data in sorted(entries, key=lambda e: e[:2])])
+    return {topic: messages for topic, (_, messages) in topics.items()}

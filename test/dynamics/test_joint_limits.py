@@ -33,12 +33,14 @@ def test_the_default_is_the_robot_yaml() -> None:
 
 def test_a_urdf_gives_the_same_limits_with_the_yaml_accelerations() -> None:
     from_urdf = load_joint_limits(urdf_file=str(URDF))
-    assert from_urdf.names == YAML.joint_names and from_urdf.source == str(URDF)
+    assert from_urdf.names == YAML.joint_names
+    assert from_urdf.source == f'{URDF} (acceleration_max from {ROOT / "config" / "scara.yaml"})'
     for key in LIMIT_NAMES:
         np.testing.assert_array_equal(getattr(from_urdf, key), YAML.array(key), err_msg=key)
     text = load_joint_limits(robot_description=URDF.read_text(), joint_names=['joint2'],
                              explicit={'acceleration_max': [7.0]})
-    assert text.names == ('joint2',) and text.source == 'robot_description'
+    assert text.names == ('joint2',)
+    assert text.source == 'robot_description (acceleration_max from parameters)'
     np.testing.assert_array_equal(text.acceleration_max, [7.0])
 
 
@@ -159,3 +161,21 @@ def test_acceleration_limits_by_parameter() -> None:
     with pytest.raises(LimitsError, match='acceleration'):
         load_motion_limits(urdf_file=str(URDF), joint_names=['joint1', 'joint2'],
                            acceleration_max=[5.0])
+
+
+def test_partial_limits_leave_joints_without_acceleration_to_the_stream() -> None:
+    from scara_ident_ros.sim.example_robots import example_robot
+
+    panda = str(example_robot('panda').urdf)
+    arm = [f'panda_joint{i}' for i in range(1, 8)]
+    # the default robot YAML is the SCARA's: its accelerations are for its own URDF only
+    limits = load_joint_limits(urdf_file=panda, joint_names=arm, partial=True)
+    assert limits.names == ()
+    with pytest.raises(UrdfError, match='no acceleration limit'):
+        load_joint_limits(urdf_file=panda, joint_names=arm)
+    with pytest.raises(UrdfError, match=r'no joint limits for shoulder \(not in the URDF\)'):
+        load_joint_limits(urdf_file=panda, joint_names=[*arm, 'shoulder'], partial=True)
+    given = load_joint_limits(urdf_file=panda, joint_names=arm[:2], partial=True,
+                              explicit={'acceleration_max': [5.0, 6.0]})
+    assert given.names == tuple(arm[:2])
+    assert given.source == f'{panda} (acceleration_max from parameters)'

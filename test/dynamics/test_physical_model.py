@@ -112,7 +112,7 @@ def test_least_squares_recovers_friction_and_base_parameters(coulomb: str) -> No
     truth[model.n_base:] = np.concatenate([viscous, coulomb_level])
     q, qd, qdd = states(rng, 600, n)
     tau = rnea(urdf, None, q, qd, qdd) + viscous * qd + coulomb_level * model.coulomb_shape(qd)
-    model.fit(q, qd, qdd, tau)
+    model.fit_states(q, qd, qdd, tau)
     np.testing.assert_allclose(model.viscous, viscous, rtol=1e-8)
     np.testing.assert_allclose(model.coulomb_friction, coulomb_level, rtol=1e-8)
     np.testing.assert_allclose(model.theta, truth, rtol=1e-6, atol=1e-8)
@@ -125,7 +125,7 @@ def test_rls_equals_batch_least_squares() -> None:
     rng = np.random.default_rng(2)
     q, qd, qdd = states(rng, 400, 4)
     tau = rng.normal(0.0, 10.0, (400, 4))  # any data: both solve the same problem
-    batch = model.fit(q, qd, qdd, tau).theta.copy()
+    batch = model.fit_states(q, qd, qdd, tau).theta.copy()
     rls = RecursiveLeastSquares(model, p0=1e12)
     rls.update(q[:1], qd[:1], qdd[:1], tau[:1])
     for start in range(1, 400, 37):  # blocks of any size
@@ -168,7 +168,7 @@ def test_physical_and_hybrid_files_round_trip(tmp_path: Path) -> None:
            + 0.1 * np.sin(3.0 * q))  # something the physical model does not explain
     x = np.hstack([q, qd, qdd])
     model.metadata['method'] = np.array('physical')
-    model.fit(q, qd, qdd, tau).save(tmp_path / 'physical.npz')
+    model.fit_states(q, qd, qdd, tau).save(tmp_path / 'physical.npz')
     loaded = PhysicalModel.load(tmp_path / 'physical.npz')
     np.testing.assert_array_equal(loaded.predict(x), model.predict(x))
     assert loaded.parameter_names == model.parameter_names and loaded.coulomb == 'sign'
@@ -271,11 +271,11 @@ def test_a_stribeck_column_recovers_the_breakaway_excess(tmp_path: Path) -> None
     shape = np.tanh(qd / 0.05)
     tau = (rnea(urdf, None, q, qd, qdd) + fv * qd
            + (fc + fs * np.exp(-(qd / 0.1) ** 2)) * shape)
-    model.fit(q, qd, qdd, tau)
+    model.fit_states(q, qd, qdd, tau)
     np.testing.assert_allclose(model.viscous, fv, rtol=1e-7)
     np.testing.assert_allclose(model.coulomb_friction, fc, rtol=1e-7)
     np.testing.assert_allclose(model.stribeck_friction, fs, rtol=1e-6)
-    plain = PhysicalModel.from_urdf_file(urdf, coulomb_eps=0.05).fit(q, qd, qdd, tau)
+    plain = PhysicalModel.from_urdf_file(urdf, coulomb_eps=0.05).fit_states(q, qd, qdd, tau)
     assert np.all(plain.residual_rms > 1e3 * model.residual_rms)
     assert np.all(plain.stribeck_friction == 0.0)
     model.save(tmp_path / 'stribeck.npz')

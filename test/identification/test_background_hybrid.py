@@ -58,7 +58,7 @@ def test_the_learner_fits_the_residuals_of_the_latest_theta() -> None:
     """What the learner process does with its batches (ResidualLearner.add_batch): rows of
     the samples kept only, targets τ − Y(x) θ with the θ of the latest batch."""
     model = hybrid()
-    lm = ReservoirLM(model.network, capacity=200, interval=10_000)
+    lm = ReservoirLM(model.network, reservoir_size=200, lm_interval=10_000)
     learner = ResidualLearner(model, lm, seed=0)
     X, Y = motion(1500, seed=2)
     calls = []
@@ -92,9 +92,9 @@ def test_the_learner_fits_the_residuals_of_the_latest_theta() -> None:
     np.testing.assert_allclose(high, y.max(axis=0))
 
 
-def background(model: HybridModel, capacity: int, interval: int) -> HybridTrainer:
-    net = BackgroundLM(model.network, LearnerSettings(capacity=capacity, interval=interval),
-                       hybrid=model)
+def background(model: HybridModel, reservoir_size: int, lm_interval: int) -> HybridTrainer:
+    net = BackgroundLM(model.network, LearnerSettings(reservoir_size=reservoir_size,
+                                                      lm_interval=lm_interval), hybrid=model)
     assert net.wait_ready(WAIT)
     return HybridTrainer(model, net, seed=0)
 
@@ -115,7 +115,7 @@ def test_the_background_hybrid_is_bounded_by_the_residuals_of_the_latest_theta()
     span the friction the prior lacks; the learner's bounds span the final θ's residuals."""
     X, Y = motion(2500, seed=3)
     a_priori = Y[0] - hybrid().physical.predict(X[0])  # the first sample's, prior θ
-    trainer = background(hybrid(), capacity=3000, interval=200)
+    trainer = background(hybrid(), reservoir_size=3000, lm_interval=200)
     model = trainer.model
     try:
         stream(trainer, X, Y, pause_every=250)
@@ -141,7 +141,7 @@ def test_the_background_check_undoes_updates_that_fit_noise() -> None:
     model.physical.set_theta(model.physical.urdf_parameters())
     rng = np.random.default_rng(0)
     Y = model.physical.predict(X) + rng.normal(0.0, 0.05, (len(X), 4))
-    trainer = background(hybrid(), capacity=400, interval=200)
+    trainer = background(hybrid(), reservoir_size=400, lm_interval=200)
     try:
         stream(trainer, X[:2400], Y[:2400], pause_every=200)
     finally:
@@ -166,10 +166,10 @@ def test_background_and_synchronous_hybrids_reach_the_same_order(seed: int) -> N
     X_out, Y_out = motion(3000, seed=6)  # another excitation, never streamed
     Y, Y_out = unmodelled(X, Y), unmodelled(X_out, Y_out)
     model = hybrid(seed)
-    sync = HybridTrainer(model, ReservoirLM(model.network, capacity=1000, interval=200),
+    sync = HybridTrainer(model, ReservoirLM(model.network, reservoir_size=1000, lm_interval=200),
                          seed=seed)
     stream(sync, X, Y)
-    bg = background(hybrid(seed), capacity=1000, interval=200)
+    bg = background(hybrid(seed), reservoir_size=1000, lm_interval=200)
     try:
         stream(bg, X, Y, pause_every=200)
     finally:

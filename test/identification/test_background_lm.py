@@ -35,7 +35,7 @@ def data(n: int, seed: int = 0) -> tuple[NDArray[np.float64], NDArray[np.float64
 
 @pytest.fixture
 def trainer() -> Iterator[BackgroundLM]:
-    made = BackgroundLM(network(), LearnerSettings(capacity=500, interval=50, steps=2))
+    made = BackgroundLM(network(), LearnerSettings(reservoir_size=500, lm_interval=50, lm_steps=2))
     assert made.wait_ready(WAIT)
     yield made
     made.close()
@@ -72,7 +72,7 @@ def test_it_learns_in_the_background_and_hands_over_its_last_weights(
     assert not trainer.alive
     after = float(np.mean((model.predict(X) - Y) ** 2))
     assert after < 0.2 * before, (before, after)
-    assert trainer.steps >= 2 * trainer.updates
+    assert trainer.steps_taken >= 2 * trainer.updates
 
 
 def test_the_message_path_never_waits_for_a_stopped_learner(trainer: BackgroundLM) -> None:
@@ -133,7 +133,7 @@ def test_an_update_at_a_minimum_counts_as_finished(trainer: BackgroundLM) -> Non
 @pytest.mark.parametrize('nice', [0, 7])
 def test_the_learner_runs_at_the_niceness_it_is_given(nice: int) -> None:
     """The niceness adds to the caller's (``lm_nice``): the learner gives way to the stream."""
-    made = BackgroundLM(network(), LearnerSettings(nice=nice))
+    made = BackgroundLM(network(), LearnerSettings(lm_nice=nice))
     try:
         assert made.wait_ready(WAIT)
         own = os.getpriority(os.PRIO_PROCESS, 0)
@@ -146,29 +146,29 @@ def test_weights_are_swapped_whole(trainer: BackgroundLM) -> None:
     """Under a stream of updates, each prediction is made with one complete set of weights
     the learner sent (or the first): never a mix of two."""
     model = trainer.model
-    sent: list[NDArray[np.float64]] = [model.get_params()]
-    set_params = model.set_params
+    sent: list[NDArray[np.float64]] = [model.get_theta()]
+    set_theta = model.set_theta
 
     def record(theta: NDArray[np.float64]) -> None:
         sent.append(np.array(theta, copy=True))
-        set_params(theta)
+        set_theta(theta)
 
-    model.set_params = record  # type: ignore[method-assign]
+    model.set_theta = record  # type: ignore[method-assign]
     probe = network()
     X, Y = data(6000, seed=2)
     for k, (x, y) in enumerate(zip(X, Y, strict=True)):
         if k % 20 == 19:
             time.sleep(0.002)
-        weights = model.get_params()
+        weights = model.get_theta()
         assert np.array_equal(weights, sent[-1])  # the last complete set received
         predicted = trainer.learn(x, y)
-        probe.set_params(weights)
+        probe.set_theta(weights)
         assert np.array_equal(predicted, probe.predict(x))  # made with exactly those
     assert wait_until(lambda: len(sent) > 3, trainer)
 
 
 def test_the_schedule_changes_while_it_runs(trainer: BackgroundLM) -> None:
-    trainer.set_schedule(interval=10**9, steps=1)  # no more updates: never enough samples
+    trainer.set_schedule(lm_interval=10**9, lm_steps=1)  # no more updates: never enough samples
     X, Y = data(1000, seed=3)
     for x, y in zip(X, Y, strict=True):
         trainer.learn(x, y)
@@ -178,7 +178,7 @@ def test_the_schedule_changes_while_it_runs(trainer: BackgroundLM) -> None:
 
 
 def test_make_trainer_builds_it_for_the_node() -> None:
-    made = make_trainer('lm', network(), capacity=100, interval=10, background=True)
+    made = make_trainer('lm', network(), reservoir_size=100, lm_interval=10, background=True)
     try:
         assert isinstance(made, BackgroundLM) and made.alive
     finally:

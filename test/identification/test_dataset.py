@@ -17,7 +17,7 @@ from fake_bags import States, synthetic_states  # noqa: E402  (not a package)
 
 
 class _Recorder:
-    """An EffortModel that remembers its inputs and learns nothing."""
+    """A model that remembers its inputs and learns nothing."""
 
     def __init__(self, n: int) -> None:
         self.n_inputs, self.n_outputs = 3 * n, n

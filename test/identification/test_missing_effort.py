@@ -30,7 +30,7 @@ def state(k: int) -> tuple[list[float], list[float], list[float]]:
 @pytest.mark.parametrize('learn', [True, False])
 def test_missing_effort_is_predicted_not_learnt_and_counted(learn: bool) -> None:
     net = make_network('ffs', 4, n_hidden=5, seed=0)
-    trainer = ReservoirLM(net, capacity=100, interval=10)
+    trainer = ReservoirLM(net, reservoir_size=100, lm_interval=10)
     ident = OnlineIdentifier(net, joint_names=NAMES, trainer=trainer, learn=learn,
                              holdout=Holdout(12, 4, fraction=0.5, block=10, seed=1))
     unmeasured: set[int] = set()

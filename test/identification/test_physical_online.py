@@ -73,7 +73,7 @@ def hybrid_after(samples: int) -> tuple[Any, Any, Any, np.ndarray, np.ndarray]:
     the model, its trainer, the network's trainer, the inputs and efforts streamed."""
     limits = load_joint_limits(joint_names=NAMES).select(NAMES)
     model = online_hybrid(PhysicalModel.from_urdf_file(URDF), limits.scaling(), seed=0)
-    network = ReservoirLM(model.network, capacity=300, interval=10_000)
+    network = ReservoirLM(model.network, reservoir_size=300, lm_interval=10_000)
     trainer = HybridTrainer(model, network, seed=0)
     params = ScaraParams.from_yaml(config_path('scara.yaml'))
     record = Simulator(params, make_trajectory('sequence', params, seed=2),
@@ -105,15 +105,15 @@ def test_the_hybrid_network_learns_the_residual_of_the_current_theta() -> None:
 def test_an_update_that_raises_the_validation_error_is_undone() -> None:
     model, trainer, network, X, _ = hybrid_after(1000)
     net = model.network
-    before = net.get_params()
+    before = net.get_theta()
 
     def spoil(x: np.ndarray, y: np.ndarray) -> bool:
-        net.set_params(before + np.random.default_rng(0).normal(0.0, 1.0, before.shape))
+        net.set_theta(before + np.random.default_rng(0).normal(0.0, 1.0, before.shape))
         return True
 
     network.step_on = spoil  # type: ignore[method-assign]
     assert not trainer.step() and trainer.undone == 1
-    np.testing.assert_array_equal(net.get_params(), before)
+    np.testing.assert_array_equal(net.get_theta(), before)
     network.step_on = ReservoirLM.step_on.__get__(network)  # type: ignore[method-assign]
     assert trainer.step()  # a real update on residuals lowers the validation error
-    assert trainer.undone == 1 and not np.array_equal(net.get_params(), before)
+    assert trainer.undone == 1 and not np.array_equal(net.get_theta(), before)

@@ -87,7 +87,7 @@ def learn(rate: int, seconds: float = 15.0) -> Learnt:
     net = make_network('ffs', 4, n_hidden=10, seed=0)
     net.set_scaling(*robot_scaling(PARAMS))
     ident = OnlineIdentifier(net, joint_names=NAMES,
-                             trainer=ReservoirLM(net, capacity=500, interval=200, seed=0),
+                             trainer=ReservoirLM(net, reservoir_size=500, lm_interval=200, seed=0),
                              holdout=Holdout(12, 4, seed=0))
     for i in range(len(record)):
         ident.process(int(record.stamp_ns[i]), NAMES, record.q[i], record.qd[i],

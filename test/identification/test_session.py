@@ -118,8 +118,8 @@ def test_a_model_at_save_path_is_continued(tmp_path: Path) -> None:
     assert any('continuing from the model at save_path' in line for line in logged)
     assert session.names == NAMES  # the model's joints: built at start
     assert isinstance(session.network, FeedForwardNet)
-    np.testing.assert_array_equal(session.network.get_params(),
-                                  FeedForwardNet.load(path).get_params())
+    np.testing.assert_array_equal(session.network.get_theta(),
+                                  FeedForwardNet.load(path).get_theta())
     # model_path wins over save_path
     other = saved_model(tmp_path / 'other.npz', NAMES)
     both = IdentificationSession(settings(save_path=str(path), model_path=str(other)))
@@ -142,11 +142,11 @@ def test_reset_keeps_the_summaries_of_before(tmp_path: Path) -> None:
     feed(session, record, 200)
     trained = session.network
     assert trained is not None
-    weights = trained.get_params()
+    weights = trained.get_theta()
     ok, message, warning = session.reset(stream={'lost': 3})
     assert ok and warning == '' and 'ffs: processed 200, learned' in message
     assert session.network is not None
-    assert not np.array_equal(session.network.get_params(), weights)  # fresh weights
+    assert not np.array_equal(session.network.get_theta(), weights)  # fresh weights
     feed(session, record, 300, start=200)
     info = session.summary()
     previous, = info['previous']
@@ -163,7 +163,7 @@ def test_parameters_set_while_running_reach_core_and_trainer() -> None:
     s.update(learn=False, lm_interval=400, lm_steps=1, mse_window=500)
     session.apply({'learn': False, 'lm_interval': 400, 'lm_steps': 1, 'mse_window': 500})
     assert core.learn is False and core.stage.check.need_effort is False
-    assert core.trainer.interval == 400 and core.trainer.steps_per_update == 1
+    assert core.trainer.lm_interval == 400 and core.trainer.lm_steps == 1
     assert core.errors.window == 500
     bp = settings(joint_names=NAMES, trainer='bp')
     session = IdentificationSession(bp)

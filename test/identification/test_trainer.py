@@ -96,7 +96,7 @@ def test_validation_samples_are_never_learnt_and_score_the_current_model() -> No
 def test_lm_steps_only_lower_the_reservoir_error() -> None:
     data = simulate_dataset(PARAMS, seconds=2.0, seed=2)
     net = network()
-    trainer = ReservoirLM(net, capacity=500, interval=10**9, steps=1)
+    trainer = ReservoirLM(net, reservoir_size=500, lm_interval=10**9, lm_steps=1)
     for x, y in zip(data.X, data.Y):
         trainer.learn(x, y)
     xs = net.x_scaling.transform(trainer.reservoir.X)
@@ -115,7 +115,7 @@ def test_slow_share_keeps_the_samples_near_zero_speed_apart() -> None:
     data = simulate_dataset(PARAMS, seconds=2.0, seed=2)
     slow = np.any(np.abs(data.X[:, 4:8]) < 0.01 * PARAMS.array('velocity_max'), axis=1)
     assert 0 < slow.sum() < len(slow) - 400  # both kinds in the stream
-    trainer = ReservoirLM(network(), capacity=400, interval=10**9, slow_share=0.25)
+    trainer = ReservoirLM(network(), reservoir_size=400, lm_interval=10**9, lm_slow_share=0.25)
     for x, y in zip(data.X, data.Y):
         trainer.learn(x, y)
     assert trainer.slow is not None
@@ -125,10 +125,10 @@ def test_slow_share_keeps_the_samples_near_zero_speed_apart() -> None:
     assert kept.any(axis=1).all()
     X, _ = trainer.samples()
     assert len(X) == len(trainer.reservoir) + len(trainer.slow)
-    plain = ReservoirLM(network(), capacity=400)
+    plain = ReservoirLM(network(), reservoir_size=400)
     assert plain.slow is None and plain.reservoir.capacity == 400
     with pytest.raises(ValueError, match='slow_share'):
-        ReservoirLM(network(), slow_share=0.6)
+        ReservoirLM(network(), lm_slow_share=0.6)
 
 
 @pytest.mark.parametrize('float64', [False, True])
@@ -144,10 +144,10 @@ def test_float64_assembles_the_normal_equations_in_float64(float64: bool,
 
     monkeypatch.setattr(reservoir_lm, 'LevenbergMarquardt', spy)
     data = simulate_dataset(PARAMS, seconds=0.2, seed=2)
-    trainer = ReservoirLM(network(), capacity=100, interval=50, float64=float64)
+    trainer = ReservoirLM(network(), reservoir_size=100, lm_interval=50, lm_float64=float64)
     for x, y in zip(data.X, data.Y):
         trainer.learn(x, y)
-    assert made == [not float64] and trainer.steps > 0
+    assert made == [not float64] and trainer.steps_taken > 0
 
 
 @pytest.mark.slow
@@ -196,7 +196,7 @@ def test_friction_steps_start_as_steps_of_each_joints_speed() -> None:
 def test_impossible_samples_never_reach_the_reservoir() -> None:
     data = simulate_dataset(PARAMS, seconds=1.0, seed=6)
     net = network()
-    trainer = ReservoirLM(net, capacity=5000, interval=10**9)
+    trainer = ReservoirLM(net, reservoir_size=5000, lm_interval=10**9)
     bounds = Bounds.from_limits(*(PARAMS.array(name) for name in (
         'position_min', 'position_max', 'velocity_max', 'effort_max')))
     ident = OnlineIdentifier(net, joint_names=PARAMS.joint_names, trainer=trainer,
@@ -251,7 +251,7 @@ def test_bp_guard_leaves_the_papers_learning_rate_alone() -> None:
 def test_predictions_beyond_the_effort_bounds_are_clipped() -> None:
     data = simulate_dataset(PARAMS, seconds=0.5, seed=3)
     net = network()
-    net.set_params(net.get_params() * 50.0)  # a network that predicts absurd efforts
+    net.set_theta(net.get_theta() * 50.0)  # a network that predicts absurd efforts
     bounds = Bounds.from_limits(*(PARAMS.array(name) for name in (
         'position_min', 'position_max', 'velocity_max', 'effort_max')))
     ident = OnlineIdentifier(net, joint_names=PARAMS.joint_names, learn=False, bounds=bounds)

@@ -1,10 +1,10 @@
-"""A saved network is refused, in one line, where it cannot go on identifying."""
+"""A saved model is refused, in one line, where it cannot go on identifying."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from scara_ident_ros.identification import ModelMismatch, check_warm_start, model_joint_names
+from scara_ident_ros.identification import ModelMismatch, check_warm_start
 from scara_ident_ros.nn.presets import make_network
 from scara_ident_ros.nn import FeedForwardNet
 
@@ -22,14 +22,14 @@ def test_the_saved_joints_are_taken_when_none_are_given() -> None:
     assert check_warm_start(named(NAMES), source='m.npz', method='ffmw') == NAMES
     assert check_warm_start(named(NAMES), NAMES, source='m.npz') == NAMES
     assert check_warm_start(named(None), source='m.npz') == []
-    assert model_joint_names(named(None)) is None
-    assert model_joint_names(named(NAMES)) == tuple(NAMES)
+    assert named(None).joint_names is None
+    assert named(NAMES).joint_names == tuple(NAMES)
 
 
 @pytest.mark.parametrize(('network', 'names', 'method', 'message'), [
     (FeedForwardNet(5, 3, 2), [], None, r'm\.npz: a network with 5 inputs and 2 outputs is '
                                         'not an inverse-dynamics model'),
-    (named(NAMES, 'ffs'), [], 'ffmw', 'has sigmoid hidden units, not the mslog of method ffmw'),
+    (named(NAMES, 'ffs'), [], 'ffmw', 'is a ffs model, not one of method ffmw'),
     (named(NAMES), NAMES[::-1], None, r"trained for joints \['joint1', 'joint2'\] \(in that "
                                       'order'),
     (named(NAMES), ['joint1', 'joint3'], None, 'trained for joints'),

@@ -72,7 +72,7 @@ def test_network_hidden_layer_is_the_table_activation(name: str) -> None:
     xs = np.random.default_rng(0).uniform(-1, 1, (30, 5))
     layers = forward_scaled(net, xs, derivative=True)
     k, a, b = net.constants
-    Vt, _ = net.unpack(net.get_params())
+    Vt, _ = net.unpack(net.get_theta())
     z = (xs @ Vt[:5] + Vt[5] - b) / a
     np.testing.assert_allclose(layers.h, ACTIVATIONS[name](z, k), atol=1e-14)
     assert layers.g is not None

@@ -28,7 +28,7 @@ def test_loss_gradient_matches_central_differences(name: str) -> None:
     net = FeedForwardNet(12, 40, 4, name, seed=1)
     rng = np.random.default_rng(1)
     xs, ys = rng.uniform(-1, 1, (20, 12)), rng.uniform(-1, 1, (20, 4))
-    theta = net.get_params()
+    theta = net.get_theta()
     sse, grad = loss_gradient(net, xs, ys)
     assert sse == pytest.approx(mse_scaled(net, xs, ys) * ys.size, rel=1e-12)
 
@@ -44,5 +44,5 @@ def test_jacobian_matches_central_differences(name: str) -> None:
     jac = jacobian(net, x)
     assert jac.shape == (5 * 3, net.n_params)
     numeric = central_differences(lambda t: forward_scaled(net, x, t).y.ravel(),
-                                  net.get_params())
+                                  net.get_theta())
     np.testing.assert_allclose(jac, numeric.T, rtol=1e-6, atol=1e-9)

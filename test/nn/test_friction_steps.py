@@ -13,7 +13,7 @@ def test_step_units_are_steps_of_one_input_at_zero() -> None:
     """``set_step_units``: unit u is k·σ(2·x_i / w) of its input alone; the others and the
     output layer keep their weights."""
     net = FeedForwardNet(6, 10, 2, 'sigmoid', seed=1)
-    before = net.get_params()
+    before = net.get_theta()
     set_step_units(net, [2, 3], [0.1, 0.01])
     xs = np.random.default_rng(0).uniform(-1, 1, (200, 6))
     h = forward_scaled(net, xs).h
@@ -33,7 +33,7 @@ def test_step_units_are_steps_of_one_input_at_zero() -> None:
 def test_step_units_refuse_what_they_cannot_build(inputs: list[int], widths: list[float],
                                                   match: str) -> None:
     net = FeedForwardNet(6, 10, 2, 'sigmoid')
-    before = net.get_params()
+    before = net.get_theta()
     with pytest.raises(ValueError, match=match):
         set_step_units(net, inputs, widths)
     np.testing.assert_array_equal(net.theta, before)

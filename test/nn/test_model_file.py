@@ -32,7 +32,7 @@ def test_round_trip_is_exact(tmp_path: Path, name: str) -> None:
     assert loaded.activation == name and loaded.constants == net.constants
     assert (loaded.learning_rate, loaded.momentum) == (0.02, 0.7)
     assert loaded.weight_scale == net.weight_scale and loaded.seed == net.seed
-    np.testing.assert_array_equal(loaded.get_params(), net.get_params())
+    np.testing.assert_array_equal(loaded.get_theta(), net.get_theta())
     np.testing.assert_array_equal(loaded.x_scaling.lo, net.x_scaling.lo)
     np.testing.assert_array_equal(loaded.y_scaling.hi, net.y_scaling.hi)
     assert loaded.metadata['joint_names'].tolist() == ['joint1', 'joint2', 'joint3', 'joint4']
@@ -41,7 +41,7 @@ def test_round_trip_is_exact(tmp_path: Path, name: str) -> None:
     np.testing.assert_array_equal(loaded.predict(x), net.predict(x))
     # Online learning goes on exactly as it would have (momentum state included).
     np.testing.assert_array_equal(loaded.partial_fit(x, y), net.partial_fit(x, y))
-    np.testing.assert_array_equal(loaded.get_params(), net.get_params())
+    np.testing.assert_array_equal(loaded.get_theta(), net.get_theta())
 
 
 def test_unscaled_network_stays_unscaled(tmp_path: Path) -> None:

@@ -37,8 +37,8 @@ def test_default_constants_per_activation() -> None:
 
 def test_seeds_are_reproducible() -> None:
     a, b = FeedForwardNet(12, 40, 4, seed=7), FeedForwardNet(12, 40, 4, seed=7)
-    np.testing.assert_array_equal(a.get_params(), b.get_params())
-    assert not np.array_equal(a.get_params(), FeedForwardNet(12, 40, 4, seed=8).get_params())
+    np.testing.assert_array_equal(a.get_theta(), b.get_theta())
+    assert not np.array_equal(a.get_theta(), FeedForwardNet(12, 40, 4, seed=8).get_theta())
 
 
 def test_predict_shapes_single_and_batch() -> None:

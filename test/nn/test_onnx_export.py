@@ -100,7 +100,7 @@ def test_other_sizes_constants_and_scalings(activation: str) -> None:
     rng = np.random.default_rng(4)
     network = FeedForwardNet(6, 7, 2, activation, seed=1, k=1.7, a=3.0, b=-2.0,
                              weight_scale=6.0)
-    network.set_params(rng.normal(0.0, 2.0, network.n_params))
+    network.set_theta(rng.normal(0.0, 2.0, network.n_params))
     network.set_scaling([-3, -1, -2, -2, -9, -9], [3, 0.5, 2, 2, 9, 9], [-40, -5], [60, 5])
     model = network_to_onnx(network, method='ffs', joint_names=['shoulder', 'slide'])
     X = rng.uniform(network.x_scaling.lo, network.x_scaling.hi, (300, 6))

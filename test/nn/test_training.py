@@ -63,10 +63,10 @@ def test_fit_keeps_scaling_that_was_set(smooth_data: Data) -> None:
 def test_goal_already_met_does_nothing(smooth_data: Data) -> None:
     x, y = smooth_data
     net = FeedForwardNet(12, 8, 4)
-    theta = net.get_params()
+    theta = net.get_theta()
     history = fit(net, x, y, goal=1e3)
     assert history.stop_reason == 'goal' and history.iterations == 0
-    np.testing.assert_array_equal(net.get_params(), theta)
+    np.testing.assert_array_equal(net.get_theta(), theta)
 
 
 def test_validation_stops_and_restores_best_weights() -> None:
@@ -103,7 +103,7 @@ def test_gd_divergence_stops_with_finite_weights(smooth_data: Data) -> None:
     net = FeedForwardNet(12, 8, 4, 'sigmoid', learning_rate=1e6, momentum=0.0)
     history = fit(net, x, y, algorithm='gd', iterations=50)
     assert history.stop_reason in ('diverged', 'iterations')
-    assert np.all(np.isfinite(net.get_params()))
+    assert np.all(np.isfinite(net.get_theta()))
 
 
 def test_lm_stops_when_mu_exceeds_its_maximum(smooth_data: Data) -> None:
@@ -123,16 +123,16 @@ def test_gd_step_is_batch_gradient_descent_with_momentum(smooth_data: Data) -> N
     net = FeedForwardNet(12, 8, 4, learning_rate=0.1, momentum=0.5)
     fit(net, x, y, iterations=0)
     xs, ys = net.x_scaling.transform(x), net.y_scaling.transform(y)
-    theta0 = net.get_params()
+    theta0 = net.get_theta()
     _, g0 = loss_gradient(net, xs, ys)
     step = GradientDescent(net, xs, ys)
     step.start(FitHistory('gd'))
     step.step()
-    theta1 = net.get_params()
+    theta1 = net.get_theta()
     np.testing.assert_allclose(theta1, theta0 - 0.1 * g0, rtol=1e-12)
     _, g1 = loss_gradient(net, xs, ys)
     step.step()
-    np.testing.assert_allclose(net.get_params(), theta1 + 0.5 * (theta1 - theta0) - 0.1 * g1,
+    np.testing.assert_allclose(net.get_theta(), theta1 + 0.5 * (theta1 - theta0) - 0.1 * g1,
                                rtol=1e-12)
 
 
@@ -165,10 +165,10 @@ class _ScriptedNet:
         self.val_mse = val_mse
         self.theta = np.zeros(1)
 
-    def get_params(self) -> np.ndarray:
+    def get_theta(self) -> np.ndarray:
         return self.theta.copy()
 
-    def set_params(self, theta: np.ndarray) -> None:
+    def set_theta(self, theta: np.ndarray) -> None:
         self.theta = np.array(theta)
 
     def validation_mse(self) -> float:

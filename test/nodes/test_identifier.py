@@ -531,7 +531,7 @@ def test_survives_hostile_stream(tmp_path: Path, listener: rostest.Listener) -> 
     assert np.isfinite([msg.effort for msg in feed.torques]).all()
     assert np.isfinite(info['mse']).all()
     network = FeedForwardNet.load(model)  # refuses non-finite weights; check anyway
-    assert np.isfinite(network.get_params()).all()
+    assert np.isfinite(network.get_theta()).all()
     assert [str(n) for n in network.metadata['joint_names']] == list(NAMES)
 
 
@@ -671,7 +671,7 @@ def test_warm_start_predicts_without_learning(tmp_path: Path,
 
     # Without learning the model saved on shutdown is the one loaded.
     saved = FeedForwardNet.load(replayed)
-    np.testing.assert_array_equal(saved.get_params(), network.get_params())
+    np.testing.assert_array_equal(saved.get_theta(), network.get_theta())
     assert [str(n) for n in saved.metadata['joint_names']] == list(NAMES)
 
 
@@ -703,7 +703,7 @@ BAD_CONFIGS = {
                    f'joint_names:={list(NAMES[::-1])}'], 'in that order'),
     'model of another method': (
         lambda d: [f'model_path:={saved_model(d / "m.npz", NAMES, method=OTHER_METHOD)}'],
-        f'{METHODS[OTHER_METHOD].activation} hidden units'),
+        f'is a {OTHER_METHOD} model, not one of method'),
     'mse_window too small': (lambda d: ['mse_window:=10'], 'mse_window'),
     'joint names not strings': (lambda d: ['joint_names:=[1, 2, 3, 4]'], 'joint_names'),
     'joints without limits': (lambda d: ['joint_names:=[a, b]'], 'no joint limits for'),
@@ -721,7 +721,7 @@ BAD_CONFIGS = {
     'stats_file unwritable': (lambda d: ['stats_file:=/proc/x/stats.json'], 'stats_file'),
     'save_path holds another method': (
         lambda d: [f'save_path:={saved_model(d / "m.npz", NAMES, method=OTHER_METHOD)}'],
-        f'{METHODS[OTHER_METHOD].activation} hidden units'),
+        f'is a {OTHER_METHOD} model, not one of method'),
 }
 
 
@@ -743,7 +743,7 @@ def test_existing_save_path_is_continued_not_replaced(tmp_path: Path,
     saved = FeedForwardNet.load(path)
     # not what a fresh network would have, and still inside the effort limits (the node
     # publishes predictions clipped to them; +0.1 on every weight of FFS went beyond)
-    saved.set_params(saved.get_params() * 0.9)
+    saved.set_theta(saved.get_theta() * 0.9)
     saved.save(path)
     record = simulated(40)
     feed = Feed(listener)
@@ -754,7 +754,7 @@ def test_existing_save_path_is_continued_not_replaced(tmp_path: Path,
         out = stop(node)
     assert 'continuing from the model at save_path' in out.stderr
     # it predicted with the saved weights, and saved them back on shutdown, not fresh ones
-    np.testing.assert_array_equal(FeedForwardNet.load(path).get_params(), saved.get_params())
+    np.testing.assert_array_equal(FeedForwardNet.load(path).get_theta(), saved.get_theta())
     first = np.array(feed.torques[0].effort)
     stage = InputStage(JointMap(NAMES, n_joints=4))
     _, X, _ = stage.batch(record.stamp_ns[:40] + T0_NS, NAMES, record.q[:40],

@@ -69,9 +69,9 @@ def fitted_model(path: Path, X: np.ndarray, Y: np.ndarray) -> FeedForwardNet:
     hidden = forward_scaled(net, net.x_scaling.transform(X)).h
     design = np.hstack([hidden, np.ones((len(X), 1))])
     weights, *_ = np.linalg.lstsq(design, net.y_scaling.transform(Y), rcond=None)
-    theta = net.get_params()
+    theta = net.get_theta()
     net.unpack(theta)[1][:] = weights.T
-    net.set_params(theta)
+    net.set_theta(theta)
     net.metadata['joint_names'] = np.array(NAMES)
     net.save(path)
     return net

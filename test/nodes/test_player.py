@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from rosbags.typesys import Stores, get_typestore
 
 pytestmark = [pytest.mark.ros, pytest.mark.usefixtures('domain')]  # before the listener
 
@@ -50,8 +51,15 @@ def float_array(value: float) -> bytes:
 
 
 def make_bag(path: Path, count: int, period_ns: int, *, mse_every: int = 0) -> list[bytes]:
-    """A bag with ``count`` joint states ``period_ns`` apart; return their bytes."""
+    """A bag with ``count`` joint states ``period_ns`` apart; return their bytes as the
+    player publishes them.
+
+    They are recorded as rclpy serializes them, with slack bytes after the empty
+    ``effort`` (as earlier versions of the identifier recorded its predictions); the player
+    publishes each at its exact CDR length, which is what is returned.
+    """
     from scara_ident_ros.bag import BagWriter
+    from scara_ident_ros.bag.exact_cdr import exact_joint_state
 
     payloads = [joint_state(i) for i in range(count)]
     with BagWriter(path) as writer:
@@ -62,7 +70,9 @@ def make_bag(path: Path, count: int, period_ns: int, *, mse_every: int = 0) -> l
             if mse is not None and i % mse_every == 0:
                 writer.write(mse.id, START_NS + i * period_ns + period_ns // 2,
                              float_array(float(i)))
-    return payloads
+    exact = [exact_joint_state(payload) for payload in payloads]
+    assert all(len(e) < len(p) for e, p in zip(exact, payloads))  # slack recorded, then cut
+    return exact
 
 
 def subscribe_raw(listener: Any, msg_type: Any, topic: str) -> list[tuple[float, bytes]]:
@@ -106,6 +116,9 @@ def test_plays_every_message_at_the_recorded_pace_then_exits(
         output = spin_until_exit(listener, player)
     assert output.returncode == 0, output.stderr
     assert [data for _, data in received] == payloads  # all, first one included, in order
+    store = get_typestore(Stores.ROS2_JAZZY)  # which refuses the slack the bag holds
+    assert [store.deserialize_cdr(data, 'sensor_msgs/msg/JointState').position[0]
+            for _, data in received] == list(range(21))
     span = received[-1][0] - received[0][0]
     assert 0.8 / rate < span < 1.0 / rate + 0.4, span
     gaps = [b[0] - a[0] for a, b in zip(received, received[1:])]

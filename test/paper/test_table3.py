@@ -36,7 +36,7 @@ def test_predictions_are_a_priori(stream: Dataset) -> None:
     for x, y, predicted in zip(stream.X[:50], stream.Y[:50], trace.predicted):
         np.testing.assert_allclose(predicted, twin.predict(x), rtol=1e-10, atol=1e-12)
         twin.partial_fit(x, y)
-    np.testing.assert_allclose(net.get_params(), twin.get_params(), rtol=1e-12)
+    np.testing.assert_allclose(net.get_theta(), twin.get_theta(), rtol=1e-12)
 
 
 def test_online_learning_lowers_the_error(stream: Dataset) -> None:
