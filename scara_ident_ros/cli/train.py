@@ -74,14 +74,17 @@ if TYPE_CHECKING:
     from scara_ident_ros.identification.dataset import Dataset
     from scara_ident_ros.nn import FitHistory
 
-__all__ = ['FRICTION_STEPS', 'HYBRID_NETWORK', 'ITERATIONS', 'MAX_FAIL', 'MIN_ITERATIONS',
-           'PHYSICAL_METHODS', 'SAMPLES', 'VALIDATION_BLOCK_S', 'add_parser', 'run']
+__all__ = ['FRICTION_STEPS', 'HYBRID_NETWORK', 'ITERATIONS', 'KERNEL_METHOD', 'MAX_FAIL',
+           'MIN_ITERATIONS', 'PHYSICAL_METHODS', 'SAMPLES', 'VALIDATION_BLOCK_S', 'add_parser',
+           'run']
 
 #: Defaults of the options (ITERATIONS, SAMPLES, MAX_FAIL, MIN_ITERATIONS: those of the
 #: models' offline training, nn.fitting), chosen with benchmarks/bench_train_defaults.py.
 FRICTION_STEPS = True      # the network starts with friction steps, as the identifier's
 #: Models built from a URDF rather than a network alone.
 PHYSICAL_METHODS = ('physical', 'hybrid')
+#: The sparse-spectrum GP (``learners.sparse_spectrum_gp``): no URDF, no iterations.
+KERNEL_METHOD = 'kernel'
 HYBRID_NETWORK = 'ffs'     # the hybrid's residual network
 
 
@@ -92,10 +95,12 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument('bag', type=Path, metavar='RECORDING',
                         help=RECORDING_HELP)
-    parser.add_argument('--method', required=True, choices=[*METHODS, *PHYSICAL_METHODS],
+    parser.add_argument('--method', required=True,
+                        choices=[*METHODS, *PHYSICAL_METHODS, KERNEL_METHOD],
                         help='network: ffmw (MSLOG), ffw (SLOG) or ffs (sigmoid); physical: '
                              'least squares on the URDF\'s base parameters and friction; '
-                             'hybrid: physical plus an FFS network on its residual')
+                             'hybrid: physical plus an FFS network on its residual; '
+                             'kernel: sparse-spectrum GP regression (random features)')
     parser.add_argument('--urdf', type=Path, default=None, metavar='ROBOT.urdf',
                         help='the robot\'s URDF: required by physical and hybrid; gives a '
                              'network its limit scaling')
@@ -194,7 +199,7 @@ def run(args: argparse.Namespace) -> int:
     every_train = train  # least squares takes them all
     if args.samples:
         train = train.subsample(args.samples, seed=args.seed, name='train')
-    if args.method == 'physical':
+    if args.method in ('physical', KERNEL_METHOD):
         train = every_train
     where = ''
     if len(validation):
@@ -227,6 +232,8 @@ def run(args: argparse.Namespace) -> int:
     if args.method in PHYSICAL_METHODS:
         return _train_physical(args, names, every_train, train, validation, metadata,
                                start_ns=int(samples.data.stamp_ns[0]))
+    if args.method == KERNEL_METHOD:
+        return _train_kernel(args, names, train, validation, metadata)
 
     network = make_network(args.method, len(names), seed=args.seed,
                            friction_steps=args.friction_steps)
@@ -257,6 +264,31 @@ def run(args: argparse.Namespace) -> int:
     print(f'\n{args.method.upper()} trained with {args.algorithm.upper()}: '
           f'{history.iterations} iterations in {seconds:.1f} s (stopped: '
           f'{history.stop_reason}; weights of iteration {history.best_iteration})\n')
+    print(errors_markdown(names, results))
+    print(f'model written to {args.out}')
+    return 0
+
+
+def _train_kernel(args: argparse.Namespace, names: Sequence[str], train: Dataset,
+                  validation: Dataset, metadata: dict[str, np.ndarray]) -> int:
+    """``--method kernel``: the sparse-spectrum GP's batch solution on every training
+    sample (its kernel from an exact GP on 1500 of them); save and print the errors."""
+    from scara_ident_ros.blas_threads import single_blas_thread
+    from scara_ident_ros.cli.evaluation import errors_markdown, evaluate
+    from scara_ident_ros.learners import SparseSpectrumGP
+
+    started = time.perf_counter()
+    model = SparseSpectrumGP(seed=args.seed)
+    with single_blas_thread():
+        model.fit(train.X, train.Y)
+    seconds = time.perf_counter() - started
+    model.metadata.update(metadata)
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    model.save(args.out)
+    results = {'train': evaluate(model, train.X, train.Y)}
+    if len(validation):
+        results['validation'] = evaluate(model, validation.X, validation.Y)
+    print(f'\nKERNEL ({model.n_features} random features) fitted in {seconds:.1f} s\n')
     print(errors_markdown(names, results))
     print(f'model written to {args.out}')
     return 0
