@@ -34,10 +34,10 @@ of ``partial_fit`` gives the factor of ``fit`` on the same rows (test/learners).
 Measured on the WAM's published split (benchmarks/realdata.md; load 7-16 on 2 cores):
 ``fit`` on the 12,000 rows scores SMSE 9.8e-4 (8.8e-5 with ``val_block=1``; 42-61 s);
 online, one pass in order, frozen: 0.026 with the defaults (budget 4,000, ``min_variance``
-0.1; the budget fills in the first part of the run; learning every sample until full:
-0.146), 0.0011 with the budget at every row (1.15 GB; 7-11 ms per sample at 4,000 points,
-24-98 ms at 12,000). An even thinning (every 3rd row, 4,000 points, not a streaming rule)
-reaches 0.0030.
+0.1: 3,730 points learnt; learning every sample until the budget is full: 0.146), 0.0011
+with the budget at every row (1.15 GB; 7-11 ms per sample at 4,000 points, 24-98 ms at
+12,000). An even thinning (every 3rd row, 4,000 points, not a streaming rule) reaches
+0.0030.
 """
 from __future__ import annotations
 
