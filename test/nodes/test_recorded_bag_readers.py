@@ -160,8 +160,8 @@ def test_every_message_reads_in_rclpy_and_alike_in_the_three(bags: dict[str, Pat
 
 def test_predictions_carry_their_samples_position_and_velocity(bags: dict[str, Path]
                                                                ) -> None:
-    """Read from the second recorder's bag, which has every sample from the first on
-    (the run's recorder subscribes ``/joint_states`` once it has a publisher)."""
+    """Read from the second recorder's bag, which has every sample from the first it
+    received on (the run's recorder subscribes ``/joint_states`` once it has a publisher)."""
     by_topic: dict[str, dict[int, dict[str, list[float]]]] = {}
     with AnyReader([bags['all']]) as reader:
         for connection, _, raw in reader.messages():
@@ -170,9 +170,12 @@ def test_predictions_carry_their_samples_position_and_velocity(bags: dict[str, P
                 fields = joint_state_fields(reader.deserialize(raw, JOINT_STATE))
                 by_topic.setdefault(connection.topic, {})[fields['stamp_ns']] = fields
     samples = by_topic['/joint_states']
-    assert len(samples) == round(DURATION * 1000)
+    # on a loaded machine this recorder may subscribe a few hundred samples late (CI: 2765
+    # of 3000); once it has, it takes every sample, so every later prediction has its sample
+    assert len(samples) >= round(DURATION * 1000) // 2, len(samples)
+    first = min(samples)
     for topic in [f'/{m}/identified_torque' for m in METHODS] + [f'{PROBE}/identified_torque']:
-        predictions = by_topic[topic]
+        predictions = {stamp: p for stamp, p in by_topic[topic].items() if stamp >= first}
         assert len(predictions) >= 100, (topic, len(predictions))
         for stamp, predicted in predictions.items():
             sample = samples[stamp]
