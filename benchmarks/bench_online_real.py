@@ -27,6 +27,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import yaml
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
@@ -43,17 +44,24 @@ def settings(changes: dict[str, Any]) -> dict[str, Any]:
     return {**values, 'lm_background': False, **changes}
 
 
-def run(path: str, changes: dict[str, Any], joints: list[str] | None) -> dict[str, Any]:
-    """Feed the recording at ``path`` sample by sample; return the session's summary."""
-    series = read_recording(path)
+def run(path: str, changes: dict[str, Any], joints: list[str] | None, *,
+        live_velocity: bool = False) -> dict[str, Any]:
+    """Feed the recording at ``path`` sample by sample; return the session's summary.
+
+    ``live_velocity``: a recording without velocities is fed without them (the input
+    stage derives q', ``derive_velocity``); else as ``play`` publishes it, with q' derived
+    from the whole recording.
+    """
+    series = read_recording(path, derive=not live_velocity)
     if joints:
         series = series.select(joints)
     session = IdentificationSession(settings(changes))
     names = list(series.names)
     start = time.perf_counter()
+    absent = bool(live_velocity and np.isnan(series.velocity).all())
     for i in range(len(series)):
         session.process(int(series.stamp_ns[i]), names, series.position[i],
-                        series.velocity[i], series.effort[i])
+                        () if absent else series.velocity[i], series.effort[i])
     session.flush()
     summary = session.summary(fresh=True)
     session.close()
@@ -74,10 +82,15 @@ def main() -> int:
     parser.add_argument('--set', nargs='*', default=[], metavar='NAME=VALUE',
                         help='identifier parameters (JSON values)')
     parser.add_argument('--joints', nargs='*', default=None)
+    parser.add_argument('--live-velocity', action='store_true',
+                        help='feed a recording without velocities without them')
     args = parser.parse_args()
     changes = {key: _value(value) for key, value in
                (item.split('=', 1) for item in args.set)}
-    summary = run(args.recording, changes, args.joints)
+    summary = run(args.recording, changes, args.joints, live_velocity=args.live_velocity)
+    if 'predicted' not in summary:
+        print(f'no model was built: {summary}', file=sys.stderr)
+        return 1
     skipped = sum(summary.get('skipped', {}).values())
     print(f'| {args.recording} | {changes} | {summary["processed"]} | '
           f'{summary["predicted"]} | {skipped} {summary.get("skipped", {})} | '
@@ -85,6 +98,7 @@ def main() -> int:
           + ', '.join(f'{v:.3g}' for v in summary['validation_nmse'] or [])
           + f' | {summary["validation_nmse_total"]:.3g} | {summary["seconds"]:.0f} s, load '
           f'{os.getloadavg()[0]:.1f} |')
+    print(f'prequential NMSE per joint: {summary["nmse"]}', file=sys.stderr)
     return 0
 
 
