@@ -16,7 +16,9 @@ Prints, side by side from the one run:
   identifier, not drained, predictions recorded, weight updates (and per second), the lag
   (prediction's publication against its sample's stamp: includes any lateness of the
   simulator) and the message path's delay (from the sample's arrival at the identifier),
-  as p50 / p99 (upper edges of 1 ms bins) and max, and the validation NMSE at the end.
+  as p50 / p99 (upper edges of 1 ms bins) and max, the contact decision's delay from the
+  sample's stamp (p50 / p99: when its external torque was checked against the thresholds),
+  and the validation NMSE at the end.
 
 Usage: ``python benchmarks/bench_graph.py [--seconds 600] [--interval 10] [--hogs 0]``
 (targets: 0 lost, every sample predicted and recorded, memory flat, the stream's work
@@ -162,8 +164,8 @@ def main() -> int:
           f"sim late {js['late']}\n")
     print('| method | predicted | skipped | lost | not drained | recorded | updates | '
           'updates/s (last 10 s) | lag p50 / p99 / max (ms) | message path p50 / p99 (ms) '
-          '| validation NMSE |')
-    print('|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|')
+          '| contact decision p50 / p99 (ms) | validation NMSE |')
+    print('|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|')
     short = js['published'] - (js['recorded'] or 0)
     for name, row in summary['methods'].items():
         stats = json.loads((out / 'stats' / f'{name}.json').read_text())
@@ -173,6 +175,8 @@ def main() -> int:
               f"{_fmt(stats.get('lag_p50_ms'))} / {_fmt(stats.get('lag_p99_ms'))} / "
               f"{_fmt(stats.get('max_lag_ms'))} | {_fmt(stats.get('path_delay_p50_ms'))} / "
               f"{_fmt(stats.get('path_delay_p99_ms'))} | "
+              f"{_fmt(stats.get('contact_delay_p50_ms'))} / "
+              f"{_fmt(stats.get('contact_delay_p99_ms'))} | "
               f"{_fmt(row['validation_nmse_total'])} |")
         short += (row['shortfall'] or 0) + js['published'] - (row['recorded'] or 0)
     print(f'\nsamples not predicted or not recorded (all consumers): {short} (target 0); '

@@ -1,4 +1,5 @@
-"""``scara-ident export MODEL.npz --out MODEL.onnx``: a saved network as an ONNX model.
+"""``scara-ident export MODEL.npz --out MODEL.onnx``: a saved network as an ONNX model;
+``scara-ident export MODEL.npz --urdf ROBOT.urdf``: a physical or hybrid model as a URDF.
 
 Writes the network, scaling included, as a float64 ONNX model that ONNX Runtime (C++,
 Python, ...) runs without this package: input ``x`` of shape (batch, 3n) holding the joint
@@ -10,16 +11,28 @@ Before writing, runs the ONNX model with ONNX Runtime on inputs drawn within the
 input ranges (the joint limits of a model scaled from them) and refuses to write it if it
 is further than 1e-6 (relative) from the package's own prediction. docs/onnx_export.md
 shows how a ros2_control controller loads it.
+
+--urdf: the identified parameters of a physical model (or a hybrid's physical part) written
+into its URDF: per link the mass, centre of mass and inertia of physically consistent
+standard parameters, per joint <dynamics damping= friction=> (viscous and Coulomb friction);
+rotor inertias, effort offsets and other friction terms in a comment. Pinocchio, MoveIt and
+robot_sim (-p urdf_file:=ROBOT.urdf) load it. Before writing, Pinocchio's rnea of the
+written URDF is checked against the model's rigid-body efforts on random states (1e-6 of
+the largest effort).
 """
 from __future__ import annotations
 
 import argparse
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from scara_ident_ros.cli import CliError
 from scara_ident_ros.paths import unwritable_file
+
+if TYPE_CHECKING:
+    from scara_ident_ros.dynamics.physical_model import PhysicalModel
 
 __all__ = ['CHECK_SAMPLES', 'TOLERANCE', 'add_parser', 'run']
 
@@ -37,6 +50,9 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     parser.add_argument('model', type=Path, metavar='MODEL', help='model file (.npz)')
     parser.add_argument('--out', type=Path, default=None,
                         help='ONNX file to write (default: MODEL with the suffix .onnx)')
+    parser.add_argument('--urdf', type=Path, default=None, metavar='ROBOT.urdf',
+                        help='write a physical or hybrid model\'s identified parameters as '
+                             'this URDF (instead of ONNX)')
     parser.set_defaults(func=run)
 
 
@@ -47,11 +63,14 @@ def run(args: argparse.Namespace) -> int:
                                                 onnx_agreement, save_onnx)
     from scara_ident_ros.cli.evaluation import load_model
 
-    out: Path = args.out if args.out is not None else args.model.with_suffix('.onnx')
     network = load_model(args.model)
+    if args.urdf is not None:
+        return _export_urdf(args, network)
+    out: Path = args.out if args.out is not None else args.model.with_suffix('.onnx')
     if not isinstance(network, FeedForwardNet):  # a physical or hybrid model: Pinocchio's
         raise CliError(f'{args.model}: a {type(network).__name__}, not a network: export '
-                       'writes the networks (FFS, FFW, FFMW) only')
+                       'writes the networks (FFS, FFW, FFMW) as ONNX; --urdf writes a '
+                       'physical model')
     if out.resolve() == args.model.resolve():
         raise CliError(f'--out {out} is the model file itself; give another name')
     problem = unwritable_file(out)
@@ -85,3 +104,73 @@ def run(args: argparse.Namespace) -> int:
           f'ranges: largest difference from predict {worst:.1e} of the largest effort '
           '(per joint)')
     return 0
+
+
+def _export_urdf(args: argparse.Namespace, loaded: object) -> int:
+    """``--urdf``: write, check with Pinocchio's rnea, print one summary line."""
+    from scara_ident_ros.dynamics.hybrid_model import HybridModel
+    from scara_ident_ros.dynamics.physical_model import PhysicalModel
+    from scara_ident_ros.dynamics.urdf_export import model_to_urdf
+    from scara_ident_ros.errors import ScaraIdentError
+
+    physical = loaded.physical if isinstance(loaded, HybridModel) else loaded
+    if not isinstance(physical, PhysicalModel):
+        raise CliError(f'{args.model}: a {type(loaded).__name__}, not a physical or hybrid '
+                       'model: --urdf writes identified physical parameters')
+    out: Path = args.urdf
+    if out.resolve() == args.model.resolve():
+        raise CliError(f'--urdf {out} is the model file itself; give another name')
+    problem = unwritable_file(out)
+    if problem:
+        raise CliError(f'--urdf {out} {problem}')
+    try:
+        standard = physical.consistent_standard()
+    except ScaraIdentError as exc:
+        raise CliError(str(exc)) from None
+    text = model_to_urdf(physical, standard)
+    worst = _urdf_difference(text, physical, standard)
+    if not worst <= TOLERANCE:
+        raise CliError(f'{args.model}: Pinocchio\'s rnea of the URDF differs from the model by '
+                       f'{worst:.1e} of the largest effort; {out} not written')
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        out.write_text(text, encoding='utf-8')
+    except OSError as exc:
+        raise CliError(f'--urdf {out} cannot be written: {exc.strerror or exc}') from None
+    print(f'{out}: {physical.n_bodies} links\' inertials and {physical.n_joints} joints\' '
+          f'friction ({", ".join(physical.joint_names)}); checked with Pinocchio on '
+          f'{CHECK_SAMPLES} random states: largest difference {worst:.1e} of the largest '
+          'rigid-body effort')
+    return 0
+
+
+def _urdf_difference(text: str, physical: PhysicalModel, standard: np.ndarray) -> float:
+    """Largest |rnea(URDF) − model| over random states, relative to the largest effort."""
+    import pinocchio as pin
+
+    from scara_ident_ros.dynamics.urdf_export import rigid_body_effort
+    full = pin.buildModelFromXML(text)
+    names = physical.joint_names
+    lock = [full.getJointId(name) for name in list(full.names)[1:]
+            if name not in names and full.joints[full.getJointId(name)].nv > 0]
+    model = pin.buildReducedModel(full, lock, pin.neutral(full)) if lock else full
+    data = model.createData()
+    rng = np.random.default_rng(0)
+    n = physical.n_joints
+    q = rng.uniform(-np.pi, np.pi, (CHECK_SAMPLES, n))
+    qd, qdd = rng.normal(0.0, 1.0, (2, CHECK_SAMPLES, n))
+    expected = rigid_body_effort(physical, standard, q, qd, qdd)
+    order = [model.joints[model.getJointId(name)] for name in names]
+    got = np.zeros_like(expected)
+    for k in range(CHECK_SAMPLES):
+        qp, vp, ap = pin.neutral(model), np.zeros(model.nv), np.zeros(model.nv)
+        for j, joint in enumerate(order):
+            if joint.nq == 2:
+                qp[joint.idx_q:joint.idx_q + 2] = np.cos(q[k, j]), np.sin(q[k, j])
+            else:
+                qp[joint.idx_q] = q[k, j]
+            vp[joint.idx_v], ap[joint.idx_v] = qd[k, j], qdd[k, j]
+        tau = pin.rnea(model, data, qp, vp, ap)
+        got[k] = [tau[joint.idx_v] for joint in order]
+    scale = np.maximum(np.max(np.abs(expected), axis=0), 1e-12)
+    return float(np.max(np.abs(got - expected) / scale))

@@ -30,6 +30,11 @@ def parameters_markdown(model: PhysicalModel) -> str:
               '| joint | viscous (N·m·s/rad or N·s/m) | Coulomb (N·m or N) |', '|---|---|---|']
     for name, (viscous, coulomb) in model.friction.items():
         lines.append(f'| {name} | {_value(viscous)} | {_value(coulomb)} |')
+    first = model.n_base + 2 * model.n_joints
+    if model.n_parameters > first:  # Stribeck, asymmetric, coupled friction, offsets
+        lines += ['', '| other friction and offsets | identified |', '|---|---|']
+        lines += [f'| {name} | {_value(float(value))} |' for name, value in
+                  zip(model.parameter_names[first:], model.theta[first:])]
     return '\n'.join(lines) + '\n'
 
 

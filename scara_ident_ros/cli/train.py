@@ -28,9 +28,17 @@ fitted by linear least squares on every training sample (--samples does not appl
 identified parameters are printed. The Coulomb shape (--coulomb auto, the default) is the
 one of sign(qd) and tanh(qd/eps), eps 0.005-0.2, whose fit has the lowest validation
 NMSE (without validation: tanh with --coulomb-eps); --coulomb tanh or sign imposes one.
+Real arms: --offsets adds an effort offset per joint (torque sensors drift), --asymmetric a
+Coulomb friction that differs by direction, --coupled J5,J6 the friction of coupled wrist
+motors on both joints (the TX40's), --stribeck-velocity a Stribeck term; --consistent (the
+default) fits physically consistent parameters (positive masses, inertias a body can have:
+a pseudo-inertia LMI per body, solved with cvxpy) as close to least squares as the data
+allow, which scara-ident export --urdf writes back as a URDF.
 --method hybrid: the physical model, then an FFS network on its residual (output scaling:
-the residual's range) with Levenberg-Marquardt on --samples of the training samples,
-early-stopped on the validation blocks' residual as above. With --urdf, networks (the
+the residual's range) with Levenberg-Marquardt on --samples of the training samples, early-
+stopped as above on every other validation block; its correction is then kept only on the
+joints where it lowers the physical model's error in every validation block (a gate per
+joint: the hybrid is not worse than its physical part on any of them). With --urdf, networks (the
 hybrid's too) scale their inputs by the URDF's joint limits (positions, velocities; the
 accelerations by the training data's largest |q''|) and a network alone its outputs by the
 effort limits.
@@ -66,14 +74,17 @@ if TYPE_CHECKING:
     from scara_ident_ros.identification.dataset import Dataset
     from scara_ident_ros.nn import FitHistory
 
-__all__ = ['FRICTION_STEPS', 'HYBRID_NETWORK', 'ITERATIONS', 'MAX_FAIL', 'MIN_ITERATIONS',
-           'PHYSICAL_METHODS', 'SAMPLES', 'VALIDATION_BLOCK_S', 'add_parser', 'run']
+__all__ = ['FRICTION_STEPS', 'HYBRID_NETWORK', 'ITERATIONS', 'KERNEL_METHOD', 'MAX_FAIL',
+           'MIN_ITERATIONS', 'PHYSICAL_METHODS', 'SAMPLES', 'VALIDATION_BLOCK_S', 'add_parser',
+           'run']
 
 #: Defaults of the options (ITERATIONS, SAMPLES, MAX_FAIL, MIN_ITERATIONS: those of the
 #: models' offline training, nn.fitting), chosen with benchmarks/bench_train_defaults.py.
 FRICTION_STEPS = True      # the network starts with friction steps, as the identifier's
 #: Models built from a URDF rather than a network alone.
 PHYSICAL_METHODS = ('physical', 'hybrid')
+#: The sparse-spectrum GP (``learners.sparse_spectrum_gp``): no URDF, no iterations.
+KERNEL_METHOD = 'kernel'
 HYBRID_NETWORK = 'ffs'     # the hybrid's residual network
 
 
@@ -84,10 +95,12 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument('bag', type=Path, metavar='RECORDING',
                         help=RECORDING_HELP)
-    parser.add_argument('--method', required=True, choices=[*METHODS, *PHYSICAL_METHODS],
+    parser.add_argument('--method', required=True,
+                        choices=[*METHODS, *PHYSICAL_METHODS, KERNEL_METHOD],
                         help='network: ffmw (MSLOG), ffw (SLOG) or ffs (sigmoid); physical: '
                              'least squares on the URDF\'s base parameters and friction; '
-                             'hybrid: physical plus an FFS network on its residual')
+                             'hybrid: physical plus an FFS network on its residual; '
+                             'kernel: sparse-spectrum GP regression (random features)')
     parser.add_argument('--urdf', type=Path, default=None, metavar='ROBOT.urdf',
                         help='the robot\'s URDF: required by physical and hybrid; gives a '
                              'network its limit scaling')
@@ -97,6 +110,20 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
                              'or sign(qd) (default: auto)')
     parser.add_argument('--coulomb-eps', type=float, default=COULOMB_EPS, metavar='SPEED',
                         help=f'eps of tanh(qd/eps), rad/s or m/s (default: {COULOMB_EPS:g})')
+    parser.add_argument('--offsets', action=argparse.BooleanOptionalAction, default=False,
+                        help='physical/hybrid: an effort offset per joint (default: off)')
+    parser.add_argument('--asymmetric', action=argparse.BooleanOptionalAction, default=False,
+                        help='physical/hybrid: Coulomb friction that differs by direction '
+                             '(default: off)')
+    parser.add_argument('--coupled', action='append', default=[], metavar='JOINT_A,JOINT_B',
+                        help='physical/hybrid: two joints whose motors are coupled (a wrist): '
+                             'each gets friction of the other\'s speed; repeatable')
+    parser.add_argument('--stribeck-velocity', type=float, default=0.0, metavar='SPEED',
+                        help='physical/hybrid: v_s of a Stribeck term per joint, rad/s or m/s '
+                             '(default: 0, none)')
+    parser.add_argument('--consistent', action=argparse.BooleanOptionalAction, default=True,
+                        help='physical/hybrid: physically consistent parameters (pseudo-'
+                             'inertia LMI, cvxpy), not plain least squares (default: on)')
     parser.add_argument('--algorithm', default='lm', choices=list(ALGORITHMS),
                         help='lm: Levenberg-Marquardt (default); gd: batch gradient descent '
                              'with the method\'s learning rate and momentum')
@@ -172,7 +199,7 @@ def run(args: argparse.Namespace) -> int:
     every_train = train  # least squares takes them all
     if args.samples:
         train = train.subsample(args.samples, seed=args.seed, name='train')
-    if args.method == 'physical':
+    if args.method in ('physical', KERNEL_METHOD):
         train = every_train
     where = ''
     if len(validation):
@@ -203,7 +230,10 @@ def run(args: argparse.Namespace) -> int:
             print(f'{args.urdf}: joints not in the recording, held fixed at 0: '
                   f'{", ".join(fixed)}', flush=True)
     if args.method in PHYSICAL_METHODS:
-        return _train_physical(args, names, every_train, train, validation, metadata)
+        return _train_physical(args, names, every_train, train, validation, metadata,
+                               start_ns=int(samples.data.stamp_ns[0]))
+    if args.method == KERNEL_METHOD:
+        return _train_kernel(args, names, train, validation, metadata)
 
     network = make_network(args.method, len(names), seed=args.seed,
                            friction_steps=args.friction_steps)
@@ -234,6 +264,31 @@ def run(args: argparse.Namespace) -> int:
     print(f'\n{args.method.upper()} trained with {args.algorithm.upper()}: '
           f'{history.iterations} iterations in {seconds:.1f} s (stopped: '
           f'{history.stop_reason}; weights of iteration {history.best_iteration})\n')
+    print(errors_markdown(names, results))
+    print(f'model written to {args.out}')
+    return 0
+
+
+def _train_kernel(args: argparse.Namespace, names: Sequence[str], train: Dataset,
+                  validation: Dataset, metadata: dict[str, np.ndarray]) -> int:
+    """``--method kernel``: the sparse-spectrum GP's batch solution on every training
+    sample (its kernel from an exact GP on 1500 of them); save and print the errors."""
+    from scara_ident_ros.blas_threads import single_blas_thread
+    from scara_ident_ros.cli.evaluation import errors_markdown, evaluate
+    from scara_ident_ros.learners import SparseSpectrumGP
+
+    started = time.perf_counter()
+    model = SparseSpectrumGP(seed=args.seed)
+    with single_blas_thread():
+        model.fit(train.X, train.Y)
+    seconds = time.perf_counter() - started
+    model.metadata.update(metadata)
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    model.save(args.out)
+    results = {'train': evaluate(model, train.X, train.Y)}
+    if len(validation):
+        results['validation'] = evaluate(model, validation.X, validation.Y)
+    print(f'\nKERNEL ({model.n_features} random features) fitted in {seconds:.1f} s\n')
     print(errors_markdown(names, results))
     print(f'model written to {args.out}')
     return 0
@@ -279,19 +334,34 @@ def _limit_ranges(urdf: Path, names: Sequence[str], X: np.ndarray, Y: np.ndarray
 
 def _train_physical(args: argparse.Namespace, names: Sequence[str], every_train: Dataset,
                     train: Dataset, validation: Dataset,
-                    metadata: dict[str, np.ndarray]) -> int:
-    """``--method physical`` or ``hybrid``: fit, save, print errors and parameters."""
+                    metadata: dict[str, np.ndarray], *, start_ns: int) -> int:
+    """``--method physical`` or ``hybrid``: fit, save, print errors and parameters;
+    ``start_ns`` the recording's first stamp (its validation blocks count from it)."""
     from scara_ident_ros.blas_threads import single_blas_thread
     from scara_ident_ros.dynamics.coulomb_selection import select_coulomb
     from scara_ident_ros.dynamics.hybrid_model import HybridModel
     from scara_ident_ros.dynamics.physical_model import PhysicalModel
     from scara_ident_ros.cli.evaluation import errors_markdown, evaluate
     from scara_ident_ros.cli.physical_parameters import parameters_markdown
+    from scara_ident_ros.identification.split import alternate_blocks, block_index
     from scara_ident_ros.cli.progress import TrainingProgress
+
+    coupled = []
+    for pair in args.coupled:
+        joints = pair.split(',')
+        if len(joints) != 2 or any(j not in names for j in joints) or joints[0] == joints[1]:
+            raise CliError(f'--coupled {pair}: need two distinct modelled joints A,B of '
+                           f'{", ".join(names)}')
+        coupled.append((joints[0], joints[1]))
+    if not args.stribeck_velocity >= 0.0:
+        raise CliError(f'--stribeck-velocity must be >= 0, got {args.stribeck_velocity}')
 
     def build(coulomb: str, eps: float) -> PhysicalModel:
         return PhysicalModel.from_urdf_file(args.urdf, joint_names=names, coulomb=coulomb,
-                                            coulomb_eps=eps)
+                                            coulomb_eps=eps, offsets=args.offsets,
+                                            asymmetric=args.asymmetric, coupled=coupled,
+                                            stribeck_velocity=args.stribeck_velocity,
+                                            consistent=args.consistent)
 
     started = time.perf_counter()
     coulomb, eps = ('tanh' if args.coulomb == 'auto' else args.coulomb), args.coulomb_eps
@@ -313,18 +383,29 @@ def _train_physical(args: argparse.Namespace, names: Sequence[str], every_train:
     model: PhysicalModel | HybridModel
     if args.method == 'physical':
         model = physical if fitted else physical.fit(every_train.X, every_train.Y)
-        summary = (f'PHYSICAL fitted by least squares on {len(every_train)} samples: '
-                   f'{physical.n_base} base parameters and {2 * len(names)} friction '
+        how = ' (physically consistent)' if args.consistent else ''
+        summary = (f'PHYSICAL fitted by least squares on {len(every_train)} samples{how}: '
+                   f'{physical.n_base} base parameters and '
+                   f'{physical.n_parameters - physical.n_base} friction and offset '
                    f'coefficients in {time.perf_counter() - started:.1f} s')
     else:
         network = make_network(HYBRID_NETWORK, len(names), seed=args.seed,
                                friction_steps=args.friction_steps)
         x_min, x_max, _, _ = _limit_ranges(args.urdf, names, every_train.X, every_train.Y)
         progress = TrainingProgress(args.iterations, label=f'HYBRID {HYBRID_NETWORK} lm')
+        stop, other = alternate_blocks(validation, block_s=args.validation_block,
+                                       start_ns=start_ns)
+        if not len(other):  # one validation block: stop on it
+            stop = validation
         hybrid = HybridModel(physical, network)
         with single_blas_thread():  # the validation blocks are drawn above
             hybrid.fit(every_train.X, every_train.Y, validation_fraction=0.0,
-                       validation=(validation.X, validation.Y) if len(validation) else None,
+                       validation=(stop.X, stop.Y) if len(stop) else None,
+                       gate_validation=(validation.X, validation.Y) if len(validation)
+                       else None,
+                       gate_groups=block_index(validation.stamp_ns,
+                                               block_s=args.validation_block,
+                                               start_ns=start_ns),
                        x_range=(x_min, x_max), samples=args.samples,
                        iterations=args.iterations, max_fail=args.max_fail,
                        min_iterations=args.min_iterations, callback=progress)
@@ -337,7 +418,8 @@ def _train_physical(args: argparse.Namespace, names: Sequence[str], every_train:
                    f'{HYBRID_NETWORK.upper()} on the residual of {len(train)}: '
                    f'{history.iterations} iterations in {time.perf_counter() - started:.1f} s '
                    f'(stopped: {history.stop_reason}; weights of iteration '
-                   f'{history.best_iteration})')
+                   f'{history.best_iteration}); correction kept on '
+                   f'{", ".join(n for n, g in zip(names, model.gate) if g) or "no joint"}')
     metadata.update({'coulomb': np.array(coulomb), 'coulomb_eps': np.array(eps)})
     model.metadata.update(metadata)
     args.out.parent.mkdir(parents=True, exist_ok=True)

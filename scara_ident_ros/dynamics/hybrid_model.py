@@ -24,12 +24,25 @@ range of the residuals it was fitted to. A network extrapolates badly outside th
 has seen; bounded, its error on a motion never seen is at most the residual's own range,
 so the hybrid cannot do much worse there than the physical model alone.
 
+And the correction is *gated* per joint (:attr:`HybridModel.gate`, 1 or 0): validated on
+samples neither part learnt from (:meth:`HybridModel.validate_gate`), it is withheld (gate 0)
+on each joint where it does not lower the held-out error of the physical model alone. On a
+real arm a residual network that helps on the training motion can make another motion
+worse on some joints (the TX40's joints 1-4, benchmarks/physical_real.md); gated, the
+hybrid is never worse than its physical part on the validation samples of any joint.
+Offline :func:`fit_hybrid` gates on held-out samples, block by block (``scara-ident
+train``: its network early-stops on every other validation block, and a joint keeps its
+correction only if it lowers the error in every validation block); online the residual
+learner
+gates after every update on its own held-out blocks
+(:mod:`~scara_ident_ros.identification.residual_learner`).
+
 The hybrid keeps the estimator contract (:mod:`scara_ident_ros.estimator`): :meth:`HybridModel.fit`
 is :func:`fit_hybrid` with the project's defaults of offline training.
 
 Files: kind ``'hybrid'`` (:mod:`scara_ident_ros.nn.model_file`): the physical model's entries
 prefixed ``physical.``, the network's ``network.``, the bounds (if any) ``residual_low``
-and ``residual_high``.
+and ``residual_high``, the gate ``residual_gate`` (all 1 if absent: older files).
 """
 from __future__ import annotations
 
@@ -49,8 +62,8 @@ from scara_ident_ros.nn.presets import make_network
 from scara_ident_ros.nn.model_file import NETWORK_PREFIX, read_model_file, write_model
 from scara_ident_ros.nn.training import Callback
 
-__all__ = ['HybridModel', 'KIND', 'RESIDUAL_SHARE', 'fit_hybrid', 'online_hybrid',
-           'start_at_zero']
+__all__ = ['HybridModel', 'KIND', 'RESIDUAL_SHARE', 'fit_hybrid', 'gate_errors',
+           'online_hybrid', 'start_at_zero']
 
 FloatArray = NDArray[np.float64]
 KIND = 'hybrid'  #: the model file's kind
@@ -77,6 +90,9 @@ class HybridModel:
     bounds : (low, high) of ndarrays of shape (n,), or None
         The network's correction is clipped to [low, high] per joint (N·m, N); None: not
         bounded.
+    gate : ndarray of shape (n,)
+        1 where the correction is applied, 0 where it is withheld (:meth:`validate_gate`);
+        all 1 until validated.
     history_ : FitHistory or None
         The network's training in the last :meth:`fit`.
     """
@@ -90,6 +106,7 @@ class HybridModel:
                              f'a physical model of {physical.n_joints} joints')
         self.physical, self.network = physical, network
         self.bounds: tuple[FloatArray, FloatArray] | None = None
+        self.gate: FloatArray = np.ones(physical.n_outputs)
         self.metadata: dict[str, np.ndarray] = {
             'joint_names': np.array(physical.joint_names)}
         self.history_: FitHistory | None = None
@@ -122,6 +139,8 @@ class HybridModel:
     def fit(self, X: ArrayLike, Y: ArrayLike, *,
             validation: tuple[ArrayLike, ArrayLike] | None = None,
             validation_fraction: float = VALIDATION_FRACTION,
+            gate_validation: tuple[ArrayLike, ArrayLike] | None = None,
+            gate_groups: ArrayLike | None = None,
             x_range: tuple[ArrayLike, ArrayLike] | None = None,
             samples: int = SAMPLES, iterations: int = ITERATIONS, max_fail: int = MAX_FAIL,
             min_iterations: int = MIN_ITERATIONS,
@@ -138,7 +157,7 @@ class HybridModel:
             Validation samples; if None, blocks of consecutive rows (a
             ``validation_fraction`` of them, spread over the rows, drawn with the network's
             seed: ``nn.validation_blocks.row_split``) validate and the others train.
-        x_range, iterations, max_fail, min_iterations, callback
+        gate_validation, gate_groups, x_range, iterations, max_fail, min_iterations, callback
             :func:`fit_hybrid`'s.
         samples : int
             The network trains on at most this many training samples (0: all).
@@ -157,7 +176,8 @@ class HybridModel:
                 validation = (x[held], y[held])
                 x, y = x[train], y[train]
         fitted, history = fit_hybrid(
-            self.physical, self.network, (x, y), validation=validation, x_range=x_range,
+            self.physical, self.network, (x, y), validation=validation,
+            gate_validation=gate_validation, gate_groups=gate_groups, x_range=x_range,
             network_samples=samples, seed=seed, iterations=iterations, max_fail=max_fail,
             min_iterations=min_iterations, callback=callback)
         # the fitted hybrid's state (its parts are this one's; bounds and the like), this
@@ -177,11 +197,66 @@ class HybridModel:
         return self.physical.predict(x) + self.correction(x)
 
     def correction(self, X: ArrayLike) -> FloatArray:
-        """The network's part of :meth:`predict`, within :attr:`bounds`: (N, n) or (n,)."""
+        """The network's part of :meth:`predict`, within :attr:`bounds`, times :attr:`gate`:
+        (N, n) or (n,)."""
+        return self.raw_correction(X) * self.gate
+
+    def raw_correction(self, X: ArrayLike) -> FloatArray:
+        """The network's correction within :attr:`bounds`, not gated: (N, n) or (n,)."""
         out = self.network.predict(np.asarray(X, dtype=np.float64))
         if self.bounds is None:
             return out
         return np.clip(out, self.bounds[0], self.bounds[1])
+
+    def validate_gate(self, X: ArrayLike, Y: ArrayLike, *,
+                      groups: ArrayLike | None = None) -> tuple[FloatArray, FloatArray]:
+        """Set :attr:`gate` on held-out samples: 1 on the joints where the correction lowers
+        the physical model's mean squared error on them (in every group, with ``groups``),
+        0 elsewhere.
+
+        Parameters
+        ----------
+        X : array_like of shape (N, 3n)
+            Held-out inputs [q, q', q''] that neither part was fitted to.
+        Y : array_like of shape (N, n)
+            Their efforts (N·m, N).
+        groups : array_like of shape (N,), optional
+            A label per sample (e.g. its time block): the correction is kept on a joint
+            only if it lowers the error within every group, not only over all samples
+            (stricter: on the TX40 a correction that helps on average can hurt some blocks
+            of motion, and then held-out ones too).
+
+        Returns
+        -------
+        physical, corrected : ndarray of shape (n,)
+            Mean squared error per joint of the physical model alone and with the
+            (ungated) correction (N²·m², N²).
+
+        Raises
+        ------
+        ValueError
+            Without samples, or if the shapes do not fit the model.
+        """
+        x = np.atleast_2d(np.asarray(X, dtype=np.float64))
+        y = np.atleast_2d(np.asarray(Y, dtype=np.float64))
+        if x.shape[0] == 0 or x.shape != (y.shape[0], self.n_inputs) \
+                or y.shape[1] != self.n_outputs:
+            raise ValueError(f'need held-out X (N, {self.n_inputs}) and Y (N, '
+                             f'{self.n_outputs}), N > 0; got {x.shape} and {y.shape}')
+        residual = y - self.physical.predict(x)
+        correction = self.raw_correction(x)
+        physical, corrected = gate_errors(correction, residual)
+        keep = corrected < physical
+        if groups is not None:
+            labels = np.asarray(groups).reshape(-1)
+            if labels.shape != (x.shape[0],):
+                raise ValueError(f'need a group per sample ({x.shape[0]}), got {labels.shape}')
+            for label in np.unique(labels):
+                part = labels == label
+                alone, fixed = gate_errors(correction[part], residual[part])
+                keep &= fixed < alone
+        self.gate = keep.astype(np.float64)
+        return physical, corrected
 
     def partial_fit(self, X: FloatArray, Y: FloatArray) -> FloatArray:
         """Not learnt online yet.
@@ -200,6 +275,7 @@ class HybridModel:
         arrays.update({NETWORK_PREFIX + k: v for k, v in self.network.to_arrays().items()})
         if self.bounds is not None:
             arrays['residual_low'], arrays['residual_high'] = self.bounds
+        arrays['residual_gate'] = self.gate.copy()
         write_model(path, arrays, self.metadata, kind=KIND)
 
     @classmethod
@@ -226,10 +302,23 @@ class HybridModel:
                 if low.shape != (model.n_outputs,) or high.shape != low.shape:
                     raise ValueError(f'bounds of shape {low.shape}, {high.shape}')
                 model.bounds = (low, high)
+            if 'residual_gate' in file.arrays:
+                gate = np.asarray(file.arrays['residual_gate'], np.float64)
+                if gate.shape != (model.n_outputs,) or not np.all((gate == 0) | (gate == 1)):
+                    raise ValueError(f'a gate of shape {gate.shape} not of 0s and 1s')
+                model.gate = gate
         except (KeyError, ValueError) as exc:
             raise ModelFormatError(f'{path}: corrupt hybrid model: {exc}') from None
         model.metadata = file.metadata
         return model
+
+
+def gate_errors(correction: FloatArray,
+                residual: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Mean squared error per joint of no correction and of ``correction`` (N, n) on the
+    physical model's ``residual`` (N, n): the two errors a gate compares, (n,) each."""
+    return (np.asarray(np.mean(residual ** 2, axis=0)),
+            np.asarray(np.mean((correction - residual) ** 2, axis=0)))
 
 
 register_kind(KIND, HybridModel.load)
@@ -278,6 +367,8 @@ def online_hybrid(physical: PhysicalModel,
 def fit_hybrid(physical: PhysicalModel, network: FeedForwardNet,
                train: tuple[ArrayLike, ArrayLike], *,
                validation: tuple[ArrayLike, ArrayLike] | None = None,
+               gate_validation: tuple[ArrayLike, ArrayLike] | None = None,
+               gate_groups: ArrayLike | None = None,
                x_range: tuple[ArrayLike, ArrayLike] | None = None,
                network_samples: int = 0, seed: int = 0, iterations: int = ITERATIONS,
                max_fail: int = MAX_FAIL, min_iterations: int = MIN_ITERATIONS,
@@ -294,7 +385,14 @@ def fit_hybrid(physical: PhysicalModel, network: FeedForwardNet,
         Training inputs (N, 3n) = [q, q', q''] and efforts (N, n).
     validation : (X, Y), optional
         Validation samples: the network stops after ``max_fail`` iterations without a new
-        best residual error on them (counted after ``min_iterations``) and keeps its best.
+        best residual error on them (counted after ``min_iterations``) and keeps its best;
+        then its correction is gated per joint (:meth:`HybridModel.validate_gate`) on
+        ``gate_validation``, or on them without it.
+    gate_validation : (X, Y), optional
+        Held-out samples to gate on (default ``validation``).
+    gate_groups : array_like of shape (N,), optional
+        Their time blocks: the correction must help in each
+        (:meth:`HybridModel.validate_gate`'s ``groups``).
     x_range : (x_min, x_max) of shape (3n,), optional
         The network's input ranges (e.g. from the robot's limits); default the training
         inputs' range.
@@ -326,12 +424,19 @@ def fit_hybrid(physical: PhysicalModel, network: FeedForwardNet,
                     (np.asarray(x_range[0], float), np.asarray(x_range[1], float)))
     network.set_scaling(x_min, x_max, residual.min(axis=0), residual.max(axis=0))
     start_at_zero(network)
-    val = None
+    val = held = None
     if validation is not None:
         xv = np.asarray(validation[0], dtype=np.float64)
         if xv.shape[0]:
-            val = (xv, np.asarray(validation[1], dtype=np.float64) - physical.predict(xv))
+            held = (xv, np.asarray(validation[1], dtype=np.float64))
+            val = (xv, held[1] - physical.predict(xv))
     history = fit(network, x, residual, algorithm='lm', iterations=iterations,
                   validation=val, max_fail=max_fail, min_iterations=min_iterations,
                   callback=callback)
-    return HybridModel(physical, network), history
+    model = HybridModel(physical, network)
+    if gate_validation is not None and np.asarray(gate_validation[0]).shape[0]:
+        held = (np.asarray(gate_validation[0], dtype=np.float64),
+                np.asarray(gate_validation[1], dtype=np.float64))
+    if held is not None:
+        model.validate_gate(*held, groups=gate_groups)
+    return model, history

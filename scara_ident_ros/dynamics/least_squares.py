@@ -13,6 +13,7 @@ conditioning is the square of the regressor's) are never formed.
 """
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import NamedTuple, Protocol, cast
 
 import numpy as np
@@ -75,6 +76,11 @@ class BlockLeastSquares:
         self._upper = cast(FloatArray, np.linalg.qr(stacked, mode='r'))
         self.rows += h.shape[0]
 
+    @property
+    def upper(self) -> FloatArray:
+        """[R | Qᵀy] (k, p + 1), k ≤ p + 1: ||H θ − y||² = ||R θ − Qᵀy||² + a constant."""
+        return self._upper.copy()
+
     def solve(self) -> FloatArray:
         """θ of shape (p,) (minimum norm if the rows do not determine it).
 
@@ -91,7 +97,9 @@ class BlockLeastSquares:
 
 
 def fit_least_squares(model: LinearInParameters, q: ArrayLike, qd: ArrayLike, qdd: ArrayLike,
-                      tau: ArrayLike, *, block: int = 2048) -> LeastSquaresFit:
+                      tau: ArrayLike, *, block: int = 2048,
+                      solve: Callable[[BlockLeastSquares], FloatArray] | None = None,
+                      ) -> LeastSquaresFit:
     """Fit θ to every sample (module docstring).
 
     Parameters
@@ -100,6 +108,11 @@ def fit_least_squares(model: LinearInParameters, q: ArrayLike, qd: ArrayLike, qd
         Joint positions, velocities and accelerations (SI).
     tau : array_like of shape (N, n)
         Measured efforts (N·m, N).
+    block : int
+        Samples per block.
+    solve : callable, optional
+        θ of the reduced system (default :meth:`BlockLeastSquares.solve`): e.g. a fit under
+        constraints (:mod:`~scara_ident_ros.dynamics.consistent_parameters`).
 
     Raises
     ------
@@ -120,7 +133,7 @@ def fit_least_squares(model: LinearInParameters, q: ArrayLike, qd: ArrayLike, qd
     for start in range(0, q.shape[0], block):
         part = slice(start, start + block)
         system.add(model.regressor(q[part], qd[part], qdd[part]), tau[part])
-    theta = system.solve()
+    theta = system.solve() if solve is None else solve(system)
     squares = np.zeros(q.shape[1])
     for start in range(0, q.shape[0], block):
         part = slice(start, start + block)

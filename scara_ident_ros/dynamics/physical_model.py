@@ -12,7 +12,25 @@ and with a Stribeck velocity v_s > 0 (``stribeck_velocity``) a third friction co
 joint, diag(exp(−(q'/v_s)²) s(q')), whose coefficient f_s,j is the breakaway friction's
 excess over f_c,j: the friction that falls from f_c + f_s at rest to f_c in motion (the
 Stribeck law of ``robot_sim``'s joints, docs/nodes.md). v_s is fixed, not fitted: the
-model stays linear in θ.
+model stays linear in θ. Real arms add two columns per joint (options): ``asymmetric``,
+diag(|s(q')|), whose coefficient f_a,j makes the Coulomb friction f_c + f_a in the positive
+direction and f_c − f_a in the negative one (gearboxes rarely rub alike both ways; with
+``'sign'`` Coulomb, |s| = 1 is the offset's column, and with a narrow tanh nearly so: only
+one of the two is then identified); and
+``offsets``, a constant column per joint whose coefficient τ_0,j is the effort sensor's
+offset (joint torque sensors drift, motor-current efforts carry a bias). An offset that the
+rigid-body columns already hold (a vertical prismatic joint carries a constant weight) is
+left out: :attr:`PhysicalModel.offset_joints` are the joints that have one. And a wrist
+whose motors are coupled (the TX40's joints 5 and 6: one motor turns with q'_5 + q'_6)
+carries each coupled motor's friction on both joints: ``coupled`` pairs (a, b) add to row a
+viscous and Coulomb columns of q'_b, and to row b those of q'_a (on the TX40 they take
+joint 5's held-out NMSE from 0.50 to 0.12, benchmarks/physical_real.md).
+
+With ``consistent``, :meth:`PhysicalModel.fit` solves for physically consistent standard
+parameters instead (positive masses, inertias a body can have: a pseudo-inertia LMI per
+body, :mod:`~scara_ident_ros.dynamics.consistent_parameters`) as close to the least-squares
+fit as the data allow; :attr:`PhysicalModel.standard_theta` holds them (what ``scara-ident
+export --urdf`` writes).
 
 where W_ind is the rigid-body regressor reduced to its base parameters θ_b
 (:mod:`~scara_ident_ros.dynamics.base_reduction`, from the regressor stacked over seeded
@@ -38,7 +56,8 @@ Public API::
 
     COULOMB_MODES, COULOMB_EPS, INERTIAL_NAMES
     PhysicalModel(urdf, *, joint_names=None, coulomb='tanh', coulomb_eps=COULOMB_EPS,
-                  armature=True, source='robot_description', stribeck_velocity=0.0)
+                  armature=True, source='robot_description', stribeck_velocity=0.0,
+                  asymmetric=False, offsets=False, coupled=(), consistent=False)
     PhysicalModel.from_urdf_file(path, **options)
 """
 from __future__ import annotations
@@ -51,7 +70,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from scara_ident_ros.dynamics.base_reduction import BaseReduction, reduce_columns
-from scara_ident_ros.dynamics.least_squares import fit_least_squares
+from scara_ident_ros.dynamics.least_squares import BlockLeastSquares, fit_least_squares
 from scara_ident_ros.dynamics.urdf_limits import UrdfError
 from scara_ident_ros.errors import ScaraIdentError
 from scara_ident_ros.estimator import r2_score, register_kind
@@ -107,12 +126,30 @@ class PhysicalModel:
         A base reduction to use instead of computing one (a loaded model's).
     stribeck_velocity : float
         v_s (rad/s, m/s) of a Stribeck column per joint; 0: none.
+    asymmetric : bool
+        Add a column |s(q')| per joint: Coulomb friction that differs by direction.
+    offsets : bool
+        Add a constant effort offset per joint (where the rigid-body columns do not hold
+        one: :attr:`offset_joints`).
+    coupled : sequence of (str, str)
+        Pairs of joints whose motors are coupled: each joint's row gets viscous and
+        Coulomb columns of the other's speed.
+    consistent : bool
+        :meth:`fit` physically consistent parameters (module docstring), not plain least
+        squares.
 
     Attributes
     ----------
     theta : ndarray of shape (n_parameters,)
-        [θ_b, f_v, f_c] (and f_s with a Stribeck velocity); zeros until :meth:`fit` (or
+        [θ_b, f_v, f_c] (then f_s with a Stribeck velocity, f_a if asymmetric, four per
+        coupled pair, τ_0 of the :attr:`offset_joints` with offsets); zeros until
+        :meth:`fit` (or
         :meth:`fit_states`, :meth:`set_theta`).
+    offset_joints : ndarray of shape (n,) of bool
+        The joints with an effort-offset column (none without ``offsets``).
+    standard_theta : ndarray of shape (len(standard_names),) or None
+        Physically consistent standard parameters of :attr:`theta` (a consistent fit's);
+        None otherwise (:meth:`consistent_standard` finds some).
     metadata : dict of str to ndarray
         Saved with the model, as a network's (``joint_names``, ``method``, ...).
     residual_rms : ndarray of shape (n,) or None
@@ -126,10 +163,16 @@ class PhysicalModel:
                  coulomb: str = 'tanh', coulomb_eps: float = COULOMB_EPS,
                  armature: bool = True, source: str = 'robot_description',
                  reduction: BaseReduction | None = None,
-                 stribeck_velocity: float = 0.0) -> None:
+                 stribeck_velocity: float = 0.0, asymmetric: bool = False,
+                 offsets: bool = False,
+                 coupled: Sequence[tuple[str, str]] = (),
+                 consistent: bool = False) -> None:
         if not stribeck_velocity >= 0.0:
             raise ValueError(f'stribeck_velocity must be >= 0, got {stribeck_velocity!r}')
         self.stribeck_velocity = float(stribeck_velocity)
+        self.asymmetric, self.offsets = bool(asymmetric), bool(offsets)
+        self.consistent = bool(consistent)
+        self.standard_theta: FloatArray | None = None
         if coulomb not in COULOMB_MODES:
             raise ValueError(f'coulomb must be one of {COULOMB_MODES}, got {coulomb!r}')
         if not coulomb_eps > 0.0:
@@ -175,11 +218,28 @@ class PhysicalModel:
             raise ModelFormatError(f'{source}: the base reduction is for parameters '
                                    f'{self.reduction.names[:3]}..., this URDF has '
                                    f'{self.standard_names[:3]}...')
+        self.coupled = tuple((str(a), str(b)) for a, b in coupled)
+        if any(a not in names or b not in names or a == b for a, b in self.coupled):
+            raise UrdfError(f'{source}: coupled joints {list(self.coupled)} must be pairs of '
+                            f'distinct modelled joints ({names})')
+        # (row, speed) joint index pairs of the coupling columns: viscous, then Coulomb
+        self._coupling = np.array([pair for a, b in self.coupled for pair in
+                                   ((names.index(a), names.index(b)),
+                                    (names.index(b), names.index(a)))],
+                                  dtype=np.int64).reshape(-1, 2)
+        self.offset_joints = (self._identifiable_offsets() if self.offsets
+                              else np.zeros(self._n, dtype=bool))
         self.parameter_names = (self.reduction.base_names
                                 + tuple(f'{name}.fv' for name in names)
                                 + tuple(f'{name}.fc' for name in names)
                                 + (tuple(f'{name}.fs' for name in names)
-                                   if self.stribeck_velocity > 0.0 else ()))
+                                   if self.stribeck_velocity > 0.0 else ())
+                                + (tuple(f'{name}.fa' for name in names)
+                                   if self.asymmetric else ())
+                                + tuple(f'{names[r]}.{kind}[{names[c]}]' for kind in ('fv', 'fc')
+                                        for r, c in self._coupling)
+                                + tuple(f'{name}.offset' for name, kept in
+                                        zip(names, self.offset_joints) if kept))
         self.theta: FloatArray = np.zeros(len(self.parameter_names))
         self.residual_rms: FloatArray | None = None
         self.metadata: dict[str, np.ndarray] = {'joint_names': np.array(names)}
@@ -211,8 +271,18 @@ class PhysicalModel:
 
     @property
     def n_parameters(self) -> int:
-        """Length of θ: base parameters plus 2n (3n with Stribeck) friction coefficients."""
+        """Length of θ: base parameters plus the friction coefficients and offsets."""
         return len(self.parameter_names)
+
+    @property
+    def n_bodies(self) -> int:
+        """Number of moving bodies (10 standard parameters each)."""
+        return int(self._model.njoints) - 1
+
+    @property
+    def body_names(self) -> tuple[str, ...]:
+        """The link each body is named after (its joint's child link), in body order."""
+        return tuple(self._bodies)
 
     @property
     def n_base(self) -> int:
@@ -226,11 +296,13 @@ class PhysicalModel:
 
     def get_params(self) -> dict[str, Any]:
         """The constructor's hyperparameters (URDF text and source, joints, friction law,
-        armature), as data."""
+        armature, real-arm terms, consistent fit), as data."""
         return {'urdf': self.urdf, 'joint_names': list(self.joint_names),
                 'coulomb': self.coulomb, 'coulomb_eps': self.coulomb_eps,
                 'armature': self.armature, 'source': self.source,
-                'stribeck_velocity': self.stribeck_velocity}
+                'stribeck_velocity': self.stribeck_velocity, 'asymmetric': self.asymmetric,
+                'offsets': self.offsets, 'coupled': [list(pair) for pair in self.coupled],
+                'consistent': self.consistent}
 
     # ------------------------------------------------------------------------- regressors
     def standard_regressor(self, q: ArrayLike, qd: ArrayLike, qdd: ArrayLike) -> FloatArray:
@@ -308,9 +380,21 @@ class PhysicalModel:
         out[:, joints, nb + joints] = qd
         shape = self.coulomb_shape(qd)
         out[:, joints, nb + n + joints] = shape
+        column = nb + 2 * n
         if self.stribeck_velocity > 0.0:
-            out[:, joints, nb + 2 * n + joints] = (
+            out[:, joints, column + joints] = (
                 np.exp(-(qd / self.stribeck_velocity) ** 2) * shape)
+            column += n
+        if self.asymmetric:
+            out[:, joints, column + joints] = np.abs(shape)
+            column += n
+        rows, speeds = self._coupling[:, 0], self._coupling[:, 1]
+        pairs = np.arange(rows.size)
+        out[:, rows, column + pairs] = qd[:, speeds]
+        out[:, rows, column + rows.size + pairs] = shape[:, speeds]
+        column += 2 * rows.size
+        kept = np.flatnonzero(self.offset_joints)
+        out[:, kept, column + np.arange(kept.size)] = 1.0
         return out
 
     def stacked_regressor(self, q: ArrayLike, qd: ArrayLike, qdd: ArrayLike) -> FloatArray:
@@ -333,12 +417,26 @@ class PhysicalModel:
         -------
         ndarray of shape (n_parameters,)
         """
+        return np.concatenate([self.reduction.base_values(self.urdf_standard_parameters()),
+                               np.zeros(self.n_parameters - self.n_base)])
+
+    def urdf_standard_parameters(self) -> FloatArray:
+        """The URDF's own standard parameters (:attr:`standard_names`), shape (P,)."""
         model = self._model
         inertial = [model.inertias[jid].toDynamicParameters() for jid in range(1, model.njoints)]
-        standard = np.concatenate(inertial + ([np.asarray(model.armature)[self._v_index_array]]
-                                              if self.armature else []))
-        return np.concatenate([self.reduction.base_values(standard),
-                               np.zeros(self.n_parameters - self.n_base)])
+        return np.concatenate(inertial + ([np.asarray(model.armature)[self._v_index_array]]
+                                          if self.armature else []))
+
+    def consistent_standard(self) -> FloatArray:
+        """Physically consistent standard parameters of the model (P,): those of a consistent
+        fit, else the consistent ones whose base parameters are nearest :attr:`theta`'s
+        (friction kept as it is)."""
+        if self.standard_theta is not None:
+            return self.standard_theta.copy()
+        from scara_ident_ros.dynamics.consistent_parameters import consistent_fit
+        p = self.n_parameters
+        rows = np.hstack([np.eye(p), self.theta[:, None]])
+        return consistent_fit(self, rows).standard
 
     def set_theta(self, theta: ArrayLike) -> None:
         """Set θ (n_parameters,), e.g. an online estimate."""
@@ -347,6 +445,7 @@ class PhysicalModel:
             raise ValueError(f'theta must be {self.theta.shape[0]} finite values, got '
                              f'shape {value.shape}')
         self.theta = value.copy()
+        self.standard_theta = None
 
     @property
     def base_parameters(self) -> dict[str, float]:
@@ -371,7 +470,26 @@ class PhysicalModel:
         velocity."""
         if self.stribeck_velocity == 0.0:
             return np.zeros(self._n)
-        return self.theta[self.n_base + 2 * self._n:].copy()
+        start = self.n_base + 2 * self._n
+        return self.theta[start:start + self._n].copy()
+
+    @property
+    def asymmetric_friction(self) -> FloatArray:
+        """f_a per joint (N·m, N), shape (n,): the Coulomb friction is f_c + f_a moving in
+        the positive direction, f_c − f_a in the negative; zeros unless ``asymmetric``."""
+        if not self.asymmetric:
+            return np.zeros(self._n)
+        start = self.n_base + (3 if self.stribeck_velocity > 0.0 else 2) * self._n
+        return self.theta[start:start + self._n].copy()
+
+    @property
+    def effort_offset(self) -> FloatArray:
+        """The effort offset τ_0 per joint (N·m, N), shape (n,); 0 where there is none."""
+        out = np.zeros(self._n)
+        kept = int(np.count_nonzero(self.offset_joints))
+        if kept:
+            out[self.offset_joints] = self.theta[self.n_parameters - kept:]
+        return out
 
     @property
     def friction(self) -> dict[str, tuple[float, float]]:
@@ -409,7 +527,22 @@ class PhysicalModel:
             ``self``, with :attr:`theta` and :attr:`residual_rms` set.
         """
         (q, qd, qdd), _ = self._states(q, qd, qdd)
-        self.theta, self.residual_rms = fit_least_squares(self, q, qd, qdd, tau, block=_CHUNK)
+        if not self.consistent:
+            self.theta, self.residual_rms = fit_least_squares(self, q, qd, qdd, tau,
+                                                              block=_CHUNK)
+            self.standard_theta = None
+            return self
+        from scara_ident_ros.dynamics.consistent_parameters import consistent_fit
+        solution: list[FloatArray] = []
+
+        def solve(system: BlockLeastSquares) -> FloatArray:
+            found = consistent_fit(self, system.upper)
+            solution.append(found.standard)
+            return found.theta
+
+        self.theta, self.residual_rms = fit_least_squares(self, q, qd, qdd, tau, block=_CHUNK,
+                                                          solve=solve)
+        self.standard_theta = solution[0]
         return self
 
     def predict(self, X: ArrayLike) -> FloatArray:
@@ -453,9 +586,14 @@ class PhysicalModel:
                 'coulomb_eps': np.array(self.coulomb_eps),
                 'armature': np.array(self.armature), 'standard_names': np.array(r.names),
                 'stribeck_velocity': np.array(self.stribeck_velocity),
+                'asymmetric': np.array(self.asymmetric), 'offsets': np.array(self.offsets),
+                'coupled': np.array(self.coupled, dtype=str).reshape(-1, 2),
+                'consistent': np.array(self.consistent),
                 'independent': r.independent.astype(np.int64),
                 'dependent': r.dependent.astype(np.int64), 'beta': r.beta.copy(),
-                'theta': self.theta.copy()}
+                'theta': self.theta.copy(),
+                **({} if self.standard_theta is None else
+                   {'standard_theta': self.standard_theta.copy()})}
 
     @classmethod
     def from_arrays(cls, arrays: dict[str, np.ndarray], *, source: str) -> PhysicalModel:
@@ -477,8 +615,19 @@ class PhysicalModel:
                         coulomb_eps=float(arrays['coulomb_eps']),
                         armature=bool(arrays['armature']), source=source,
                         reduction=reduction,
-                        stribeck_velocity=float(arrays.get('stribeck_velocity', 0.0)))
+                        stribeck_velocity=float(arrays.get('stribeck_velocity', 0.0)),
+                        asymmetric=bool(arrays.get('asymmetric', False)),
+                        offsets=bool(arrays.get('offsets', False)),
+                        coupled=[(str(a), str(b)) for a, b in
+                                 np.asarray(arrays.get('coupled', np.zeros((0, 2), str)))
+                                 .reshape(-1, 2)],
+                        consistent=bool(arrays.get('consistent', False)))
             model.set_theta(arrays['theta'])
+            if 'standard_theta' in arrays:
+                standard = np.asarray(arrays['standard_theta'], np.float64)
+                if standard.shape != (len(model.standard_names),):
+                    raise ValueError(f'standard_theta of shape {standard.shape}')
+                model.standard_theta = standard
         except (KeyError, ValueError, TypeError) as exc:
             raise ModelFormatError(f'{source}: corrupt physical model: '
                                    f'{" ".join(str(exc).split())}') from None
@@ -504,8 +653,8 @@ class PhysicalModel:
 
     def __repr__(self) -> str:
         return (f'PhysicalModel({self.source!r}, joints={list(self.joint_names)}, '
-                f'{self.n_base} base + {self.n_parameters - self.n_base} friction '
-                'parameters, '
+                f'{self.n_base} base + {self.n_parameters - self.n_base} friction and '
+                'offset parameters, '
                 f'coulomb={self.coulomb!r})')
 
     # ---------------------------------------------------------------------------- helpers
@@ -522,6 +671,23 @@ class PhysicalModel:
         w = self.standard_regressor(q, rng.normal(0.0, 1.0, (count, n)),
                                     rng.normal(0.0, 1.0, (count, n)))
         return reduce_columns(w.reshape(-1, len(self.standard_names)), self.standard_names)
+
+    def _identifiable_offsets(self) -> NDArray[np.bool_]:
+        """Joints whose constant effort column is not in the span of the base columns
+        (stacked over the base reduction's random states): shape (n,) of bool."""
+        rng = np.random.default_rng(_REDUCTION_SEED + 1)
+        count, n = _REDUCTION_STATES, self._n
+        w = self.base_regressor(rng.uniform(-np.pi, np.pi, (count, n)),
+                                rng.normal(0.0, 1.0, (count, n)),
+                                rng.normal(0.0, 1.0, (count, n))).reshape(count * n, -1)
+        kept = np.zeros(n, dtype=bool)
+        for j in range(n):
+            constant = np.zeros((count, n))
+            constant[:, j] = 1.0
+            column = constant.reshape(-1)
+            fit, *_ = np.linalg.lstsq(w, column, rcond=None)
+            kept[j] = np.linalg.norm(w @ fit - column) > 1e-6 * np.linalg.norm(column)
+        return kept
 
     def _body_name(self, jid: int) -> str:
         """The link a joint moves: its first body frame (or the joint's name)."""

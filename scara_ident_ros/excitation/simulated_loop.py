@@ -88,7 +88,8 @@ class SimulatedLoop:
 
 def simulate_loop(params: ScaraParams, limits: JointLimits, *, seconds: float,
                   settings: LoopSettings | None = None,
-                  config: SimConfig | None = None) -> SimulatedLoop:
+                  config: SimConfig | None = None,
+                  external: np.ndarray | None = None) -> SimulatedLoop:
     """Simulate ``seconds`` of the loop on the SCARA ``params``.
 
     Parameters
@@ -103,6 +104,9 @@ def simulate_loop(params: ScaraParams, limits: JointLimits, *, seconds: float,
         The node's parameters; default its defaults.
     config : SimConfig, optional
         The simulator's settings; default ``SimConfig(seed=settings.seed)`` (1 kHz, no noise).
+    external : ndarray of shape (samples, n), optional
+        External effort (N·m or N) applied at each sample (a contact's,
+        :meth:`Simulator.apply_external`); rows past its end apply none.
     """
     s = LoopSettings() if settings is None else settings
     if tuple(limits.names) != tuple(params.joint_names):
@@ -118,7 +122,13 @@ def simulate_loop(params: ScaraParams, limits: JointLimits, *, seconds: float,
     period_ns = round(s.chunk_period * NS_PER_S)
     next_send, sent = simulator.stamp_ns, 0
     rows = []
-    for _ in range(max(0, round(seconds / cfg.dt))):
+    applied: np.ndarray | None = None
+    for index in range(max(0, round(seconds / cfg.dt))):
+        if external is not None:
+            row = external[index] if index < len(external) else np.zeros(external.shape[1])
+            if applied is None or not np.array_equal(row, applied):
+                simulator.apply_external(row)
+                applied = row
         now_ns = simulator.stamp_ns
         if now_ns >= next_send:
             t = (now_ns - origin_ns) / NS_PER_S

@@ -30,7 +30,7 @@ the current θ, each update checked on held-back samples, the correction bounded
 message path sends (x, τ) as for a network, and with each batch the physical model's θ of
 the moment (p floats); the learner rebuilds the physical model from its URDF and computes
 the regressor rows Y(x) only for the samples its reservoirs keep. It hands back the weights
-with the bounds (and the bounds alone after an update that was undone).
+with the bounds and the per-joint gate (and those alone after an update that was undone).
 
 The message path never blocks on the pipe: a batch is written only when the pipe has room
 for it in one atomic write (``select``); otherwise it waits in a bounded backlog, and
@@ -198,8 +198,8 @@ class BackgroundLM:
                     self.steps_taken = steps
                     self._update_times.append(time.monotonic())
                     got = True
-                if extra and self.hybrid is not None:  # a hybrid's bounds (and undone)
-                    self.hybrid.bounds, self.undone = extra[0]
+                if extra and self.hybrid is not None:  # a hybrid's bounds, undone, gate
+                    self.hybrid.bounds, self.undone, self.hybrid.gate = extra[0]
         except (EOFError, OSError):  # the learner has ended: keep the weights we have
             pass
         return got
@@ -409,7 +409,8 @@ def _learner(inbox: Connection, outbox: Connection, model: FeedForwardNet,
                 changed = residual.step(snap)
                 message = ('weights' if changed else 'bounds',
                            model.get_theta() if changed else None, trainer.steps_taken,
-                           (residual.model.bounds, residual.undone))
+                           (residual.model.bounds, residual.undone,
+                            residual.model.gate.copy()))
             try:
                 outbox.send(message)
             except (BrokenPipeError, OSError):

@@ -1,33 +1,71 @@
-"""Contact detection from an identified model: measured − predicted effort over a threshold.
+"""Contact detection from an identified model, armed only at a bounded false-alarm rate.
 
 A model of the free robot's inverse dynamics predicts the effort the joints need for the
 motion measured; an external effort (a contact, a collision) shows as the part of the
 measured effort it does not explain, the *external torque* ``τ_ext = measured − predicted``.
-That residual is also the model's error, so a joint's threshold is a multiple
-(``sigma``) of the robust spread of the residuals on samples the model never learnt (the
-held-out validation samples, :class:`~scara_ident_ros.identification.holdout.Holdout`):
-``threshold_j = sigma · 1.4826 · MAD_j``, the median absolute deviation scaled to a
-Gaussian's standard deviation, which a few large errors do not inflate.
+That residual is also the model's error, so the thresholds come from the model's residuals
+on free motion it never learnt: the held-out segments of
+:class:`~scara_ident_ros.identification.holdout.Holdout` (contiguous runs of samples, so
+that the residuals keep their course in time).
 
-Detection is armed only once the model identifies: its validation NMSE (the mean over the
-joints) is below ``arm_nmse``. Before that the residual is mostly the model's error, and
-thresholds from it would either never fire or fire all the time.
+**Thresholds from the tail, not the spread.** A joint is in contact when ``|τ_ext_j − c_j|``
+(``c_j`` the residuals' median) exceeds ``T_j`` for ``min_samples`` consecutive samples. What
+matters for false alarms is how often the free-motion residual does that, a far tail of its
+distribution that a spread (MAD) does not describe: model errors are heavy-tailed (a
+friction step, a turn of the motion). Residuals are autocorrelated, so single samples are
+not independent draws. The draws are maxima ``M_kj`` of ``|τ_ext_j − c_j|`` (of its running
+minimum over ``min_samples``, the statistic an alarm needs) over units of samples long
+against the residual's correlation time τ (the first lag where its autocorrelation falls
+below 0.1, measured within the segments): a segment of L samples when ``2τ <= L``, counted
+as ``K · min(1, L / (2τ))`` independent ones; else (the model's error outlasts a segment,
+as on a noise-free stream) all the kept segments of one held-out block together, one draw
+per block.
 
-A joint is in contact when ``|τ_ext_j|`` exceeds its threshold for ``min_samples``
-consecutive samples (1: at once); a longer run filters single-sample spikes at the cost of
-``min_samples − 1`` samples of delay.
+The exceedance probability a bound of ``λ`` false alarms per hour allows per draw and
+joint is ``p = λ · D / 3600 / n``, D the mean duration of a draw's samples (the union over
+the n joints stays within ``λ``), far beyond what the draws show directly (1 per hour at
+1 kHz, 0.1 s segments: p ≈ 7e-6). So the
+tail is extrapolated (peaks over a threshold): above ``u_j``, the (k+1)-th largest segment
+maximum, the excesses are taken as exponential (the Gumbel domain of most noise and model
+errors) with their mean ``s_j``; the margin for the calibration's size is the *predictive*
+exceedance probability ``(k/K) · (1 + t / (k' s_j))^(−k')`` (the exponential tail with its
+scale estimated from ``k' = k · K_eff / K`` independent excesses: heavier than the fitted
+tail, the fewer excesses the heavier), solved for ``t``; if the excesses look heavier than
+exponential (method-of-moments generalised-Pareto shape ξ > 0), the generalised-Pareto
+quantile is taken when it is larger. ``T_j = max(u_j + t_j, sigma · 1.4826 · MAD_j)``.
+
+**Armed** only when all hold: the validation NMSE is below ``arm_nmse`` (the model
+identifies); at least :data:`MIN_SEGMENTS` independent draws (fewer excesses widen the
+predictive margin; below that the tail's shape is a guess); the false-alarm rate the tail
+model gives at the thresholds (with the margin) is at most ``false_alarms_per_hour``; and
+no calibration draw is over its thresholds. An unarmed detector never flags.
+
+**Envelope.** The thresholds hold for the motion they were calibrated on: q and q' (and q''
+with ``envelope_acceleration``) within the held-out segments' range per input, widened by
+``envelope_margin`` of that range. A sample outside it is not checked (no flag; counted in
+``held``, the diagnostics say so): the model's error there is not what the thresholds
+measured. q'' is left out by default because a contact is itself an acceleration the free
+motion does not have: holding on q'' holds the very samples a collision makes (on the
+excitation loop it delayed the detection of 10 % pulses from 10 to 37 ms,
+``benchmarks/contact.md``).
 """
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
+from numpy.lib.stride_tricks import sliding_window_view
 from numpy.typing import NDArray
 
-__all__ = ['MAD_TO_SIGMA', 'ContactDetector', 'robust_spread']
+__all__ = ['Calibration', 'ContactDetector', 'MAD_TO_SIGMA', 'MIN_SEGMENTS',
+           'Tail', 'correlation_time', 'robust_spread']
 
 MAD_TO_SIGMA = 1.4826  # a Gaussian's standard deviation over its median absolute deviation
-MIN_RESIDUALS = 100  # held-out samples before thresholds are drawn from them
+MIN_SEGMENTS = 30  # independent draws (segments or blocks) before detection can be armed
+ACF_LEVEL = 0.1  # autocorrelation below which residuals count as decorrelated
+SECONDS_PER_HOUR = 3600.0
 
 
 def robust_spread(residuals: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -38,29 +76,152 @@ def robust_spread(residuals: NDArray[np.float64]) -> NDArray[np.float64]:
     r = np.asarray(residuals, dtype=float)
     if r.ndim != 2:
         raise ValueError(f'residuals must have shape (K, n), got {r.shape}')
-    r = r[np.all(np.isfinite(r), axis=1)]
-    if r.shape[0] == 0:
-        return np.full(r.shape[1], np.nan)
-    deviation = np.abs(r - np.median(r, axis=0))
-    return np.asarray(MAD_TO_SIGMA * np.median(deviation, axis=0))
+    r = np.ascontiguousarray(r[np.all(np.isfinite(r), axis=1)].T)  # joints in rows: faster
+    if r.shape[1] == 0:
+        return np.full(r.shape[0], np.nan)
+    deviation = np.abs(r - np.median(r, axis=1, keepdims=True))
+    return np.asarray(MAD_TO_SIGMA * np.median(deviation, axis=1))
 
 
-class ContactDetector:
-    """Per-joint thresholds from held-out residuals, the arming rule, and the check.
+def correlation_time(segments: NDArray[np.float64]) -> NDArray[np.int64]:
+    """Per joint, the first lag (samples) where the residuals' autocorrelation within the
+    segments (K, L, n) falls below 0.1; ``L`` if it never does; 1 for L = 1.
 
-    ``sigma``, ``arm_nmse`` and ``min_samples`` are as in the module docstring.
+    The autocovariance of every lag at once, by FFT along the segments (zero-padded to 2L:
+    no wrap-around), about the mean over all segments.
+    """
+    k, length, n = segments.shape
+    if length < 2:
+        return np.ones(n, dtype=np.int64)
+    centred = segments - segments.mean(axis=(0, 1))
+    spectrum = np.fft.rfft(centred, n=2 * length, axis=1)
+    power = (spectrum * spectrum.conj()).real.sum(axis=0)  # (L + 1, n)
+    acov = np.fft.irfft(power, n=2 * length, axis=0)[:length]  # (L, n), lag 0..L-1
+    acov /= (k * (length - np.arange(length)))[:, None]  # the pairs at each lag
+    result = np.full(n, length, dtype=np.int64)
+    for j in range(n):
+        if acov[0, j] <= 0:
+            result[j] = 1
+            continue
+        below = np.flatnonzero(acov[1:, j] / acov[0, j] < ACF_LEVEL)
+        if below.size:
+            result[j] = below[0] + 1
+    return result
+
+
+class Tail(NamedTuple):
+    """One joint's fitted tail of segment maxima (module docstring).
+
+    ``n_segments`` segments, ``k`` excesses over ``u``, their mean ``scale``, the
+    generalised-Pareto shape ξ and scale by moments (ξ 0: lighter than exponential), and
+    ``independent`` segments among the count.
+    """
+
+    n_segments: int
+    k: int
+    u: float
+    scale: float
+    shape: float
+    gpd_scale: float
+    independent: float
+
+    @classmethod
+    def fit(cls, maxima: NDArray[np.float64], independent: float) -> Tail:
+        """Fit the tail of one joint's segment maxima (K,), K >= 20."""
+        m = np.sort(np.asarray(maxima, dtype=float))
+        count = m.size
+        k = int(min(max(count // 5, 10), 100, count - 1))
+        u = float(m[count - k - 1])
+        excess = m[count - k:] - u
+        scale = max(float(excess.mean()), 1e-300)
+        var = float(excess.var(ddof=1)) if k > 1 else 0.0
+        shape = max(0.5 * (1.0 - scale * scale / var), 0.0) if var > 0 else 0.0
+        gpd_scale = 0.5 * scale * (scale * scale / var + 1.0) if shape > 0 else scale
+        return cls(count, k, u, scale, shape, gpd_scale, min(independent, count))
+
+    @property
+    def k_eff(self) -> float:
+        """Independent excesses: k scaled by the share of independent segments."""
+        return max(self.k * self.independent / self.n_segments, 1.0)
+
+    def level(self, p: float) -> float:
+        """The level a segment maximum exceeds with probability ``p`` in (0, 1), the
+        calibration's size counted (module docstring)."""
+        ratio = (self.k / self.n_segments) / p
+        if ratio <= 1.0:  # within the sample: the tail's start is already rarer
+            return self.u
+        k_eff = self.k_eff
+        t = k_eff * self.scale * (ratio ** (1.0 / k_eff) - 1.0)
+        if self.shape > 0:
+            t = max(t, self.gpd_scale / self.shape * (ratio ** self.shape - 1.0))
+        return self.u + t
+
+    def exceedance(self, level: float) -> float:
+        """Probability per segment that the maximum exceeds ``level``: the larger of the
+        predictive exponential and the generalised-Pareto tails."""
+        t = max(level - self.u, 0.0)
+        k_eff = self.k_eff
+        prob = (1.0 + t / (k_eff * self.scale)) ** (-k_eff)
+        if self.shape > 0:
+            prob = max(prob, (1.0 + self.shape * t / self.gpd_scale) ** (-1.0 / self.shape))
+        return self.k / self.n_segments * prob
+
+
+@dataclass(frozen=True)
+class Calibration:
+    """What one calibration found (all per joint arrays of shape (n,)).
 
     Attributes
     ----------
-    thresholds : ndarray of shape (n,) or None
-        |τ_ext| per joint (N·m or N) above which a joint is in contact; None until
-        :meth:`calibrate` has had enough residuals.
-    validation_nmse : float or None
-        The validation NMSE of the latest :meth:`calibrate`.
+    segments : int
+        Calibration segments K (held-out runs of ``length`` samples).
+    independent : float
+        Independent draws counted: ``K · min(1, L / (2τ))`` segments, or the blocks.
+    correlation_samples : ndarray of int
+        The residuals' correlation time τ (samples).
+    centre, thresholds : ndarray or None
+        Median of the residuals and |τ_ext − centre| over which a joint is in contact
+        (N·m or N); None without enough residuals.
+    false_alarms_per_hour : float or None
+        The rate the tail model gives at the thresholds, the calibration's size counted.
+    over : int
+        Calibration segments over the thresholds (any joint).
+    why_not : str
+        '' when armed, else why not.
     """
 
-    def __init__(self, n_joints: int, *, sigma: float = 12.0, arm_nmse: float = 0.01,
-                 min_samples: int = 1) -> None:
+    segments: int = 0
+    independent: float = 0.0
+    correlation_samples: NDArray[np.int64] | None = None
+    centre: NDArray[np.float64] | None = None
+    thresholds: NDArray[np.float64] | None = None
+    false_alarms_per_hour: float | None = None
+    over: int = 0
+    why_not: str = 'not calibrated yet'
+    lo: NDArray[np.float64] | None = field(default=None, repr=False)
+    hi: NDArray[np.float64] | None = field(default=None, repr=False)
+
+
+class ContactDetector:
+    """Per-joint thresholds from held-out residual segments, the arming rule, the check.
+
+    ``sigma``, ``arm_nmse``, ``min_samples``, ``false_alarms_per_hour``,
+    ``envelope_margin`` and ``envelope_acceleration`` are as in the module docstring.
+
+    Attributes
+    ----------
+    calibration : Calibration
+        The latest :meth:`calibrate`'s outcome.
+    validation_nmse : float or None
+        The validation NMSE of the latest :meth:`calibrate`.
+    held : int
+        Samples not checked since the last :meth:`reset` because their input left the
+        calibrated envelope.
+    """
+
+    def __init__(self, n_joints: int, *, sigma: float = 5.0, arm_nmse: float = 0.01,
+                 min_samples: int = 1, false_alarms_per_hour: float = 1.0,
+                 envelope_margin: float = 0.25, envelope_acceleration: bool = False) -> None:
         if n_joints < 1:
             raise ValueError(f'n_joints must be at least 1, got {n_joints}')
         if not (math.isfinite(sigma) and sigma > 0):
@@ -69,53 +230,169 @@ class ContactDetector:
             raise ValueError(f'contact arm NMSE must be > 0, got {arm_nmse}')
         if min_samples < 1:
             raise ValueError(f'contact min_samples must be at least 1, got {min_samples}')
+        if not (math.isfinite(false_alarms_per_hour) and false_alarms_per_hour > 0):
+            raise ValueError('contact false alarms per hour must be > 0, got '
+                             f'{false_alarms_per_hour}')
+        if not (math.isfinite(envelope_margin) and envelope_margin >= 0):
+            raise ValueError(f'contact envelope margin must be >= 0, got {envelope_margin}')
         self.n_joints = n_joints
         self.sigma = float(sigma)
         self.arm_nmse = float(arm_nmse)
         self.min_samples = int(min_samples)
-        self.thresholds: NDArray[np.float64] | None = None
+        self.false_alarms_per_hour = float(false_alarms_per_hour)
+        self.envelope_margin = float(envelope_margin)
+        self.envelope_acceleration = bool(envelope_acceleration)
+        self.calibration = Calibration()
         self.validation_nmse: float | None = None
+        self.held = 0
         self._over = np.zeros(n_joints, dtype=np.int64)  # consecutive samples over, per joint
-        self._active: NDArray[np.float64] | None = None  # the thresholds while armed
+        self._active: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
+        self._envelope: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
+
+    @property
+    def thresholds(self) -> NDArray[np.float64] | None:
+        """|τ_ext − centre| per joint (N·m or N) over which a joint is in contact; None
+        until calibrated."""
+        return self.calibration.thresholds
 
     @property
     def armed(self) -> bool:
-        """Whether detection is on: thresholds known and the validation NMSE below
-        ``arm_nmse``."""
-        return (self.thresholds is not None and self.validation_nmse is not None
-                and self.validation_nmse < self.arm_nmse)
+        """Whether detection is on (module docstring: the arming rule)."""
+        return self._active is not None
 
     def calibrate(self, residuals: NDArray[np.float64] | None,
-                  validation_nmse: float | None) -> None:
-        """Take the current model's held-out residuals (K, n) (N·m or N) and validation NMSE.
+                  validation_nmse: float | None, *,
+                  inputs: NDArray[np.float64] | None = None,
+                  sample_period_s: float = 1e-3,
+                  blocks: NDArray[np.int64] | None = None) -> Calibration:
+        """Take the current model's held-out residuals and validation NMSE; arm or disarm.
 
-        With fewer than 100 residuals, a non-finite NMSE or a joint whose spread is not
-        positive and finite, the detector is disarmed (thresholds None).
+        Parameters
+        ----------
+        residuals : ndarray of shape (K, L, n) or (K, n), or None
+            Measured − predicted effort (N·m or N) on K held-out segments of L contiguous
+            samples; (K, n): K independent single samples.
+        validation_nmse : float or None
+            The model's validation NMSE (mean over the joints).
+        inputs : ndarray of shape (K, L, 3n) or (K, 3n), optional
+            The segments' inputs [q, q', q''] (rad or m, /s, /s²): the envelope; without
+            them every sample is checked.
+        sample_period_s : float
+            The stream's sample period (s): a segment lasts ``L · sample_period_s``.
+        blocks : ndarray of shape (K,), optional
+            The held-out block of each segment; without them each segment is its own.
         """
         nmse = None if validation_nmse is None or not math.isfinite(validation_nmse) \
             else float(validation_nmse)
         self.validation_nmse = nmse
-        self.thresholds = None
-        if residuals is not None and len(residuals) >= MIN_RESIDUALS and nmse is not None:
-            spread = robust_spread(residuals)
-            if spread.shape != (self.n_joints,):
-                raise ValueError(f'residuals have {spread.shape[0]} joints, the detector '
-                                 f'{self.n_joints}')
-            if np.all(np.isfinite(spread) & (spread > 0)):
-                self.thresholds = self.sigma * spread
-        self._active = self.thresholds if self.armed else None
+        self.calibration = self._calibrate(residuals, nmse, inputs, sample_period_s, blocks)
+        c = self.calibration
+        self._active = ((c.centre, c.thresholds) if not c.why_not and c.centre is not None
+                        and c.thresholds is not None else None)
+        self._envelope = (c.lo, c.hi) if c.lo is not None and c.hi is not None else None
+        return c
 
-    def check(self, external: NDArray[np.float64]) -> NDArray[np.bool_]:
-        """The joints in contact at one sample, from its τ_ext (n,) (N·m or N): shape (n,).
+    def _calibrate(self, residuals: NDArray[np.float64] | None, nmse: float | None,
+                   inputs: NDArray[np.float64] | None, period: float,
+                   blocks: NDArray[np.int64] | None) -> Calibration:
+        if residuals is None:
+            return Calibration(why_not='no held-out residuals yet')
+        r = np.asarray(residuals, dtype=float)
+        if r.ndim == 2:
+            r = r[:, None, :]
+        if r.ndim != 3 or r.shape[2] != self.n_joints:
+            raise ValueError(f'residuals have shape {np.shape(residuals)}, the detector '
+                             f'{self.n_joints} joints')
+        finite = np.all(np.isfinite(r), axis=(1, 2))
+        r = r[finite]
+        count, length = r.shape[0], r.shape[1]
+        if count < MIN_SEGMENTS or length < self.min_samples:
+            return Calibration(segments=count, why_not=f'{count} held-out segments, need '
+                               f'{MIN_SEGMENTS} independent ones')
+        flat = r.reshape(-1, self.n_joints)
+        centre = np.median(np.ascontiguousarray(flat.T), axis=1)
+        spread = robust_spread(flat)
+        tau = correlation_time(r)
+        deviation = np.abs(r - centre)
+        if self.min_samples > 1:  # an alarm needs min_samples in a row: the run's minimum
+            deviation = sliding_window_view(deviation, self.min_samples, axis=1).min(axis=3)
+        maxima = deviation.max(axis=1)  # (K, n)
+        samples = float(length)  # per draw
+        if 2 * int(tau.max()) <= length or blocks is None:
+            independent = float(count * min(1.0, length / (2.0 * float(tau.max()))))
+        else:  # one draw per block: the maximum over its kept segments
+            _, group = np.unique(np.asarray(blocks)[finite], return_inverse=True)
+            grouped = np.zeros((int(group.max()) + 1, self.n_joints))
+            np.maximum.at(grouped, group, maxima)
+            samples = length * count / len(grouped)
+            maxima, independent = grouped, float(len(grouped))
+        if independent < MIN_SEGMENTS:
+            return Calibration(segments=count, independent=independent,
+                               correlation_samples=tau,
+                               why_not=f'{independent:.0f} independent held-out draws, need '
+                               f'{MIN_SEGMENTS}')
+        p = (self.false_alarms_per_hour / SECONDS_PER_HOUR * samples * period
+             / self.n_joints)
+        thresholds = np.empty(self.n_joints)
+        rate = 0.0
+        for j in range(self.n_joints):
+            tail = Tail.fit(maxima[:, j], independent)
+            thresholds[j] = max(tail.level(p), self.sigma * spread[j])
+            rate += tail.exceedance(thresholds[j])
+        per_hour = rate / (samples * period) * SECONDS_PER_HOUR
+        over = int(np.count_nonzero(np.any(maxima > thresholds, axis=1)))
+        lo = hi = None
+        if inputs is not None:
+            x = np.asarray(inputs, dtype=float)
+            x = (x[:, None, :] if x.ndim == 2 else x)[finite].reshape(-1, x.shape[-1])
+            low, high = x.min(axis=0), x.max(axis=0)
+            widen = self.envelope_margin * (high - low)
+            lo, hi = low - widen, high + widen
+            if not self.envelope_acceleration:  # q'', the last n inputs: not bounded
+                lo[-self.n_joints:], hi[-self.n_joints:] = -np.inf, np.inf
+        why = ''
+        if nmse is None:
+            why = 'no validation NMSE yet'
+        elif nmse >= self.arm_nmse:
+            why = f'validation NMSE {nmse:.3g} >= {self.arm_nmse:g}'
+        elif not np.all(np.isfinite(thresholds) & (thresholds > 0)):
+            why = 'a threshold is not positive and finite'
+        elif per_hour > self.false_alarms_per_hour * (1.0 + 1e-9):  # rounding
+            why = (f'estimated {per_hour:.3g} false alarms/h > '
+                   f'{self.false_alarms_per_hour:g}')
+        elif over:
+            why = f'{over} held-out segments over the thresholds'
+        return Calibration(segments=count, independent=independent, correlation_samples=tau,
+                           centre=centre, thresholds=thresholds, false_alarms_per_hour=per_hour,
+                           over=over, why_not=why, lo=lo, hi=hi)
 
-        All False while not armed (and the run counts start again); a non-finite τ_ext is
-        not over the threshold.
+    def inside(self, x: NDArray[np.float64]) -> bool:
+        """Whether an input [q, q', q''] (3n,) is within the calibrated envelope (True
+        without one)."""
+        envelope = self._envelope
+        if envelope is None:
+            return True
+        lo, hi = envelope
+        return bool(np.all((x >= lo) & (x <= hi)))
+
+    def check(self, external: NDArray[np.float64],
+              x: NDArray[np.float64] | None = None) -> NDArray[np.bool_]:
+        """The joints in contact at one sample, from its τ_ext (n,) (N·m or N) and its input
+        x (3n,) (optional: the envelope check): shape (n,).
+
+        All False while not armed, and for a sample outside the envelope (counted in
+        ``held``; the run counts start again); a non-finite τ_ext is not over.
         """
-        thresholds = self._active
-        if thresholds is None:
+        active = self._active
+        if active is None:
             self._over[:] = 0
             return np.zeros(self.n_joints, dtype=bool)
-        over: NDArray[np.bool_] = np.abs(external) > thresholds  # NaN compares False
+        if x is not None and not self.inside(x):
+            self.held += 1
+            self._over[:] = 0
+            return np.zeros(self.n_joints, dtype=bool)
+        centre, thresholds = active
+        over: NDArray[np.bool_] = np.abs(external - centre) > thresholds  # NaN: False
         if self.min_samples == 1:
             return over
         self._over += 1
@@ -123,8 +400,10 @@ class ContactDetector:
         return np.asarray(self._over >= self.min_samples)
 
     def reset(self) -> None:
-        """Forget the thresholds, the NMSE and the runs (a new model)."""
-        self.thresholds = None
+        """Forget the calibration, the NMSE and the runs (a new model)."""
+        self.calibration = Calibration()
         self.validation_nmse = None
         self._active = None
+        self._envelope = None
+        self.held = 0
         self._over[:] = 0

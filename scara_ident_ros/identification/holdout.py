@@ -7,6 +7,12 @@ nearly equal, so single held-out samples would be learnt through their neighbour
 uniform :class:`Reservoir` of them over the whole run, and scores the *current* model on all
 of them: a model that only tracks the latest motion scores badly on the held-out samples of
 earlier motions, a model that identifies scores well on every one.
+
+Contact detection needs more than a uniform sample: its false-alarm rate depends on how
+the residuals run in time (a model error lasts several samples), so the held-out samples
+are also kept as contiguous *segments* of ``segment`` samples (:class:`SegmentReservoir`,
+uniform over the segments of the whole run), whose maxima are the independent draws that
+:mod:`~scara_ident_ros.identification.contact_detector` calibrates on.
 """
 from __future__ import annotations
 
@@ -18,20 +24,94 @@ from numpy.typing import NDArray
 from scara_ident_ros.identification.metrics import ErrorStats, effort_errors
 from scara_ident_ros.identification.reservoir import Reservoir
 
-__all__ = ['Holdout', 'MIN_VALIDATION_SAMPLES']
+__all__ = ['CONTACT_SEGMENT', 'Holdout', 'MIN_VALIDATION_SAMPLES', 'SEGMENTS', 'SegmentReservoir']
 
 MIN_VALIDATION_SAMPLES = 100  # held-out samples before a validation NMSE is given
+CONTACT_SEGMENT = 100  # samples per contiguous held-out segment (0.1 s at 1 kHz)
+SEGMENTS = 200  # segments kept for contact calibration (20,000 samples by default)
+
+
+class SegmentReservoir:
+    """A uniform sample of at most ``capacity`` contiguous segments of ``length`` samples.
+
+    Samples come in one at a time (:meth:`add`) with the index of the block they belong to;
+    a segment is complete after ``length`` samples of one block, and is then offered to the
+    reservoir (algorithm R over segments); a block that ends first drops its partial segment.
+
+    Attributes
+    ----------
+    X : ndarray of shape (K, length, n_inputs)
+    Y : ndarray of shape (K, length, n_outputs)
+        The kept segments (views), K = ``len(self)``.
+    blocks : ndarray of shape (K,)
+        The block each kept segment comes from (segments of one block are neighbours in
+        time).
+    """
+
+    def __init__(self, capacity: int, length: int, n_inputs: int, n_outputs: int, *,
+                 seed: int = 0) -> None:
+        if capacity < 1 or length < 1:
+            raise ValueError(f'need capacity >= 1 and length >= 1, got {capacity}, {length}')
+        self.capacity, self.length = int(capacity), int(length)
+        self._x = np.empty((self.capacity, self.length, n_inputs))
+        self._y = np.empty((self.capacity, self.length, n_outputs))
+        self._blocks = np.empty(self.capacity, dtype=np.int64)
+        self._stage_x = np.empty((self.length, n_inputs))
+        self._stage_y = np.empty((self.length, n_outputs))
+        self._fill = 0  # samples in the segment being filled
+        self._block = -1  # block of the segment being filled
+        self._rng = np.random.default_rng(seed)
+        self.count = 0  # complete segments offered so far
+
+    def __len__(self) -> int:
+        return min(self.count, self.capacity)
+
+    @property
+    def X(self) -> NDArray[np.float64]:
+        """The kept segments' inputs (a view)."""
+        return self._x[:len(self)]
+
+    @property
+    def Y(self) -> NDArray[np.float64]:
+        """The kept segments' outputs (a view)."""
+        return self._y[:len(self)]
+
+    @property
+    def blocks(self) -> NDArray[np.int64]:
+        """The block of each kept segment (a view)."""
+        return self._blocks[:len(self)]
+
+    def add(self, block: int, x: NDArray[np.float64], y: NDArray[np.float64]) -> None:
+        """Take one held-out sample (x (n_inputs,), y (n_outputs,)) of block ``block``."""
+        if block != self._block:
+            self._block, self._fill = block, 0
+        self._stage_x[self._fill] = x
+        self._stage_y[self._fill] = y
+        self._fill += 1
+        if self._fill < self.length:
+            return
+        self._fill = 0
+        count = self.count
+        self.count = count + 1
+        slot = count if count < self.capacity else int(self._rng.random() * (count + 1))
+        if slot < self.capacity:
+            self._x[slot] = self._stage_x
+            self._y[slot] = self._stage_y
+            self._blocks[slot] = block
 
 
 class Holdout:
     """Choose held-out blocks and score a model on a reservoir of their samples.
 
     ``fraction`` (in [0, 1)) of the blocks of ``block`` samples are held out; ``capacity``
-    of their samples are kept to score on; ``seed`` draws the blocks and the reservoir.
+    of their samples are kept to score on; ``seed`` draws the blocks and the reservoir;
+    ``segments`` contiguous segments of ``min(segment, block)`` samples are kept apart for
+    contact calibration (``segments`` 0: none).
     """
 
     def __init__(self, n_inputs: int, n_outputs: int, *, fraction: float = 0.1,
-                 block: int = 500, capacity: int = 2000, seed: int = 0) -> None:
+                 block: int = 500, capacity: int = 2000, seed: int = 0,
+                 segments: int = SEGMENTS, segment: int = CONTACT_SEGMENT) -> None:
         if not (math.isfinite(fraction) and 0.0 <= fraction < 1.0):
             raise ValueError(f'validation fraction must be in [0, 1), got {fraction}')
         if block < 1:
@@ -40,6 +120,8 @@ class Holdout:
         self.block = int(block)
         self.seed = int(seed)
         self.reservoir = Reservoir(capacity, n_inputs, n_outputs, seed=seed + 1)
+        self.segments = (SegmentReservoir(segments, min(segment, self.block), n_inputs,
+                                          n_outputs, seed=seed + 2) if segments > 0 else None)
         self._block_index = -1
         self._held = False
 
@@ -55,6 +137,8 @@ class Holdout:
     def add(self, x: NDArray[np.float64], y: NDArray[np.float64]) -> None:
         """Keep a held-out sample (x (n_inputs,), y (n_outputs,)) to score on."""
         self.reservoir.add(x, y)
+        if self.segments is not None:
+            self.segments.add(self._block_index, x, y)
 
     def score(self, predicted: NDArray[np.float64]) -> ErrorStats | None:
         """Error statistics of predictions (K, n) of the kept samples, in their order.

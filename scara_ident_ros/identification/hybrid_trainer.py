@@ -26,8 +26,9 @@ keeps a share of its samples apart
 (:data:`~scara_ident_ros.identification.residual_learner.VALIDATION_SHARE`), never learnt by
 the network, and checks each update on their residuals (of the current θ): an update that
 raises the validation error (per joint, relative to its effort variance, summed) is undone,
-and a joint whose residual the network predicts worse than zero gets its output row reset to
-zero: the hybrid is then the physical model on that joint until an update earns it back. The
+and a joint whose residual the network predicts worse than zero is gated off
+(:attr:`HybridModel.gate`): the hybrid is then the physical model on that joint until an
+update earns it back. The
 validation samples come from the stream, so after each update the model's correction is also
 bounded by the range of the residuals it was fitted to (:attr:`HybridModel.bounds`): frozen,
 it cannot extrapolate further than that on motions the stream never held. What each of these

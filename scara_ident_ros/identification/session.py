@@ -28,7 +28,7 @@ from scara_ident_ros.dynamics.urdf_limits import UrdfError, parse_urdf
 from scara_ident_ros.errors import ConfigError
 from scara_ident_ros.estimator import Estimator, load_model
 from scara_ident_ros.identification.background_lm import BackgroundLM
-from scara_ident_ros.identification.contact_detector import ContactDetector
+from scara_ident_ros.identification.contact_detector import Calibration, ContactDetector
 from scara_ident_ros.identification.differentiator import (AccelerationEstimate,
                                                            make_differentiator)
 from scara_ident_ros.identification.error_window import ErrorWindow
@@ -50,7 +50,9 @@ __all__ = ['CONTACT_PARAMETERS', 'JOINT_SET_REASONS', 'METHOD_FIELD', 'PATH_PARA
 METHOD_FIELD = '{method}'  # stands for each method in a path parameter, with methods
 PATH_PARAMETERS = ('save_path', 'stats_file', 'model_path')
 VALIDATION_PERIOD = 1.0  # s: the held-out score is recomputed at most this often per method
-CONTACT_PARAMETERS = {'contact_sigma', 'contact_arm_nmse', 'contact_min_samples'}
+CONTACT_PARAMETERS = {'contact_sigma', 'contact_arm_nmse', 'contact_min_samples',
+                      'contact_false_alarms_per_hour', 'contact_envelope_margin',
+                      'contact_envelope_acceleration'}
 #: Rejections that mean the message's joints are not the identifier's
 JOINT_SET_REASONS = (SkipReason.UNKNOWN_JOINT, SkipReason.MISSING_JOINT,
                      SkipReason.DUPLICATE_JOINT, SkipReason.JOINT_COUNT)
@@ -73,13 +75,30 @@ def _set_step(model: Estimator, learning_rate: float | None, momentum: float | N
 def _contact_settings(settings: Mapping[str, Any]) -> dict[str, Any]:
     """The :class:`ContactDetector` settings of the node's parameters."""
     return {'sigma': settings['contact_sigma'], 'arm_nmse': settings['contact_arm_nmse'],
-            'min_samples': settings['contact_min_samples']}
+            'min_samples': settings['contact_min_samples'],
+            'false_alarms_per_hour': settings['contact_false_alarms_per_hour'],
+            'envelope_margin': settings['contact_envelope_margin'],
+            'envelope_acceleration': settings['contact_envelope_acceleration']}
+
+
+class _Round:
+    """A calibration under way: the held-out segments as they were at its start (inputs
+    (K, L, 3n), efforts (K, L, n), blocks (K,)), their residuals as far as predicted."""
+
+    def __init__(self, X: NDArray[np.float64], Y: NDArray[np.float64],
+                 blocks: NDArray[np.int64]) -> None:
+        self.X, self.Y, self.blocks = X, Y, blocks
+        self.residuals = np.empty_like(Y)
+        self.done = 0  # segments predicted
 
 
 class MethodRun:
     """One method (of ``lazy_core.ONLINE_METHODS``) in a session: its ``lazy`` core, a
-    contact detector of the ``contact`` settings (``sigma``, ``arm_nmse``, ``min_samples``),
-    its held-out score and lag figures."""
+    contact detector of the ``contact`` settings (:class:`ContactDetector`'s keywords), its
+    held-out score and lag figures.
+
+    The held-out score is a cached reading (:meth:`validation`); the contact thresholds
+    change only in the explicit step :meth:`calibrate_contacts`."""
 
     def __init__(self, method: str, lazy: LazyCore, contact: dict[str, Any]) -> None:
         self.method = method
@@ -91,9 +110,12 @@ class MethodRun:
         self.worst_lag_ns = 0  # ns, since start
         self.period_lag_ns = 0  # ns, largest since the last diagnostics report
         self.lags = LagHistogram()  # every prediction's lag, for percentiles
+        self.decisions = LagHistogram()  # every contact decision's delay from its stamp
+        self.period_decisions = LagHistogram()  # since the last diagnostics report
         self.previous: list[dict[str, Any]] = []  # summaries from before each reset
         self._validation: ErrorStats | None = None
         self._validated_at = -math.inf  # monotonic s
+        self._round: _Round | None = None  # a calibration under way
 
     @property
     def core(self) -> OnlineIdentifier | None:
@@ -114,29 +136,81 @@ class MethodRun:
         """The core is built for ``names``: a disarmed contact detector, no score yet."""
         self.detector = ContactDetector(len(names), **self.contact_settings)
         self._validation, self._validated_at = None, -math.inf
+        self._round = None
 
     def set_contact(self, **settings: Any) -> None:
-        """Change the contact detector's ``sigma``, ``arm_nmse`` or ``min_samples``; the
-        thresholds follow at the next validation."""
+        """Change the contact detector's settings: a new, unarmed detector until the next
+        :meth:`calibrate_contacts`."""
         self.contact_settings.update(settings)
         if self.detector is not None:
             self.detector = ContactDetector(self.detector.n_joints, **self.contact_settings)
-            self._validated_at = -math.inf
 
-    def validation(self, *, fresh: bool = False) -> ErrorStats | None:
+    @property
+    def validation_stale(self) -> bool:
+        """Whether :meth:`validation` would score the held-out samples now."""
+        return self.core is not None and (
+            self._validation is None
+            or time.monotonic() - self._validated_at >= VALIDATION_PERIOD)
+
+    def validation(self, *, fresh: bool = False, refresh: bool = True) -> ErrorStats | None:
         """The held-out score, recomputed at most every :data:`VALIDATION_PERIOD` s once
         there is one (scoring the whole held-out set at the error topic's rate would load
-        the message path); until then, while there are few held-out samples, each time.
-        The contact thresholds follow each new score."""
-        now = time.monotonic()
-        stale = self._validation is None or now - self._validated_at >= VALIDATION_PERIOD
-        if self.core is not None and (fresh or stale):
-            self._validation, self._validated_at = self.core.validation_stats(), now
-            if self.detector is not None:
-                self.detector.calibrate(
-                    self.core.held_out_residuals(),
-                    None if self._validation is None else self._validation.nmse_total)
+        the message path); until then, while there are few held-out samples, each time;
+        ``refresh`` False: the score as it is (a caller spreading the methods' scoring over
+        its calls). It changes nothing else (the contact thresholds:
+        :meth:`calibrate_contacts`)."""
+        if self.core is not None and (fresh or (refresh and self.validation_stale)):
+            self._validation = self.core.validation_stats()
+            self._validated_at = time.monotonic()
         return self._validation
+
+    def calibrate_contacts(self, sample_period_s: float, *, budget: int | None = None
+                           ) -> Calibration | None:
+        """The explicit calibration step: the current model's residuals on the held-out
+        segments and a fresh validation score set the contact thresholds and arm or disarm
+        detection; ``sample_period_s`` is the stream's (s).
+
+        ``budget``: held-out samples to predict in this call (a round's segments are copied
+        at its start, predicted over several calls, then the detector calibrated in a call
+        of its own), so that no call holds the message path long; None: all at once.
+        Returns the :class:`Calibration` when a round ends, else None (also before the
+        core exists).
+        """
+        core, detector = self.core, self.detector
+        if core is None or detector is None:
+            return None
+        segments = core.holdout.segments if core.holdout is not None else None
+        if self._round is None:
+            if segments is None or len(segments) == 0:
+                validation = self.validation(fresh=True)
+                return detector.calibrate(
+                    None, None if validation is None else float(validation.nmse_total))
+            self._round = _Round(segments.X.copy(), segments.Y.copy(),
+                                 segments.blocks.copy())
+            if budget is not None:
+                return None
+        rnd = self._round
+        n_in = rnd.X.shape[-1]
+        while rnd.done < len(rnd.X) and (budget is None or budget > 0):
+            step = len(rnd.X) - rnd.done if budget is None else max(
+                1, budget // rnd.X.shape[1])
+            part = slice(rnd.done, min(rnd.done + step, len(rnd.X)))
+            X = rnd.X[part]
+            rnd.residuals[part] = rnd.Y[part] - np.asarray(
+                core.model.predict(X.reshape(-1, n_in))).reshape(rnd.Y[part].shape)
+            rnd.done = part.stop
+            if budget is not None:
+                return None
+        self._round = None
+        validation = self.validation(fresh=True)
+        nmse = None if validation is None else float(validation.nmse_total)
+        return detector.calibrate(rnd.residuals, nmse, inputs=rnd.X,
+                                  sample_period_s=sample_period_s, blocks=rnd.blocks)
+
+    @property
+    def calibrating(self) -> bool:
+        """Whether a calibration round is under way (:meth:`calibrate_contacts`)."""
+        return self._round is not None
 
     def record_lag(self, lag_ns: int) -> None:
         """Take how late (ns) a prediction was published."""
@@ -146,22 +220,39 @@ class MethodRun:
             self.max_lag_ns = lag_ns
             self.worst_lag_ns = max(self.worst_lag_ns, lag_ns)
 
-    def check_contact(self, torque: NDArray[np.float64]) -> NDArray[np.bool_]:
+    def check_contact(self, torque: NDArray[np.float64],
+                      x: NDArray[np.float64] | None = None) -> NDArray[np.bool_]:
         """Which joints of a sample's external torque (n,) (N·m or N) are over their
-        contact threshold; a sample with any counts as a contact."""
+        contact threshold, given its input x = [q, q', q''] (3n,) (the envelope); a sample
+        with any counts as a contact."""
         assert self.detector is not None  # built with the core
-        over = self.detector.check(torque)
+        over = self.detector.check(torque, x)
         if over.any():
             self.contacts += 1
         return over
 
-    def contact_health(self) -> tuple[bool, list[float] | None]:
-        """Whether contact detection is armed, and the thresholds (N·m or N) if known."""
+    def record_decision(self, delay_ns: int) -> None:
+        """Take how late (ns, from the sample's stamp) a contact decision was made."""
+        self.decisions.add(delay_ns)
+        self.period_decisions.add(delay_ns)
+
+    def contact_health(self) -> dict[str, Any]:
+        """Contact detection's state: armed, why not, the thresholds (N·m or N), the
+        estimated false alarms per hour, the independent held-out segments, samples held
+        outside the calibrated envelope, and the decision delay p50/p99 (ms) since the last
+        call."""
         detector = self.detector
+        period, self.period_decisions = self.period_decisions, LagHistogram()
         if detector is None:
-            return False, None
-        thresholds = detector.thresholds
-        return detector.armed, None if thresholds is None else thresholds.tolist()
+            return {'contact_armed': False, 'contact_why_not': 'no model yet',
+                    'contact_thresholds': None}
+        c = detector.calibration
+        return {'contact_armed': detector.armed, 'contact_why_not': c.why_not,
+                'contact_thresholds': None if c.thresholds is None else c.thresholds.tolist(),
+                'contact_false_alarms_per_hour': c.false_alarms_per_hour,
+                'contact_segments': c.independent, 'contact_held': detector.held,
+                'contact_delay_p50_ms': period.percentile_ms(50),
+                'contact_delay_p99_ms': period.percentile_ms(99)}
 
     def learning(self) -> dict[str, Any]:
         """How learning progresses: updates and their rate for a trainer beside the
@@ -498,7 +589,14 @@ class IdentificationSession:
             'validation_nmse': validation.nmse.tolist() if validation is not None else None,
             'validation_nmse_total': (float(validation.nmse_total) if validation is not None
                                       else None),
-            'contacts': run.contacts, 'contact_thresholds': run.contact_health()[1],
+            'contacts': run.contacts, 'contact_armed': run.detector is not None
+            and run.detector.armed,
+            'contact_thresholds': (None if run.detector is None
+                                   or run.detector.thresholds is None
+                                   else run.detector.thresholds.tolist()),
+            'contact_held': run.detector.held if run.detector is not None else 0,
+            'contact_delay_p50_ms': run.decisions.percentile_ms(50),
+            'contact_delay_p99_ms': run.decisions.percentile_ms(99),
             'max_lag_ms': run.worst_lag_ns / 1e6, 'lag_p50_ms': run.lags.percentile_ms(50),
             'lag_p99_ms': run.lags.percentile_ms(99),
             **(stream or {}),
@@ -519,14 +617,13 @@ class IdentificationSession:
             validation = float(stats.nmse_total) if stats is not None else None
         lag_ns, run.period_lag_ns = run.period_lag_ns, 0
         background = run.background
-        armed, thresholds = run.contact_health()
         return {'processed': counts.processed, 'skipped': sum(counts.skipped.values()),
                 'learnt': counts.learned, 'lag_s': lag_ns / 1e9 if lag_ns else None,
                 'error_finite': error_finite, 'validation_nmse': validation,
                 'learning': self.settings['learn'],
                 'update_rate': background.rate() if background is not None else None,
                 'update_overdue_s': background.overdue() if background is not None else None,
-                'contact_armed': armed, 'contact_thresholds': thresholds,
+                **run.contact_health(),
                 'contact_arm_nmse': self.settings['contact_arm_nmse']}
 
     def save(self, run: MethodRun | None = None) -> tuple[bool, str]:

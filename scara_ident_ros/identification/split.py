@@ -21,8 +21,8 @@ from scara_ident_ros.errors import ScaraIdentError
 from scara_ident_ros.identification.dataset import Dataset
 from scara_ident_ros.nn.validation_blocks import VALIDATION_FRACTION, choose_blocks
 
-__all__ = ['SplitError', 'VALIDATION_BLOCK_S', 'VALIDATION_FRACTION', 'block_index',
-           'block_split']
+__all__ = ['SplitError', 'VALIDATION_BLOCK_S', 'VALIDATION_FRACTION', 'alternate_blocks',
+           'block_index', 'block_split']
 
 VALIDATION_BLOCK_S = 1.0  # s, length of the validation time blocks
 
@@ -86,3 +86,24 @@ def block_split(data: Dataset, validation_fraction: float, *,
     mask = np.isin(blocks, chosen)
     return data.take(~mask, 'train'), data.take(mask, 'validation')
 
+
+def alternate_blocks(data: Dataset, *, block_s: float = VALIDATION_BLOCK_S,
+                     start_ns: int | None = None) -> tuple[Dataset, Dataset]:
+    """Deal the time blocks that hold samples alternately into two sets.
+
+    The hybrid's validation blocks in two: one to early-stop its network on, the other to
+    gate its correction on (a gate checked on the samples that chose the network's
+    iteration would trust it too much). ``block_s`` and ``start_ns`` as
+    :func:`block_index`'s (``start_ns``: the recording's first stamp, so that blocks are
+    those of :func:`block_split`).
+
+    Returns
+    -------
+    first, second : Dataset
+        The samples of the 1st, 3rd, ... block with samples, and of the 2nd, 4th, ...; in
+        time order. With fewer than 2 blocks, ``second`` is empty.
+    """
+    blocks = block_index(data.stamp_ns, block_s=block_s, start_ns=start_ns)
+    present = np.unique(blocks)
+    mask = np.isin(blocks, present[1::2])
+    return data.take(~mask, data.name), data.take(mask, data.name)

@@ -189,7 +189,11 @@ def identifier_health(*, period_s: float, since_sample_s: float | None, processe
                       update_overdue_s: float | None = None,
                       contact_armed: bool | None = None,
                       contact_thresholds: Sequence[float] | None = None,
-                      contact_arm_nmse: float | None = None) -> Health:
+                      contact_arm_nmse: float | None = None, contact_why_not: str = '',
+                      contact_false_alarms_per_hour: float | None = None,
+                      contact_segments: float | None = None, contact_held: int = 0,
+                      contact_delay_p50_ms: float | None = None,
+                      contact_delay_p99_ms: float | None = None) -> Health:
     """The identifier's health over the last ``period_s`` seconds.
 
     Parameters
@@ -210,7 +214,19 @@ def identifier_health(*, period_s: float, since_sample_s: float | None, processe
     contact_armed : bool or None
         Whether contact detection is armed; None: no contact detection.
     contact_thresholds : sequence of float or None
-        Per-joint thresholds on |measured − predicted| (N·m or N), None until known.
+        Per-joint thresholds on |measured − predicted − its median| (N·m or N), None until
+        known.
+    contact_why_not : str
+        Why detection is not armed ('' when armed).
+    contact_false_alarms_per_hour : float or None
+        The false-alarm rate the held-out residuals' tail gives at the thresholds.
+    contact_segments : float or None
+        Independent held-out segments the thresholds come from.
+    contact_held : int
+        Samples not checked (since start) because their q, q', q'' left the calibrated
+        envelope.
+    contact_delay_p50_ms, contact_delay_p99_ms : float or None
+        The contact decision's delay from the sample's stamp over the period (ms).
     """
     rate = recent_processed / period_s
     problems: list[tuple[Level, str]] = []
@@ -252,18 +268,32 @@ def identifier_health(*, period_s: float, since_sample_s: float | None, processe
         'processed': str(processed), 'skipped': str(skipped), 'lost': str(lost),
         'learnt': str(learnt), 'learning': str(learning).lower(),
         'validation NMSE': _number(validation_nmse),
-        **_contact_values(contact_armed, contact_thresholds, contact_arm_nmse)})
+        **_contact_values(contact_armed, contact_thresholds, contact_arm_nmse,
+                          contact_why_not, contact_false_alarms_per_hour, contact_segments,
+                          contact_held, contact_delay_p50_ms, contact_delay_p99_ms)})
 
 
 def _contact_values(armed: bool | None, thresholds: Sequence[float] | None,
-                    arm_nmse: float | None) -> dict[str, str]:
+                    arm_nmse: float | None, why_not: str = '',
+                    per_hour: float | None = None, segments: float | None = None,
+                    held: int = 0, delay_p50_ms: float | None = None,
+                    delay_p99_ms: float | None = None) -> dict[str, str]:
     """The diagnostics values about contact detection (none without it)."""
     if armed is None:
         return {}
     below = f'validation NMSE < {arm_nmse:g}' if arm_nmse is not None else 'identified'
-    return {'contact detection': 'armed' if armed else f'not armed (until {below})',
+    state = 'armed' if armed else f"not armed ({why_not or 'until ' + below})"
+    if held:
+        state += (f'; {held} samples held: q, q\' or q\'\' outside the calibrated envelope, '
+                  'not checked')
+    return {'contact detection': state,
             'contact thresholds': ('none yet' if thresholds is None
-                                   else ', '.join(_number(v) for v in thresholds))}
+                                   else ', '.join(_number(v) for v in thresholds)),
+            'contact false alarms/h (estimated)': _number(per_hour, 3),
+            'contact independent segments': _number(segments, 4),
+            'contact held (outside envelope)': str(held),
+            'contact delay p50 / p99 [ms]': (f'{_number(delay_p50_ms, 3)} / '
+                                             f'{_number(delay_p99_ms, 3)}')}
 
 
 def simulator_health(*, period_s: float, nominal_hz: float, published: int, late: int,

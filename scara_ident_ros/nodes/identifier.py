@@ -12,8 +12,11 @@ messages, publishes, checkpoints and logs.
 With ``methods`` (e.g. ``[ffmw, ffw, ffs]``) one subscription serves several networks: each
 sample is checked and differentiated once, and each network publishes under ``<method>/``.
 
-``external_torque`` carries measured − predicted effort; once the validation NMSE is below
-``contact_arm_nmse``, joints over their threshold are reported on ``contact``
+``external_torque`` carries measured − predicted effort; joints over their threshold are
+reported on ``contact`` while detection is armed: every ``contact_calibration_period`` s the
+held-out residuals set the thresholds, and detection is armed only when the model identifies
+(validation NMSE below ``contact_arm_nmse``) and the false-alarm rate the residuals give is
+at most ``contact_false_alarms_per_hour``; ``contact_armed`` says whether it is
 (:mod:`scara_ident_ros.identification.contact_detector`). ``identification_mse`` carries
 the windowed and validation errors (layout: :mod:`scara_ident_ros.mse_layout`).
 
@@ -23,9 +26,11 @@ and ``~/reset`` (``std_srvs/Trigger``) save now or start again from fresh weight
 """
 from __future__ import annotations
 
+import gc
 import json
 import sys
 import time
+from collections import deque
 from collections.abc import Callable
 from functools import partial
 from pathlib import Path
@@ -35,11 +40,11 @@ import numpy as np
 from numpy.typing import NDArray
 from rclpy.duration import Duration
 from rclpy.node import Node
-from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.subscription import Subscription
 from rclpy.timer import Timer
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Float64MultiArray, MultiArrayDimension
+from std_msgs.msg import Bool, Float64MultiArray, MultiArrayDimension
 from std_srvs.srv import Trigger
 
 from scara_ident_ros.blas_threads import single_blas_thread
@@ -63,6 +68,8 @@ from scara_ident_ros.nodes.runtime import run_node
 from scara_ident_ros.paths import unwritable_file
 from scara_ident_ros.topics import CONTACT, EXTERNAL_TORQUE, JOINT_STATES, MSE, TORQUE
 
+CONTACT_ARMED = 'contact_armed'  # std_msgs/Bool: whether contact detection is armed
+
 __all__ = ['IdentifierNode', 'main']
 
 QOS_DEPTH = 5000  # messages: 5 s at 1 kHz may queue before any is dropped
@@ -76,6 +83,9 @@ INPUT_QOS = QoSProfile(depth=QOS_DEPTH, history=HistoryPolicy.KEEP_ALL,
 STATS_PERIOD = 10.0  # s between statistics log lines
 WARN_PERIOD = 5.0  # s between two warnings about skipped samples
 WAIT_POLL_PERIOD = 0.02  # s between two looks at the outputs' subscriber counts
+DEFAULT_PERIOD = 1e-3  # s: the sample period assumed until the stream shows its own
+CALIBRATION_TICK = 0.05  # s between two steps of the contact calibration
+CALIBRATION_SLICE = 2000  # held-out samples a calibration step predicts
 FLUSH_TIMEOUT = 2.0  # s on shutdown for the subscribers to acknowledge the last predictions
 SETTLE_LOSS_S = 0.2  # s without a sample after which a long stamp step's losses are counted
 # Why a read-only parameter is fixed at start (shown by `ros2 param describe`; the others in
@@ -112,11 +122,28 @@ PARAMETERS = (
     ParamSpec('stats_file', '', 'Write the final counters and errors here as JSON on '
               'shutdown (with methods, {method} in the path stands for each method); empty: '
               'never', fixed='checked writable at start'),
-    ParamSpec('contact_sigma', 12.0, "Contact threshold of each joint, in robust standard "
-              "deviations (1.4826 x MAD) of the model's residuals on the held-out samples",
+    ParamSpec('contact_false_alarms_per_hour', 1.0, 'Contact detection is armed only when '
+              'the false-alarm rate on free motion, estimated from the tail of the model\'s '
+              'residuals on the held-out segments (their size counted), is at most this; the '
+              'thresholds are set to meet it', min=1e-6, max=1e6, read_only=False),
+    ParamSpec('contact_sigma', 5.0, 'Lowest contact threshold of each joint, in robust '
+              "standard deviations (1.4826 x MAD) of the model's residuals on the held-out "
+              'samples (the false-alarm bound usually sets a higher one)',
               min=0.1, max=1000.0, read_only=False),
-    ParamSpec('contact_arm_nmse', 0.01, 'Contact detection is armed while the validation '
-              'NMSE (mean over the joints) is below this, never before', min=1e-12, max=10.0,
+    ParamSpec('contact_arm_nmse', 0.01, 'Contact detection is armed only while the '
+              'validation NMSE (mean over the joints) is below this', min=1e-12, max=10.0,
+              read_only=False),
+    ParamSpec('contact_envelope_margin', 0.25, 'Samples whose q or q\' (and q\'\' with '
+              'contact_envelope_acceleration) leave the range of the held-out segments the '
+              'thresholds come from, widened by this fraction of it, are not checked for '
+              'contact (diagnostics count them)', min=0.0, max=10.0, read_only=False),
+    ParamSpec('contact_envelope_acceleration', False, "Bound q'' too by the calibrated "
+              "envelope; false: q and q' only (a contact is itself an acceleration the free "
+              'motion does not have: bounding q\'\' holds the samples a collision makes)',
+              read_only=False),
+    ParamSpec('contact_calibration_period', 10.0, 'Seconds between the starts of two '
+              'calibrations of the contact thresholds on the held-out segments (each predicts '
+              'them all, in steps of 2000 samples every 50 ms)', 's', min=0.1, max=3600.0,
               read_only=False),
     ParamSpec('contact_min_samples', 1, 'Consecutive samples over the threshold before a '
               'joint is reported on contact', min=1, max=1000, read_only=False),
@@ -127,6 +154,10 @@ PARAMETERS = (
 #: contact messages are rare: a few seconds of them at 1 kHz
 CONTACT_QOS = QoSProfile(depth=1000, history=HistoryPolicy.KEEP_LAST,
                          reliability=ReliabilityPolicy.RELIABLE)
+#: contact_armed: the latest state, kept for subscribers that join later
+ARMED_QOS = QoSProfile(depth=1, history=HistoryPolicy.KEEP_LAST,
+                       reliability=ReliabilityPolicy.RELIABLE,
+                       durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
 
 class Outputs:
@@ -141,6 +172,8 @@ class Outputs:
         self.contact_publisher = node.create_publisher(JointState, prefix + CONTACT,
                                                        CONTACT_QOS)
         self.mse_publisher = node.create_publisher(Float64MultiArray, prefix + MSE, 10)
+        self.armed_publisher = node.create_publisher(Bool, prefix + CONTACT_ARMED, ARMED_QOS)
+        self.armed: bool | None = None  # as last published
         # Serialized messages go straight to the publishers' handles: rclpy's
         # Publisher.publish checks the type and guards the handle on every call (a third
         # of a publication's CPU); this node publishes from its one thread while they live.
@@ -152,12 +185,20 @@ class Outputs:
         self.send_external = True  # publish external_torque (parameter external_torque)
         self.deltas = Deltas()
 
+    def publish_armed(self) -> None:
+        """Publish ``contact_armed`` when it changes (and the first time)."""
+        detector = self.run.detector
+        armed = detector is not None and detector.armed
+        if armed != self.armed:
+            self.armed = armed
+            self.armed_publisher.publish(Bool(data=armed))
+
     def publish(self, results: list[StepResult], inputs: list[Input], frame_id: str,
                 clock: StreamClock | None = None) -> None:
         """Publish each prediction with its sample's q and q', its external torque and any
-        contact, stamped with its sample; ``inputs`` are the samples of the predictions
-        (one per result with an effort, in order); ``clock`` records the lags (not given on
-        shutdown)."""
+        contact (the sample's q, q', q'' against the calibrated envelope), stamped with its
+        sample; ``inputs`` are the samples of the predictions (one per result with an
+        effort, in order); ``clock`` records the lags (not given on shutdown)."""
         if not results:
             return
         template, external = self.template, self.external_template
@@ -170,35 +211,43 @@ class Outputs:
         for result in results:
             if result.effort is None:
                 continue
-            publish(template.fill(result.stamp_ns, result.effort, next(samples).x))
+            x = next(samples).x
+            publish(template.fill(result.stamp_ns, result.effort, x))
             if result.measured is not None:
                 self.publish_external(result.stamp_ns, result.measured - result.effort,
-                                      external)
+                                      external, x)
+                if clock is not None:
+                    run.record_decision(clock.lag_ns(result.stamp_ns, time.time_ns()))
             if clock is not None:
                 run.record_lag(clock.lag_ns(result.stamp_ns, time.time_ns()))
 
     def publish_external(self, stamp_ns: int, torque: NDArray[np.float64],
-                         template: JointStateTemplate) -> None:
+                         template: JointStateTemplate,
+                         x: NDArray[np.float64] | None = None) -> None:
         """Publish a sample's external torque (n,) (unless switched off) and, if some joints
-        are over their threshold, a contact message naming them."""
+        are over their threshold (given the sample's input ``x`` (3n,), for the envelope),
+        a contact message naming them."""
         if self.send_external:
             self.send_external_torque(template.fill(stamp_ns, torque))
-        over = self.run.check_contact(torque)
+        over = self.run.check_contact(torque, x)
         if over.any():
             names = [name for name, hit in zip(template.names, over) if hit]
             self.contact_publisher.publish(joint_state(stamp_ns, names, effort=torque[over],
                                                        frame_id=template.frame_id))
 
-    def publish_mse(self) -> None:
-        """Publish the windowed per-joint and overall MSE and NMSE."""
+    def publish_mse(self, *, refresh: bool = True) -> bool:
+        """Publish the windowed per-joint and overall MSE and NMSE; ``refresh`` False: with
+        the validation score as it is. Return whether the held-out samples were scored."""
         core = self.run.core
         if core is None or core.errors.count == 0:
-            return
+            return False
+        scored = refresh and self.run.validation_stale
         dims, data = encode_mse(self.run.lazy.names, core.error_stats(),
-                                self.run.validation())
+                                self.run.validation(refresh=refresh))
         msg = Float64MultiArray(data=data)
         msg.layout.dim = [MultiArrayDimension(**dim._asdict()) for dim in dims]
         self.mse_publisher.publish(msg)
+        return scored
 
 
 class IdentifierNode(Node):
@@ -218,6 +267,7 @@ class IdentifierNode(Node):
                         for run in session.runs]
         for out in self.outputs:
             out.send_external = s['external_torque']
+            out.publish_armed()
         if s['trainer'] == 'lm' and s['lm_background']:
             prestart(len(self.outputs))  # their interpreters start now, not with the stream
         self.frame_id = ''  # header.frame_id of the latest sample, given to its predictions
@@ -226,6 +276,11 @@ class IdentifierNode(Node):
         self.publisher_watch: PublisherWatch | None = None  # once subscribed
         self.mse_timer = self.create_timer(1.0 / s['mse_rate_hz'], self.publish_mse)
         self.create_timer(STATS_PERIOD, self.log_stats)
+        # contact calibration: every contact_calibration_period a round per method, done
+        # in steps of CALIBRATION_SLICE held-out samples, one step every CALIBRATION_TICK
+        self.calibration_queue: deque[Outputs] = deque()
+        self.next_calibration = 0.0  # monotonic s
+        self.create_timer(CALIBRATION_TICK, self.calibrate_contacts)
         self.checkpoint_timer: Timer | None = None
         self._start_checkpoints()
         # samples missing from the stream, from the stamps; longer jumps than the q''
@@ -240,6 +295,11 @@ class IdentifierNode(Node):
             for out in self.outputs]
         self.create_service(Trigger, '~/save_model', self.on_save_model)
         self.create_service(Trigger, '~/reset', self.on_reset)
+        # The objects made so far (modules, ROS handles) and once built the cores live as
+        # long as the node: out of the collector's sight (gc.freeze) a full collection
+        # does not walk them all while samples wait (it did, for tens of ms).
+        self.frozen_with_cores = False
+        gc.freeze()
         if s['wait_for_subscribers'] > 0:
             self.wait_deadline = time.monotonic() + s['wait_timeout']
             self.wait_timer = self.create_timer(WAIT_POLL_PERIOD, self._subscribe_when_heard)
@@ -286,6 +346,7 @@ class IdentifierNode(Node):
         self.session.apply(changed)
         for out in self.outputs:
             out.send_external = s['external_torque']
+            out.publish_armed()
         if 'mse_rate_hz' in changed:
             self.destroy_timer(self.mse_timer)
             self.mse_timer = self.create_timer(1.0 / s['mse_rate_hz'], self.publish_mse)
@@ -317,6 +378,8 @@ class IdentifierNode(Node):
         response.success, response.message, why = self.session.reset(stream=self.stream())
         if why:
             self._warn(why)
+        for out in self.outputs:
+            out.publish_armed()
         if response.success:
             self.get_logger().info(f'~/reset: {response.message}')
         return response
@@ -354,6 +417,9 @@ class IdentifierNode(Node):
             stamp_ns, msg.names, msg.position, msg.velocity, msg.effort)
         if self.session.core is not None:
             self.frame_id = msg.frame_id
+            if not self.frozen_with_cores:
+                self.frozen_with_cores = True
+                gc.freeze()
         for out, method_results in zip(self.outputs, results):
             out.publish(method_results, inputs, self.frame_id, self.clock)
         if inputs:
@@ -368,10 +434,32 @@ class IdentifierNode(Node):
             self.get_logger().warning(text)
 
     # ------------------------------------------------------------------ periodic
+    def calibrate_contacts(self) -> None:
+        """Timer: one step of the contact calibration (a round for each method every
+        ``contact_calibration_period``), publishing ``contact_armed`` where a round changed
+        it. A step predicts at most :data:`CALIBRATION_SLICE` held-out samples, or fits the
+        thresholds: the message path waits for no more than that."""
+        queue, now = self.calibration_queue, time.monotonic()
+        if not queue and now >= self.next_calibration:
+            queue.extend(self.outputs)
+            self.next_calibration = now + self.settings['contact_calibration_period']
+        if not queue:
+            return
+        out = queue[0]
+        period_ns = self.loss.period_ns
+        out.run.calibrate_contacts(period_ns / 1e9 if period_ns else DEFAULT_PERIOD,
+                                   budget=CALIBRATION_SLICE)
+        if not out.run.calibrating:
+            queue.popleft()
+            out.publish_armed()
+
     def publish_mse(self) -> None:
-        """Publish each method's windowed per-joint and overall MSE and NMSE."""
+        """Publish each method's windowed per-joint and overall MSE and NMSE; at most one
+        method's held-out samples are scored per call (the others' on the next calls), so
+        that the message path does not wait for all of them at once."""
+        scored = False
         for out in self.outputs:
-            out.publish_mse()
+            scored |= out.publish_mse(refresh=not scored)
 
     def handled(self) -> int:
         """Samples taken from ``joint_states`` so far (a stop drains until it stays put)."""

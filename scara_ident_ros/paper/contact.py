@@ -35,10 +35,15 @@ from scara_ident_ros.identification.contact_detector import ContactDetector
 from scara_ident_ros.identification.core_settings import CoreSettings
 from scara_ident_ros.identification.identifier_builder import build_identifier
 from scara_ident_ros.nn import FeedForwardNet
+from scara_ident_ros.dynamics.joint_limits import load_motion_limits
+from scara_ident_ros.excitation import LoopSettings
+from scara_ident_ros.excitation.simulated_loop import simulate_loop
+from scara_ident_ros.resources import share_dir
 from scara_ident_ros.sim import SimConfig, SimRecord, Simulator, make_trajectory
 
-__all__ = ['ContactRun', 'Pulse', 'alarm_events', 'baseline_flags', 'detect',
-           'evaluate', 'matched_baseline', 'pulse_record', 'residuals_of', 'train_model']
+__all__ = ['ContactRun', 'Pulse', 'Trained', 'alarm_events', 'baseline_flags', 'detect',
+           'evaluate', 'loop_record', 'matched_baseline', 'pulse_record', 'residuals_of',
+           'train_model']
 
 FloatArray = npt.NDArray[np.float64]
 BoolArray = npt.NDArray[np.bool_]
@@ -77,15 +82,51 @@ class ContactRun:
         return self.false_alarms * 600.0 / self.clean_s
 
 
-def train_model(params: ScaraParams, *, seconds: float, seed: int, config: SimConfig,
-                hidden: int = 40) -> tuple[FeedForwardNet, FloatArray, float, int]:
-    """An FFS network trained online on ``seconds`` of ``sequence`` stream, as the node does.
+@dataclass(frozen=True)
+class Trained:
+    """A network learnt online and frozen, with what contact calibration takes from it.
 
-    Returns the frozen network, its residuals on the held-out samples (K, 4) (N·m or N), its
-    validation NMSE (mean over joints) and the lag of its predictions (samples).
+    Attributes
+    ----------
+    net : FeedForwardNet
+    residuals : ndarray of shape (K, L, 4)
+        Its measured − predicted effort (N·m or N) on the held-out segments.
+    inputs : ndarray of shape (K, L, 12)
+        The segments' inputs [q, q', q''].
+    blocks : ndarray of shape (K,)
+        The held-out block of each segment.
+    nmse : float
+        Its validation NMSE (mean over the joints).
+    lag : int
+        Samples by which its predictions follow their samples.
     """
-    record = Simulator(params, make_trajectory('sequence', params, seed),
-                       config).simulate(round(seconds / config.dt))
+
+    net: FeedForwardNet
+    residuals: FloatArray
+    inputs: FloatArray
+    blocks: npt.NDArray[np.int64]
+    nmse: float
+    lag: int
+
+
+def loop_record(params: ScaraParams, *, seconds: float, seed: int, config: SimConfig,
+                external: FloatArray | None = None) -> SimRecord:
+    """The excitation loop's stream (``excitation`` -> ``scara_sim trajectory:=external``,
+    its defaults, seed ``seed``), with external efforts (samples, 4) if given."""
+    limits = load_motion_limits(urdf_file=str(share_dir() / 'urdf' / 'scara.urdf'),
+                                joint_names=params.joint_names)
+    return simulate_loop(params, limits, seconds=seconds, settings=LoopSettings(seed=seed),
+                         config=config, external=external).record
+
+
+def train_model(params: ScaraParams, *, seconds: float, seed: int, config: SimConfig,
+                hidden: int = 40, stream: str = 'sequence') -> Trained:
+    """An FFS network trained online on ``seconds`` of ``stream`` (``sequence``: scara_sim's
+    own; ``loop``: the excitation loop's) as the node does, then frozen."""
+    n = round(seconds / config.dt)
+    record = (loop_record(params, seconds=seconds, seed=seed, config=config)
+              if stream == 'loop' else
+              Simulator(params, make_trajectory('sequence', params, seed), config).simulate(n))
     limits = JointLimits.of(params.joint_names,
                             {name: params.array(name) for name in LIMIT_NAMES}, source='robot')
     ident = build_identifier(params.joint_names, CoreSettings.defaults(
@@ -95,23 +136,26 @@ def train_model(params: ScaraParams, *, seconds: float, seed: int, config: SimCo
     for i in range(len(record)):
         ident.process(int(record.stamp_ns[i]), names, record.q[i], record.qd[i],
                       record.effort[i])
-    residuals = ident.held_out_residuals()
     stats = ident.validation_stats()
-    if residuals is None or stats is None:
+    segments = ident.holdout.segments if ident.holdout is not None else None
+    if stats is None or segments is None or len(segments) == 0:
         raise ValueError(f'{seconds} s of stream held out too few samples to score')
-    return net, residuals, float(stats.nmse_total), ident.lag
+    X = segments.X.copy()
+    residuals = segments.Y - net.predict(X.reshape(-1, 12)).reshape(segments.Y.shape)
+    return Trained(net, residuals, X, segments.blocks.copy(), float(stats.nmse_total),
+                   ident.lag)
 
 
 def pulse_record(params: ScaraParams, *, seconds: float, seed: int, config: SimConfig,
-                 amplitude: float = 0.1, pulse_s: float = 0.1, spacing_s: float = 0.0
-                 ) -> tuple[SimRecord, list[Pulse]]:
-    """Simulate ``seconds`` of unseen ``sequence`` motion with external effort pulses.
+                 amplitude: float = 0.1, pulse_s: float = 0.1, spacing_s: float = 0.0,
+                 stream: str = 'sequence') -> tuple[SimRecord, list[Pulse]]:
+    """Simulate ``seconds`` of unseen ``stream`` motion (as :func:`train_model`) with
+    external effort pulses.
 
-    Pulses of ``amplitude`` times a random joint's effort limit (random sign), ``pulse_s``
-    long, start at random times at least ``spacing_s`` apart (their average spacing is
-    ``spacing_s`` · 1.5); ``spacing_s`` 0: no pulses (a clean run).
+    Pulses of ``amplitude`` times a joint's effort limit (the joints in turn, random sign),
+    ``pulse_s`` long, start at random times at least ``spacing_s`` apart (their average
+    spacing is ``spacing_s`` · 1.5); ``spacing_s`` 0: no pulses (a clean run).
     """
-    sim = Simulator(params, make_trajectory('sequence', params, seed), config)
     n = round(seconds / config.dt)
     length = max(1, round(pulse_s / config.dt))
     pulses: list[Pulse] = []
@@ -121,13 +165,17 @@ def pulse_record(params: ScaraParams, *, seconds: float, seed: int, config: SimC
         start = gap // 2
         limits = params.array('effort_max')
         while start + length + gap // 2 < n:
-            joint = int(rng.integers(4))
+            joint = len(pulses) % 4
             effort = float(amplitude * limits[joint] * rng.choice((-1.0, 1.0)))
             pulses.append(Pulse(start, length, joint, effort))
             start += length + gap + int(rng.integers(gap))
     external = np.zeros((n, 4))
     for pulse in pulses:
         external[pulse.start:pulse.start + pulse.length, pulse.joint] = pulse.effort
+    if stream == 'loop':
+        return loop_record(params, seconds=seconds, seed=seed, config=config,
+                           external=external), pulses
+    sim = Simulator(params, make_trajectory('sequence', params, seed), config)
     rows = []
     current = None
     for k in range(n):
@@ -155,9 +203,13 @@ def residuals_of(net: Estimator, record: SimRecord, names: tuple[str, ...]
     return index, Y - net.predict(X), Y
 
 
-def detect(detector: ContactDetector, external: FloatArray) -> BoolArray:
-    """The detector's flags (K, n) sample by sample over τ_ext (K, n)."""
-    return np.array([detector.check(row) for row in external])
+def detect(detector: ContactDetector, external: FloatArray,
+           inputs: FloatArray | None = None) -> BoolArray:
+    """The detector's flags (K, n) sample by sample over τ_ext (K, n), with the samples'
+    inputs (K, 3n) for the envelope if given."""
+    if inputs is None:
+        return np.array([detector.check(row) for row in external])
+    return np.array([detector.check(row, x) for row, x in zip(external, inputs)])
 
 
 def baseline_flags(effort: FloatArray, thresholds: FloatArray) -> BoolArray:

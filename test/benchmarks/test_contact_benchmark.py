@@ -19,11 +19,14 @@ def test_bench_contact_runs_at_ci_size() -> None:
     env = {**os.environ, 'PYTHONPATH': str(ROOT)}
     out = subprocess.run(
         [sys.executable, str(ROOT / 'benchmarks' / 'bench_contact.py'), '--seconds', '20',
-         '--clean-seconds', '5', '--pulse-seconds', '5', '--sigmas', '8'],
+         '--clean-seconds', '5', '--pulse-seconds', '5', '--bounds', '1'],
         capture_output=True, text=True, env=env, timeout=600, check=False)
     assert out.returncode == 0, out.stderr
-    row = re.search(r'^\| 8 \| (\d+)/(\d+) .*\| (\d+)/(\d+) ', out.stdout, re.MULTILINE)
+    # 20 s of stream hold out too few blocks to arm: the row says why, and flags nothing
+    row = re.search(r'^\| bound 1/h \| no \((.*)\) \|.*\| (\d+)/(\d+) \|', out.stdout,
+                    re.MULTILINE)
     assert row is not None, out.stdout
-    detected, pulses, base_detected, base_pulses = map(int, row.groups())
-    assert pulses == base_pulses >= 2 and 0 <= detected <= pulses
-    assert base_detected <= base_pulses
+    why, detected, pulses = row.group(1), int(row.group(2)), int(row.group(3))
+    assert 'independent' in why and detected == 0 and pulses >= 2
+    before = re.search(r'^\| before: 12 x .*\| (\d+)/(\d+) \|', out.stdout, re.MULTILINE)
+    assert before is not None and int(before.group(2)) == pulses

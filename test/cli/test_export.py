@@ -107,3 +107,58 @@ def test_help_explains(capsys: pytest.CaptureFixture[str]) -> None:
         main(['export', '--help'])
     text = capsys.readouterr().out
     assert '--out' in text and 'ONNX Runtime' in text and 'ros2_control' in text
+
+
+def test_urdf_export_of_a_physical_model_reproduces_its_rigid_body_efforts(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """``--urdf``: Pinocchio loads the written URDF and its rnea is the model's rigid-body
+    effort (consistent standard parameters) on random states; friction in <dynamics>."""
+    import pinocchio as pin
+    import xml.etree.ElementTree as ET
+
+    from scara_ident_ros.dynamics.consistent_parameters import consistency_report
+    from scara_ident_ros.dynamics.hybrid_model import HybridModel
+    from scara_ident_ros.dynamics.physical_model import PhysicalModel
+    from scara_ident_ros.dynamics.urdf_export import rigid_body_effort
+    from scara_ident_ros.sim.pinocchio_robot import PinocchioRobot
+    from physical_robots import SCARA_URDF, example_urdf, rnea, states
+
+    panda = example_urdf('panda_description/urdf/panda.urdf')
+    arm = tuple(f'panda_joint{i}' for i in range(1, 8))  # the fingers locked
+    for urdf, joints in ((SCARA_URDF, None), (panda, arm)):
+        model = PhysicalModel.from_urdf_file(urdf, joint_names=joints, consistent=True)
+        n = model.n_joints
+        rng = np.random.default_rng(5)
+        q, qd, qdd = states(rng, 200, n)
+        tau = rnea(urdf, joints, q, qd, qdd) * 1.1 + 0.4 * qd + 0.9 * np.tanh(qd / 0.05)
+        model.fit_states(q, qd, qdd, tau)
+        model.save(tmp_path / 'physical.npz')
+        out = tmp_path / f'{urdf.stem}_identified.urdf'
+        code, stdout, err = run_cli(capsys, 'export', tmp_path / 'physical.npz', '--urdf', out)
+        assert code == 0, err
+        assert 'checked with Pinocchio' in stdout
+        q, qd, qdd = states(rng, 30, n)
+        np.testing.assert_allclose(rnea(out, joints, q, qd, qdd),
+                                   rigid_body_effort(model, model.standard_theta, q, qd, qdd),
+                                   atol=1e-9, rtol=1e-9)
+        loaded = pin.buildModelFromUrdf(str(out))
+        for body in model.body_names:  # every written link a real body
+            inertia = loaded.inertias[loaded.frames[loaded.getFrameId(body)].parentJoint]
+            assert consistency_report(inertia.toDynamicParameters())['mass'] > 0.0
+        # robot_sim (-p urdf_file:=) builds its simulated arm from it
+        robot = PinocchioRobot.from_urdf(out, joints=joints or ())
+        assert robot.n_joints == n
+        root = ET.parse(out).getroot()
+        for name, viscous in zip(model.joint_names, model.viscous):
+            dynamics = root.find(f"joint[@name='{name}']/dynamics")
+            assert dynamics is not None
+            assert float(dynamics.get('damping', 'nan')) == pytest.approx(viscous, rel=1e-12)
+    # a hybrid's physical part is written too; a network is refused in one line
+    hybrid = HybridModel(model, make_network('ffs', n, n_hidden=4))
+    hybrid.save(tmp_path / 'hybrid.npz')
+    code, _, err = run_cli(capsys, 'export', tmp_path / 'hybrid.npz', '--urdf',
+                           tmp_path / 'hybrid.urdf')
+    assert code == 0 and (tmp_path / 'hybrid.urdf').exists(), err
+    saved_model(tmp_path / 'ffs.npz', 'ffs')
+    code, _, err = run_cli(capsys, 'export', tmp_path / 'ffs.npz', '--urdf', tmp_path / 'x')
+    assert code == 2 and 'not a physical or hybrid model' in err and not (tmp_path / 'x').exists()

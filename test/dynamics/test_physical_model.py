@@ -192,8 +192,10 @@ def test_physical_and_hybrid_files_round_trip(tmp_path: Path) -> None:
     hybrid.save(tmp_path / 'hybrid.npz')
     again = HybridModel.load(tmp_path / 'hybrid.npz')
     np.testing.assert_array_equal(again.predict(x), hybrid.predict(x))
+    np.testing.assert_array_equal(again.gate, hybrid.gate)  # gated on the validation samples
     np.testing.assert_allclose(hybrid.predict(x), hybrid.physical.predict(x)
-                               + hybrid.network.predict(x))
+                               + hybrid.network.predict(x) * hybrid.gate)
+    hybrid.gate = np.ones(4)
     with pytest.raises(ModelFormatError, match='a hybrid model, not a physical one'):
         PhysicalModel.load(tmp_path / 'hybrid.npz')
     # bounded, the network's correction is clipped per joint, and the file keeps the bounds
@@ -283,3 +285,115 @@ def test_a_stribeck_column_recovers_the_breakaway_excess(tmp_path: Path) -> None
     assert loaded.stribeck_velocity == 0.1
     X = np.hstack([q, qd, qdd])
     np.testing.assert_allclose(loaded.predict(X), model.predict(X), rtol=1e-12)
+
+
+def test_the_gate_withholds_a_correction_that_makes_held_out_data_worse() -> None:
+    """The hybrid's correction is kept per joint only where it lowers the held-out error of
+    the physical model alone (``HybridModel.validate_gate``)."""
+    physical = PhysicalModel.from_urdf_file(SCARA_URDF, coulomb='sign')
+    rng = np.random.default_rng(11)
+    q, qd, qdd = states(rng, 600, 4)
+    tau = (physical.regressor(q, qd, qdd) @ rng.uniform(0.1, 2.0, physical.n_parameters)
+           + 0.5 * np.sin(2.0 * q))  # a residual a network can learn
+    x = np.hstack([q, qd, qdd])
+    hybrid, _ = fit_hybrid(physical, make_network('ffs', 4, n_hidden=10),
+                           (x[:400], tau[:400]), iterations=40, min_iterations=0,
+                           max_fail=40)
+    held = (x[400:], tau[400:])
+    alone, corrected = hybrid.validate_gate(*held)
+    assert np.all(corrected < 0.5 * alone)  # the correction helps on every joint
+    np.testing.assert_array_equal(hybrid.gate, np.ones(4))
+    # spoil joint 2's correction: a bias of 3 N far larger than its residual
+    theta = hybrid.network.get_theta()
+    _, output = hybrid.network.unpack(theta)
+    output[2, -1] += 3.0 / (hybrid.network.y_scaling.hi[2] - hybrid.network.y_scaling.lo[2])
+    hybrid.network.set_theta(theta)
+    alone, corrected = hybrid.validate_gate(*held)
+    assert corrected[2] > alone[2]
+    np.testing.assert_array_equal(hybrid.gate, [1.0, 1.0, 0.0, 1.0])
+    predicted, base = hybrid.predict(held[0]), hybrid.physical.predict(held[0])
+    np.testing.assert_array_equal(predicted[:, 2], base[:, 2])  # withheld: physical alone
+    error = np.mean((predicted - held[1]) ** 2, axis=0)
+    assert np.all(error <= np.mean((base - held[1]) ** 2, axis=0))
+    # by groups (time blocks): a correction that helps over all samples but hurts within
+    # one group is withheld; joint 0's residual of the last 40 samples is the correction's
+    # opposite
+    hybrid.gate = np.ones(4)
+    x, y = held[0], held[1].copy()
+    y[160:, 0] = (hybrid.physical.predict(x[160:])[:, 0]
+                  - hybrid.raw_correction(x[160:])[:, 0])
+    alone, corrected = hybrid.validate_gate(x, y)
+    assert corrected[0] < alone[0] and hybrid.gate[0] == 1.0  # better over all samples
+    hybrid.validate_gate(x, y, groups=np.arange(200) >= 160)
+    np.testing.assert_array_equal(hybrid.gate, [0.0, 1.0, 0.0, 1.0])
+
+
+def test_fit_hybrid_gates_on_its_validation_samples(tmp_path: Path) -> None:
+    physical = PhysicalModel.from_urdf_file(SCARA_URDF, coulomb='sign')
+    rng = np.random.default_rng(12)
+    q, qd, qdd = states(rng, 500, 4)
+    tau = physical.regressor(q, qd, qdd) @ rng.uniform(0.1, 2.0, physical.n_parameters)
+    # joint 0's residual has one sign in training and the other in validation: learnt, it
+    # makes validation worse; joint 1's is the same function in both
+    tau[:, 0] += np.where(np.arange(500) < 400, 0.3, -0.3)
+    tau[:, 1] += 2.0 * np.sin(2.0 * q[:, 1])
+    x = np.hstack([q, qd, qdd])
+    hybrid, _ = fit_hybrid(physical, make_network('ffs', 4, n_hidden=10),
+                           (x[:400], tau[:400]), validation=(x[400:], tau[400:]),
+                           iterations=40, min_iterations=40, max_fail=40)
+    assert hybrid.gate[0] == 0.0 and hybrid.gate[1] == 1.0
+    hybrid.save(tmp_path / 'gated.npz')
+    loaded = HybridModel.load(tmp_path / 'gated.npz')
+    np.testing.assert_array_equal(loaded.gate, hybrid.gate)
+    np.testing.assert_array_equal(loaded.predict(x), hybrid.predict(x))
+
+
+def test_offsets_asymmetric_and_coupled_friction_are_recovered(tmp_path: Path) -> None:
+    """Real arms' columns: an effort offset per joint (none on the SCARA's vertical quill,
+    whose weight is already a constant effort), Coulomb friction that differs by direction,
+    and friction of a coupled joint's speed."""
+    # tanh with a wide ε: with sign(q'), |s(q')| = 1 is the offset's column itself
+    model = PhysicalModel.from_urdf_file(SCARA_URDF, coulomb_eps=0.5, offsets=True,
+                                         asymmetric=True, coupled=[('joint2', 'joint4')])
+    np.testing.assert_array_equal(model.offset_joints, [True, True, False, True])
+    assert model.parameter_names[-7:] == (
+        'joint2.fv[joint4]', 'joint4.fv[joint2]', 'joint2.fc[joint4]', 'joint4.fc[joint2]',
+        'joint1.offset', 'joint2.offset', 'joint4.offset')
+    rng = np.random.default_rng(8)
+    q, qd, qdd = states(rng, 300, 4)
+    truth = model.urdf_parameters()
+    truth[model.n_base:] = rng.uniform(0.2, 2.0, model.n_parameters - model.n_base)
+    offset = np.array([0.7, -0.4, 0.0, 0.3])
+    asymmetric = truth[model.n_base + 8:model.n_base + 12]
+    base = PhysicalModel.from_urdf_file(SCARA_URDF, coulomb_eps=0.5)
+    shape = model.coulomb_shape(qd)
+    tau = (base.regressor(q, qd, qdd) @ truth[:base.n_parameters] + offset
+           + asymmetric * np.abs(shape))
+    tau[:, 1] += truth[-7] * qd[:, 3] + truth[-5] * shape[:, 3]
+    tau[:, 3] += truth[-6] * qd[:, 1] + truth[-4] * shape[:, 1]
+    model.fit_states(q, qd, qdd, tau)
+    np.testing.assert_allclose(model.effort_offset, offset, atol=1e-7)
+    np.testing.assert_allclose(model.asymmetric_friction, asymmetric, rtol=1e-7)
+    np.testing.assert_allclose(model.theta[-7:-3], truth[-7:-3], rtol=1e-7)
+    np.testing.assert_allclose(model.predict(np.hstack([q, qd, qdd])), tau, atol=1e-8)
+    model.save(tmp_path / 'real.npz')
+    loaded = PhysicalModel.load(tmp_path / 'real.npz')
+    assert loaded.coupled == (('joint2', 'joint4'),) and loaded.parameter_names == \
+        model.parameter_names
+    np.testing.assert_array_equal(loaded.theta, model.theta)
+
+
+def test_fit_hybrid_gates_on_other_samples_than_it_stopped_on() -> None:
+    """``gate_validation``: the gate is set on those samples, not on the stop's."""
+    physical = PhysicalModel.from_urdf_file(SCARA_URDF, coulomb='sign')
+    rng = np.random.default_rng(12)
+    q, qd, qdd = states(rng, 600, 4)
+    tau = physical.regressor(q, qd, qdd) @ rng.uniform(0.1, 2.0, physical.n_parameters)
+    tau += 2.0 * np.sin(2.0 * q)  # learnt on every joint ...
+    tau[500:, 3] -= 4.0 * np.sin(2.0 * q[500:, 3])  # ... but joint 3's turns in the gate's
+    x = np.hstack([q, qd, qdd])
+    hybrid, _ = fit_hybrid(physical, make_network('ffs', 4, n_hidden=10),
+                           (x[:400], tau[:400]), validation=(x[400:500], tau[400:500]),
+                           gate_validation=(x[500:], tau[500:]), iterations=40,
+                           min_iterations=40, max_fail=40)
+    np.testing.assert_array_equal(hybrid.gate, [1.0, 1.0, 1.0, 0.0])

@@ -7,9 +7,9 @@ import pytest
 from scara_ident_ros.dynamics import ScaraModel, ScaraParams
 from scara_ident_ros.paper.contact import detect, evaluate, pulse_record, residuals_of
 from scara_ident_ros.paper.learning_curves import noisy_config
-from scara_ident_ros.identification import Holdout, OnlineIdentifier
-from scara_ident_ros.identification.contact_detector import (MAD_TO_SIGMA, ContactDetector,
-                                                             robust_spread)
+from scara_ident_ros.identification import Holdout, InputStage, JointMap, OnlineIdentifier
+from scara_ident_ros.identification.contact_detector import (MIN_SEGMENTS, ContactDetector,
+                                                             correlation_time, robust_spread)
 from scara_ident_ros.resources import config_path
 from scara_ident_ros.sim import SimConfig, Simulator, make_trajectory
 
@@ -21,46 +21,144 @@ def test_robust_spread_is_a_gaussians_std_and_ignores_outliers() -> None:
     np.testing.assert_allclose(robust_spread(residuals), [1.0, 0.1], rtol=0.05)
 
 
-def test_thresholds_are_sigma_times_the_mad_of_the_residuals() -> None:
-    residuals = np.array([[-2.0, 10.0], [-1.0, 10.0], [0.0, 11.0], [1.0, 13.0],
-                          [2.0, 14.0]] * 40)
-    detector = ContactDetector(2, sigma=5.0, arm_nmse=0.1)
-    detector.calibrate(residuals, 0.01)
-    # joint 1: median 0, |deviations| 2 1 0 1 2, MAD 1; joint 2: median 11, MAD 1
-    assert detector.thresholds is not None
-    np.testing.assert_allclose(detector.thresholds, [5.0 * MAD_TO_SIGMA, 5.0 * MAD_TO_SIGMA])
+def ar1_segments(rng: np.random.Generator, count: int, length: int, rho: float,
+                 scale: tuple[float, ...]) -> np.ndarray:
+    """Segments (count, length, n) of an AR(1) residual with correlation ``rho`` per sample,
+    stationary standard deviation ``scale`` per joint."""
+    n = len(scale)
+    shocks = rng.normal(size=(count, length, n)) * np.sqrt(1.0 - rho * rho)
+    out = np.empty_like(shocks)
+    out[:, 0] = rng.normal(size=(count, n))
+    for t in range(1, length):
+        out[:, t] = rho * out[:, t - 1] + shocks[:, t]
+    return out * np.asarray(scale)
 
 
-def test_not_armed_before_the_model_identifies() -> None:
-    detector = ContactDetector(2, sigma=3.0, arm_nmse=0.01)
-    residuals = np.random.default_rng(1).normal(size=(500, 2))
+def test_the_correlation_time_of_an_ar1_residual() -> None:
+    rng = np.random.default_rng(0)
+    segments = ar1_segments(rng, 400, 100, 0.9, (1.0, 1.0))
+    segments[..., 1] = rng.normal(size=(400, 100))  # white
+    tau = correlation_time(segments)
+    assert 17 <= tau[0] <= 27  # 0.9 ** lag < 0.1 from lag 22 on
+    assert tau[1] == 1
+
+
+def test_the_false_alarm_rate_on_fresh_free_motion_stays_under_the_bound() -> None:
+    """Oracle: an autocorrelated, heavy-tailed (Student t) residual; thresholds from 200
+    held-out segments; on 4,000 fresh segments (400 s) the alarms are within the bound."""
+    rng = np.random.default_rng(1)
+    bound = 100.0  # per hour: 11 alarms allowed in 400 s, so the check can fail
+
+    def residuals(count: int) -> np.ndarray:
+        base = ar1_segments(rng, count, 100, 0.8, (1.0, 0.1))
+        base[..., 0] *= np.sqrt(3.0 / rng.chisquare(3.0, size=(count, 1)))  # heavy tail
+        return base
+
+    detector = ContactDetector(2, false_alarms_per_hour=bound, arm_nmse=0.1)
+    calibration = detector.calibrate(residuals(200), 0.001, sample_period_s=1e-3)
+    assert detector.armed, calibration.why_not
+    assert calibration.false_alarms_per_hour is not None
+    assert calibration.false_alarms_per_hour <= bound
+    fresh = residuals(4000)
+    # a segment (0.1 s) with flags is one alarm at most
+    alarms = sum(any(detector.check(row).any() for row in segment) for segment in fresh)
+    allowed = bound * 4000 * 0.1 / 3600.0
+    assert alarms <= allowed
+    # the thresholds of the detector before (12 robust sigmas) fire far more often
+    before = 12.0 * robust_spread(fresh.reshape(-1, 2))
+    assert np.any(np.abs(fresh) > before, axis=2).any(axis=1).sum() > allowed
+
+
+def test_armed_only_when_identified_with_enough_independent_segments() -> None:
+    rng = np.random.default_rng(2)
+    residuals = rng.normal(size=(150, 100, 2))
+    detector = ContactDetector(2, arm_nmse=0.01)
     big = np.array([100.0, 100.0])
-    assert not detector.check(big).any()  # no thresholds yet
+    assert not detector.armed and not detector.check(big).any()  # not calibrated
     detector.calibrate(residuals, 0.5)  # NMSE above arm_nmse: not identified
     assert detector.thresholds is not None and not detector.armed
+    assert 'NMSE' in detector.calibration.why_not
     assert not detector.check(big).any()
-    detector.calibrate(residuals[:50], 0.001)  # too few held-out samples
-    assert not detector.armed
+    detector.calibrate(residuals[:20], 0.001)  # too few segments
+    assert not detector.armed and 'segments' in detector.calibration.why_not
+    assert not detector.check(big).any()
+    # residuals correlated beyond a segment, 10 segments from each of 15 blocks: one draw a
+    # block, too few
+    correlated = ar1_segments(rng, 150, 100, 0.99, (1.0, 1.0))
+    detector.calibrate(correlated, 0.001, blocks=np.repeat(np.arange(15), 10))
+    assert not detector.armed and detector.calibration.independent == 15 < MIN_SEGMENTS
+    assert 'draws' in detector.calibration.why_not
     detector.calibrate(residuals, None)  # no validation score
     assert not detector.armed
-    detector.calibrate(residuals, 0.001)
-    assert detector.armed
+    calibration = detector.calibrate(residuals, 0.001)
+    assert detector.armed and calibration.why_not == ''
+    assert calibration.false_alarms_per_hour is not None
+    assert calibration.false_alarms_per_hour <= detector.false_alarms_per_hour * (1 + 1e-9)
     assert detector.check(np.array([100.0, 0.1])).tolist() == [True, False]
     assert detector.check(np.array([-100.0, np.nan])).tolist() == [True, False]
+    detector.reset()
+    assert not detector.armed and not detector.check(big).any()
+
+
+def test_a_tighter_bound_gives_higher_thresholds() -> None:
+    residuals = np.random.default_rng(3).normal(size=(300, 100, 1))
+    loose = ContactDetector(1, false_alarms_per_hour=100.0, sigma=0.1)
+    tight = ContactDetector(1, false_alarms_per_hour=0.01, sigma=0.1)
+    loose.calibrate(residuals, 0.001)
+    tight.calibrate(residuals, 0.001)
+    assert loose.thresholds is not None and tight.thresholds is not None
+    assert tight.thresholds[0] > loose.thresholds[0] > 4.0  # over 4 σ of the residual
+
+
+def test_outside_the_calibrated_envelope_nothing_fires() -> None:
+    rng = np.random.default_rng(4)
+    residuals = rng.normal(size=(200, 100, 1))
+    inputs = rng.uniform(-1.0, 1.0, size=(200, 100, 3))  # q, q', q'' within [-1, 1]
+    detector = ContactDetector(1, envelope_margin=0.1, envelope_acceleration=True)
+    detector.calibrate(residuals, 0.001, inputs=inputs)
+    assert detector.armed
+    big = np.array([100.0])
+    assert detector.check(big, np.array([0.0, 0.5, -1.1])).tolist() == [True]  # in margin
+    assert detector.check(big, np.array([0.0, 0.5, 5.0])).tolist() == [False]  # q'' out
+    assert detector.check(big, np.array([-3.0, 0.0, 0.0])).tolist() == [False]  # q out
+    assert detector.check(big, np.array([0.0, 1.3, 0.0])).tolist() == [False]  # q' out
+    assert detector.held == 3
+    assert detector.check(big).tolist() == [True]  # no input given: checked
+    # by default q'' is not bounded (a contact is an acceleration), q and q' are
+    default = ContactDetector(1, envelope_margin=0.1)
+    default.calibrate(residuals, 0.001, inputs=inputs)
+    assert default.check(big, np.array([0.0, 0.5, 5.0])).tolist() == [True]
+    assert default.check(big, np.array([0.0, 1.3, 0.0])).tolist() == [False]
+    assert default.held == 1
 
 
 def test_min_samples_needs_a_run_over_the_threshold() -> None:
-    detector = ContactDetector(1, sigma=3.0, arm_nmse=1.0, min_samples=3)
-    detector.calibrate(np.random.default_rng(2).normal(size=(500, 1)), 0.001)
+    detector = ContactDetector(1, arm_nmse=1.0, min_samples=3)
+    detector.calibrate(np.random.default_rng(5).normal(size=(200, 100, 1)), 0.001)
+    assert detector.armed
     over, under = np.array([50.0]), np.array([0.0])
     flags = [bool(detector.check(x)[0]) for x in (over, over, under, over, over, over, over)]
     assert flags == [False, False, False, False, False, True, True]
 
 
 def test_bad_settings_are_refused() -> None:
-    for kwargs in ({'sigma': 0.0}, {'arm_nmse': -1.0}, {'min_samples': 0}):
+    for kwargs in ({'sigma': 0.0}, {'arm_nmse': -1.0}, {'min_samples': 0},
+                   {'false_alarms_per_hour': 0.0}, {'envelope_margin': -0.1}):
         with pytest.raises(ValueError):
             ContactDetector(2, **kwargs)
+
+
+def test_held_out_segments_are_contiguous_samples_of_one_block() -> None:
+    holdout = Holdout(1, 1, fraction=0.5, block=250, segment=100, segments=1000, seed=0)
+    for index in range(20_000):
+        if holdout.held_out(index):
+            holdout.add(np.array([float(index)]), np.array([0.0]))
+    segments = holdout.segments
+    assert segments is not None and len(segments) > 50
+    X = segments.X[:, :, 0]
+    np.testing.assert_array_equal(X[:, 0] // 250, segments.blocks)
+    np.testing.assert_array_equal(np.diff(X, axis=1), 1.0)  # consecutive samples
+    assert np.all(X[:, 0] // 250 == X[:, -1] // 250)  # within one block
 
 
 def test_held_out_residuals_are_measured_minus_predicted_of_the_held_out_samples() -> None:
@@ -119,25 +217,39 @@ def test_an_identified_model_detects_a_pulse_and_nothing_on_clean_unseen_motion(
     params = ScaraParams.from_yaml(config_path('scara.yaml'))
     model = TrueModel(params)
     ident = OnlineIdentifier(model, joint_names=params.joint_names, learn=False,
-                             holdout=Holdout(12, 4, fraction=0.5, block=200, seed=0))
-    record, _ = pulse_record(params, seconds=4.0, seed=0, config=noisy_config(params, 0))
+                             holdout=Holdout(12, 4, fraction=0.5, block=200, seed=0,
+                                             segment=50))
+    record, _ = pulse_record(params, seconds=16.0, seed=0, config=noisy_config(params, 0))
     for i in range(len(record)):
         ident.process(int(record.stamp_ns[i]), params.joint_names, record.q[i], record.qd[i],
                       record.effort[i])
     stats = ident.validation_stats()
     assert stats is not None and stats.nmse_total < 0.01  # it identifies
-    detector = ContactDetector(4, sigma=8.0, arm_nmse=0.01)
-    detector.calibrate(ident.held_out_residuals(), stats.nmse_total)
-    assert detector.armed
+    segments = ident.holdout.segments if ident.holdout is not None else None
+    assert segments is not None
+    residuals = segments.Y - model.predict(segments.X.reshape(-1, 12)).reshape(
+        segments.Y.shape)
+    detector = ContactDetector(4, arm_nmse=0.01)
+    calibration = detector.calibrate(residuals, stats.nmse_total, inputs=segments.X)
+    assert detector.armed, calibration.why_not
 
     clean, _ = pulse_record(params, seconds=10.0, seed=1, config=noisy_config(params, 1))
     _, external, _ = residuals_of(model, clean, params.joint_names)
-    assert not detect(detector, external).any()
+    assert not detect(detector, external, _inputs(clean, params.joint_names)).any()
 
-    pulsed, pulses = pulse_record(params, seconds=6.0, seed=2, config=noisy_config(params, 2),
+    pulsed, pulses = pulse_record(params, seconds=8.0, seed=2, config=noisy_config(params, 2),
                                   amplitude=0.1, pulse_s=0.1, spacing_s=1.0)
     index, external, _ = residuals_of(model, pulsed, params.joint_names)
-    run = evaluate(np.zeros((1, 4), bool), detect(detector, external), index, pulses,
-                   dt=1e-3, clean_s=10.0)
+    run = evaluate(np.zeros((1, 4), bool),
+                   detect(detector, external, _inputs(pulsed, params.joint_names)), index,
+                   pulses, dt=1e-3, clean_s=10.0)
     assert run.pulses >= 3 and run.detected == run.pulses
-    assert np.all(run.delays_s <= 0.02)
+    assert {pulse.joint for pulse in pulses} == {0, 1, 2, 3}
+    assert np.all(run.delays_s < 0.1)  # within the pulse
+
+
+def _inputs(record: object, names: tuple[str, ...]) -> np.ndarray:
+    stage = InputStage(JointMap(names, n_joints=4))
+    _, X, _ = stage.batch(record.stamp_ns, names, record.q, record.qd,  # type: ignore
+                          record.effort)  # type: ignore
+    return np.asarray(X)

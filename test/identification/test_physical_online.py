@@ -117,3 +117,18 @@ def test_an_update_that_raises_the_validation_error_is_undone() -> None:
     network.step_on = ReservoirLM.step_on.__get__(network)  # type: ignore[method-assign]
     assert trainer.step()  # a real update on residuals lowers the validation error
     assert trainer.undone == 1 and not np.array_equal(net.get_theta(), before)
+
+
+def test_the_online_gate_withholds_a_joint_the_network_makes_worse() -> None:
+    model, trainer, network, X, _ = hybrid_after(1000)
+    assert trainer.step()  # a real update
+    net = model.network
+    theta = net.get_theta()
+    _, output = net.unpack(theta)
+    output[0, -1] += 50.0  # joint 0's correction far off: worse than none on validation
+    net.set_theta(theta)
+    network.step_on = lambda x, y: False  # type: ignore[method-assign]
+    assert not trainer.step()
+    assert model.gate[0] == 0.0
+    x = X[:50]
+    np.testing.assert_array_equal(model.predict(x)[:, 0], model.physical.predict(x)[:, 0])

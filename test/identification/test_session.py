@@ -261,3 +261,36 @@ def test_a_stream_without_velocities_is_predicted_with_derived_velocities(derive
     inner = slice(LAG, -LAG)  # centred fits (the history's ends are off-centre, noisier)
     np.testing.assert_allclose(qd[inner], record.qd[stamps][inner],
                                atol=1e-2 * np.abs(record.qd).max())
+
+
+def test_contact_calibration_is_an_explicit_step_and_arms_on_the_rate_bound() -> None:
+    """Reading the validation score changes no threshold; the calibration step does, in
+    budgeted steps, and arms detection once the held-out draws allow the bound."""
+    record = simulated(4000)
+    rng = np.random.default_rng(0)
+    record.effort[:] += rng.normal(size=record.effort.shape) * 0.05 * SCARA.array(
+        'effort_max')  # sensor noise; 40 held-out blocks: enough draws either way
+    session = IdentificationSession(settings(
+        joint_names=NAMES, validation_fraction=0.5, validation_block=50,
+        contact_arm_nmse=10.0))
+    feed(session, record, 4000)
+    run = session.first
+    assert run.detector is not None
+    run.validation(fresh=True)
+    assert run.detector.thresholds is None and not run.detector.armed  # a getter
+    steps = 0
+    while run.calibrate_contacts(1e-3, budget=500) is None:
+        steps += 1
+        assert steps < 100
+    assert steps > 3  # several steps: the round was cut into budgets
+    calibration = run.detector.calibration
+    assert run.detector.armed, calibration.why_not
+    assert calibration.false_alarms_per_hour is not None
+    assert calibration.false_alarms_per_hour <= 1.0 + 1e-9
+    figures = session.health_figures(run)
+    assert figures['contact_armed'] and figures['contact_why_not'] == ''
+    summary = session.summary(run)
+    assert summary['contact_armed'] and len(summary['contact_thresholds']) == 4
+    session.apply({'contact_false_alarms_per_hour': 0.5})  # a new detector: not armed
+    assert not run.detector.armed
+    assert run.calibrate_contacts(1e-3) is not None and run.detector.armed

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from scara_ident_ros.identification.dataset import Dataset
-from scara_ident_ros.identification.split import block_index, block_split
+from scara_ident_ros.identification.split import alternate_blocks, block_index, block_split
 
 START_NS = 1_700_000_000_000_000_000
 
@@ -92,3 +92,19 @@ def test_no_fraction_no_validation_and_bad_input() -> None:
         block_split(data, 0.2, block_s=0.0)
     with pytest.raises(ValueError, match=r'fill 1 block of 5 s; .* at least 2'):
         block_split(data, 0.2, block_s=5.0)
+
+
+def test_alternate_blocks_deal_the_validation_blocks_in_two() -> None:
+    data = _samples(20.0)
+    _, validation = block_split(data, 0.3, block_s=1.0, seed=4)
+    start = int(data.stamp_ns[0])
+    first, second = alternate_blocks(validation, block_s=1.0, start_ns=start)
+    blocks = np.unique(block_index(validation.stamp_ns, block_s=1.0, start_ns=start))
+    assert len(blocks) == 6
+    np.testing.assert_array_equal(
+        np.unique(block_index(first.stamp_ns, block_s=1.0, start_ns=start)), blocks[0::2])
+    np.testing.assert_array_equal(
+        np.unique(block_index(second.stamp_ns, block_s=1.0, start_ns=start)), blocks[1::2])
+    assert len(first) + len(second) == len(validation)
+    one, none = alternate_blocks(validation.take(slice(0, 10)), block_s=1.0, start_ns=start)
+    assert len(one) == 10 and len(none) == 0

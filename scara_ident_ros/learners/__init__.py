@@ -1,0 +1,10 @@
+"""Learners of joint efforts beyond the paper's networks (kernel methods), in pure numpy.
+
+Nothing here imports rclpy. Each keeps the estimator contract of
+:mod:`scara_ident_ros.estimator`.
+"""
+from __future__ import annotations
+
+from scara_ident_ros.learners.sparse_spectrum_gp import KIND, SparseSpectrumGP
+
+__all__ = ['KIND', 'SparseSpectrumGP']
