@@ -17,7 +17,8 @@ window and lag as q'' from velocities, exact for polynomial q of that degree); a
 estimate differentiates q with a copy of itself, then q' as usual (the two delays add). The
 first accepted sample decides: if it has no velocity, every later one gets its q' derived
 (a velocity given then is ignored); else a later sample without velocity is ``no_velocity``.
-Derived velocities are not checked against the velocity limits, and a sample whose q and
+A centred window of 3 samples derives nothing (a fit of q for q'' needs degree 2 and 4
+samples). Derived velocities are not checked against the velocity limits, and a sample whose q and
 effort equal the last accepted one's is ``repeated``.
 
 Counting: every sample pushed is, at any time, either rejected or dropped (``skipped``, per
@@ -90,9 +91,11 @@ class InputStage:
         self.deriving: bool | None = None  # whether q' is derived: set by the first sample
         diff = self.differentiator
         if isinstance(diff, CentredDifferentiator):
-            self._slope: AccelerationEstimate = CentredDifferentiator(diff.window,
-                                                                      diff.degree + 1)
-            self._curvature = CentredDifferentiator(diff.window, diff.degree + 1, order=2)
+            degree = min(diff.degree + 1, diff.window - 2)  # a fit of q needs degree >= 2:
+            self.derive_velocity &= degree >= 2  # a window of 3 derives nothing
+            degree, window = max(degree, 2), max(diff.window, 5)  # (then unused)
+            self._slope: AccelerationEstimate = CentredDifferentiator(window, degree)
+            self._curvature = CentredDifferentiator(window, degree, order=2)
         else:
             slope = copy.deepcopy(diff)
             slope.reset()

@@ -149,3 +149,10 @@ def test_causal_stage_derives_velocity_of_a_ramp_and_counts_repeats() -> None:
     steady = out > stamps[22]  # two samples after the repeat: the backward difference again
     np.testing.assert_allclose(X[steady, 2:4], 0.5, rtol=1e-9)
     np.testing.assert_allclose(X[steady, 4:], 0.0, atol=1e-9)
+
+
+def test_a_window_of_three_derives_nothing_but_builds() -> None:
+    stage = InputStage(JointMap(NAMES, n_joints=2), need_effort=False, derive_velocity=True,
+                       differentiator=CentredDifferentiator(3, 1))
+    assert not stage.derive_velocity
+    assert stage.push(T0, NAMES, [0.0, 0.0], [])[0] is SkipReason.NO_VELOCITY
