@@ -32,6 +32,13 @@ Learners (``--methods``):
     scored on the held-out part.
 ``gp``
     the exact GP with the same kernel on every training row.
+``gpfit``
+    the shipped exact GP (``ExactGP``, kind ``gp``, as ``scara-ident train --method gp``) on
+    every training row, its kernel chosen by itself (validation blocks of its first rows).
+``gponline``
+    ``ExactGP.partial_fit`` one sample at a time in order (``--gp-budget`` points,
+    ``--gp-skip``, ``--gp-min-variance``), then frozen; time per sample at 1,000, 4,000 and
+    12,000 points. ``gponline_all``: the same with the budget at every training row.
 ``ffs``
     the FFS network as ``scara-ident train`` trains it (21-40-7 for 7 joints, friction
     steps, Levenberg–Marquardt, early stop on a tenth of the training rows / blocks), with
@@ -68,7 +75,7 @@ from scipy.linalg import cho_factor, cho_solve
 from scipy.signal import butter, filtfilt
 
 from scara_ident_ros.blas_threads import single_blas_thread
-from scara_ident_ros.learners import SparseSpectrumGP
+from scara_ident_ros.learners import ExactGP, SparseSpectrumGP
 from scara_ident_ros.learners.ard_hyperparameters import ArdHyperparameters
 
 REALDATA = Path(__file__).resolve().parents[2] / 'shared' / 'realdata'
@@ -290,6 +297,52 @@ def run_gp(s: Split, args: argparse.Namespace) -> tuple[np.ndarray, str]:
     return out * y_scale + y_mean, f'{len(u)} rows; {how}'
 
 
+def run_shipped_gp(s: Split, args: argparse.Namespace) -> tuple[np.ndarray, str]:
+    model = ExactGP().fit(s.X, s.Y)
+    return model.predict(s.Xt), (f'{model.n_points_} points; length {model.length_:g}, '
+                                 f'noise {model.noise_:g} chosen by ExactGP on blocks of '
+                                 f'{model.val_block} rows, 1 in {model.val_every}, of the '
+                                 f'first {model.select_samples} training rows')
+
+
+def gp_online(s: Split, budget: int, skip: float, variance: float
+              ) -> tuple[np.ndarray, str]:
+    """ExactGP.partial_fit one sample at a time in order, then frozen; the time per sample
+    at 1,000, 4,000 and 12,000 points (mean over the samples learnt at 90-100 % of it)."""
+    model = ExactGP(budget=budget, skip_within=skip, min_variance=variance)
+    points, seconds, prequential = [], [], []
+    for i in range(len(s.X)):
+        started = time.perf_counter()
+        prequential.append(model.partial_fit(s.X[i:i + 1], s.Y[i:i + 1])[0])
+        seconds.append(time.perf_counter() - started)
+        points.append(model.n_points_)
+    n_at, dt = np.array(points), np.array(seconds)
+    times = []
+    for size in (1000, 4000, 12000):
+        near = (n_at >= 0.9 * size) & (n_at <= size) & (np.diff(n_at, prepend=0) == 1)
+        if near.any():
+            times.append(f'{dt[near].mean() * 1e3:.1f} ms at {size}')
+    full = n_at >= budget
+    if full.any():
+        times.append(f'{dt[full].mean() * 1e3:.2f} ms/sample when full')
+    late = slice(len(s.X) // 2, None)
+    stream = nmse(s.Y[late], np.array(prequential)[late]).max()
+    return model.predict(s.Xt), (
+        f'budget {budget}, skip within {skip:g} noise sd or variance < {variance:g}: '
+        f'{model.n_points_} points learnt '
+        f'of {len(s.X)}; length {model.length_:g}, noise {model.noise_:g} from the first '
+        f'{model.warmup} rows; {"; ".join(times)}; factor {8 * budget ** 2 / 1e6:.0f} MB; '
+        f'prequential worst-joint NMSE over the second half {stream:.3g}')
+
+
+def run_gp_online(s: Split, args: argparse.Namespace) -> tuple[np.ndarray, str]:
+    return gp_online(s, args.gp_budget, args.gp_skip, args.gp_min_variance)
+
+
+def run_gp_online_all(s: Split, args: argparse.Namespace) -> tuple[np.ndarray, str]:
+    return gp_online(s, max(len(s.X), 1000), 0.0, 0.0)
+
+
 def run_ffs(s: Split, args: argparse.Namespace) -> tuple[np.ndarray, str]:
     from scara_ident_ros.cli.train import MAX_FAIL, MIN_ITERATIONS, SAMPLES
     from scara_ident_ros.nn import fit
@@ -316,6 +369,9 @@ METHODS: dict[str, tuple[str, Callable[[Split, argparse.Namespace],
     'kernel': ('kernel offline (sparse-spectrum GP, batch)', run_kernel),
     'online': ('kernel online (one pass in order, frozen)', run_online),
     'gp': ('exact GP (same kernel)', run_gp),
+    'gpfit': ('ExactGP fit (shipped, kind gp)', run_shipped_gp),
+    'gponline': ('ExactGP online (partial_fit, one pass in order, frozen)', run_gp_online),
+    'gponline_all': ('ExactGP online, budget = every training row', run_gp_online_all),
 }
 
 
@@ -335,6 +391,9 @@ def main() -> int:
                         choices=list(METHODS))
     parser.add_argument('--features', type=int, default=2000)
     parser.add_argument('--online-features', type=int, default=1000)
+    parser.add_argument('--gp-budget', type=int, default=4000)
+    parser.add_argument('--gp-skip', type=float, default=0.0)
+    parser.add_argument('--gp-min-variance', type=float, default=0.1)
     parser.add_argument('--ffs-iterations', type=int, default=500)
     parser.add_argument('--seed', type=int, default=0)
     parser.add_argument('--cache', type=Path, default=Path('/tmp/bench_realdata_hyper'))

@@ -156,4 +156,5 @@ def _import_models() -> None:
 _MODEL_MODULES: list[str] = ['scara_ident_ros.nn.network',
                              'scara_ident_ros.dynamics.physical_model',
                              'scara_ident_ros.dynamics.hybrid_model',
-                             'scara_ident_ros.learners.sparse_spectrum_gp']
+                             'scara_ident_ros.learners.sparse_spectrum_gp',
+                             'scara_ident_ros.learners.exact_gp']

@@ -43,7 +43,13 @@ hybrid's too) scale their inputs by the URDF's joint limits (positions, velociti
 accelerations by the training data's largest |q''|) and a network alone its outputs by the
 effort limits.
 
-The saved model (.npz; kind network, physical or hybrid: scara_ident_ros.nn.model_file)
+--method gp: exact Gaussian-process regression (learners.exact_gp: one RBF kernel shared by
+the joints, its length and noise chosen on blocks of 50 of the first 3000 training samples)
+on every training sample, at most 12000 (a random draw of them beyond: O(N^3) time, 8 N^2
+bytes); --method kernel: the sparse-spectrum GP (random features) on every training sample.
+
+The saved model (.npz; kind network, physical, hybrid, kernel or gp:
+scara_ident_ros.nn.model_file)
 records metadata joint_names and method; the identifier node can warm-start from a
 network (parameter model_path); scara-ident evaluate reads every kind.
 """
@@ -74,7 +80,8 @@ if TYPE_CHECKING:
     from scara_ident_ros.identification.dataset import Dataset
     from scara_ident_ros.nn import FitHistory
 
-__all__ = ['FRICTION_STEPS', 'HYBRID_NETWORK', 'ITERATIONS', 'KERNEL_METHOD', 'MAX_FAIL',
+__all__ = ['FRICTION_STEPS', 'GP_METHOD', 'GP_SAMPLES', 'HYBRID_NETWORK', 'ITERATIONS',
+           'KERNEL_METHOD', 'MAX_FAIL',
            'MIN_ITERATIONS', 'PHYSICAL_METHODS', 'SAMPLES', 'VALIDATION_BLOCK_S', 'add_parser',
            'run']
 
@@ -85,6 +92,9 @@ FRICTION_STEPS = True      # the network starts with friction steps, as the iden
 PHYSICAL_METHODS = ('physical', 'hybrid')
 #: The sparse-spectrum GP (``learners.sparse_spectrum_gp``): no URDF, no iterations.
 KERNEL_METHOD = 'kernel'
+#: Exact GP regression (``learners.exact_gp``) on at most GP_SAMPLES training samples.
+GP_METHOD = 'gp'
+GP_SAMPLES = 12000
 HYBRID_NETWORK = 'ffs'     # the hybrid's residual network
 
 
@@ -96,11 +106,12 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     parser.add_argument('bag', type=Path, metavar='RECORDING',
                         help=RECORDING_HELP)
     parser.add_argument('--method', required=True,
-                        choices=[*METHODS, *PHYSICAL_METHODS, KERNEL_METHOD],
+                        choices=[*METHODS, *PHYSICAL_METHODS, KERNEL_METHOD, GP_METHOD],
                         help='network: ffmw (MSLOG), ffw (SLOG) or ffs (sigmoid); physical: '
                              'least squares on the URDF\'s base parameters and friction; '
                              'hybrid: physical plus an FFS network on its residual; '
-                             'kernel: sparse-spectrum GP regression (random features)')
+                             'kernel: sparse-spectrum GP regression (random features); '
+                             'gp: exact GP regression (at most 12000 samples)')
     parser.add_argument('--urdf', type=Path, default=None, metavar='ROBOT.urdf',
                         help='the robot\'s URDF: required by physical and hybrid; gives a '
                              'network its limit scaling')
@@ -201,6 +212,8 @@ def run(args: argparse.Namespace) -> int:
         train = train.subsample(args.samples, seed=args.seed, name='train')
     if args.method in ('physical', KERNEL_METHOD):
         train = every_train
+    if args.method == GP_METHOD:
+        train = every_train.subsample(GP_SAMPLES, seed=args.seed, name='train')
     where = ''
     if len(validation):
         start = int(samples.data.stamp_ns[0])
@@ -232,7 +245,7 @@ def run(args: argparse.Namespace) -> int:
     if args.method in PHYSICAL_METHODS:
         return _train_physical(args, names, every_train, train, validation, metadata,
                                start_ns=int(samples.data.stamp_ns[0]))
-    if args.method == KERNEL_METHOD:
+    if args.method in (KERNEL_METHOD, GP_METHOD):
         return _train_kernel(args, names, train, validation, metadata)
 
     network = make_network(args.method, len(names), seed=args.seed,
@@ -272,15 +285,25 @@ def run(args: argparse.Namespace) -> int:
 def _train_kernel(args: argparse.Namespace, names: Sequence[str], train: Dataset,
                   validation: Dataset, metadata: dict[str, np.ndarray]) -> int:
     """``--method kernel``: the sparse-spectrum GP's batch solution on every training
-    sample (its kernel from an exact GP on 1500 of them); save and print the errors."""
+    sample (its kernel from an exact GP on 1500 of them); ``--method gp``: the exact GP on
+    the training samples (its kernel by validation); save and print the errors."""
     from scara_ident_ros.blas_threads import single_blas_thread
     from scara_ident_ros.cli.evaluation import errors_markdown, evaluate
-    from scara_ident_ros.learners import SparseSpectrumGP
+    from scara_ident_ros.learners import ExactGP, SparseSpectrumGP
 
     started = time.perf_counter()
-    model = SparseSpectrumGP(seed=args.seed)
-    with single_blas_thread():
-        model.fit(train.X, train.Y)
+    model: ExactGP | SparseSpectrumGP
+    if args.method == GP_METHOD:
+        model = ExactGP()
+        with single_blas_thread():
+            model.fit(train.X, train.Y)
+        what = (f'GP ({model.n_points_} samples, length {model.length_:g}, noise '
+                f'{model.noise_:g} by validation)')
+    else:
+        model = SparseSpectrumGP(seed=args.seed)
+        with single_blas_thread():
+            model.fit(train.X, train.Y)
+        what = f'KERNEL ({model.n_features} random features)'
     seconds = time.perf_counter() - started
     model.metadata.update(metadata)
     args.out.parent.mkdir(parents=True, exist_ok=True)
@@ -288,7 +311,7 @@ def _train_kernel(args: argparse.Namespace, names: Sequence[str], train: Dataset
     results = {'train': evaluate(model, train.X, train.Y)}
     if len(validation):
         results['validation'] = evaluate(model, validation.X, validation.Y)
-    print(f'\nKERNEL ({model.n_features} random features) fitted in {seconds:.1f} s\n')
+    print(f'\n{what} fitted in {seconds:.1f} s\n')
     print(errors_markdown(names, results))
     print(f'model written to {args.out}')
     return 0

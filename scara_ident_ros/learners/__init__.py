@@ -5,6 +5,7 @@ Nothing here imports rclpy. Each keeps the estimator contract of
 """
 from __future__ import annotations
 
+from scara_ident_ros.learners.exact_gp import ExactGP
 from scara_ident_ros.learners.sparse_spectrum_gp import KIND, SparseSpectrumGP
 
-__all__ = ['KIND', 'SparseSpectrumGP']
+__all__ = ['KIND', 'ExactGP', 'SparseSpectrumGP']

@@ -9,6 +9,7 @@ network     a ``FeedForwardNet`` (no ``kind`` entry: the files of before kinds) 
 physical    a ``PhysicalModel`` (``dynamics.physical_model``)                    its own
 hybrid      a physical model plus a network on its residual                      prefixed
 kernel      a ``SparseSpectrumGP`` (``learners.sparse_spectrum_gp``)             its own
+gp          an ``ExactGP`` (``learners.exact_gp``)                               its own
 =========== ==================================================================== ============
 
 A network file is exactly what it was before kinds existed (no ``kind`` entry), so network
@@ -62,7 +63,7 @@ FORMAT = 'scara_ident_ros.nn.FeedForwardNet'
 FORMAT_VERSION = 1
 METADATA_PREFIX = 'meta.'
 #: Kinds of model file; ``'network'`` when the file has no ``kind`` entry.
-KINDS = ('network', 'physical', 'hybrid', 'kernel')
+KINDS = ('network', 'physical', 'hybrid', 'kernel', 'gp')
 NETWORK_PREFIX = 'network.'  # a hybrid's network entries
 
 _FIELDS = ('sizes', 'activation', 'constants', 'params', 'velocity', 'x_min', 'x_max',

@@ -1,0 +1,35 @@
+"""``scara-ident train --method gp`` writes an exact GP that ``evaluate`` reads."""
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import pytest
+
+from scara_ident_ros.estimator import load_model
+from scara_ident_ros.learners import ExactGP
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from in_process_cli import run_cli  # noqa: E402  (test/in_process_cli.py)
+from test_train_physical import bags, table  # noqa: E402, F401  (bags: a fixture)
+
+pytestmark = pytest.mark.slow  # a grid of exact GPs chooses the kernel
+
+
+def test_gp_train_then_evaluate(bags: dict[str, Path], tmp_path: Path,  # noqa: F811
+                                capsys: pytest.CaptureFixture[str]) -> None:
+    model_path = tmp_path / 'gp.npz'
+    code, out, err = run_cli(capsys, 'train', bags['train'], '--method', 'gp',
+                             '--out', model_path)
+    assert code == 0, err
+    assert 'GP (2500 samples, length ' in out
+    assert 'training on 2500, validating on 500' in out  # every training sample
+    validation = table(out, 'joint')
+    assert float(validation['mean'][3]) < 1e-2  # NMSE on the held-out blocks
+    model = load_model(model_path)
+    assert isinstance(model, ExactGP) and model.n_points_ == 2500
+    assert model.joint_names == ('joint1', 'joint2', 'joint3', 'joint4')
+    code, out, err = run_cli(capsys, 'evaluate', model_path, bags['other'])
+    assert code == 0, err
+    assert out.startswith(f'GP model {model_path} on ')
+    assert float(table(out, 'joint')['mean'][1]) < 1.0
