@@ -45,17 +45,23 @@ class CentredDifferentiator:
     window : int
         Odd number of samples ``W = 2m + 1`` per fit, at least ``degree + 2``.
     degree : int
-        Degree ``p`` of the polynomial, at least 1.
+        Degree ``p`` of the polynomial, at least ``order``.
+    order : int
+        Which derivative of the fit: 1 (the slope: q'' of velocities, q' of positions) or 2
+        (q'' of positions, when a stream carries no velocity).
     """
 
     method = 'centred'
 
-    def __init__(self, window: int = DIFFERENTIATOR_WINDOW, degree: int = 2) -> None:
-        if degree < 1 or window < degree + 2 or window % 2 == 0:
+    def __init__(self, window: int = DIFFERENTIATOR_WINDOW, degree: int = 2,
+                 order: int = 1) -> None:
+        if order not in (1, 2) or degree < order or window < degree + 2 or window % 2 == 0:
             raise ValueError(f'a centred fit needs an odd window >= degree + 2 and degree >= '
-                             f'1, got window {window}, degree {degree}')
+                             f'order (1 or 2), got window {window}, degree {degree}, order '
+                             f'{order}')
         self.window = int(window)
         self.degree = int(degree)
+        self.order = int(order)
         self._cache_key: object = None
         self._cache_weights = np.empty((0, self.window))
 
@@ -111,13 +117,16 @@ class CentredDifferentiator:
         basis = np.vander(u, self.degree + 1, increasing=True)  # (W, p + 1)
         fit = np.linalg.solve(basis.T @ basis, basis.T)  # (p + 1, W): coefficients' weights
         at_u = np.atleast_1d(u[at])
-        # d/dt of sum_j c_j u^j = sum_j j c_j u^(j-1) / half_span
-        powers = np.arange(1, self.degree + 1)
-        slope_basis = powers * at_u[:, None] ** (powers - 1)  # (k, p)
-        weights = slope_basis @ fit[1:] / (half_span * NS)
+        # d^k/dt^k of sum_j c_j u^j = sum_(j>=k) j!/(j-k)! c_j u^(j-k) / half_span^k
+        k = self.order
+        powers = np.arange(k, self.degree + 1)
+        factor = powers * (powers - 1) if k == 2 else powers
+        slope_basis = factor * at_u[:, None] ** (powers - k)  # (k, p + 1 - order)
+        weights = slope_basis @ fit[k:] / (half_span * NS) ** k
         self._cache_key, self._cache_weights = key, weights
         return weights
 
     def __repr__(self) -> str:
-        return f'CentredDifferentiator(window={self.window}, degree={self.degree})'
+        order = f', order={self.order}' if self.order != 1 else ''
+        return f'CentredDifferentiator(window={self.window}, degree={self.degree}{order})'
 

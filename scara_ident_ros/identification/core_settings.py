@@ -9,7 +9,7 @@ builds from them.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass, fields
+from dataclasses import MISSING, dataclass, fields
 from typing import Any
 
 from scara_ident_ros.nn.presets import METHODS
@@ -55,11 +55,14 @@ class CoreSettings:
     max_gap: float
     limit_margin: float
     min_joints: int
+    derive_velocity: str = 'auto'
 
     @classmethod
     def of(cls, values: Mapping[str, Any]) -> CoreSettings:
-        """The settings among ``values`` (e.g. all the node's parameters)."""
-        return cls(**{field.name: values[field.name] for field in fields(cls)})
+        """The settings among ``values`` (e.g. all the node's parameters); a field with a
+        default may be absent."""
+        return cls(**{field.name: values[field.name] for field in fields(cls)
+                      if field.name in values or field.default is MISSING})
 
     @classmethod
     def defaults(cls, **changes: Any) -> CoreSettings:

@@ -162,7 +162,8 @@ def build_identifier(names: Sequence[str], settings: CoreSettings,
         model, joint_names=names, differentiator=differentiator,
         trainer=make_learner(model, settings, background=background), holdout=holdout,
         mse_window=settings.mse_window, learn=settings.learn,
-        max_gap_ns=round(settings.max_gap * 1e9), bounds=bounds, stage=stage)
+        max_gap_ns=round(settings.max_gap * 1e9), bounds=bounds, stage=stage,
+        derive_velocity=settings.derive_velocity == 'auto')
 
 
 def background_learner(trainer: Trainer | None) -> BackgroundLM | None:

@@ -10,12 +10,24 @@ samples after it went in; a clock gap or :meth:`InputStage.flush` lets the last 
 a history out with an off-centre fit. The causal :class:`Differentiator` estimates have
 ``lag`` 0, with the filter's delay in q''.
 
+A stream that carries no velocity (positions and efforts only, as the TX40's) gets q' from
+its positions when ``derive_velocity`` is set: the centred estimate fits one polynomial of
+degree ``p + 1`` to the W positions around a sample and takes q' and q'' from it (the same
+window and lag as q'' from velocities, exact for polynomial q of that degree); a causal
+estimate differentiates q with a copy of itself, then q' as usual (the two delays add). The
+first accepted sample decides: if it has no velocity, every later one gets its q' derived
+(a velocity given then is ignored); else a later sample without velocity is ``no_velocity``.
+A centred window of 3 samples derives nothing (a fit of q for q'' needs degree 2 and 4
+samples). Derived velocities are not checked against the velocity limits, and a sample whose q and
+effort equal the last accepted one's is ``repeated``.
+
 Counting: every sample pushed is, at any time, either rejected or dropped (``skipped``, per
 :class:`SkipReason`), out (``emitted``) or still ``pending``; ``gaps`` counts the clock
 gaps (forwards or a restarted clock) the accepted samples came after.
 """
 from __future__ import annotations
 
+import copy
 from typing import NamedTuple
 
 import numpy as np
@@ -62,16 +74,32 @@ class InputStage:
         the estimate.
     differentiator : AccelerationEstimate, optional
         The q'' estimate; default ``CentredDifferentiator(21, 2)``.
+    derive_velocity : bool
+        Derive q' from q when the stream carries no velocity (module docstring); False:
+        such a sample is ``no_velocity``.
     """
 
     def __init__(self, joint_map: JointMap, *, need_effort: bool = True,
                  max_gap_ns: int = DEFAULT_MAX_GAP_NS,
                  differentiator: AccelerationEstimate | None = None,
-                 bounds: Bounds | None = None) -> None:
+                 bounds: Bounds | None = None, derive_velocity: bool = False) -> None:
         self.check = SampleCheck(joint_map, need_effort=need_effort, max_gap_ns=max_gap_ns,
                                  bounds=bounds)
         self.differentiator = (differentiator if differentiator is not None
                                else CentredDifferentiator())
+        self.derive_velocity = bool(derive_velocity)
+        self.deriving: bool | None = None  # whether q' is derived: set by the first sample
+        diff = self.differentiator
+        if isinstance(diff, CentredDifferentiator):
+            degree = min(diff.degree + 1, diff.window - 2)  # a fit of q needs degree >= 2:
+            self.derive_velocity &= degree >= 2  # a window of 3 derives nothing
+            degree, window = max(degree, 2), max(diff.window, 5)  # (then unused)
+            self._slope: AccelerationEstimate = CentredDifferentiator(window, degree)
+            self._curvature = CentredDifferentiator(window, degree, order=2)
+        else:
+            slope = copy.deepcopy(diff)
+            slope.reset()
+            self._slope = slope
         self.skipped: dict[SkipReason, int] = dict.fromkeys(SkipReason, 0)
         self.emitted = 0
         self.gaps = 0  # accepted samples after a clock gap (each restarts the q'' estimate)
@@ -112,10 +140,16 @@ class InputStage:
             Samples whose input is now complete, oldest first (with a centred estimate the
             sample ``lag`` before this one, plus a history's rest at a gap).
         """
+        derived = self.deriving
+        if derived is None:
+            derived = self.derive_velocity and len(velocity) == 0 and len(position) != 0
+        if derived and len(position) != 0:
+            velocity = np.zeros(len(position))  # a placeholder: q' comes from q
         sample = self.check.check(stamp_ns, names, position, velocity, effort)
         if isinstance(sample, SkipReason):
             self.skipped[sample] += 1
             return sample, []
+        self.deriving = bool(derived)
         self.gaps += sample.gap
         if isinstance(self.differentiator, Differentiator):
             return self._push_causal(sample)
@@ -130,6 +164,7 @@ class InputStage:
         """
         if isinstance(self.differentiator, Differentiator):
             self.differentiator.reset()
+            self._reset_slope()
             return []
         history, self._history, length, self._length = self._history, [], self._length, 0
         w, m = self.differentiator.window, self.lag
@@ -143,6 +178,7 @@ class InputStage:
         self.check.reset()
         if isinstance(self.differentiator, Differentiator):
             self.differentiator.reset()
+            self._reset_slope()
         self.skipped[SkipReason.WARMING_UP] += self.pending
         self._history, self._length = [], 0
 
@@ -191,12 +227,25 @@ class InputStage:
         return stamps, X, Y
 
     # ---------------------------------------------------------------- internals
+    def _reset_slope(self) -> None:
+        """Restart the causal q' estimate of a stream without velocities."""
+        if isinstance(self._slope, Differentiator):
+            self._slope.reset()
+
     def _push_causal(self, sample: Sample) -> tuple[SkipReason | None, list[Input]]:
         diff = self.differentiator
         assert isinstance(diff, Differentiator)
         if sample.gap:
             diff.reset()
-        acceleration = diff.update(sample.stamp_ns, sample.velocity)
+            self._reset_slope()
+        velocity: NDArray[np.float64] | None = sample.velocity
+        if self.deriving:
+            assert isinstance(self._slope, Differentiator)
+            velocity = self._slope.update(sample.stamp_ns, sample.position)
+            if velocity is not None:
+                sample = sample._replace(velocity=velocity)
+        acceleration = (diff.update(sample.stamp_ns, sample.velocity) if velocity is not None
+                        else None)
         if acceleration is None:
             reason = SkipReason.GAP if sample.gap else SkipReason.WARMING_UP
             self.skipped[reason] += 1
@@ -220,7 +269,7 @@ class InputStage:
         self._stamps[:-1] = self._stamps[1:]
         self._stamps[-1] = sample.stamp_ns
         self._velocity[:-1] = self._velocity[1:]
-        self._velocity[-1] = sample.velocity
+        self._velocity[-1] = sample.position if self.deriving else sample.velocity
         self._length += 1
         if self._length < w:
             return []
@@ -231,9 +280,17 @@ class InputStage:
         diff = self.differentiator
         assert isinstance(diff, CentredDifferentiator)
         w = len(history)
-        acceleration = diff.derivative(self._stamps[-w:], self._velocity[-w:], at)
+        stamps, signal = self._stamps[-w:], self._velocity[-w:]
+        samples = history[at]
+        if self.deriving:  # signal holds positions: q' and q'' from one fit of them
+            assert isinstance(self._slope, CentredDifferentiator)
+            velocity = self._slope.derivative(stamps, signal, at)
+            samples = [sample._replace(velocity=v) for sample, v in zip(samples, velocity)]
+            acceleration = self._curvature.derivative(stamps, signal, at)
+        else:
+            acceleration = diff.derivative(stamps, signal, at)
         out = []
-        for sample, acc in zip(history[at], acceleration):
+        for sample, acc in zip(samples, acceleration):
             out.append(Input(sample.stamp_ns,
                              np.concatenate((sample.position, sample.velocity, acc)),
                              sample.effort))

@@ -220,7 +220,10 @@ class LazyCore:
         n_joints = self.network.n_outputs if self.network is not None else None
         check = SampleCheck(JointMap(list(wanted) or None, n_joints=n_joints),
                             need_effort=False)
-        reason = check.check(stamp_ns, names, position, velocity, effort)
+        derive = (settings.derive_velocity == 'auto' and len(velocity) == 0
+                  and len(position) != 0)  # the input stage derives q' from q
+        reason = check.check(stamp_ns, names, position,
+                             [0.0] * len(position) if derive else velocity, effort)
         note = ''
         if not isinstance(reason, SkipReason) and len(names) < settings.min_joints:
             reason = SkipReason.JOINT_COUNT
@@ -231,7 +234,8 @@ class LazyCore:
             if self.needs_stream(joints, settings.method):
                 self.scaling = StreamScaling(
                     self.limits, self.urdf_limits, joints, copy.deepcopy(differentiator),
-                    max_gap_ns=round(settings.max_gap * 1e9))
+                    max_gap_ns=round(settings.max_gap * 1e9),
+                    derive_velocity=settings.derive_velocity == 'auto')
                 return self._scale(settings, differentiator, stamp_ns, names, position,
                                    velocity, effort, background=background)
             note = self.build(joints, settings, differentiator, background=background)

@@ -119,6 +119,10 @@ class OnlineIdentifier:
         A stage shared by several identifiers of one stream (the caller pushes each sample
         and hands the outcome to :meth:`take`); replaces ``joint_names``,
         ``differentiator``, ``max_gap_ns`` and the sample bounds.
+    derive_velocity : bool
+        The stage derives q' from q for a stream without velocities
+        (:class:`~scara_ident_ros.identification.input_stage.InputStage`); with ``stage``
+        unused.
 
     Raises
     ------
@@ -131,7 +135,7 @@ class OnlineIdentifier:
                  trainer: Trainer | None = None, holdout: Holdout | None = None,
                  mse_window: int = 1000, learn: bool = True,
                  max_gap_ns: int = DEFAULT_MAX_GAP_NS, bounds: Bounds | None = None,
-                 stage: InputStage | None = None) -> None:
+                 stage: InputStage | None = None, derive_velocity: bool = False) -> None:
         n = model.n_outputs
         if n < 1 or model.n_inputs != 3 * n:
             raise ValueError(f'model has {model.n_inputs} inputs and {n} outputs; '
@@ -143,7 +147,7 @@ class OnlineIdentifier:
         if stage is None:
             stage = InputStage(JointMap(joint_names, n_joints=n), need_effort=False,
                                max_gap_ns=max_gap_ns, differentiator=differentiator,
-                               bounds=bounds)
+                               bounds=bounds, derive_velocity=derive_velocity)
         self.stage = stage
         self.joint_map = stage.check.joint_map
         self.trainer: Trainer = trainer if trainer is not None else BackPropagation(model)

@@ -107,6 +107,10 @@ IDENTIFICATION_PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec('differentiator', 'centred', 'How acceleration is estimated from velocity: '
               'centred (zero-phase, window // 2 samples late) or a causal filter',
               choices=DIFFERENTIATORS, fixed=ESTIMATE),
+    ParamSpec('derive_velocity', 'auto', "q' of a stream that carries none (positions and "
+              "efforts only): auto = from the positions, in the q'' estimate's window; never "
+              '= such samples are skipped (no_velocity)', choices=('auto', 'never'),
+              fixed=ESTIMATE),
     ParamSpec('cutoff_hz', 50.0, 'Cut-off of the lowpass differentiator', 'Hz', min=0.1,
               fixed=ESTIMATE),
     ParamSpec('window', DIFFERENTIATOR_WINDOW,

@@ -73,17 +73,21 @@ class StreamScaling:
         A fresh q'' estimate like the identifier's (this one's own).
     max_gap_ns : int
         As the identifier's ``max_gap`` (ns).
+    derive_velocity : bool
+        As the identifier's ``derive_velocity`` (``auto``: True).
     """
 
     def __init__(self, limits: JointLimits, urdf: UrdfLimits | None, names: Sequence[str],
-                 differentiator: AccelerationEstimate, *, max_gap_ns: int = _GAP_NS) -> None:
+                 differentiator: AccelerationEstimate, *, max_gap_ns: int = _GAP_NS,
+                 derive_velocity: bool = False) -> None:
         self.names = tuple(names)
         lacking, unknown = stream_joints(limits, urdf, self.names)
         if unknown:
             raise ValueError(f'no limits anywhere for {unknown}')
         self.files, self.urdf, self.lacking = limits, urdf, lacking
         self.stage = InputStage(JointMap(self.names), need_effort=False,
-                                max_gap_ns=max_gap_ns, differentiator=differentiator)
+                                max_gap_ns=max_gap_ns, differentiator=differentiator,
+                                derive_velocity=derive_velocity)
         n = len(self.names)
         self.first_ns: int | None = None
         self.last_ns = 0

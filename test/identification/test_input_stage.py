@@ -106,3 +106,53 @@ def test_centred_acceleration_on_uneven_stamps_matches_the_analytic_derivative()
     np.testing.assert_array_equal(out, stamps)
     assert stage.gaps == 0
     np.testing.assert_allclose(X[:, 4:], truth, atol=5e-3 * omega)
+
+
+# ------------------------------------------------------------ q' derived from q
+def test_centred_stage_derives_velocity_and_acceleration_of_cubic_positions() -> None:
+    """No velocity in the stream: q' and q'' from one cubic fit of q, exact for cubic q on
+    jittered stamps, every sample out (none ``no_velocity``)."""
+    stamps = jittered_stamps(200)
+    t = (stamps - T0) * 1e-9  # s
+    coef = np.array([0.3, -1.2, 2.5, -4.0])
+    q = np.polynomial.polynomial.polyval(t, coef)[:, None] * [1.0, -2.0]
+    qd = np.polynomial.polynomial.polyval(t, np.polynomial.polynomial.polyder(coef))
+    qdd = np.polynomial.polynomial.polyval(t, np.polynomial.polynomial.polyder(coef, 2))
+    stage = InputStage(JointMap(NAMES, n_joints=2), need_effort=False, derive_velocity=True)
+    out, X, _ = stage.batch(stamps, NAMES, q, np.zeros((200, 0)))
+    np.testing.assert_array_equal(out, stamps)
+    assert stage.skipped[SkipReason.NO_VELOCITY] == 0 and stage.deriving
+    np.testing.assert_allclose(X[:, 2], qd, rtol=1e-6, atol=1e-6)
+    np.testing.assert_allclose(X[:, 3], -2.0 * qd, rtol=1e-6, atol=1e-6)
+    np.testing.assert_allclose(X[:, 4], qdd, rtol=1e-5, atol=1e-5)
+
+
+def test_without_derive_velocity_a_stream_without_velocity_is_skipped() -> None:
+    stamps = T0 + np.arange(50) * MS
+    stage = InputStage(JointMap(NAMES, n_joints=2), need_effort=False)
+    out, _, _ = stage.batch(stamps, NAMES, np.zeros((50, 2)), np.zeros((50, 0)))
+    assert out.size == 0 and stage.skipped[SkipReason.NO_VELOCITY] == 50
+
+
+def test_causal_stage_derives_velocity_of_a_ramp_and_counts_repeats() -> None:
+    """Backward differences of q = 0.5 t: q' = 0.5, q'' = 0 once warmed up; a row whose q
+    and effort equal the last one's is ``repeated``, not learnt again."""
+    stamps = T0 + np.arange(40) * MS
+    q = 0.5 * np.arange(40)[:, None] * 1e-3 * [1.0, 1.0]
+    effort = np.arange(40)[:, None] * [1.0, 2.0]
+    q[20], effort[20] = q[19], effort[19]  # the driver sent its last state again
+    stage = InputStage(JointMap(NAMES, n_joints=2), need_effort=False, derive_velocity=True,
+                       differentiator=Differentiator('backward'))
+    out, X, _ = stage.batch(stamps, NAMES, q, np.zeros((40, 0)), effort)
+    assert stage.skipped[SkipReason.REPEATED] == 1
+    assert out.size + sum(stage.skipped.values()) == 40  # every sample accounted for
+    steady = out > stamps[22]  # two samples after the repeat: the backward difference again
+    np.testing.assert_allclose(X[steady, 2:4], 0.5, rtol=1e-9)
+    np.testing.assert_allclose(X[steady, 4:], 0.0, atol=1e-9)
+
+
+def test_a_window_of_three_derives_nothing_but_builds() -> None:
+    stage = InputStage(JointMap(NAMES, n_joints=2), need_effort=False, derive_velocity=True,
+                       differentiator=CentredDifferentiator(3, 1))
+    assert not stage.derive_velocity
+    assert stage.push(T0, NAMES, [0.0, 0.0], [])[0] is SkipReason.NO_VELOCITY

@@ -66,7 +66,7 @@ def saved_model(path: Path, names: list[str]) -> Path:
 
 
 def test_the_joints_come_from_the_first_valid_sample() -> None:
-    session = IdentificationSession(settings())
+    session = IdentificationSession(settings(derive_velocity='never'))  # [] q': invalid
     assert session.core is None and session.joints_text == '(from the first message)'
     record = simulated(50)
     _, _, warnings = session.process(T0, NAMES[:2], record.q[0, :2], [], [])
@@ -238,6 +238,29 @@ def test_a_background_hybrid_reports_its_learners_updates() -> None:
         assert run.learning()['updates'] == run.background.updates
     finally:
         session.close()
+
+
+@pytest.mark.parametrize('derive', ['auto', 'never'])
+def test_a_stream_without_velocities_is_predicted_with_derived_velocities(derive: str) -> None:
+    """Positions and efforts only (the TX40's kind): with derive_velocity auto every sample
+    is predicted, q' from the positions close to the simulator's; never: all no_velocity."""
+    record = simulated(400)
+    session = IdentificationSession(settings(derive_velocity=derive, learn=False))
+    inputs = []
+    for i in range(400):
+        _, new, _ = session.process(T0 + i * MS, NAMES, record.q[i], [], record.effort[i])
+        inputs += new
+    inputs += session.flush()[1]
+    summary = session.summary()
+    if derive == 'never':
+        assert summary['skipped'] == {'no_velocity': 400} and not inputs
+        return
+    assert summary['processed'] == summary['predicted'] == 400 and not summary['skipped']
+    qd = np.array([item.x[4:8] for item in inputs])
+    stamps = [(item.stamp_ns - T0) // MS for item in inputs]
+    inner = slice(LAG, -LAG)  # centred fits (the history's ends are off-centre, noisier)
+    np.testing.assert_allclose(qd[inner], record.qd[stamps][inner],
+                               atol=1e-2 * np.abs(record.qd).max())
 
 
 def test_contact_calibration_is_an_explicit_step_and_arms_on_the_rate_bound() -> None:

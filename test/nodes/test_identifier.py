@@ -582,7 +582,7 @@ def test_bad_samples_before_the_first_good_one(tmp_path: Path,
     ]
     msgs += [sample_msg(record, i, T0_NS + (i + 1) * PERIOD_NS) for i in range(25)]
     feed = Feed(listener)
-    with identifier(tmp_path) as node:
+    with identifier(tmp_path, 'derive_velocity:=never') as node:  # q: no q'
         feed.wait_for(node)
         feed.send(msgs, 25 - LAG)
         stop(node)

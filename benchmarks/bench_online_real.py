@@ -1,0 +1,106 @@
+"""A real recording through the identifier's session, in stream order, without ROS.
+
+What ``scara-ident play RECORDING`` into ``identifier`` does to the samples, minus the
+transport and the timing: every row of the recording (``../shared/realdata``) goes through
+:class:`~scara_ident_ros.identification.session.IdentificationSession` with the identifier's
+defaults (``config/identifier.yaml``) and the settings given, the ``lm`` trainer in the
+message path (``lm_background: false``, so the figures do not depend on the machine's
+load). Prints the summary: every sample accounted for (processed = predicted + skipped by
+reason), the prequential NMSE and the held-out (validation) NMSE per joint, scored at the
+end with the frozen model.
+
+Usage::
+
+    .venv/bin/python benchmarks/bench_online_real.py ../shared/realdata/tiago \\
+        --set urdf_file=tiago.urdf validation_block=100 lm_interval=40 \\
+        [--joints torso_lift_joint arm_1_joint ...]
+
+A run over TIAGo (8,022 samples) takes 1–11 min on a loaded 2-core machine.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from scara_ident_ros.bag.recording_file import read_recording  # noqa: E402
+from scara_ident_ros.identification.session import IdentificationSession  # noqa: E402
+
+CONFIG = Path(__file__).resolve().parents[1] / 'config' / 'identifier.yaml'
+
+
+def settings(changes: dict[str, Any]) -> dict[str, Any]:
+    """The identifier's defaults, ``lm`` in the message path, with ``changes``."""
+    values: dict[str, Any] = yaml.safe_load(CONFIG.read_text())['/**']['ros__parameters']
+    return {**values, 'lm_background': False, **changes}
+
+
+def run(path: str, changes: dict[str, Any], joints: list[str] | None, *,
+        live_velocity: bool = False) -> dict[str, Any]:
+    """Feed the recording at ``path`` sample by sample; return the session's summary.
+
+    ``live_velocity``: a recording without velocities is fed without them (the input
+    stage derives q', ``derive_velocity``); else as ``play`` publishes it, with q' derived
+    from the whole recording.
+    """
+    series = read_recording(path, derive=not live_velocity)
+    if joints:
+        series = series.select(joints)
+    session = IdentificationSession(settings(changes))
+    names = list(series.names)
+    start = time.perf_counter()
+    absent = bool(live_velocity and np.isnan(series.velocity).all())
+    for i in range(len(series)):
+        session.process(int(series.stamp_ns[i]), names, series.position[i],
+                        () if absent else series.velocity[i], series.effort[i])
+    session.flush()
+    summary = session.summary(fresh=True)
+    session.close()
+    summary['seconds'] = time.perf_counter() - start
+    return summary
+
+
+def _value(text: str) -> Any:
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError:
+        return text
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
+    parser.add_argument('recording')
+    parser.add_argument('--set', nargs='*', default=[], metavar='NAME=VALUE',
+                        help='identifier parameters (JSON values)')
+    parser.add_argument('--joints', nargs='*', default=None)
+    parser.add_argument('--live-velocity', action='store_true',
+                        help='feed a recording without velocities without them')
+    args = parser.parse_args()
+    changes = {key: _value(value) for key, value in
+               (item.split('=', 1) for item in args.set)}
+    summary = run(args.recording, changes, args.joints, live_velocity=args.live_velocity)
+    if 'predicted' not in summary:
+        print(f'no model was built: {summary}', file=sys.stderr)
+        return 1
+    skipped = sum(summary.get('skipped', {}).values())
+    print(f'| {args.recording} | {changes} | {summary["processed"]} | '
+          f'{summary["predicted"]} | {skipped} {summary.get("skipped", {})} | '
+          f'{summary["held_out"]} | '
+          + ', '.join(f'{v:.3g}' for v in summary['validation_nmse'] or [])
+          + f' | {summary["validation_nmse_total"]:.3g} | {summary["seconds"]:.0f} s, load '
+          f'{os.getloadavg()[0]:.1f} |')
+    print(f'prequential NMSE per joint: {summary["nmse"]}', file=sys.stderr)
+    return 0
+
+
+if __name__ == '__main__':
+    raise SystemExit(main())
