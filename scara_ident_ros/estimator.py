@@ -24,15 +24,16 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any, Protocol, runtime_checkable
+from typing import Any, Protocol, TypeVar, runtime_checkable
 
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ['Estimator', 'OnlineEstimator', 'load_model', 'register_kind', 'registered_kinds',
-           'r2_score']
+__all__ = ['Estimator', 'OnlineEstimator', 'SavedEstimator', 'load_model', 'r2_score',
+           'register_kind', 'registered_kinds']
 
 FloatArray = npt.NDArray[np.float64]
+_S = TypeVar('_S', bound='SavedEstimator')
 
 
 @runtime_checkable
@@ -83,6 +84,68 @@ class OnlineEstimator(Estimator, Protocol):
     def partial_fit(self, X: npt.ArrayLike, Y: npt.ArrayLike) -> FloatArray:
         """Predict Y (N, n) from X (N, 3n), then learn the samples; returns the predictions
         made before learning."""
+
+
+class SavedEstimator:
+    """What a model file's learner shares: its kind, :attr:`metadata`, the score, the file
+    round trip and the names recorded in the metadata.
+
+    A subclass sets :attr:`kind` and writes ``to_arrays()`` and the classmethod
+    ``from_arrays(arrays, *, source)``; :meth:`save` and :meth:`load` go through
+    :func:`~scara_ident_ros.nn.model_file.write_model` and ``read_model_file(kind=...)``.
+    """
+
+    kind: str = ''
+    metadata: dict[str, np.ndarray]
+
+    def to_arrays(self) -> dict[str, np.ndarray]:  # pragma: no cover - each model's own
+        raise NotImplementedError
+
+    @classmethod
+    def from_arrays(cls: type[_S], arrays: dict[str, np.ndarray], *,
+                    source: str) -> _S:  # pragma: no cover - each model's own
+        raise NotImplementedError
+
+    def predict(self, X: npt.ArrayLike) -> FloatArray:  # pragma: no cover - each model's own
+        raise NotImplementedError
+
+    def score(self, X: npt.ArrayLike, Y: npt.ArrayLike) -> float:
+        """1 − mean NMSE over the joints (:func:`r2_score`)."""
+        return r2_score(Y, self.predict(X))
+
+    def save(self, path: str | Path) -> None:
+        """Write the model (its :attr:`kind`) with its :attr:`metadata`, atomically."""
+        from scara_ident_ros.nn.model_file import write_model
+
+        write_model(path, self.to_arrays(), self.metadata, kind=self.kind)
+
+    @classmethod
+    def load(cls: type[_S], path: str | Path) -> _S:
+        """Read a model written by :meth:`save`.
+
+        Raises
+        ------
+        scara_ident_ros.nn.ModelFormatError
+            If the file is not a model of this kind or is corrupt.
+        """
+        from scara_ident_ros.nn.model_file import read_model_file
+
+        file = read_model_file(path, kind=cls.kind)
+        model = cls.from_arrays(file.arrays, source=str(path))
+        model.metadata = file.metadata
+        return model
+
+    @property
+    def method(self) -> str:
+        """The method key: ``metadata['method']`` if recorded, else the kind."""
+        method = self.metadata.get('method')
+        return self.kind if method is None else str(method)
+
+    @property
+    def joint_names(self) -> tuple[str, ...] | None:
+        """The joints in output order, if recorded in :attr:`metadata`."""
+        names = self.metadata.get('joint_names')
+        return None if names is None else tuple(str(s) for s in np.atleast_1d(names))
 
 
 def r2_score(Y: npt.ArrayLike, prediction: npt.ArrayLike) -> float:

@@ -42,7 +42,6 @@ with the budget at every row (1.15 GB; 7-11 ms per sample at 4,000 points, 24-98
 from __future__ import annotations
 
 import operator
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -50,9 +49,8 @@ import numpy.typing as npt
 from scipy.linalg import LinAlgError, solve_triangular
 from scipy.linalg.lapack import dpotrf
 
-from scara_ident_ros.estimator import r2_score, register_kind
+from scara_ident_ros.estimator import SavedEstimator, register_kind
 from scara_ident_ros.nn.errors import ModelFormatError
-from scara_ident_ros.nn.model_file import read_model_file, write_model
 
 __all__ = ['BUDGET', 'KIND', 'LENGTHS', 'MIN_VARIANCE', 'NOISES', 'SELECT_SAMPLES',
            'VAL_BLOCK', 'WARMUP', 'ExactGP', 'choose_kernel', 'rbf']
@@ -135,7 +133,7 @@ def choose_kernel(u: np.ndarray, t: np.ndarray, *, lengths: tuple[float, ...] = 
     return length, noise, scores
 
 
-class ExactGP:
+class ExactGP(SavedEstimator):
     """Exact GP regression of joint efforts: one kernel, one Cholesky, weights per joint.
 
     Parameters
@@ -302,23 +300,6 @@ class ExactGP:
                                             self.length_) @ alpha
         return out * self.y_scale_ + self.y_mean_
 
-    def score(self, X: npt.ArrayLike, Y: npt.ArrayLike) -> float:
-        """1 − mean NMSE over the joints (:func:`~scara_ident_ros.estimator.r2_score`)."""
-        return r2_score(Y, self.predict(X))
-
-    def save(self, path: str | Path) -> None:
-        """Write the model (kind ``'gp'``: points, efforts, α; not the factor, which
-        :meth:`partial_fit` recomputes after :meth:`load` if needed), atomically."""
-        write_model(path, self.to_arrays(), self.metadata, kind=KIND)
-
-    @classmethod
-    def load(cls, path: str | Path) -> ExactGP:
-        """Read a model written by :meth:`save` (``ModelFormatError`` if it is not one)."""
-        file = read_model_file(path, kind=KIND)
-        model = cls.from_arrays(file.arrays, source=str(path))
-        model.metadata = file.metadata
-        return model
-
     # ------------------------------------------------------------------ state and kernel
     @property
     def n_inputs(self) -> int:
@@ -331,18 +312,6 @@ class ExactGP:
         """Number of joints n (after the first data)."""
         self._need_ready()
         return self.n_outputs_
-
-    @property
-    def method(self) -> str:
-        """The method key: ``metadata['method']`` if recorded, else ``'gp'``."""
-        method = self.metadata.get('method')
-        return KIND if method is None else str(method)
-
-    @property
-    def joint_names(self) -> tuple[str, ...] | None:
-        """The joints in output order, if recorded in :attr:`metadata`."""
-        names = self.metadata.get('joint_names')
-        return None if names is None else tuple(str(s) for s in np.atleast_1d(names))
 
     def set_kernel(self, X: npt.ArrayLike, Y: npt.ArrayLike) -> ExactGP:
         """Set the standardisation from X (N, 3n), Y (N, n) and the kernel (the given one,

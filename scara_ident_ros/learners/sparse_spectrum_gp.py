@@ -38,7 +38,6 @@ than validation would on sparse subsets (the WAM's: 0.044 against 8e-5 for the e
 from __future__ import annotations
 
 import operator
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -46,12 +45,11 @@ import numpy.typing as npt
 from scipy.linalg import LinAlgError, cho_factor, cho_solve
 from scipy.linalg.blas import dsymv, dsyr
 
-from scara_ident_ros.estimator import r2_score, register_kind
+from scara_ident_ros.estimator import SavedEstimator, register_kind
 from scara_ident_ros.learners.ard_hyperparameters import (HYPER_SAMPLES, ArdHyperparameters,
                                                           fit_ard_hyperparameters,
                                                           scale_hyperparameters)
 from scara_ident_ros.nn.errors import ModelFormatError
-from scara_ident_ros.nn.model_file import read_model_file, write_model
 
 __all__ = ['HYPERPARAMETER_SOURCES', 'KIND', 'N_FEATURES', 'REFRESH', 'SparseSpectrumGP']
 
@@ -66,7 +64,7 @@ _FLOAT_ARRAYS = ('x_mean', 'x_scale', 'y_mean', 'y_scale', 'length_scales', 'sig
                  'noise', 'omega', 'gram', 'moment')
 
 
-class SparseSpectrumGP:
+class SparseSpectrumGP(SavedEstimator):
     """Sparse-spectrum GP regression (random Fourier features) of joint efforts.
 
     Parameters
@@ -236,28 +234,6 @@ class SparseSpectrumGP:
                 std[:, g * k_out:(g + 1) * k_out] = np.sqrt(var)[:, None]
         return out * self.y_scale_ + self.y_mean_, std * self.y_scale_
 
-    def score(self, X: npt.ArrayLike, Y: npt.ArrayLike) -> float:
-        """1 − mean NMSE over the joints (:func:`~scara_ident_ros.estimator.r2_score`)."""
-        return r2_score(Y, self.predict(X))
-
-    def save(self, path: str | Path) -> None:
-        """Write the model (kind ``'kernel'``) with its :attr:`metadata`, atomically."""
-        write_model(path, self.to_arrays(), self.metadata, kind=KIND)
-
-    @classmethod
-    def load(cls, path: str | Path) -> SparseSpectrumGP:
-        """Read a model written by :meth:`save`.
-
-        Raises
-        ------
-        ModelFormatError
-            If the file is not a kernel model of ours or is corrupt.
-        """
-        file = read_model_file(path, kind=KIND)
-        model = cls.from_arrays(file.arrays, source=str(path))
-        model.metadata = file.metadata
-        return model
-
     # ------------------------------------------------------------------ state and kernel
     @property
     def n_inputs(self) -> int:
@@ -266,22 +242,10 @@ class SparseSpectrumGP:
         return self.n_inputs_
 
     @property
-    def method(self) -> str:
-        """The method key: ``metadata['method']`` if recorded, else ``'kernel'``."""
-        method = self.metadata.get('method')
-        return KIND if method is None else str(method)
-
-    @property
     def n_outputs(self) -> int:
         """Number of joints n (after the first data)."""
         self._need_ready()
         return self.n_outputs_
-
-    @property
-    def joint_names(self) -> tuple[str, ...] | None:
-        """The joints in output order, if recorded in :attr:`metadata`."""
-        names = self.metadata.get('joint_names')
-        return None if names is None else tuple(str(s) for s in np.atleast_1d(names))
 
     def set_kernel(self, X: npt.ArrayLike, Y: npt.ArrayLike,
                    hyper: ArdHyperparameters | None = None) -> SparseSpectrumGP:
