@@ -87,8 +87,8 @@ class OnlineEstimator(Estimator, Protocol):
 
 
 class SavedEstimator:
-    """What a model file's learner shares: its kind, :attr:`metadata`, the score, the file
-    round trip and the names recorded in the metadata.
+    """What a model file's learner shares: its kind, :attr:`metadata`, its sizes, the score,
+    the file round trip and the names recorded in the metadata.
 
     A subclass sets :attr:`kind` and writes ``to_arrays()`` and the classmethod
     ``from_arrays(arrays, *, source)``; :meth:`save` and :meth:`load` go through
@@ -134,6 +134,25 @@ class SavedEstimator:
         model = cls.from_arrays(file.arrays, source=str(path))
         model.metadata = file.metadata
         return model
+
+    n_inputs_: int
+    n_outputs_: int
+
+    def _need_ready(self) -> None:  # pragma: no cover - each model's own
+        """Raise if the model has seen no data yet (its sizes are unknown)."""
+        raise NotImplementedError
+
+    @property
+    def n_inputs(self) -> int:
+        """Number of inputs d = 3n (after the first data)."""
+        self._need_ready()
+        return self.n_inputs_
+
+    @property
+    def n_outputs(self) -> int:
+        """Number of joints n (after the first data)."""
+        self._need_ready()
+        return self.n_outputs_
 
     @property
     def method(self) -> str:

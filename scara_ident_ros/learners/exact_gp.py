@@ -301,18 +301,6 @@ class ExactGP(SavedEstimator):
         return out * self.y_scale_ + self.y_mean_
 
     # ------------------------------------------------------------------ state and kernel
-    @property
-    def n_inputs(self) -> int:
-        """Number of inputs d = 3n (after the first data)."""
-        self._need_ready()
-        return self.n_inputs_
-
-    @property
-    def n_outputs(self) -> int:
-        """Number of joints n (after the first data)."""
-        self._need_ready()
-        return self.n_outputs_
-
     def set_kernel(self, X: npt.ArrayLike, Y: npt.ArrayLike) -> ExactGP:
         """Set the standardisation from X (N, 3n), Y (N, n) and the kernel (the given one,
         or :func:`choose_kernel` on these rows); forgets what was learnt."""

@@ -235,18 +235,6 @@ class SparseSpectrumGP(SavedEstimator):
         return out * self.y_scale_ + self.y_mean_, std * self.y_scale_
 
     # ------------------------------------------------------------------ state and kernel
-    @property
-    def n_inputs(self) -> int:
-        """Number of inputs d = 3n (after the first data)."""
-        self._need_ready()
-        return self.n_inputs_
-
-    @property
-    def n_outputs(self) -> int:
-        """Number of joints n (after the first data)."""
-        self._need_ready()
-        return self.n_outputs_
-
     def set_kernel(self, X: npt.ArrayLike, Y: npt.ArrayLike,
                    hyper: ArdHyperparameters | None = None) -> SparseSpectrumGP:
         """Set the standardisation from X (N, 3n) and Y (N, n), the kernel (``hyper``, or
