@@ -1,7 +1,6 @@
 """PhysicalModel against Pinocchio's inverse dynamics, friction recovery, RLS, files."""
 from __future__ import annotations
 
-import importlib.metadata
 from pathlib import Path
 
 import numpy as np
@@ -20,33 +19,9 @@ from scara_ident_ros.identification.rls_trainer import RecursiveLeastSquaresTrai
 from scara_ident_ros.nn.presets import make_network
 from scara_ident_ros.nn import FeedForwardNet, ModelFormatError
 
-SCARA_URDF = Path(__file__).resolve().parents[2] / 'urdf' / 'scara.urdf'
+from physical_robots import SCARA_URDF, example_urdf, rnea, states  # test/
+
 PANDA_ARM = tuple(f'panda_joint{i}' for i in range(1, 8))
-
-
-def example_urdf(suffix: str) -> Path:
-    """A URDF of the installed example-robot-data, found through its file record."""
-    for file in importlib.metadata.files('example-robot-data') or ():
-        if str(file).endswith(suffix):
-            return Path(str(file.locate()))
-    raise FileNotFoundError(suffix)
-
-
-def states(rng: np.random.Generator, count: int, n: int,
-           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    return (rng.uniform(-1.0, 1.0, (count, n)), rng.normal(0.0, 1.5, (count, n)),
-            rng.normal(0.0, 5.0, (count, n)))
-
-
-def rnea(urdf: Path, joints: tuple[str, ...] | None, q: np.ndarray, qd: np.ndarray,
-         qdd: np.ndarray) -> np.ndarray:
-    """Pinocchio's inverse dynamics of the URDF, other joints locked at neutral."""
-    full = pin.buildModelFromUrdf(str(urdf))
-    lock = [full.getJointId(name) for name in list(full.names)[1:]
-            if joints is not None and name not in joints]
-    model = pin.buildReducedModel(full, lock, pin.neutral(full)) if lock else full
-    data = model.createData()
-    return np.array([pin.rnea(model, data, q[k], qd[k], qdd[k]) for k in range(q.shape[0])])
 
 
 @pytest.mark.parametrize('urdf, joints', [(SCARA_URDF, None),
