@@ -78,6 +78,7 @@ from scara_ident_ros.paths import unwritable_file
 
 if TYPE_CHECKING:
     from scara_ident_ros.identification.dataset import Dataset
+    from scara_ident_ros.estimator import Estimator
     from scara_ident_ros.nn import FitHistory
 
 __all__ = ['FRICTION_STEPS', 'GP_METHOD', 'GP_SAMPLES', 'HYBRID_NETWORK', 'ITERATIONS',
@@ -174,7 +175,6 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
 def run(args: argparse.Namespace) -> int:
     """Train and save; print the errors on the training and validation data."""
     from scara_ident_ros.blas_threads import single_blas_thread
-    from scara_ident_ros.cli.evaluation import errors_markdown, evaluate
     from scara_ident_ros.cli.progress import TrainingProgress
     from scara_ident_ros.identification.recording import load_recording, skipped_text
     from scara_ident_ros.identification.split import block_index, block_split
@@ -268,16 +268,28 @@ def run(args: argparse.Namespace) -> int:
 
     network.metadata.update(metadata)
     network.metadata.update(_network_metadata(args, history))
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    network.save(args.out)
+    return _save_and_report(
+        args, network, names, train, validation,
+        f'{args.method.upper()} trained with {args.algorithm.upper()}: '
+        f'{history.iterations} iterations in {seconds:.1f} s (stopped: '
+        f'{history.stop_reason}; weights of iteration {history.best_iteration})')
 
-    results = {'train': evaluate(network, train.X, train.Y)}
+
+def _save_and_report(args: argparse.Namespace, model: Estimator, names: Sequence[str],
+                     train: Dataset, validation: Dataset, summary: str, *extra: str) -> int:
+    """Write ``model`` to ``--out``, then print ``summary``, its errors on the training and
+    validation samples (a Markdown table) and the ``extra`` sections; exit status 0."""
+    from scara_ident_ros.cli.evaluation import errors_markdown, evaluate
+
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    model.save(args.out)
+    results = {'train': evaluate(model, train.X, train.Y)}
     if len(validation):
-        results['validation'] = evaluate(network, validation.X, validation.Y)
-    print(f'\n{args.method.upper()} trained with {args.algorithm.upper()}: '
-          f'{history.iterations} iterations in {seconds:.1f} s (stopped: '
-          f'{history.stop_reason}; weights of iteration {history.best_iteration})\n')
+        results['validation'] = evaluate(model, validation.X, validation.Y)
+    print(f'\n{summary}\n')
     print(errors_markdown(names, results))
+    for section in extra:
+        print(section)
     print(f'model written to {args.out}')
     return 0
 
@@ -288,7 +300,6 @@ def _train_kernel(args: argparse.Namespace, names: Sequence[str], train: Dataset
     sample (its kernel from an exact GP on 1500 of them); ``--method gp``: the exact GP on
     the training samples (its kernel by validation); save and print the errors."""
     from scara_ident_ros.blas_threads import single_blas_thread
-    from scara_ident_ros.cli.evaluation import errors_markdown, evaluate
     from scara_ident_ros.learners import ExactGP, SparseSpectrumGP
 
     started = time.perf_counter()
@@ -306,15 +317,8 @@ def _train_kernel(args: argparse.Namespace, names: Sequence[str], train: Dataset
         what = f'KERNEL ({model.n_features} random features)'
     seconds = time.perf_counter() - started
     model.metadata.update(metadata)
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    model.save(args.out)
-    results = {'train': evaluate(model, train.X, train.Y)}
-    if len(validation):
-        results['validation'] = evaluate(model, validation.X, validation.Y)
-    print(f'\n{what} fitted in {seconds:.1f} s\n')
-    print(errors_markdown(names, results))
-    print(f'model written to {args.out}')
-    return 0
+    return _save_and_report(args, model, names, train, validation,
+                            f'{what} fitted in {seconds:.1f} s')
 
 
 def _network_metadata(args: argparse.Namespace, history: FitHistory) -> dict[str, np.ndarray]:
@@ -364,7 +368,6 @@ def _train_physical(args: argparse.Namespace, names: Sequence[str], every_train:
     from scara_ident_ros.dynamics.coulomb_selection import select_coulomb
     from scara_ident_ros.dynamics.hybrid_model import HybridModel
     from scara_ident_ros.dynamics.physical_model import PhysicalModel
-    from scara_ident_ros.cli.evaluation import errors_markdown, evaluate
     from scara_ident_ros.cli.physical_parameters import parameters_markdown
     from scara_ident_ros.identification.split import alternate_blocks, block_index
     from scara_ident_ros.cli.progress import TrainingProgress
@@ -445,13 +448,5 @@ def _train_physical(args: argparse.Namespace, names: Sequence[str], every_train:
                    f'{", ".join(n for n, g in zip(names, model.gate) if g) or "no joint"}')
     metadata.update({'coulomb': np.array(coulomb), 'coulomb_eps': np.array(eps)})
     model.metadata.update(metadata)
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    model.save(args.out)
-    results = {'train': evaluate(model, train.X, train.Y)}
-    if len(validation):
-        results['validation'] = evaluate(model, validation.X, validation.Y)
-    print(f'\n{summary}\n')
-    print(errors_markdown(names, results))
-    print(parameters_markdown(physical))
-    print(f'model written to {args.out}')
-    return 0
+    return _save_and_report(args, model, names, train, validation, summary,
+                            parameters_markdown(physical))
