@@ -29,8 +29,8 @@ from typing import Any, Protocol, TypeVar, runtime_checkable
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ['Estimator', 'OnlineEstimator', 'SavedEstimator', 'load_model', 'r2_score',
-           'register_kind', 'registered_kinds']
+__all__ = ['Estimator', 'OnlineEstimator', 'SavedEstimator', 'check_samples', 'load_model',
+           'r2_score', 'register_kind', 'registered_kinds']
 
 FloatArray = npt.NDArray[np.float64]
 _S = TypeVar('_S', bound='SavedEstimator')
@@ -165,6 +165,37 @@ class SavedEstimator:
         """The joints in output order, if recorded in :attr:`metadata`."""
         names = self.metadata.get('joint_names')
         return None if names is None else tuple(str(s) for s in np.atleast_1d(names))
+
+
+def check_samples(X: npt.ArrayLike, Y: npt.ArrayLike, shape: tuple[int, int] | None = None
+                  ) -> tuple[FloatArray, FloatArray]:
+    """X (N, d) and Y (N, n) as float64 arrays (Y of shape (N,) as (N, 1)), checked.
+
+    Parameters
+    ----------
+    X, Y : array_like
+        Inputs and efforts, N >= 1 rows each.
+    shape : (int, int), optional
+        The (d, n) a model already maps; None for its first data.
+
+    Raises
+    ------
+    ValueError
+        For other shapes, or values that are not finite.
+    """
+    x = np.asarray(X, dtype=np.float64)
+    y = np.asarray(Y, dtype=np.float64)
+    if y.ndim == 1:
+        y = y[:, None]
+    if x.ndim != 2 or y.ndim != 2 or x.shape[0] != y.shape[0] or x.shape[0] < 1:
+        raise ValueError(f'need X (N, d) and Y (N, n) with N >= 1; got {x.shape} '
+                         f'and {y.shape}')
+    if shape is not None and (x.shape[1], y.shape[1]) != shape:
+        raise ValueError(f'the model maps {shape[0]} inputs to {shape[1]} outputs; '
+                         f'got X {x.shape} and Y {y.shape}')
+    if not (np.all(np.isfinite(x)) and np.all(np.isfinite(y))):
+        raise ValueError('X and Y must be finite')
+    return x, y
 
 
 def r2_score(Y: npt.ArrayLike, prediction: npt.ArrayLike) -> float:

@@ -49,7 +49,7 @@ import numpy.typing as npt
 from scipy.linalg import LinAlgError, solve_triangular
 from scipy.linalg.lapack import dpotrf
 
-from scara_ident_ros.estimator import SavedEstimator, register_kind
+from scara_ident_ros.estimator import SavedEstimator, check_samples, register_kind
 from scara_ident_ros.nn.errors import ModelFormatError
 
 __all__ = ['BUDGET', 'KIND', 'LENGTHS', 'MIN_VARIANCE', 'NOISES', 'SELECT_SAMPLES',
@@ -387,22 +387,10 @@ class ExactGP(SavedEstimator):
 
     def _check(self, X: npt.ArrayLike, Y: npt.ArrayLike, *, first: bool
                ) -> tuple[np.ndarray, np.ndarray]:
-        x = np.asarray(X, dtype=np.float64)
-        y = np.asarray(Y, dtype=np.float64)
-        if y.ndim == 1:
-            y = y[:, None]
-        if x.ndim != 2 or y.ndim != 2 or x.shape[0] != y.shape[0] or x.shape[0] < 1:
-            raise ValueError(f'need X (N, d) and Y (N, n) with N >= 1; got {x.shape} '
-                             f'and {y.shape}')
-        if not first:
-            shape = ((self.n_inputs_, self.n_outputs_) if self._ready else
-                     (len(self._buffer[0][0]), len(self._buffer[0][1])))
-            if (x.shape[1], y.shape[1]) != shape:
-                raise ValueError(f'the model maps {shape[0]} inputs to {shape[1]} outputs; '
-                                 f'got X {x.shape} and Y {y.shape}')
-        if not (np.all(np.isfinite(x)) and np.all(np.isfinite(y))):
-            raise ValueError('X and Y must be finite')
-        return x, y
+        shape = None if first else (
+            (self.n_inputs_, self.n_outputs_) if self._ready else
+            (len(self._buffer[0][0]), len(self._buffer[0][1])))
+        return check_samples(X, Y, shape)
 
     def _standardise(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return (x - self.x_mean_) / self.x_scale_, (y - self.y_mean_) / self.y_scale_

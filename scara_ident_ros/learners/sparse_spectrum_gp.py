@@ -45,7 +45,7 @@ import numpy.typing as npt
 from scipy.linalg import LinAlgError, cho_factor, cho_solve
 from scipy.linalg.blas import dsymv, dsyr
 
-from scara_ident_ros.estimator import SavedEstimator, register_kind
+from scara_ident_ros.estimator import SavedEstimator, check_samples, register_kind
 from scara_ident_ros.learners.ard_hyperparameters import (HYPER_SAMPLES, ArdHyperparameters,
                                                           fit_ard_hyperparameters,
                                                           scale_hyperparameters)
@@ -349,19 +349,7 @@ class SparseSpectrumGP(SavedEstimator):
 
     def _check(self, X: npt.ArrayLike, Y: npt.ArrayLike, *, first: bool
                ) -> tuple[np.ndarray, np.ndarray]:
-        x = np.asarray(X, dtype=np.float64)
-        y = np.asarray(Y, dtype=np.float64)
-        if y.ndim == 1:
-            y = y[:, None]
-        if x.ndim != 2 or y.ndim != 2 or x.shape[0] != y.shape[0] or x.shape[0] < 1:
-            raise ValueError(f'need X (N, d) and Y (N, n) with N >= 1; got {x.shape} '
-                             f'and {y.shape}')
-        if not first and (x.shape[1] != self.n_inputs_ or y.shape[1] != self.n_outputs_):
-            raise ValueError(f'the model maps {self.n_inputs_} inputs to {self.n_outputs_} '
-                             f'outputs; got X {x.shape} and Y {y.shape}')
-        if not (np.all(np.isfinite(x)) and np.all(np.isfinite(y))):
-            raise ValueError('X and Y must be finite')
-        return x, y
+        return check_samples(X, Y, None if first else (self.n_inputs_, self.n_outputs_))
 
     def _features(self, x: np.ndarray) -> np.ndarray:
         """Features (G, N, D) of physical inputs x (N, d)."""
