@@ -30,7 +30,8 @@ validated on samples neither part learnt from (:meth:`HybridModel.validate_gate`
 (clipped to [0, 1]: a correction that is partly noise is shrunk), and withheld (gate 0) on
 each joint where its gain is not shown: the gain is measured block by block, each block
 with the scale fitted on the others, and its mean over the blocks must exceed
-:data:`GATE_MARGIN` standard errors. On a real arm a residual network that helps on the
+t(1 − :data:`GATE_LEVEL`, B − 1) standard errors (a one-sided paired t-test over the B
+blocks). On a real arm a residual network that helps on the
 training motion can make another motion worse on some joints, and a few validation blocks
 can all agree by chance: on the TX40, a gate that kept a correction lowering the error in
 each of 3 validation blocks still left the hybrid worse than its physical part on held-out
@@ -56,6 +57,7 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from scipy.stats import t as student_t
 
 from scara_ident_ros.dynamics.physical_model import PhysicalModel
 from scara_ident_ros.estimator import r2_score, register_kind
@@ -66,7 +68,7 @@ from scara_ident_ros.nn.presets import make_network
 from scara_ident_ros.nn.model_file import NETWORK_PREFIX, read_model_file, write_model
 from scara_ident_ros.nn.training import Callback
 
-__all__ = ['GATE_CHUNKS', 'GATE_MARGIN', 'HybridModel', 'KIND', 'RESIDUAL_SHARE',
+__all__ = ['GATE_CHUNKS', 'GATE_LEVEL', 'HybridModel', 'KIND', 'RESIDUAL_SHARE',
            'fit_hybrid', 'gate_errors', 'gate_scales', 'online_hybrid', 'start_at_zero']
 
 FloatArray = NDArray[np.float64]
@@ -75,9 +77,10 @@ KIND = 'hybrid'  #: the model file's kind
 #: a fraction of the effort; online its range is not known in advance).
 RESIDUAL_SHARE = 0.25
 _PHYSICAL_PREFIX = 'physical.'
-#: Standard errors by which a correction's mean held-out gain over blocks must exceed 0
-#: for the gate to keep it (:func:`gate_scales`).
-GATE_MARGIN = 1.0
+#: Level of the gate's one-sided paired t-test: a correction is kept on a joint if its mean
+#: held-out gain over B blocks exceeds t(1 − level, B − 1) standard errors
+#: (:func:`gate_scales`; benchmarks/physical_real.md).
+GATE_LEVEL = 0.1
 #: Runs of consecutive rows a gate cuts held-out samples without blocks into.
 GATE_CHUNKS = 5
 
@@ -218,7 +221,7 @@ class HybridModel:
         return np.clip(out, self.bounds[0], self.bounds[1])
 
     def validate_gate(self, X: ArrayLike, Y: ArrayLike, *, groups: ArrayLike | None = None,
-                      margin: float | None = None) -> tuple[FloatArray, FloatArray]:
+                      level: float = GATE_LEVEL) -> tuple[FloatArray, FloatArray]:
         """Set :attr:`gate` on held-out samples: per joint the scale in [0, 1] of the
         correction that the samples support (:func:`gate_scales`), 0 where its cross-validated
         gain is not significantly positive.
@@ -232,8 +235,8 @@ class HybridModel:
         groups : array_like of shape (N,), optional
             A label per sample: its time block. Without, the rows are cut into
             :data:`GATE_CHUNKS` runs of consecutive rows.
-        margin : float, optional
-            :func:`gate_scales`'s (default :data:`GATE_MARGIN`).
+        level : float
+            :func:`gate_scales`'s.
 
         Returns
         -------
@@ -254,8 +257,7 @@ class HybridModel:
                              f'{self.n_outputs}), N > 0; got {x.shape} and {y.shape}')
         residual = y - self.physical.predict(x)
         correction = self.raw_correction(x)
-        self.gate = gate_scales(correction, residual, groups,
-                                margin=GATE_MARGIN if margin is None else margin)
+        self.gate = gate_scales(correction, residual, groups, level=level)
         return gate_errors(correction, residual)
 
     def partial_fit(self, X: FloatArray, Y: FloatArray) -> FloatArray:
@@ -326,7 +328,7 @@ register_kind(KIND, HybridModel.load)
 
 def gate_scales(correction: ArrayLike, residual: ArrayLike,
                 groups: ArrayLike | None = None, *,
-                margin: float = GATE_MARGIN) -> FloatArray:
+                level: float = GATE_LEVEL) -> FloatArray:
     """The gate per joint: the scale in [0, 1] of ``correction`` that held-out samples
     support, 0 where its gain is not significantly positive.
 
@@ -335,9 +337,10 @@ def gate_scales(correction: ArrayLike, residual: ArrayLike,
     blocks as the held-out data will be: for each block b the scale is refitted on the
     other blocks (s₋b) and the block's gain is its mean squared error without correction
     minus with s₋b times it. The correction is kept on a joint only if the mean gain over
-    the B blocks exceeds ``margin`` standard errors of that mean (a one-sided paired test
-    over blocks; a few blocks of a real arm's motion differ more than their samples do). With
-    a single block, the gain is that of s on it.
+    the B blocks exceeds t(1 − ``level``, B − 1) standard errors of that mean: a one-sided
+    paired t-test over blocks at that level (blocks, not samples: a few blocks of a real
+    arm's motion differ more than their samples do, and neighbouring samples are nearly
+    equal). With a single block there is no test: s.
 
     Parameters
     ----------
@@ -348,8 +351,8 @@ def gate_scales(correction: ArrayLike, residual: ArrayLike,
     groups : array_like of shape (N,), optional
         Each sample's block (e.g. its time block); default :data:`GATE_CHUNKS` runs of
         consecutive rows (rows in time order).
-    margin : float
-        Standard errors by which the mean gain must exceed 0 (0: a positive mean gain).
+    level : float
+        The test's level, in (0, 1) (0.5: a positive mean gain is enough).
 
     Returns
     -------
@@ -359,8 +362,10 @@ def gate_scales(correction: ArrayLike, residual: ArrayLike,
     Raises
     ------
     ValueError
-        If the shapes differ or there are no samples.
+        If the shapes differ, there are no samples or the level is outside (0, 1).
     """
+    if not 0.0 < level < 1.0:
+        raise ValueError(f'the gate\'s test level must be in (0, 1), got {level}')
     c = np.atleast_2d(np.asarray(correction, dtype=np.float64))
     r = np.atleast_2d(np.asarray(residual, dtype=np.float64))
     if c.shape != r.shape or c.shape[0] == 0:
@@ -392,6 +397,7 @@ def gate_scales(correction: ArrayLike, residual: ArrayLike,
     gain = (2.0 * others * rc - others ** 2 * cc) / counts  # MSE without minus with
     mean = gain.mean(axis=0)
     error = gain.std(axis=0, ddof=1) / np.sqrt(n_blocks)
+    margin = float(student_t.ppf(1.0 - level, n_blocks - 1))
     keep = (mean > 0.0) & (mean > margin * error)
     return np.where(keep, every, 0.0)
 

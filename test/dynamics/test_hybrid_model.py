@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from scara_ident_ros.dynamics.hybrid_model import (GATE_MARGIN, HybridModel, fit_hybrid,
+from scara_ident_ros.dynamics.hybrid_model import (GATE_LEVEL, HybridModel, fit_hybrid,
                                                    gate_scales)
 from scara_ident_ros.dynamics.physical_model import PhysicalModel
 from scara_ident_ros.nn import ModelFormatError
@@ -43,7 +43,7 @@ def test_the_scale_is_least_squares_within_0_and_1() -> None:
 
 
 def test_a_gain_in_few_blocks_is_not_enough() -> None:
-    """The mean gain over blocks must exceed GATE_MARGIN standard errors: a correction that
+    """The mean gain over blocks must pass a one-sided t-test: a correction that
     helps a lot in one block and hurts in the others is withheld; one that helps a little
     in every block is kept."""
     rng = np.random.default_rng(2)
@@ -67,7 +67,9 @@ def test_a_gain_in_few_blocks_is_not_enough() -> None:
         gate_scales(correction, residual, blocks[:10])
     with pytest.raises(ValueError, match='one shape'):
         gate_scales(correction[:, :1], residual)
-    assert GATE_MARGIN > 0.0
+    with pytest.raises(ValueError, match='level'):
+        gate_scales(correction, residual, blocks, level=0.0)
+    assert 0.0 < GATE_LEVEL < 0.5
 
 
 def test_the_gate_withholds_a_residual_that_makes_held_out_data_worse(tmp_path: Path
@@ -84,9 +86,9 @@ def test_the_gate_withholds_a_residual_that_makes_held_out_data_worse(tmp_path: 
     # joint 0: an effect the physical model has no column for, that flips after training
     tau[:, 0] += np.where(np.arange(900) < 400, 1.0, -1.0) * np.sin(3.0 * q[:, 0])
     x = np.hstack([q, qd, qdd])
-    hybrid, _ = fit_hybrid(physical, make_network('ffs', 4, n_hidden=10),
-                           (x[:400], tau[:400]), iterations=40, min_iterations=40,
-                           max_fail=40)
+    hybrid, _ = fit_hybrid(physical, make_network('ffs', 4, n_hidden=8),
+                           (x[:400], tau[:400]), iterations=15, min_iterations=15,
+                           max_fail=15)
     validation, held = slice(400, 650), slice(650, 900)
     hybrid.validate_gate(x[validation], tau[validation],
                          groups=np.repeat(np.arange(5), 50))
