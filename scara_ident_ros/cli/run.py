@@ -247,7 +247,7 @@ def _summary(methods: list[str], stats: Path, bag: Path, out: Path,
         rows[name] = {
             'trainer': info.get('trainer'),
             **stream_use(published, info),
-            'learned': info.get('learned'), 'held_out': info.get('held_out'),
+            'learnt': info.get('learnt'), 'held_out': info.get('held_out'),
             'updates': info.get('updates'), 'updates_per_s': info.get('updates_per_s'),
             'mse_total': info.get('mse_total'), 'nmse_total': info.get('nmse_total'),
             'mse': info.get('mse'), 'nmse': info.get('nmse'),
@@ -297,7 +297,7 @@ def _print_summary(summary: dict[str, Any]) -> None:
     if (js['publishers'] or 0) > 1:
         print(f"WARNING: {js['publishers']} publishers on /joint_states during the run: "
               "another graph's samples are mixed with this run's in the bag and the models")
-    print('\n| method | trainer | predicted | skipped | lost | not drained | learned '
+    print('\n| method | trainer | predicted | skipped | lost | not drained | learnt '
           '| held out | updates (/s) | identified_torque published | recorded '
           '| final MSE (windowed) | final NMSE | validation NMSE |')
     print('|---|---|---|---|---|---|---|---|---|---|---|---|---|---|')
@@ -307,7 +307,7 @@ def _print_summary(summary: dict[str, Any]) -> None:
             updates += f" ({row['updates_per_s']:.1f})"
         print(f"| {name.upper()} | {_fmt(row['trainer'])} | {_fmt(row['predicted'])} | "
               f"{_fmt(sum(row['skipped'].values()))} | {_fmt(row['lost'])} | "
-              f"{_fmt(row['not_drained'])} | {_fmt(row['learned'])} | "
+              f"{_fmt(row['not_drained'])} | {_fmt(row['learnt'])} | "
               f"{_fmt(row['held_out'])} | {updates} | {_fmt(row['published'])} | "
               f"{_fmt(row['recorded'])} | {_fmt(row['mse_total'])} | "
               f"{_fmt(row['nmse_total'])} | {_fmt(row['validation_nmse_total'])} |")
