@@ -27,7 +27,8 @@ from typing import Any
 
 from scara_ident_ros.identification.skip_reason import SkipReason
 
-__all__ = ['HealthFigures', 'LearningFigures', 'MethodReport', 'SkipCounts', 'StreamFigures']
+__all__ = ['ContactState', 'HealthFigures', 'LearningFigures', 'MethodReport', 'SkipCounts',
+           'StreamFigures']
 
 
 def _floats(values: Any) -> tuple[float, ...] | None:
@@ -243,6 +244,42 @@ class MethodReport:
 
 
 @dataclass(frozen=True)
+class ContactState:
+    """Contact detection's state for ``/diagnostics``.
+
+    Attributes
+    ----------
+    armed : bool
+        Whether detection is armed.
+    why_not : str
+        Why it is not armed ('' when armed).
+    thresholds : tuple of float, shape (n_joints,), or None
+        Per-joint thresholds on |measured − predicted − its median| (N·m or N).
+    false_alarms_per_hour : float or None
+        The false-alarm rate the held-out residuals' tail gives at the thresholds.
+    segments : float or None
+        Independent held-out segments the thresholds come from.
+    held : int
+        Samples not checked (since start): outside the calibrated envelope.
+    delay_p50_ms, delay_p99_ms : float or None
+        The decision's delay from the sample's stamp since the previous report (ms).
+    """
+
+    armed: bool = False
+    why_not: str = ''
+    thresholds: tuple[float, ...] | None = None
+    false_alarms_per_hour: float | None = None
+    segments: float | None = None
+    held: int = 0
+    delay_p50_ms: float | None = None
+    delay_p99_ms: float | None = None
+
+    def as_dict(self) -> dict[str, Any]:
+        """``identifier_health``'s ``contact_*`` keywords."""
+        return {f'contact_{f.name}': getattr(self, f.name) for f in dataclasses.fields(self)}
+
+
+@dataclass(frozen=True)
 class HealthFigures:
     """A method's figures for ``/diagnostics`` (the stream's counters are the node's).
 
@@ -265,8 +302,8 @@ class HealthFigures:
         Weight updates/s of a learner beside the stream.
     update_overdue_s : float or None
         Seconds such a learner's due update has waited.
-    contact : mapping of str to Any
-        Contact detection's state (``identifier_health``'s ``contact_*`` keywords).
+    contact : ContactState
+        Contact detection's state.
     contact_arm_nmse : float or None
         The held-out NMSE below which contact detection arms.
     """
@@ -280,7 +317,7 @@ class HealthFigures:
     learning: bool
     update_rate: float | None = None
     update_overdue_s: float | None = None
-    contact: Mapping[str, Any] = field(default_factory=dict)
+    contact: ContactState = field(default_factory=ContactState)
     contact_arm_nmse: float | None = None
 
     def as_dict(self) -> dict[str, Any]:
@@ -289,6 +326,6 @@ class HealthFigures:
         data = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)
                 if f.name not in ('skipped', 'contact')}
         data['skipped_total'] = self.skipped.total
-        data.update(self.contact)
+        data.update(self.contact.as_dict())
         return data
 

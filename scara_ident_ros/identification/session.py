@@ -37,8 +37,9 @@ from scara_ident_ros.identification.input_stage import Input
 from scara_ident_ros.identification.lazy_core import CoreSettings, LazyCore
 from scara_ident_ros.identification.metrics import ErrorStats
 from scara_ident_ros.identification.online_identifier import OnlineIdentifier, StepResult
-from scara_ident_ros.identification.reports import (HealthFigures, LearningFigures,
-                                                    MethodReport, SkipCounts, StreamFigures)
+from scara_ident_ros.identification.reports import (ContactState, HealthFigures,
+                                                    LearningFigures, MethodReport, SkipCounts,
+                                                    StreamFigures)
 from scara_ident_ros.identification.skip_reason import SkipReason
 from scara_ident_ros.identification.stream_clock import LagHistogram
 from scara_ident_ros.identification.reservoir_lm import ReservoirLM
@@ -238,7 +239,7 @@ class MethodRun:
         self.decisions.add(delay_ns)
         self.period_decisions.add(delay_ns)
 
-    def contact_health(self) -> dict[str, Any]:
+    def contact_health(self) -> ContactState:
         """Contact detection's state: armed, why not, the thresholds (N·m or N), the
         estimated false alarms per hour, the independent held-out segments, samples held
         outside the calibrated envelope, and the decision delay p50/p99 (ms) since the last
@@ -246,15 +247,14 @@ class MethodRun:
         detector = self.detector
         period, self.period_decisions = self.period_decisions, LagHistogram()
         if detector is None:
-            return {'contact_armed': False, 'contact_why_not': 'no model yet',
-                    'contact_thresholds': None}
+            return ContactState(why_not='no model yet')
         c = detector.calibration
-        return {'contact_armed': detector.armed, 'contact_why_not': c.why_not,
-                'contact_thresholds': None if c.thresholds is None else c.thresholds.tolist(),
-                'contact_false_alarms_per_hour': c.false_alarms_per_hour,
-                'contact_segments': c.independent, 'contact_held': detector.held,
-                'contact_delay_p50_ms': period.percentile_ms(50),
-                'contact_delay_p99_ms': period.percentile_ms(99)}
+        return ContactState(armed=detector.armed, why_not=c.why_not,
+                            thresholds=MethodReport.per_joint(c.thresholds),
+                            false_alarms_per_hour=c.false_alarms_per_hour,
+                            segments=c.independent, held=detector.held,
+                            delay_p50_ms=period.percentile_ms(50),
+                            delay_p99_ms=period.percentile_ms(99))
 
     def learning(self) -> LearningFigures | None:
         """How learning progresses: updates and their rate for a trainer beside the

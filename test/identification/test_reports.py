@@ -4,8 +4,9 @@ from __future__ import annotations
 import dataclasses
 import json
 
-from scara_ident_ros.identification.reports import (HealthFigures, LearningFigures,
-                                                    MethodReport, SkipCounts, StreamFigures)
+from scara_ident_ros.identification.reports import (ContactState, HealthFigures,
+                                                    LearningFigures, MethodReport, SkipCounts,
+                                                    StreamFigures)
 from scara_ident_ros.identification.skip_reason import SkipReason
 from scara_ident_ros.nodes.health import Level, identifier_health
 
@@ -77,11 +78,11 @@ def test_health_figures_are_the_keywords_of_identifier_health() -> None:
     figures = HealthFigures(processed=1000, learnt=900, skipped=SkipCounts({'gap': 2}),
                             period_worst_lag_ms=3.0, error_finite=True,
                             validation_nmse_total=0.05, learning=True,
-                            contact={'contact_armed': False, 'contact_why_not': 'no model yet',
-                                     'contact_thresholds': None})
+                            contact=ContactState(why_not='no model yet'))
     health = identifier_health(period_s=1.0, since_sample_s=0.001, lost=0,
                                recent_processed=1000, recent_skipped=0, recent_lost=0,
                                **figures.as_dict())
     assert health.level is Level.OK
     assert health.values['skipped'] == '2' and health.values['learnt'] == '900'
     assert health.values['lag [ms]'] == '3' and health.values['validation NMSE'] == '0.05'
+    assert health.values['contact detection'] == 'not armed (no model yet)'
