@@ -52,8 +52,9 @@ from scipy.linalg.lapack import dpotrf
 from scara_ident_ros.estimator import SavedEstimator, check_samples, register_kind
 from scara_ident_ros.nn.errors import ModelFormatError
 
-__all__ = ['BUDGET', 'KIND', 'LENGTHS', 'MIN_VARIANCE', 'NOISES', 'SELECT_SAMPLES',
-           'VAL_BLOCK', 'WARMUP', 'ExactGP', 'choose_kernel', 'rbf']
+__all__ = ['BUDGET', 'BUDGET_RULE', 'BUDGET_RULES', 'KIND', 'LENGTHS', 'MIN_VARIANCE',
+           'NOISES', 'SELECT_SAMPLES', 'VAL_BLOCK', 'WARMUP', 'ExactGP', 'choose_kernel',
+           'rbf']
 
 KIND = 'gp'  #: the model file's kind
 #: The grid: isotropic length on standardised inputs, noise variance of the standardised
@@ -61,6 +62,10 @@ KIND = 'gp'  #: the model file's kind
 LENGTHS = (1.0, 2.0, 3.5, 5.0, 8.0)
 NOISES = (1e-4, 1e-2)
 BUDGET = 4000  #: default online budget: points in the factor
+#: What ``partial_fit`` does once the budget is full: 'thin' keeps the points spread over
+#: the whole stream (module docstring), 'stop' only predicts (learns nothing more).
+BUDGET_RULES = ('thin', 'stop')
+BUDGET_RULE = 'thin'  #: the default rule
 WARMUP = 1000  #: default rows buffered online before the kernel is chosen
 #: Default online novelty threshold: on the WAM (budget 4000) SMSE 0.030 at 0.1 against
 #: 0.146 learning every sample until full, 0.081 at 0.02, 0.074 at 0.2 (realdata.md).
@@ -181,7 +186,7 @@ class ExactGP(SavedEstimator):
                  budget: int = BUDGET, warmup: int = WARMUP, skip_within: float = 0.0,
                  min_variance: float = MIN_VARIANCE,
                  select_samples: int = SELECT_SAMPLES, val_block: int = VAL_BLOCK,
-                 val_every: int = 10) -> None:
+                 val_every: int = 10, budget_rule: str = BUDGET_RULE) -> None:
         if (length is None) != (noise is None):
             raise ValueError('give both length and noise, or neither')
         if length is not None and not (length > 0.0 and noise is not None and noise > 0.0):
@@ -193,6 +198,9 @@ class ExactGP(SavedEstimator):
             raise ValueError(f'skip_within must be >= 0, got {skip_within}')
         if operator.index(val_block) < 1 or operator.index(val_every) < 2:
             raise ValueError('need val_block >= 1 and val_every >= 2')
+        if budget_rule not in BUDGET_RULES:
+            raise ValueError(f'budget_rule must be one of {", ".join(BUDGET_RULES)}, '
+                             f'got {budget_rule!r}')
         self.length = None if length is None else float(length)
         self.noise = None if noise is None else float(noise)
         self.budget = budget
@@ -202,10 +210,15 @@ class ExactGP(SavedEstimator):
         self.select_samples = operator.index(select_samples)
         self.val_block = int(val_block)
         self.val_every = int(val_every)
+        self.budget_rule = str(budget_rule)
         self.metadata: dict[str, np.ndarray] = {}
         self.selection_: dict[tuple[float, float], float] = {}
         self.n_points_ = 0
         self.n_seen_ = 0
+        self.stride_ = 1
+        self.n_evicted_ = 0
+        self._stream = 0  # stream position of the next partial_fit sample
+        self._positions = np.zeros(0, np.int64)  # stream position of each point
         self._ready = False
         self._buffer: list[tuple[np.ndarray, np.ndarray]] = []  # warm-up rows
         self._factor: np.ndarray | None = None   # L (capacity, capacity), lower rows
@@ -218,7 +231,7 @@ class ExactGP(SavedEstimator):
                 'warmup': self.warmup, 'skip_within': self.skip_within,
                 'min_variance': self.min_variance,
                 'select_samples': self.select_samples, 'val_block': self.val_block,
-                'val_every': self.val_every}
+                'val_every': self.val_every, 'budget_rule': self.budget_rule}
 
     def fit(self, X: npt.ArrayLike, Y: npt.ArrayLike) -> ExactGP:
         """Learn every sample of X (N, 3n), Y (N, n) in one Cholesky (not limited by the
@@ -247,6 +260,9 @@ class ExactGP(SavedEstimator):
         self._factor = lower
         self._points, self._targets = self._storage(capacity)
         self._points[:n], self._targets[:n] = u, t
+        self._positions = np.empty(capacity, np.int64)
+        self._positions[:n] = np.arange(n)
+        self._stream, self.stride_, self.n_evicted_ = n, 1, 0
         self.n_points_ = n
         self._beta = self._storage(capacity)[1]
         self._beta[:n] = self._forward(t)
@@ -280,7 +296,8 @@ class ExactGP(SavedEstimator):
             if self._factor is None:  # kernel set, nothing learnt yet
                 self._allocate()
             u, t = self._standardise(x[i:i + 1], y[i:i + 1])
-            out[i] = self._append(u[0], t[0]) * self.y_scale_ + self.y_mean_
+            out[i] = self._append(u[0], t[0], self._stream) * self.y_scale_ + self.y_mean_
+            self._stream += 1
         return out
 
     def predict(self, X: npt.ArrayLike) -> np.ndarray:
@@ -319,6 +336,8 @@ class ExactGP(SavedEstimator):
         self._factor = None
         self._alpha = None
         self.n_points_ = 0
+        self._stream, self.stride_, self.n_evicted_ = 0, 1, 0
+        self._positions = np.zeros(0, np.int64)
         return self
 
     def to_arrays(self) -> dict[str, np.ndarray]:
@@ -332,6 +351,9 @@ class ExactGP(SavedEstimator):
                           np.nan if self.noise is None else self.noise])
         return {'params': params, 'given': given, 'skip_within': np.array(self.skip_within),
                 'min_variance': np.array(self.min_variance),
+                'budget_rule': np.array(self.budget_rule),
+                'stream': np.array([self._stream, self.stride_, self.n_evicted_], np.int64),
+                'positions': self._positions[:n] if n else np.zeros(0, np.int64),
                 'kernel': np.array([self.length_, self.noise_]),
                 'x_mean': self.x_mean_, 'x_scale': self.x_scale_, 'y_mean': self.y_mean_,
                 'y_scale': self.y_scale_,
@@ -352,7 +374,10 @@ class ExactGP(SavedEstimator):
                         budget=budget, warmup=warmup,
                         skip_within=float(arrays['skip_within']),
                         min_variance=float(arrays['min_variance']), select_samples=select,
-                        val_block=val_block, val_every=val_every)
+                        val_block=val_block, val_every=val_every,
+                        # files written before the rule existed stopped when full
+                        budget_rule=str(arrays['budget_rule']) if 'budget_rule' in arrays
+                        else 'stop')
             values = {name: np.asarray(arrays[name], dtype=np.float64) for name in
                       ('kernel', 'x_mean', 'x_scale', 'y_mean', 'y_scale', 'points',
                        'targets', 'alpha')}
@@ -374,6 +399,14 @@ class ExactGP(SavedEstimator):
             model._points, model._targets = points, targets
             model._alpha = values['alpha']
             model.n_points_, model.n_seen_ = n, seen
+            positions = np.asarray(arrays.get('positions', np.arange(n)), dtype=np.int64)
+            stream, stride, evicted = (int(v) for v in arrays.get(
+                'stream', np.array([n, 1, 0])))
+            if positions.shape != (n,) or np.any(np.diff(positions) <= 0) or (
+                    n and not 0 <= positions[0] <= positions[-1] < stream) or stride < 1:
+                raise ValueError('positions must increase within the stream, stride >= 1')
+            model._positions, model._stream = positions, stream
+            model.stride_, model.n_evicted_ = stride, evicted
         except (KeyError, ValueError, TypeError) as exc:
             raise ModelFormatError(f'{source}: corrupt gp model: '
                                    f'{" ".join(str(exc).split())}') from None
@@ -403,8 +436,11 @@ class ExactGP(SavedEstimator):
         n = self.n_points_
         points = self._points[:n] if n else np.zeros((0, self.n_inputs_))
         targets = self._targets[:n] if n else np.zeros((0, self.n_outputs_))
+        positions = self._positions[:n].copy()
         self._points, self._targets = self._storage(max(self.budget, n))
         self._points[:n], self._targets[:n] = points, targets
+        self._positions = np.empty(max(self.budget, n), np.int64)
+        self._positions[:n] = positions
         self._beta = self._storage(max(self.budget, n))[1]
         self._factor = np.empty((max(self.budget, n),) * 2)
         if n:  # after load: refactor the points
@@ -416,8 +452,9 @@ class ExactGP(SavedEstimator):
             self._factor[:n, :n] = factor
             self._beta[:n] = self._forward(targets)
 
-    def _append(self, u: np.ndarray, t: np.ndarray) -> np.ndarray:
-        """Predict (standardised) and learn one sample; returns the prediction."""
+    def _append(self, u: np.ndarray, t: np.ndarray, position: int) -> np.ndarray:
+        """Predict (standardised) and learn one sample at stream ``position``; returns the
+        prediction made before learning."""
         n = self.n_points_
         assert self._factor is not None
         if n == 0:
@@ -425,8 +462,9 @@ class ExactGP(SavedEstimator):
             l_row = np.zeros(0)
         else:
             k = rbf(u[None, :], self._points[:n], self.length_)[0]
-            if n >= len(self._factor) or n >= self.budget:  # full: predict only, O(n)
-                return np.asarray(k @ self._weights())
+            full = n >= len(self._factor) or n >= self.budget
+            if (full and self.budget_rule == 'stop') or position % self.stride_:
+                return np.asarray(k @ self._weights())  # predict only, O(n)
             l_row = self._forward(k)
             prediction = l_row @ self._beta[:n]
         if (n and self.skip_within > 0.0 and np.all(
@@ -435,19 +473,84 @@ class ExactGP(SavedEstimator):
         diagonal = 1.0 + self.noise_ - float(l_row @ l_row)  # predictive variance
         if n and diagonal - self.noise_ < self.min_variance:  # covered by its neighbours
             return prediction
+        if n and full:  # 'thin': make room, then the row of the smaller factor
+            l_row = self._evict(self._oldest_odd(), k)
+            n = self.n_points_
+            diagonal = 1.0 + self.noise_ - float(l_row @ l_row)
         d = np.sqrt(max(diagonal, 1e-12 * self.noise_))
         self._factor[n, :n] = l_row
         self._factor[n, n] = d
         self._points[n], self._targets[n] = u, t
-        self._beta[n] = (t - prediction) / d
+        self._positions[n] = position
+        self._beta[n] = (t - l_row @ self._beta[:n]) / d
         self.n_points_ = n + 1
         self._alpha = None
+        if self.n_evicted_:  # thinning: no point at an odd multiple left: double the stride
+            positions = self._positions[:n + 1]
+            while (self.stride_ <= positions[-1]
+                   and not np.any((positions // self.stride_) % 2)):
+                self.stride_ *= 2
         return prediction
 
-    def _forward(self, b: np.ndarray) -> np.ndarray:
-        """L⁻¹ b for b (n,) or (n, k), blockwise on views of the factor (no n × n copy)."""
+    def _oldest_odd(self) -> int:
+        """Index of the oldest point whose stream position is an odd multiple of the
+        stride (doubling the stride while there is none)."""
+        positions = self._positions[:self.n_points_]
+        while self.stride_ <= positions[-1]:
+            odd = np.flatnonzero((positions // self.stride_) % 2)
+            if len(odd):
+                return int(odd[0])
+            self.stride_ *= 2
+        return 0  # not reached for distinct positions
+
+    def _evict(self, j: int, k: np.ndarray) -> np.ndarray:
+        """Remove point j from the model; returns L⁻¹ k of the smaller factor for the
+        kernel column k (n,) of the full one (point j left out).
+
+        The factor's rows below j move up one and their trailing block takes the rank-one
+        update L₃₃' L₃₃'ᵀ = L₃₃ L₃₃ᵀ + v vᵀ (v the column of j below it), in closed form:
+        with w = L₃₃⁻¹ v, τ_i = 1 + Σ_{m≤i} w_m², L₃₃' = L₃₃ L̃ where
+        L̃ = chol(I + w wᵀ) has diagonal √(τ_i / τ_{i−1}) and below it w_r w_c / √(τ_c τ_{c−1})
+        (Gill, Golub, Murray and Saunders 1974): column c of L₃₃' is
+        L₃₃[:, c] d_c + p_c Σ_{i>c} L₃₃[:, i] w_i, row blocks at a time, O((n − j)²).
+        """
         assert self._factor is not None
-        lower, n = self._factor, len(b)
+        lower, n = self._factor, self.n_points_
+        l_old = self._forward(k)
+        m = n - j - 1
+        if m:
+            w = self._forward(lower[j + 1:n, j].copy(), start=j + 1)
+            tau = 1.0 + np.cumsum(w * w)
+            before = np.concatenate(([1.0], tau[:-1]))
+            d, p = np.sqrt(tau / before), w / np.sqrt(tau * before)
+            for r0 in range(0, m, _BLOCK):
+                r1 = min(r0 + _BLOCK, m)
+                block = np.array(lower[j + 1 + r0:j + 1 + r1, j + 1:j + 1 + r1])
+                block[:, r0:] = np.tril(block[:, r0:])  # the garbage above the diagonal
+                weighted = block * w[:r1]
+                after = np.zeros_like(block)  # Σ_{i>c} L[r, i] w_i
+                after[:, :-1] = np.cumsum(weighted[:, :0:-1], axis=1)[:, ::-1]
+                lower[j + r0:j + r1, j:j + r1] = block * d[:r1] + after * p[:r1]
+            lower[j:n - 1, :j] = lower[j + 1:n, :j]
+        for rows in (self._points, self._targets, self._positions):
+            rows[j:n - 1] = rows[j + 1:n]
+        self.n_points_ = n = n - 1
+        self.n_evicted_ += 1
+        self._alpha = None
+        # β and L⁻¹ k: the rows before j stand; the rest is solved again on the new block
+        kept = np.delete(k, j)
+        rhs = np.column_stack([self._targets[j:n], kept[j:]]) - lower[j:n, :j] @ np.column_stack(
+            [self._beta[:j], l_old[:j]])
+        solved = self._forward(rhs, start=j)
+        self._beta[j:n] = solved[:, :-1]
+        return np.concatenate([l_old[:j], solved[:, -1]])
+
+    def _forward(self, b: np.ndarray, start: int = 0) -> np.ndarray:
+        """L⁻¹ b for b (n,) or (n, k), blockwise on views of the factor (no n × n copy);
+        with ``start``, the solve on the factor's trailing block from row ``start``."""
+        assert self._factor is not None
+        n = len(b)
+        lower = self._factor[start:start + n, start:start + n]
         out = np.array(b, dtype=np.float64)
         for r0 in range(0, n, _BLOCK):
             r1 = min(r0 + _BLOCK, n)
