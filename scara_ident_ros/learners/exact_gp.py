@@ -77,6 +77,7 @@ SELECT_SAMPLES = 3000  #: default rows (the first ones) the offline kernel is ch
 #: TIAGo 1.55 against 0.62): 50 meets the WAM's target and holds on both.
 VAL_BLOCK = 50
 _BLOCK = 512  # rows per block of the blockwise triangular solves
+_EVICT_PARTS = 8  # 'thin' evicts budget // 8 points at a time (one factorisation each)
 _CHUNK = 1024  # rows per block when filling a kernel matrix
 
 
@@ -148,6 +149,11 @@ class ExactGP(SavedEstimator):
         effort); by default both are chosen by :func:`choose_kernel`.
     budget : int, default 4000
         Online: most points in the factor (it is allocated at this size).
+    budget_rule : {'thin', 'stop'}, default 'thin'
+        Online, once ``budget`` points are held: 'thin' learns every ``stride_``-th sample
+        and evicts for each the oldest point at an odd multiple of the stride (the stride
+        doubles when none is left), so that the points stay spread evenly over the whole
+        stream; 'stop' only predicts.
     warmup : int, default 1000
         Online: rows buffered before the standardisation and kernel are set from them.
     skip_within : float, default 0.0
@@ -176,6 +182,10 @@ class ExactGP(SavedEstimator):
         Points in the model.
     n_seen_ : int
         Samples given to ``partial_fit`` (skipped ones included).
+    stride_ : int
+        Online, 'thin': samples at a multiple of it (stream position) are learnt.
+    n_evicted_ : int
+        Online, 'thin': points evicted to keep the budget.
     metadata : dict of str to ndarray
         Saved with the model.
     """
@@ -474,8 +484,9 @@ class ExactGP(SavedEstimator):
         if n and diagonal - self.noise_ < self.min_variance:  # covered by its neighbours
             return prediction
         if n and full:  # 'thin': make room, then the row of the smaller factor
-            l_row = self._evict(self._oldest_odd(), k)
+            self._evict()
             n = self.n_points_
+            l_row = self._forward(rbf(u[None, :], self._points[:n], self.length_)[0])
             diagonal = 1.0 + self.noise_ - float(l_row @ l_row)
         d = np.sqrt(max(diagonal, 1e-12 * self.noise_))
         self._factor[n, :n] = l_row
@@ -492,58 +503,43 @@ class ExactGP(SavedEstimator):
                 self.stride_ *= 2
         return prediction
 
-    def _oldest_odd(self) -> int:
-        """Index of the oldest point whose stream position is an odd multiple of the
-        stride (doubling the stride while there is none)."""
-        positions = self._positions[:self.n_points_]
-        while self.stride_ <= positions[-1]:
-            odd = np.flatnonzero((positions // self.stride_) % 2)
-            if len(odd):
-                return int(odd[0])
-            self.stride_ *= 2
-        return 0  # not reached for distinct positions
-
-    def _evict(self, j: int, k: np.ndarray) -> np.ndarray:
-        """Remove point j from the model; returns L⁻¹ k of the smaller factor for the
-        kernel column k (n,) of the full one (point j left out).
-
-        The factor's rows below j move up one and their trailing block takes the rank-one
-        update L₃₃' L₃₃'ᵀ = L₃₃ L₃₃ᵀ + v vᵀ (v the column of j below it), in closed form:
-        with w = L₃₃⁻¹ v, τ_i = 1 + Σ_{m≤i} w_m², L₃₃' = L₃₃ L̃ where
-        L̃ = chol(I + w wᵀ) has diagonal √(τ_i / τ_{i−1}) and below it w_r w_c / √(τ_c τ_{c−1})
-        (Gill, Golub, Murray and Saunders 1974): column c of L₃₃' is
-        L₃₃[:, c] d_c + p_c Σ_{i>c} L₃₃[:, i] w_i, row blocks at a time, O((n − j)²).
-        """
+    def _evict(self) -> None:
+        """Evict the ``budget // 8`` oldest points at an odd multiple of the stride (fewer
+        if fewer are left; the stride doubles when none is), then factor the points after
+        the first evicted one again: the rows before it stand, and with L₃₁ the kept rows'
+        columns before it, L₃₃ = chol(K₃₃ − L₃₁ L₃₁ᵀ), β₃ = L₃₃⁻¹ (T₃ − L₃₁ β₁)."""
         assert self._factor is not None
         lower, n = self._factor, self.n_points_
-        l_old = self._forward(k)
-        m = n - j - 1
-        if m:
-            w = self._forward(lower[j + 1:n, j].copy(), start=j + 1)
-            tau = 1.0 + np.cumsum(w * w)
-            before = np.concatenate(([1.0], tau[:-1]))
-            d, p = np.sqrt(tau / before), w / np.sqrt(tau * before)
-            for r0 in range(0, m, _BLOCK):
-                r1 = min(r0 + _BLOCK, m)
-                block = np.array(lower[j + 1 + r0:j + 1 + r1, j + 1:j + 1 + r1])
-                block[:, r0:] = np.tril(block[:, r0:])  # the garbage above the diagonal
-                weighted = block * w[:r1]
-                after = np.zeros_like(block)  # Σ_{i>c} L[r, i] w_i
-                after[:, :-1] = np.cumsum(weighted[:, :0:-1], axis=1)[:, ::-1]
-                lower[j + r0:j + r1, j:j + r1] = block * d[:r1] + after * p[:r1]
-            lower[j:n - 1, :j] = lower[j + 1:n, :j]
+        positions = self._positions[:n]
+        odd = np.zeros(0, np.int64)
+        while not len(odd) and self.stride_ <= positions[-1]:
+            odd = np.flatnonzero((positions // self.stride_) % 2)
+            if not len(odd):
+                self.stride_ *= 2
+        if not len(odd):  # not reached for distinct positions
+            odd = np.array([n - 1])
+        evicted = odd[:max(1, self.budget // _EVICT_PARTS)]
+        j = int(evicted[0])
+        tail = np.setdiff1d(np.arange(j, n), evicted)
+        m = len(tail)
         for rows in (self._points, self._targets, self._positions):
-            rows[j:n - 1] = rows[j + 1:n]
-        self.n_points_ = n = n - 1
-        self.n_evicted_ += 1
+            rows[j:j + m] = rows[tail]
+        if m:
+            outer = lower[tail, :j]  # a copy: L₃₁ of the kept rows
+            gram = rbf(self._points[j:j + m], self._points[j:j + m], self.length_)
+            gram[np.diag_indices(m)] += self.noise_
+            if j:
+                gram -= outer @ outer.T
+            factor, info = dpotrf(gram.T, lower=0, clean=0, overwrite_a=1)
+            if info:
+                raise LinAlgError(f'the kernel matrix is not positive definite (info {info})')
+            lower[j:j + m, :j] = outer
+            lower[j:j + m, j:j + m] = factor.T
+            rhs = self._targets[j:j + m] - outer @ self._beta[:j]
+            self._beta[j:j + m] = self._forward(rhs, start=j)
+        self.n_points_ = j + m
+        self.n_evicted_ += len(evicted)
         self._alpha = None
-        # β and L⁻¹ k: the rows before j stand; the rest is solved again on the new block
-        kept = np.delete(k, j)
-        rhs = np.column_stack([self._targets[j:n], kept[j:]]) - lower[j:n, :j] @ np.column_stack(
-            [self._beta[:j], l_old[:j]])
-        solved = self._forward(rhs, start=j)
-        self._beta[j:n] = solved[:, :-1]
-        return np.concatenate([l_old[:j], solved[:, -1]])
 
     def _forward(self, b: np.ndarray, start: int = 0) -> np.ndarray:
         """L⁻¹ b for b (n,) or (n, k), blockwise on views of the factor (no n × n copy);
