@@ -1,6 +1,7 @@
 """The exact GP: one pass of partial_fit equals fit on the same rows, each sample is
-predicted before it is learnt, the budget and the skips hold, validation picks the grid's
-best kernel, and its file round-trips through load_model."""
+predicted before it is learnt, the budget and the skips hold, the 'thin' budget rule keeps
+the points spread over the stream with the batch factor of the points kept, validation
+picks the grid's best kernel, and its file round-trips through load_model."""
 from __future__ import annotations
 
 from pathlib import Path
