@@ -51,7 +51,8 @@ def test_warmup_then_append_equals_fit() -> None:
 
 def test_predicts_before_learning_and_keeps_the_budget() -> None:
     x, y = data()
-    model = ExactGP(length=2.0, noise=1e-2, budget=150, warmup=100, min_variance=0.0)
+    model = ExactGP(length=2.0, noise=1e-2, budget=150, warmup=100, min_variance=0.0,
+                    budget_rule='stop')
     model.fit(x[:100], y[:100])
     expected = model.predict(x[100:101])
     np.testing.assert_allclose(model.partial_fit(x[100:101], y[100:101]), expected,
