@@ -33,6 +33,7 @@ import yaml
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from scara_ident_ros.bag.recording_file import read_recording  # noqa: E402
+from scara_ident_ros.identification.reports import MethodReport  # noqa: E402
 from scara_ident_ros.identification.session import IdentificationSession  # noqa: E402
 
 CONFIG = Path(__file__).resolve().parents[1] / 'config' / 'identifier.yaml'
@@ -45,7 +46,7 @@ def settings(changes: dict[str, Any]) -> dict[str, Any]:
 
 
 def run(path: str, changes: dict[str, Any], joints: list[str] | None, *,
-        live_velocity: bool = False) -> dict[str, Any]:
+        live_velocity: bool = False) -> tuple[MethodReport, float]:
     """Feed the recording at ``path`` sample by sample; return the session's summary.
 
     ``live_velocity``: a recording without velocities is fed without them (the input
@@ -65,8 +66,7 @@ def run(path: str, changes: dict[str, Any], joints: list[str] | None, *,
     session.flush()
     summary = session.summary(fresh=True)
     session.close()
-    summary['seconds'] = time.perf_counter() - start
-    return summary
+    return summary, time.perf_counter() - start
 
 
 def _value(text: str) -> Any:
@@ -87,18 +87,19 @@ def main() -> int:
     args = parser.parse_args()
     changes = {key: _value(value) for key, value in
                (item.split('=', 1) for item in args.set)}
-    summary = run(args.recording, changes, args.joints, live_velocity=args.live_velocity)
-    if 'predicted' not in summary:
-        print(f'no model was built: {summary}', file=sys.stderr)
+    summary, seconds = run(args.recording, changes, args.joints,
+                           live_velocity=args.live_velocity)
+    if summary.validation_nmse_total is None:
+        print(f'no model was built, or no held-out sample: {summary.as_dict()}',
+              file=sys.stderr)
         return 1
-    skipped = sum(summary.get('skipped', {}).values())
-    print(f'| {args.recording} | {changes} | {summary["processed"]} | '
-          f'{summary["predicted"]} | {skipped} {summary.get("skipped", {})} | '
-          f'{summary["held_out"]} | '
-          + ', '.join(f'{v:.3g}' for v in summary['validation_nmse'] or [])
-          + f' | {summary["validation_nmse_total"]:.3g} | {summary["seconds"]:.0f} s, load '
+    print(f'| {args.recording} | {changes} | {summary.processed} | '
+          f'{summary.predicted} | {summary.skipped.total} {summary.skipped.as_dict()} | '
+          f'{summary.held_out} | '
+          + ', '.join(f'{v:.3g}' for v in summary.validation_nmse or ())
+          + f' | {summary.validation_nmse_total:.3g} | {seconds:.0f} s, load '
           f'{os.getloadavg()[0]:.1f} |')
-    print(f'prequential NMSE per joint: {summary["nmse"]}', file=sys.stderr)
+    print(f'prequential NMSE per joint: {summary.nmse}', file=sys.stderr)
     return 0
 
 
