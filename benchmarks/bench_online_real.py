@@ -59,13 +59,17 @@ def run(path: str, changes: dict[str, Any], joints: list[str] | None, *,
     names = list(series.names)
     start = time.perf_counter()
     absent = bool(live_velocity and np.isnan(series.velocity).all())
+    cost = np.empty(len(series))
     for i in range(len(series)):
+        began = time.perf_counter()
         session.process(int(series.stamp_ns[i]), names, series.position[i],
                         () if absent else series.velocity[i], series.effort[i])
+        cost[i] = time.perf_counter() - began
     session.flush()
+    session.close()  # a learner process hands its last state back
     summary = session.summary(fresh=True)
-    session.close()
     summary['seconds'] = time.perf_counter() - start
+    summary['cost_ms'] = (float(np.median(cost) * 1e3), float(np.percentile(cost, 99) * 1e3))
     return summary
 
 
@@ -94,6 +98,8 @@ def main() -> int:
     skipped = sum(summary.get('skipped', {}).values())
     print(f'| {args.recording} | {changes} | {summary["processed"]} | '
           f'{summary["predicted"]} | {skipped} {summary.get("skipped", {})} | '
+          f'{summary.get("learn_dropped", 0)} | '
+          f'{summary["cost_ms"][0]:.3f} / {summary["cost_ms"][1]:.2f} ms | '
           f'{summary["held_out"]} | '
           + ', '.join(f'{v:.3g}' for v in summary['validation_nmse'] or [])
           + f' | {summary["validation_nmse_total"]:.3g} | {summary["seconds"]:.0f} s, load '
