@@ -45,12 +45,13 @@ def settings(changes: dict[str, Any]) -> dict[str, Any]:
 
 
 def run(path: str, changes: dict[str, Any], joints: list[str] | None, *,
-        live_velocity: bool = False) -> dict[str, Any]:
+        live_velocity: bool = False, paced: bool = False) -> dict[str, Any]:
     """Feed the recording at ``path`` sample by sample; return the session's summary.
 
     ``live_velocity``: a recording without velocities is fed without them (the input
     stage derives q', ``derive_velocity``); else as ``play`` publishes it, with q' derived
-    from the whole recording.
+    from the whole recording. ``paced``: at the recording's own timing (a learner process
+    then learns as it would beside a live stream), else as fast as the session goes.
     """
     series = read_recording(path, derive=not live_velocity)
     if joints:
@@ -60,7 +61,12 @@ def run(path: str, changes: dict[str, Any], joints: list[str] | None, *,
     start = time.perf_counter()
     absent = bool(live_velocity and np.isnan(series.velocity).all())
     cost = np.empty(len(series))
+    t0 = int(series.stamp_ns[0])
     for i in range(len(series)):
+        if paced:
+            ahead = (int(series.stamp_ns[i]) - t0) * 1e-9 - (time.perf_counter() - start)
+            if ahead > 0:
+                time.sleep(ahead)
         began = time.perf_counter()
         session.process(int(series.stamp_ns[i]), names, series.position[i],
                         () if absent else series.velocity[i], series.effort[i])
@@ -88,10 +94,13 @@ def main() -> int:
     parser.add_argument('--joints', nargs='*', default=None)
     parser.add_argument('--live-velocity', action='store_true',
                         help='feed a recording without velocities without them')
+    parser.add_argument('--paced', action='store_true',
+                        help="feed at the recording's own timing")
     args = parser.parse_args()
     changes = {key: _value(value) for key, value in
                (item.split('=', 1) for item in args.set)}
-    summary = run(args.recording, changes, args.joints, live_velocity=args.live_velocity)
+    summary = run(args.recording, changes, args.joints, live_velocity=args.live_velocity,
+                  paced=args.paced)
     if 'predicted' not in summary:
         print(f'no model was built: {summary}', file=sys.stderr)
         return 1
