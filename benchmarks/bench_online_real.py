@@ -107,7 +107,7 @@ def main() -> int:
     skipped = sum(summary.get('skipped', {}).values())
     print(f'| {args.recording} | {changes} | {summary["processed"]} | '
           f'{summary["predicted"]} | {skipped} {summary.get("skipped", {})} | '
-          f'{summary.get("learn_dropped", 0)} | '
+          f'{summary.get("learn_dropped", 0)} | {summary.get("updates", "–")} | '
           f'{summary["cost_ms"][0]:.3f} / {summary["cost_ms"][1]:.2f} ms | '
           f'{summary["held_out"]} | '
           + ', '.join(f'{v:.3g}' for v in summary['validation_nmse'] or [])

@@ -36,6 +36,7 @@ from scara_ident_ros.identification.background_lm import (BACKLOG, BATCH_BYTES, 
                                                           RATE_SPAN, STOP_TIMEOUT,
                                                           _set_title, _start_learner)
 from scara_ident_ros.identification.estimator_learner import SampleBatch
+from scara_ident_ros.identification.learner_stream import LearnerStream
 from scara_ident_ros.identification.streamed_estimator import (ArrayLearner,
                                                                StreamedEstimator, is_fitted)
 
@@ -54,6 +55,8 @@ class Start:
     learner: ArrayLearner
     batch: int
     warmup: int
+    capacity: int = 4000  # the reservoir a fresh learner is refitted on
+    seed: int = 0
     nice: int = NICE
     label: str = 'learner'
 
@@ -97,6 +100,9 @@ class BackgroundEstimator:
         The identifier's model; its learner is replaced by each state handed back.
     batch, warmup : int
         Samples per ``partial_fit`` call (at least), of the first call.
+    capacity, seed : int
+        The reservoir a fresh learner is refitted on, and its seed
+        (:class:`~scara_ident_ros.identification.learner_stream.LearnerStream`).
     label : str
         Names the process (``ps``, ``top``).
 
@@ -118,7 +124,7 @@ class BackgroundEstimator:
     name = 'estimator'
 
     def __init__(self, model: StreamedEstimator, *, batch: int, warmup: int,
-                 label: str = 'learner') -> None:
+                 capacity: int = 4000, seed: int = 0, label: str = 'learner') -> None:
         self.model = model
         n = model.n_outputs
         self._batch = SampleBatch(n, max(1, (BATCH_BYTES - _OVERHEAD) // (8 * 4 * n)))
@@ -131,7 +137,8 @@ class BackgroundEstimator:
         self._closed = False
         self.ready = False  # the learner has started and waits for samples
         self._process, self._to_learner, self._from_learner = _start_learner(COMMAND)
-        self._to_learner.send(Start(model.learner, batch, warmup, label=label))
+        self._to_learner.send(Start(model.learner, batch, warmup, capacity, seed,
+                                    label=label))
 
     # ------------------------------------------------------------------ message path
     def learn(self, x: NDArray[np.float64], y: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -271,7 +278,8 @@ def _learn(inbox: Connection, outbox: Connection, start: Start) -> None:
         pass
     _set_title(f'scara_ident_ros learner {start.label}')
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the caller stops it (close)
-    learner = start.learner
+    stream = LearnerStream(start.learner, capacity=start.capacity, warmup=start.warmup,
+                           seed=start.seed)
     lock = threading.Condition()
     pending: list[NDArray[np.float64]] = []
     state = {'new': 0, 'stop': False}
@@ -301,7 +309,7 @@ def _learn(inbox: Connection, outbox: Connection, start: Start) -> None:
         return
     learnt = calls = 0
     seconds, sent_at = 0.0, -np.inf
-    fitted, unsent = is_fitted(learner), False
+    fitted, unsent = is_fitted(stream.learner), False
     with single_blas_thread():
         while True:
             with lock:
@@ -316,13 +324,13 @@ def _learn(inbox: Connection, outbox: Connection, start: Start) -> None:
             if rows is not None:
                 n_in = rows.shape[1] * 3 // 4
                 began = time.perf_counter()
-                learner.partial_fit(rows[:, :n_in], rows[:, n_in:])
+                stream.learn(rows[:, :n_in], rows[:, n_in:])
                 seconds += time.perf_counter() - began
                 learnt += rows.shape[0]
                 calls += 1
-                fitted, unsent = fitted or is_fitted(learner), True
+                fitted, unsent = fitted or is_fitted(stream.learner), True
             if last or (unsent and time.monotonic() - sent_at >= SNAPSHOT_PERIOD):
-                arrays = learner.to_arrays() if fitted else None
+                arrays = stream.learner.to_arrays() if fitted else None
                 try:
                     outbox.send(LearnerState(arrays, learnt, calls, seconds, last))
                 except (BrokenPipeError, OSError):

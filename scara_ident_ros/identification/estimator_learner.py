@@ -4,7 +4,9 @@ Each sample is predicted before it is learnt: with the learner as it is (its run
 of efforts until it has its first data: :class:`~scara_ident_ros.identification.
 streamed_estimator.StreamedEstimator`), then put in a batch; a full batch goes to the
 learner's own ``partial_fit``. The first batch is the warm-up (``warmup`` samples: the
-learner's standardisation and kernel come from them), the others ``batch`` samples. With
+learner's standardisation and kernel come from them; a fresh learner is refitted on a
+reservoir as the stream grows: :mod:`~scara_ident_ros.identification.learner_stream`), the
+others ``batch`` samples. Between refits, with
 ``batch=1`` each prediction is the learner's own a-priori prediction (``partial_fit``'s),
 sample by sample; with more, a sample is predicted by the learner as of the last full batch,
 and after N samples the learner is what its ``partial_fit`` of the same batches makes.
@@ -24,7 +26,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from scara_ident_ros.blas_threads import single_blas_thread
-from scara_ident_ros.identification.streamed_estimator import StreamedEstimator
+from scara_ident_ros.identification.learner_stream import LearnerStream
+from scara_ident_ros.identification.streamed_estimator import StreamedEstimator, is_fitted
 
 __all__ = ['EstimatorLearner', 'SampleBatch']
 
@@ -70,6 +73,11 @@ class EstimatorLearner:
         Samples per ``partial_fit`` call after the first.
     warmup : int
         Samples of the first call, if the learner has learnt nothing yet.
+    capacity : int
+        Samples of the reservoir a fresh learner is refitted on
+        (:class:`~scara_ident_ros.identification.learner_stream.LearnerStream`).
+    seed : int
+        The reservoir's seed.
 
     Attributes
     ----------
@@ -88,10 +96,12 @@ class EstimatorLearner:
 
     name = 'estimator'
 
-    def __init__(self, model: StreamedEstimator, *, batch: int, warmup: int) -> None:
+    def __init__(self, model: StreamedEstimator, *, batch: int, warmup: int,
+                 capacity: int = 4000, seed: int = 0) -> None:
         if batch < 1 or warmup < 1:
             raise ValueError(f'need batch >= 1 and warmup >= 1, got {batch} and {warmup}')
         self.model = model
+        self.stream = LearnerStream(model.learner, capacity=capacity, warmup=warmup, seed=seed)
         self.batch_size = int(batch)
         self.warmup = int(warmup)
         self._batch = SampleBatch(model.n_outputs, max(batch, warmup))
@@ -129,7 +139,10 @@ class EstimatorLearner:
         start = time.perf_counter()
         try:
             with single_blas_thread():
-                predicted = self.model.partial_fit(X, Y)
+                predicted = self.stream.learn(X, Y)
+            if self.stream.learner is not self.model.learner:  # refitted
+                self.model.replace(self.stream.learner)
+            self.model.fitted = self.model.fitted or is_fitted(self.stream.learner)
         except ValueError:
             self.dropped += X.shape[0]
             raise

@@ -63,7 +63,8 @@ IDENTIFICATION_PARAMETERS: tuple[ParamSpec, ...] = (
               'of the whole stream, generalizes) or bp (the paper: one back-propagation step '
               'per sample, tracks)', choices=TRAINERS, fixed='the trainer keeps its state'),
     ParamSpec('reservoir_size', RESERVOIR_SIZE,
-              'Samples of the stream kept for the lm trainer', min=10, max=1_000_000,
+              'Samples of the stream kept for the lm trainer (and the reservoir a fresh '
+              'kernel or gp learner is refitted on)', min=10, max=1_000_000,
               fixed='the reservoir is allocated once'),
     ParamSpec('lm_steps', LM_STEPS, 'Levenberg-Marquardt steps of the lm trainer per update',
               min=1, max=100, read_only=False),

@@ -188,3 +188,23 @@ def test_an_unfitted_learner_is_not_saved(tmp_path: Path) -> None:
 def test_make_learner_model_refuses_other_methods() -> None:
     with pytest.raises(ValueError, match='not a learner method'):
         make_learner_model('ffs')
+
+
+def test_a_fresh_learner_is_refitted_on_its_reservoir_as_the_stream_grows() -> None:
+    settings = CoreSettings.defaults(method='kernel', kernel_features=40, learner_batch=10,
+                                     learner_warmup=100, reservoir_size=250,
+                                     validation_fraction=0.0)
+    identifier = build_identifier(NAMES, settings)
+    for i in range(1000):
+        identifier.process(T0 + i * MS, NAMES, RECORD.q[i], RECORD.qd[i], RECORD.effort[i])
+    trainer = identifier.trainer
+    assert isinstance(trainer, EstimatorLearner)
+    stream = trainer.stream
+    learnt = stream.learnt
+    assert learnt == trainer.learnt and learnt // 10 * 10 == learnt >= 960
+    assert stream.refits == 3  # at 200, 400 and 800 samples
+    learner = stream.learner
+    assert isinstance(learner, SparseSpectrumGP)
+    assert identifier.model.learner is learner  # type: ignore[attr-defined]
+    # refitted at 800 on the reservoir's 250 samples, then the rest one call at a time
+    assert learner.n_samples_ == 250 + learnt - 800
