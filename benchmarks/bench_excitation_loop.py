@@ -290,7 +290,7 @@ def score(models: dict[str, tuple[Path, Path]]) -> None:
     for label, (path, stats) in models.items():
         nmse = evaluate(load_model(path), held_out.X, held_out.Y).nmse
         run = json.loads(stats.read_text())
-        print(f'| {label} | {run.get("learned", "?")} | {run.get("updates", "?")} | '
+        print(f'| {label} | {run.get("learnt", "?")} | {run.get("updates", "?")} | '
               + ' | '.join(f'{x:.2e}' for x in nmse)
               + f' | {np.max(nmse):.2e} |')
     print()

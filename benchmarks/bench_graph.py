@@ -163,7 +163,7 @@ def main() -> int:
     print(f"\n/joint_states published {js['published']}, recorded {js['recorded']}, "
           f"sim late {js['late']}\n")
     print('| method | predicted | skipped | lost | not drained | recorded | updates | '
-          'updates/s (last 10 s) | lag p50 / p99 / max (ms) | message path p50 / p99 (ms) '
+          'updates/s (last 10 s) | lag p50 / p99 / worst (ms) | message path p50 / p99 (ms) '
           '| contact decision p50 / p99 (ms) | validation NMSE |')
     print('|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|')
     short = js['published'] - (js['recorded'] or 0)
@@ -173,7 +173,7 @@ def main() -> int:
               f"{_fmt(row['lost'])} | {_fmt(row['not_drained'])} | {_fmt(row['recorded'])} | "
               f"{_fmt(row['updates'])} | {_fmt(row['updates_per_s'])} | "
               f"{_fmt(stats.get('lag_p50_ms'))} / {_fmt(stats.get('lag_p99_ms'))} / "
-              f"{_fmt(stats.get('max_lag_ms'))} | {_fmt(stats.get('path_delay_p50_ms'))} / "
+              f"{_fmt(stats.get('worst_lag_ms'))} | {_fmt(stats.get('path_delay_p50_ms'))} / "
               f"{_fmt(stats.get('path_delay_p99_ms'))} | "
               f"{_fmt(stats.get('contact_delay_p50_ms'))} / "
               f"{_fmt(stats.get('contact_delay_p99_ms'))} | "

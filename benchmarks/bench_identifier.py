@@ -209,7 +209,7 @@ def throughput(samples: int, rounds: int, workdir: Path,
     return {'rates': rates, 'cpus': cpus, 'cpu_per_sample': cpu_per_sample, 'own': own_cpus,
             'sent': samples * rounds, 'status': status,
             'processed': info.get('processed'), 'skipped': info.get('skipped'),
-            'learned': info.get('learned'), 'answered': answered,
+            'learnt': info.get('learnt'), 'answered': answered,
             'updates': info.get('updates'),
             'validation_nmse_total': info.get('validation_nmse_total')}
 
@@ -289,7 +289,7 @@ def latency(seconds: float, warmup: float, workdir: Path) -> dict[str, Any]:
         'p50': float(np.percentile(lat_ms, 50)), 'p99': float(np.percentile(lat_ms, 99)),
         'max': float(lat_ms.max()), 'cpu': 100.0 * (cpu1 - cpu0) / ((t1 - t0) / 1e9),
         'status': status, 'sim_status': sim_status, 'skipped': info.get('skipped'),
-        'max_lag_ms': info.get('max_lag_ms'),
+        'worst_lag_ms': info.get('worst_lag_ms'),
         'arrival_p99': float(np.percentile(arrival_ms, 99)), 'arrival_max': float(
             arrival_ms.max()), 'sim_line': sim_lines[-1] if sim_lines else '(none)',
     }
@@ -347,7 +347,7 @@ def report_latency(r: dict[str, Any]) -> str:
          verdict(r['states'] == r['matched'])),
         ('identifier CPU (% of one core)', f"{r['cpu']:.1f}", '', ''),
         ('skipped (stats_file)', f"{r['skipped']}", '{}', verdict(not r['skipped'])),
-        ("node's own max lag, wall clock − stamp (ms)", f"{r['max_lag_ms']:.2f}", '', ''),
+        ("node's own worst lag, wall clock − stamp (ms)", f"{r['worst_lag_ms']:.2f}", '', ''),
         ('joint states at the probe, arrival − stamp p99 / max (ms)',
          f"{r['arrival_p99']:.3f} / {r['arrival_max']:.3f}", '', ''),
         ('exit status sim / identifier', f"{r['sim_status']} / {r['status']}", '0 / 0',

@@ -33,6 +33,7 @@ import yaml
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from scara_ident_ros.bag.recording_file import read_recording  # noqa: E402
+from scara_ident_ros.identification.reports import MethodReport  # noqa: E402
 from scara_ident_ros.identification.session import IdentificationSession  # noqa: E402
 
 CONFIG = Path(__file__).resolve().parents[1] / 'config' / 'identifier.yaml'
@@ -45,8 +46,10 @@ def settings(changes: dict[str, Any]) -> dict[str, Any]:
 
 
 def run(path: str, changes: dict[str, Any], joints: list[str] | None, *,
-        live_velocity: bool = False, paced: bool = False) -> dict[str, Any]:
-    """Feed the recording at ``path`` sample by sample; return the session's summary.
+        live_velocity: bool = False, paced: bool = False
+        ) -> tuple[MethodReport, float, tuple[float, float]]:
+    """Feed the recording at ``path`` sample by sample; return the session's summary, the
+    seconds it took and the per-sample cost (median, p99; ms).
 
     ``live_velocity``: a recording without velocities is fed without them (the input
     stage derives q', ``derive_velocity``); else as ``play`` publishes it, with q' derived
@@ -74,9 +77,8 @@ def run(path: str, changes: dict[str, Any], joints: list[str] | None, *,
     session.flush()
     session.close()  # a learner process hands its last state back
     summary = session.summary(fresh=True)
-    summary['seconds'] = time.perf_counter() - start
-    summary['cost_ms'] = (float(np.median(cost) * 1e3), float(np.percentile(cost, 99) * 1e3))
-    return summary
+    return summary, time.perf_counter() - start, (float(np.median(cost) * 1e3),
+                                                   float(np.percentile(cost, 99) * 1e3))
 
 
 def _value(text: str) -> Any:
@@ -99,21 +101,22 @@ def main() -> int:
     args = parser.parse_args()
     changes = {key: _value(value) for key, value in
                (item.split('=', 1) for item in args.set)}
-    summary = run(args.recording, changes, args.joints, live_velocity=args.live_velocity,
-                  paced=args.paced)
-    if 'predicted' not in summary:
-        print(f'no model was built: {summary}', file=sys.stderr)
+    summary, seconds, cost_ms = run(args.recording, changes, args.joints,
+                                    live_velocity=args.live_velocity, paced=args.paced)
+    if summary.validation_nmse_total is None:
+        print(f'no model was built, or no held-out sample: {summary.as_dict()}',
+              file=sys.stderr)
         return 1
-    skipped = sum(summary.get('skipped', {}).values())
-    print(f'| {args.recording} | {changes} | {summary["processed"]} | '
-          f'{summary["predicted"]} | {skipped} {summary.get("skipped", {})} | '
-          f'{summary.get("learn_dropped", 0)} | {summary.get("updates", "–")} | '
-          f'{summary["cost_ms"][0]:.3f} / {summary["cost_ms"][1]:.2f} ms | '
-          f'{summary["held_out"]} | '
-          + ', '.join(f'{v:.3g}' for v in summary['validation_nmse'] or [])
-          + f' | {summary["validation_nmse_total"]:.3g} | {summary["seconds"]:.0f} s, load '
+    learning = summary.learning
+    print(f'| {args.recording} | {changes} | {summary.processed} | '
+          f'{summary.predicted} | {summary.skipped.total} {summary.skipped.as_dict()} | '
+          f'{learning.learn_dropped if learning else 0} | '
+          f'{learning.updates if learning else "–"} | '
+          f'{cost_ms[0]:.3f} / {cost_ms[1]:.2f} ms | {summary.held_out} | '
+          + ', '.join(f'{v:.3g}' for v in summary.validation_nmse or ())
+          + f' | {summary.validation_nmse_total:.3g} | {seconds:.0f} s, load '
           f'{os.getloadavg()[0]:.1f} |')
-    print(f'prequential NMSE per joint: {summary["nmse"]}', file=sys.stderr)
+    print(f'prequential NMSE per joint: {summary.nmse}', file=sys.stderr)
     return 0
 
 

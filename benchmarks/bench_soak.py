@@ -200,14 +200,13 @@ def report(args: argparse.Namespace, *, domain: int, status: int,
               '|---|---:|---:|---:|---:|',
               f"| | {_fmt(js.get('published'))} | {_fmt(js.get('recorded'))} | "
               f"{_fmt(js.get('lost'))} | {_fmt(js.get('late'))} |",
-              '', '| identifier | processed | skipped | lost (gaps) | max lag (s) '
+              '', '| identifier | processed | skipped | lost (gaps) | worst lag (s) '
               '| predictions published | recorded | final NMSE (windowed) |',
               '|---|---:|---:|---:|---:|---:|---:|---:|']
     for name, row in summary.get('methods', {}).items():
-        skipped = sum((row.get('skipped') or {}).values()) if isinstance(
-            row.get('skipped'), dict) else row.get('skipped')
+        skipped = sum((row.get('skipped') or {}).values())  # per reason
         stats = _read_json(args.out / 'stats' / f'{name}.json')
-        lag = stats.get('max_lag_ms')
+        lag = stats.get('worst_lag_ms')
         lines.append(f"| {name.upper()} | {_fmt(row.get('processed'))} | {_fmt(skipped)} | "
                      f"{_fmt(stats.get('lost'))} | {_fmt(lag and lag / 1000, '.1f')} | "
                      f"{_fmt(row.get('published'))} | {_fmt(row.get('recorded'))} | "

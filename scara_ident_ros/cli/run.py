@@ -35,6 +35,7 @@ from pathlib import Path
 from typing import Any
 
 from scara_ident_ros.cli import CliError
+from scara_ident_ros.cli.run_summary import JointStatesUse, MethodRow, RunSummary
 from scara_ident_ros.identification.trainer import TRAINERS
 from scara_ident_ros.identification.learner_methods import LEARNER_METHODS
 from scara_ident_ros.nn.presets import METHODS
@@ -170,9 +171,8 @@ def run(args: argparse.Namespace) -> int:
             codes = graph.stop_all()
     interrupted = signals.received is not None
     failed = {name: code for name, code in codes.items() if code != 0}
-    summary = _summary(args.methods, stats, bag, out, codes)
-    summary['interrupted'] = interrupted
-    (out / 'summary.json').write_text(json.dumps(summary, indent=1))
+    summary = _summary(args.methods, stats, bag, out, codes, interrupted=interrupted)
+    (out / 'summary.json').write_text(json.dumps(summary.as_dict(), indent=1))
     _print_summary(summary)
     if failed:
         for name in failed:
@@ -239,50 +239,21 @@ def _report(bag: Path, out: Path, methods: list[str], *, interrupted: bool) -> N
 
 
 def _summary(methods: list[str], stats: Path, bag: Path, out: Path,
-             codes: dict[str, int]) -> dict[str, Any]:
+             codes: dict[str, int], *, interrupted: bool) -> RunSummary:
     sim = _read_json(stats / 'scara_sim.json')
     recorder = _read_json(stats / 'recorder.json')
     counts = bag_message_counts(bag)
-    rows = {}
     published = sim.get('published')
-    for name in methods:
-        info = _read_json(stats / f'{name}.json')
-        rows[name] = {
-            'trainer': info.get('trainer'),
-            **stream_use(published, info),
-            'learned': info.get('learned'), 'held_out': info.get('held_out'),
-            'updates': info.get('updates'), 'updates_per_s': info.get('updates_per_s'),
-            'mse_total': info.get('mse_total'), 'nmse_total': info.get('nmse_total'),
-            'mse': info.get('mse'), 'nmse': info.get('nmse'),
-            'validation_nmse_total': info.get('validation_nmse_total'),
-            'validation_nmse': info.get('validation_nmse'),
-            'published': info.get('predicted'),
-            'recorded': counts.get(torque_topic(name)),
-            'model': str(out / 'models' / f'{name}.npz'),
-        }
-    return {'bag': str(bag), 'exit_codes': codes,
-            'joint_states': {'published': published, 'late': sim.get('late'),
-                             'recorded': counts.get(JOINT_STATES_TOPIC),
-                             'lost': recorder.get('lost', {}).get(JOINT_STATES_TOPIC),
-                             'publishers': recorder.get('publishers', {}).get(JOINT_STATES_TOPIC)},
-            'recorder': recorder, 'methods': rows}
-
-
-def stream_use(published: int | None, info: dict[str, Any]) -> dict[str, Any]:
-    """How a method used the published samples, from its identifier's statistics:
-    ``predicted + skipped + lost + not_drained = published``; ``shortfall`` counts those
-    published and not predicted."""
-    processed = info.get('processed')
-    predicted = info.get('predicted')
-    skipped = info.get('skipped') or {}
-    lost = info.get('lost') or 0
-    row: dict[str, Any] = {'processed': processed, 'predicted': predicted, 'skipped': skipped,
-                           'lost': info.get('lost'), 'not_drained': None, 'shortfall': None}
-    if published is not None and processed is not None:
-        row['not_drained'] = max(published - processed - lost, 0)
-    if published is not None and predicted is not None:
-        row['shortfall'] = published - predicted
-    return row
+    rows = {name: MethodRow.of(_read_json(stats / f'{name}.json'), published,
+                               counts.get(torque_topic(name)),
+                               str(out / 'models' / f'{name}.npz'))
+            for name in methods}
+    joint_states = JointStatesUse(
+        published=published, late=sim.get('late'), recorded=counts.get(JOINT_STATES_TOPIC),
+        lost=recorder.get('lost', {}).get(JOINT_STATES_TOPIC),
+        publishers=recorder.get('publishers', {}).get(JOINT_STATES_TOPIC))
+    return RunSummary(bag=str(bag), exit_codes=codes, joint_states=joint_states,
+                      recorder=recorder, methods=rows, interrupted=interrupted)
 
 
 def _fmt(value: Any) -> str:
@@ -293,38 +264,38 @@ def _fmt(value: Any) -> str:
     return str(value)
 
 
-def _print_summary(summary: dict[str, Any]) -> None:
-    js = summary['joint_states']
-    print(f"\n/joint_states: published {_fmt(js['published'])}, recorded "
-          f"{_fmt(js['recorded'])}, late {_fmt(js['late'])}, lost {_fmt(js['lost'])}")
-    if (js['publishers'] or 0) > 1:
-        print(f"WARNING: {js['publishers']} publishers on /joint_states during the run: "
+def _print_summary(summary: RunSummary) -> None:
+    js = summary.joint_states
+    print(f'\n/joint_states: published {_fmt(js.published)}, recorded '
+          f'{_fmt(js.recorded)}, late {_fmt(js.late)}, lost {_fmt(js.lost)}')
+    if (js.publishers or 0) > 1:
+        print(f"WARNING: {js.publishers} publishers on /joint_states during the run: "
               "another graph's samples are mixed with this run's in the bag and the models")
-    print('\n| method | trainer | predicted | skipped | lost | not drained | learned '
+    print('\n| method | trainer | predicted | skipped | lost | not drained | learnt '
           '| held out | updates (/s) | identified_torque published | recorded '
           '| final MSE (windowed) | final NMSE | validation NMSE |')
     print('|---|---|---|---|---|---|---|---|---|---|---|---|---|---|')
-    for name, row in summary['methods'].items():
-        updates = _fmt(row['updates'])
-        if row['updates_per_s'] is not None:
-            updates += f" ({row['updates_per_s']:.1f})"
-        print(f"| {name.upper()} | {_fmt(row['trainer'])} | {_fmt(row['predicted'])} | "
-              f"{_fmt(sum(row['skipped'].values()))} | {_fmt(row['lost'])} | "
-              f"{_fmt(row['not_drained'])} | {_fmt(row['learned'])} | "
-              f"{_fmt(row['held_out'])} | {updates} | {_fmt(row['published'])} | "
-              f"{_fmt(row['recorded'])} | {_fmt(row['mse_total'])} | "
-              f"{_fmt(row['nmse_total'])} | {_fmt(row['validation_nmse_total'])} |")
+    for name, row in summary.methods.items():
+        use = row.use
+        updates = _fmt(row.updates)
+        if row.updates_per_s is not None:
+            updates += f' ({row.updates_per_s:.1f})'
+        print(f'| {name.upper()} | {_fmt(row.trainer)} | {_fmt(use.predicted)} | '
+              f'{use.skipped.total} | {_fmt(use.lost)} | {_fmt(use.not_drained)} | '
+              f'{_fmt(row.learnt)} | {_fmt(row.held_out)} | {updates} | '
+              f'{_fmt(row.published)} | {_fmt(row.recorded)} | {_fmt(row.mse_total)} | '
+              f'{_fmt(row.nmse_total)} | {_fmt(row.validation_nmse_total)} |')
     print()
-    for name, row in summary['methods'].items():
-        if row['shortfall'] or row['predicted'] is None:
-            skipped = ', '.join(f'{k} {v}' for k, v in row['skipped'].items()) or 'none'
-            print(f"WARNING: {name.upper()} predicted {_fmt(row['predicted'])} of the "
-                  f"{_fmt(js['published'])} samples published: skipped {skipped}; lost "
-                  f"before the identifier {_fmt(row['lost'])}; not drained when it stopped "
-                  f"{_fmt(row['not_drained'])}")
-        elif row['recorded'] is not None and row['recorded'] != row['predicted']:
-            print(f"WARNING: {name.upper()}: {row['predicted']} predictions published, "
-                  f"{row['recorded']} recorded")
+    for name, row in summary.methods.items():
+        use = row.use
+        if use.shortfall or use.predicted is None:
+            print(f'WARNING: {name.upper()} predicted {_fmt(use.predicted)} of the '
+                  f'{_fmt(js.published)} samples published: skipped {use.skipped}; lost '
+                  f'before the identifier {_fmt(use.lost)}; not drained when it stopped '
+                  f'{_fmt(use.not_drained)}')
+        elif row.recorded is not None and row.recorded != use.predicted:
+            print(f'WARNING: {name.upper()}: {use.predicted} predictions published, '
+                  f'{row.recorded} recorded')
 
 
 # -- --robot: an example-robot-data arm simulated by robot_sim instead of the SCARA --------

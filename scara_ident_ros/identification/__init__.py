@@ -22,6 +22,9 @@ from scara_ident_ros.identification.metrics import ErrorStats, effort_errors
 from scara_ident_ros.identification.lazy_core import CoreSettings, LazyCore, Skipped
 from scara_ident_ros.identification.online_identifier import (Counts, OnlineIdentifier,
                                                               StepResult)
+from scara_ident_ros.identification.reports import (ContactState, HealthFigures,
+                                                    LearningFigures, MethodReport, SkipCounts,
+                                                    StreamFigures)
 from scara_ident_ros.identification.sample_check import (DEFAULT_MAX_GAP_NS, Bounds, Sample,
                                                          SampleCheck)
 from scara_ident_ros.identification.reservoir import Reservoir
@@ -32,11 +35,13 @@ from scara_ident_ros.identification.trainer import (TRAINERS, BackPropagation, T
 from scara_ident_ros.identification.warm_start import ModelMismatch, check_warm_start
 
 __all__ = [
-    'AccelerationEstimate', 'BackPropagation', 'Bounds', 'CentredDifferentiator', 'CoreSettings',
+    'AccelerationEstimate', 'BackPropagation', 'Bounds', 'CentredDifferentiator', 'ContactState',
+    'CoreSettings',
     'Counts', 'DEFAULT_MAX_GAP_NS', 'DIFFERENTIATORS', 'DIFFERENTIATOR_WINDOW', 'Differentiator',
-    'ErrorStats', 'ErrorWindow', 'Holdout', 'Input', 'InputStage', 'JointMap',
-    'LazyCore', 'ModelMismatch', 'OnlineIdentifier',
-    'PAPER_WINDOW', 'Reservoir', 'ReservoirLM', 'Sample', 'SampleCheck', 'SkipReason',
+    'ErrorStats', 'ErrorWindow', 'HealthFigures', 'Holdout', 'Input', 'InputStage', 'JointMap',
+    'LazyCore', 'LearningFigures', 'MethodReport', 'ModelMismatch', 'OnlineIdentifier',
+    'PAPER_WINDOW', 'Reservoir', 'ReservoirLM', 'Sample', 'SampleCheck', 'SkipCounts',
+    'SkipReason', 'StreamFigures',
     'Skipped', 'StepResult', 'TRAINERS', 'Trainer', 'check_warm_start', 'effort_errors',
     'make_differentiator', 'make_trainer',
 ]

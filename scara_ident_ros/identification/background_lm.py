@@ -110,7 +110,7 @@ class BackgroundLM:
     Attributes
     ----------
     sent : int
-        Samples handed to the learner (the ``learned`` samples of an identifier).
+        Samples handed to the learner (the ``learnt`` samples of an identifier).
     dropped : int
         Samples not learnt because the learner could not take them (backlog full).
     updates : int

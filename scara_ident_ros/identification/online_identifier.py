@@ -59,11 +59,11 @@ class Counts:
     """Counters of an :class:`OnlineIdentifier`.
 
     ``processed == predicted + sum(skipped.values()) + pending`` always holds, and
-    ``predicted == learned + held_out + refused + no_effort`` while learning.
+    ``predicted == learnt + held_out + refused + no_effort`` while learning.
 
     Attributes
     ----------
-    processed, predicted, learned, held_out : int
+    processed, predicted, learnt, held_out : int
         Samples passed in, predicted, learnt from, kept for validation.
     refused : int
         Predicted, not learnt: the trainer refused the step (weights unchanged).
@@ -80,7 +80,7 @@ class Counts:
 
     processed: int = 0
     predicted: int = 0
-    learned: int = 0
+    learnt: int = 0
     held_out: int = 0
     refused: int = 0
     no_effort: int = 0
@@ -242,7 +242,7 @@ class OnlineIdentifier:
         elif effort is not None and self.learn:
             try:
                 predicted = self.trainer.learn(item.x, effort)
-                counts.learned += 1
+                counts.learnt += 1
             except ValueError:
                 predicted = self.model.predict(item.x)
                 counts.refused += 1

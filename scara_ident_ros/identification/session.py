@@ -38,6 +38,9 @@ from scara_ident_ros.identification.input_stage import Input
 from scara_ident_ros.identification.lazy_core import CoreSettings, LazyCore
 from scara_ident_ros.identification.metrics import ErrorStats
 from scara_ident_ros.identification.online_identifier import OnlineIdentifier, StepResult
+from scara_ident_ros.identification.reports import (ContactState, HealthFigures,
+                                                    LearningFigures, MethodReport, SkipCounts,
+                                                    StreamFigures)
 from scara_ident_ros.identification.skip_reason import SkipReason
 from scara_ident_ros.identification.stream_clock import LagHistogram
 from scara_ident_ros.identification.reservoir_lm import ReservoirLM
@@ -107,13 +110,13 @@ class MethodRun:
         self.contact_settings = dict(contact)
         self.detector: ContactDetector | None = None  # once the joints are known
         self.contacts = 0  # samples with a joint over its contact threshold
-        self.max_lag_ns = 0  # ns, since the last statistics line
+        self.line_lag_ns = 0  # ns, largest since the last statistics line
         self.worst_lag_ns = 0  # ns, since start
         self.period_lag_ns = 0  # ns, largest since the last diagnostics report
         self.lags = LagHistogram()  # every prediction's lag, for percentiles
         self.decisions = LagHistogram()  # every contact decision's delay from its stamp
         self.period_decisions = LagHistogram()  # since the last diagnostics report
-        self.previous: list[dict[str, Any]] = []  # summaries from before each reset
+        self.previous: list[MethodReport] = []  # reports from before each reset
         self._validation: ErrorStats | None = None
         self._validated_at = -math.inf  # monotonic s
         self._round: _Round | None = None  # a calibration under way
@@ -219,8 +222,8 @@ class MethodRun:
         """Take how late (ns) a prediction was published."""
         self.lags.add(lag_ns)
         self.period_lag_ns = max(self.period_lag_ns, lag_ns)
-        if lag_ns > self.max_lag_ns:
-            self.max_lag_ns = lag_ns
+        if lag_ns > self.line_lag_ns:
+            self.line_lag_ns = lag_ns
             self.worst_lag_ns = max(self.worst_lag_ns, lag_ns)
 
     def check_contact(self, torque: NDArray[np.float64],
@@ -239,7 +242,7 @@ class MethodRun:
         self.decisions.add(delay_ns)
         self.period_decisions.add(delay_ns)
 
-    def contact_health(self) -> dict[str, Any]:
+    def contact_health(self) -> ContactState:
         """Contact detection's state: armed, why not, the thresholds (N·m or N), the
         estimated false alarms per hour, the independent held-out segments, samples held
         outside the calibrated envelope, and the decision delay p50/p99 (ms) since the last
@@ -247,24 +250,24 @@ class MethodRun:
         detector = self.detector
         period, self.period_decisions = self.period_decisions, LagHistogram()
         if detector is None:
-            return {'contact_armed': False, 'contact_why_not': 'no model yet',
-                    'contact_thresholds': None}
+            return ContactState(why_not='no model yet')
         c = detector.calibration
-        return {'contact_armed': detector.armed, 'contact_why_not': c.why_not,
-                'contact_thresholds': None if c.thresholds is None else c.thresholds.tolist(),
-                'contact_false_alarms_per_hour': c.false_alarms_per_hour,
-                'contact_segments': c.independent, 'contact_held': detector.held,
-                'contact_delay_p50_ms': period.percentile_ms(50),
-                'contact_delay_p99_ms': period.percentile_ms(99)}
+        return ContactState(armed=detector.armed, why_not=c.why_not,
+                            thresholds=MethodReport.per_joint(c.thresholds),
+                            false_alarms_per_hour=c.false_alarms_per_hour,
+                            segments=c.independent, held=detector.held,
+                            delay_p50_ms=period.percentile_ms(50),
+                            delay_p99_ms=period.percentile_ms(99))
 
-    def learning(self) -> dict[str, Any]:
+    def learning(self) -> LearningFigures | None:
         """How learning progresses: updates and their rate for a trainer beside the
-        stream."""
+        stream; None for a trainer in the message path."""
         background = self.background
         if background is None:
-            return {}
-        return {'updates': background.updates, 'updates_per_s': background.rate(),
-                'lm_steps_taken': background.steps_taken, 'learn_dropped': background.dropped}
+            return None
+        return LearningFigures(updates=background.updates, updates_per_s=background.rate(),
+                               lm_steps_taken=background.steps_taken,
+                               learn_dropped=background.dropped)
 
     def apply(self, settings: Mapping[str, Any], changed: Mapping[str, Any]) -> None:
         """Make parameters set while running take effect."""
@@ -532,7 +535,7 @@ class IdentificationSession:
         for run in self.runs:
             run.apply(self.settings, changed)
 
-    def reset(self, *, stream: Mapping[str, Any] | None = None) -> tuple[bool, str, str]:
+    def reset(self, *, stream: StreamFigures | None = None) -> tuple[bool, str, str]:
         """Start again from fresh weights, the summaries of before (with the ``stream``
         figures of :meth:`summary`) kept in ``previous``.
 
@@ -545,17 +548,16 @@ class IdentificationSession:
             return False, 'nothing to reset: no model yet (no valid sample so far)', ''
         befores = []
         for run in self.runs:
-            before = self.summary(run, stream=stream)
-            before.pop('previous', None)  # each reset's own counters, one entry per reset
+            # each reset's own counters, one entry per reset
+            before = dataclasses.replace(self.summary(run, stream=stream), previous=())
             run.previous.append(before)
             befores.append(before)
             run.lazy.reset()
         self.differentiator = self._differentiator()
         why = self._build(names) if names is not None else ''
         message = f"fresh weights (seed {self.settings['seed']}); before the reset: " + '; '.join(
-            f"{before['method']}: processed {before['processed']}, learned "
-            f"{before.get('learned', 0)}, validation NMSE "
-            f"{before.get('validation_nmse_total')}" for before in befores)
+            f'{before.method}: processed {before.processed}, learnt {before.learnt}, '
+            f'validation NMSE {before.validation_nmse_total}' for before in befores)
         return True, message, why
 
     def close(self) -> None:
@@ -565,49 +567,47 @@ class IdentificationSession:
 
     # ------------------------------------------------------------------ reporting
     def summary(self, run: MethodRun | None = None, *, fresh: bool = False,
-                stream: Mapping[str, Any] | None = None) -> dict[str, Any]:
-        """A method's counters and errors so far (the first method's by default), as plain
-        data; ``fresh``: score the held-out samples now; ``stream``: figures of the stream
-        (losses, delays) to include."""
+                stream: StreamFigures | None = None) -> MethodReport:
+        """A method's counters and errors so far (the first method's by default);
+        ``fresh``: score the held-out samples now; ``stream``: the stream's figures (the
+        node's) to include."""
         run = run or self.first
         core = run.core
+        previous = tuple(run.previous)
         if core is None:
             early = run.lazy.early
-            return {'method': run.method, 'processed': early.processed,
-                    'skipped': {reason.value: n for reason, n in early.skipped.items()
-                                if n}}
+            return MethodReport(method=run.method, processed=early.processed,
+                                skipped=SkipCounts.of(early.skipped), stream=stream,
+                                previous=previous)
         counts = core.counts
         stats = core.error_stats()
         validation = run.validation(fresh=fresh)
-        return {
-            'method': run.method, 'trainer': self.settings['trainer'],
-            'joint_names': self.names,
-            'processed': counts.processed, 'predicted': counts.predicted,
-            'learned': counts.learned, 'held_out': counts.held_out, 'refused': counts.refused,
-            'clipped': counts.clipped, 'no_effort': counts.no_effort,
-            'pending': counts.pending,
-            'skipped': {reason.value: n for reason, n in counts.skipped.items() if n},
-            'mse': stats.mse.tolist(), 'nmse': stats.nmse.tolist(),
-            'mse_total': float(stats.mse_total), 'nmse_total': float(stats.nmse_total),
-            'validation_nmse': validation.nmse.tolist() if validation is not None else None,
-            'validation_nmse_total': (float(validation.nmse_total) if validation is not None
-                                      else None),
-            'contacts': run.contacts, 'contact_armed': run.detector is not None
-            and run.detector.armed,
-            'contact_thresholds': (None if run.detector is None
-                                   or run.detector.thresholds is None
-                                   else run.detector.thresholds.tolist()),
-            'contact_held': run.detector.held if run.detector is not None else 0,
-            'contact_delay_p50_ms': run.decisions.percentile_ms(50),
-            'contact_delay_p99_ms': run.decisions.percentile_ms(99),
-            'max_lag_ms': run.worst_lag_ns / 1e6, 'lag_p50_ms': run.lags.percentile_ms(50),
-            'lag_p99_ms': run.lags.percentile_ms(99),
-            **(stream or {}),
-            **run.learning(),
-            **({'previous': run.previous} if run.previous else {}),
-        }
+        detector = run.detector
+        per_joint = MethodReport.per_joint
+        return MethodReport(
+            method=run.method, trainer=self.settings['trainer'],
+            joint_names=tuple(self.names),
+            processed=counts.processed, predicted=counts.predicted, learnt=counts.learnt,
+            held_out=counts.held_out, refused=counts.refused, clipped=counts.clipped,
+            no_effort=counts.no_effort, pending=counts.pending,
+            skipped=SkipCounts.of(counts.skipped),
+            mse=per_joint(stats.mse), nmse=per_joint(stats.nmse),
+            mse_total=float(stats.mse_total), nmse_total=float(stats.nmse_total),
+            validation_nmse=None if validation is None else per_joint(validation.nmse),
+            validation_nmse_total=(None if validation is None
+                                   else float(validation.nmse_total)),
+            contacts=run.contacts,
+            contact_armed=detector is not None and detector.armed,
+            contact_thresholds=(None if detector is None
+                                else per_joint(detector.thresholds)),
+            contact_held=detector.held if detector is not None else 0,
+            contact_delay_p50_ms=run.decisions.percentile_ms(50),
+            contact_delay_p99_ms=run.decisions.percentile_ms(99),
+            worst_lag_ms=run.worst_lag_ns / 1e6, lag_p50_ms=run.lags.percentile_ms(50),
+            lag_p99_ms=run.lags.percentile_ms(99),
+            stream=stream, learning=run.learning(), previous=previous)
 
-    def health_figures(self, run: MethodRun) -> dict[str, Any]:
+    def health_figures(self, run: MethodRun) -> HealthFigures:
         """A method's figures for ``nodes.health.identifier_health`` (the stream's apart);
         the lag is the largest since the last call."""
         counts = run.lazy.counts
@@ -620,14 +620,16 @@ class IdentificationSession:
             validation = float(stats.nmse_total) if stats is not None else None
         lag_ns, run.period_lag_ns = run.period_lag_ns, 0
         background = run.background
-        return {'processed': counts.processed, 'skipped': sum(counts.skipped.values()),
-                'learnt': counts.learned, 'lag_s': lag_ns / 1e9 if lag_ns else None,
-                'error_finite': error_finite, 'validation_nmse': validation,
-                'learning': self.settings['learn'],
-                'update_rate': background.rate() if background is not None else None,
-                'update_overdue_s': background.overdue() if background is not None else None,
-                **run.contact_health(),
-                'contact_arm_nmse': self.settings['contact_arm_nmse']}
+        return HealthFigures(
+            processed=counts.processed, learnt=counts.learnt,
+            skipped=SkipCounts.of(counts.skipped),
+            period_worst_lag_ms=lag_ns / 1e6 if lag_ns else None,
+            error_finite=error_finite, validation_nmse_total=validation,
+            learning=self.settings['learn'],
+            update_rate=background.rate() if background is not None else None,
+            update_overdue_s=background.overdue() if background is not None else None,
+            contact=run.contact_health(),
+            contact_arm_nmse=self.settings['contact_arm_nmse'])
 
     def save(self, run: MethodRun | None = None) -> tuple[bool, str]:
         """Save a method's model (the first's by default) to its ``save_path`` now
@@ -644,4 +646,4 @@ class IdentificationSession:
             run.network.save(path)
         except OSError as exc:
             return False, f'saving to {path} failed: {exc}'
-        return True, f'saved to {path} after {run.core.counts.learned} learned samples'
+        return True, f'saved to {path} after {run.core.counts.learnt} learnt samples'

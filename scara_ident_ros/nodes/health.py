@@ -182,9 +182,10 @@ def _number(value: float | None, digits: int = 4) -> str:
 
 
 def identifier_health(*, period_s: float, since_sample_s: float | None, processed: int,
-                      skipped: int, lost: int, learnt: int, recent_processed: int,
-                      recent_skipped: int, recent_lost: int, lag_s: float | None,
-                      error_finite: bool, validation_nmse: float | None,
+                      skipped_total: int, lost: int, learnt: int, recent_processed: int,
+                      recent_skipped: int, recent_lost: int,
+                      period_worst_lag_ms: float | None,
+                      error_finite: bool, validation_nmse_total: float | None,
                       learning: bool, update_rate: float | None = None,
                       update_overdue_s: float | None = None,
                       contact_armed: bool | None = None,
@@ -202,10 +203,15 @@ def identifier_health(*, period_s: float, since_sample_s: float | None, processe
         Seconds since the previous report, > 0.
     since_sample_s : float or None
         Seconds since the latest sample; None if none yet.
-    processed, skipped, lost, learnt : int
-        Counters since start; ``recent_*`` their growth over the period.
-    lag_s : float or None
-        Largest delay from a sample's stamp to its prediction in the period (s).
+    processed, skipped_total, lost, learnt : int
+        Counters since start (``skipped_total``: all reasons together); ``recent_*``
+        their growth over the period.
+    period_worst_lag_ms : float or None
+        Largest delay from a sample's stamp to its prediction in the period (ms).
+    error_finite : bool
+        Whether the windowed prediction error is finite.
+    validation_nmse_total : float or None
+        Held-out NMSE over all joints.
     update_rate : float or None
         Weight updates/s of a trainer beside the stream; None for one in the message path.
     update_overdue_s : float or None
@@ -248,9 +254,9 @@ def identifier_health(*, period_s: float, since_sample_s: float | None, processe
         text = (f'{recent_skipped / recent_processed:.0%} of the samples skipped '
                 f'(> {SKIPPED_WARN:.0%}): see the log for why')
         problems.append((Level.WARN, text))
-    if validation_nmse is not None and validation_nmse > NMSE_WARN:
-        text = (f'validation NMSE {validation_nmse:.3g} > {NMSE_WARN:g}: the model predicts '
-                'worse than the mean (as it does in its first seconds of learning)')
+    if validation_nmse_total is not None and validation_nmse_total > NMSE_WARN:
+        text = (f'validation NMSE {validation_nmse_total:.3g} > {NMSE_WARN:g}: the model '
+                'predicts worse than the mean (as it does in its first seconds of learning)')
         problems.append((Level.WARN, text))
     if learning and update_overdue_s is not None and update_overdue_s > STALL_AFTER:
         text = (f'learning stalled: no update for {update_overdue_s:.0f} s while samples came '
@@ -263,11 +269,10 @@ def identifier_health(*, period_s: float, since_sample_s: float | None, processe
                                       f"{'on' if learning else 'off'}{updates}")
     return Health(level, message, {
         **({'updates/s': f'{update_rate:.2f}'} if update_rate is not None else {}),
-        'samples/s': f'{rate:.1f}', 'lag [ms]': _number(None if lag_s is None
-                                                        else lag_s * 1e3, 3),
-        'processed': str(processed), 'skipped': str(skipped), 'lost': str(lost),
+        'samples/s': f'{rate:.1f}', 'lag [ms]': _number(period_worst_lag_ms, 3),
+        'processed': str(processed), 'skipped': str(skipped_total), 'lost': str(lost),
         'learnt': str(learnt), 'learning': str(learning).lower(),
-        'validation NMSE': _number(validation_nmse),
+        'validation NMSE': _number(validation_nmse_total),
         **_contact_values(contact_armed, contact_thresholds, contact_arm_nmse,
                           contact_why_not, contact_false_alarms_per_hour, contact_segments,
                           contact_held, contact_delay_p50_ms, contact_delay_p99_ms)})

@@ -53,6 +53,7 @@ from scara_ident_ros.identification import StepResult
 from scara_ident_ros.identification.background_lm import prestart
 from scara_ident_ros.identification.input_stage import Input
 from scara_ident_ros.identification.parameters import IDENTIFICATION_PARAMETERS, LIMITS
+from scara_ident_ros.identification.reports import MethodReport, StreamFigures
 from scara_ident_ros.identification.sample_check import GAP_PERIODS
 from scara_ident_ros.identification.session import IdentificationSession, MethodRun
 from scara_ident_ros.identification.stream_clock import PathDelays, StreamClock
@@ -388,13 +389,14 @@ class IdentifierNode(Node):
         """A method's health over the last ``period_s`` s, for ``/diagnostics``."""
         figures = self.session.health_figures(out.run)
         self._settle_loss()
-        recent = out.deltas(processed=figures['processed'], skipped=figures['skipped'],
+        recent = out.deltas(processed=figures.processed, skipped=figures.skipped.total,
                             lost=self.loss.lost)
         return identifier_health(
             period_s=period_s, since_sample_s=(None if self.last_sample is None
                                                else time.monotonic() - self.last_sample),
             lost=self.loss.lost, recent_processed=int(recent['processed']),
-            recent_skipped=int(recent['skipped']), recent_lost=int(recent['lost']), **figures)
+            recent_skipped=int(recent['skipped']), recent_lost=int(recent['lost']),
+            **figures.as_dict())
 
     # ------------------------------------------------------------------ per sample
     def on_raw_joint_state(self, raw: bytes) -> None:
@@ -471,19 +473,19 @@ class IdentifierNode(Node):
         if self.last_sample is not None and time.monotonic() - self.last_sample > SETTLE_LOSS_S:
             self.loss.settle()
 
-    def stream(self) -> dict[str, Any]:
+    def stream(self) -> StreamFigures:
         """Figures of the ``joint_states`` stream: losses, pauses, delays, publishers."""
         watch = self.publisher_watch
         self._settle_loss()
-        return {
-            'lost': self.loss.lost, 'pauses': self.loss.pauses, 'paused_s': self.loss.paused_s,
-            'path_delay_p50_ms': self.path.delays.percentile_ms(50),
-            'path_delay_p99_ms': self.path.delays.percentile_ms(99),
-            'wall_clock_stamps': self.clock.wall,
-            'joint_states_publishers': watch.most_publishers if watch else 0,
-            'stamps_backward': watch.stamps.backward if watch else 0}
+        return StreamFigures(
+            lost=self.loss.lost, pauses=self.loss.pauses, paused_s=self.loss.paused_s,
+            path_delay_p50_ms=self.path.delays.percentile_ms(50),
+            path_delay_p99_ms=self.path.delays.percentile_ms(99),
+            wall_clock_stamps=self.clock.wall,
+            joint_states_publishers=watch.most_publishers if watch else 0,
+            stamps_backward=watch.stamps.backward if watch else 0)
 
-    def summary(self, run: MethodRun | None = None, *, fresh: bool = False) -> dict[str, Any]:
+    def summary(self, run: MethodRun | None = None, *, fresh: bool = False) -> MethodReport:
         """A method's counters and errors so far (the first method's by default), with the
         stream's figures; ``fresh``: score the held-out samples now."""
         return self.session.summary(run, fresh=fresh, stream=self.stream())
@@ -491,29 +493,37 @@ class IdentifierNode(Node):
     def log_stats(self) -> None:
         """Log counters, skipped samples by reason, lag, learning and the windowed error."""
         for run in self.session.runs:
-            info = self.session.summary(run)
-            validation = info.get('validation_nmse_total')
-            who = f'{run.method}: ' if self.session.several else ''
-            if info['processed'] and run.core is None:
-                self.get_logger().info(f"{who}processed {info['processed']}, no valid sample "
-                                       f"yet: skipped {info['skipped']}")
-            elif info['processed']:
-                extra = f", {info['no_effort']} without effort" if info['no_effort'] else ''
-                # steps refused by the trainer (not finite, or undone by bp's guard, which
-                # also halves the learning rate) and predictions clipped to the effort limits
-                extra += ''.join(f', {key} {info[key]}' for key in ('refused', 'clipped')
-                                 if info.get(key))
-                if 'updates_per_s' in info:
-                    extra += (f", {info['updates']} updates ({info['updates_per_s']:.1f}/s)"
-                              + (f", {info['learn_dropped']} not learnt (learner behind)"
-                                 if info['learn_dropped'] else ''))
-                self.get_logger().info(
-                    f"{who}processed {info['processed']}, learned {info['learned']}, held out "
-                    f"{info['held_out']}{extra}, skipped {info['skipped'] or 0}, max lag "
-                    f"{run.max_lag_ns / 1e6:.2f} ms, windowed MSE {info['mse_total']:.4g}, "
-                    f"NMSE {info['nmse_total']:.4g}, validation NMSE "
-                    f"{np.nan if validation is None else validation:.4g}")
-            run.max_lag_ns = 0
+            self._log_report(run, self.session.summary(run))
+            run.line_lag_ns = 0
+
+    def _log_report(self, run: MethodRun, report: MethodReport) -> None:
+        """One statistics line of a method's report (none before any sample)."""
+        who = f'{run.method}: ' if self.session.several else ''
+        if not report.processed:
+            return
+        if run.core is None:  # no model yet
+            self.get_logger().info(f'{who}processed {report.processed}, no valid sample '
+                                   f'yet: skipped {report.skipped}')
+            return
+        extra = f', {report.no_effort} without effort' if report.no_effort else ''
+        # steps refused by the trainer (not finite, or undone by bp's guard, which also
+        # halves the learning rate) and predictions clipped to the effort limits
+        extra += ''.join(f', {key} {n}' for key, n in (('refused', report.refused),
+                                                      ('clipped', report.clipped)) if n)
+        learning = report.learning
+        if learning is not None and learning.updates_per_s is not None:
+            extra += (f', {learning.updates} updates ({learning.updates_per_s:.1f}/s)'
+                      + (f', {learning.learn_dropped} not learnt (learner behind)'
+                         if learning.learn_dropped else ''))
+        def number(value: float | None) -> float:
+            return np.nan if value is None else value
+
+        self.get_logger().info(
+            f'{who}processed {report.processed}, learnt {report.learnt}, held out '
+            f'{report.held_out}{extra}, skipped {report.skipped.total} ({report.skipped}), '
+            f'worst lag since the last line {run.line_lag_ns / 1e6:.2f} ms, windowed MSE '
+            f'{number(report.mse_total):.4g}, NMSE {number(report.nmse_total):.4g}, '
+            f'validation NMSE {number(report.validation_nmse_total):.4g}')
 
     def checkpoint(self) -> None:
         """Save each model to its ``save_path``, if there is one; a failure is logged."""
@@ -544,8 +554,8 @@ class IdentifierNode(Node):
             stats_file = self.session.paths['stats_file'][run.method]
             if stats_file:
                 Path(stats_file).parent.mkdir(parents=True, exist_ok=True)
-                Path(stats_file).write_text(json.dumps(self.summary(run, fresh=True),
-                                                       indent=1))
+                Path(stats_file).write_text(json.dumps(
+                    self.summary(run, fresh=True).as_dict(), indent=1))
 
 
 def main(args: list[str] | None = None) -> None:

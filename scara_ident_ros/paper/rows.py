@@ -43,7 +43,7 @@ class ResultRow:
     mse_mean, nmse_mean : float
         Their means over the joints.
     iterations : int or None
-        Offline: training iterations done; online: samples learned.
+        Offline: training iterations done; online: samples learnt.
     goal, goal_iteration : float or None, int or None
         Offline training goal (scaled MSE) and the first iteration that reached it.
     train_time_s, cpu_time_s : float or None

@@ -64,7 +64,7 @@ class OnlineTrace:
 
     network: FeedForwardNet
     predicted: FloatArray
-    learned: int
+    learnt: int
     diverged_at: int | None
     seconds: float
     cpu_seconds: float
@@ -89,7 +89,7 @@ def learn_online(network: FeedForwardNet, X: npt.ArrayLike, Y: npt.ArrayLike, *,
     predicted = np.full(y.shape, np.nan)
     diverged_at = None
     wall, cpu = time.perf_counter(), time.process_time()
-    learned = 0
+    learnt = 0
     with np.errstate(over='ignore', invalid='ignore'):
         for start in range(0, x.shape[0], chunk):
             stop = min(start + chunk, x.shape[0])
@@ -99,8 +99,8 @@ def learn_online(network: FeedForwardNet, X: npt.ArrayLike, Y: npt.ArrayLike, *,
                 diverged_at = start
                 break
             predicted[start:stop] = y[start:stop] - errors
-            learned = stop
-    return OnlineTrace(network, predicted, learned, diverged_at, time.perf_counter() - wall,
+            learnt = stop
+    return OnlineTrace(network, predicted, learnt, diverged_at, time.perf_counter() - wall,
                        time.process_time() - cpu)
 
 
@@ -116,7 +116,7 @@ def online_rows(method: str, seed: int | None, trace: OnlineTrace, Y: npt.ArrayL
     """Rows of one stream (efforts ``Y`` (N, n)): its last ``paper_window`` and ``window``
     samples, then each evaluation data set predicted without learning."""
     y = np.asarray(Y, dtype=np.float64)
-    extra = dict(iterations=trace.learned, train_time_s=trace.seconds,
+    extra = dict(iterations=trace.learnt, train_time_s=trace.seconds,
                  cpu_time_s=trace.cpu_seconds, diverged=trace.diverged_at is not None,
                  note='' if trace.diverged_at is None
                  else f'diverged in the block from sample {trace.diverged_at}')
@@ -170,7 +170,7 @@ def run_online(X: npt.ArrayLike, Y: npt.ArrayLike, evaluations: Evaluations | No
                               paper_window=paper_window)
             rows.extend(new)
             if progress is not None:
-                progress(f'online {label} seed {seed}: {trace.learned} samples in '
+                progress(f'online {label} seed {seed}: {trace.learnt} samples in '
                          f'{trace.seconds:.1f} s, last-{paper_window} MSE '
                          f'{new[0].mse_mean:.3g}, {new[-1].data} NMSE {new[-1].nmse_mean:.3g}')
     return rows

@@ -44,17 +44,21 @@ def test_an_out_that_cannot_hold_the_run_is_refused_first(
 def test_every_published_sample_is_accounted_for() -> None:
     """predicted + skipped + lost + not drained = published; the shortfall is what was not
     predicted."""
-    from scara_ident_ros.cli.run import stream_use
+    from scara_ident_ros.cli.run_summary import MethodRow, stream_use
 
     info = {'processed': 9_000, 'predicted': 8_700, 'skipped': {'warming_up': 20,
                                                                 'out_of_limits': 280},
-            'lost': 400}
-    row = stream_use(10_000, info)
-    assert row['not_drained'] == 600
-    assert (row['predicted'] + sum(row['skipped'].values()) + row['lost']
-            + row['not_drained']) == 10_000
-    assert row['shortfall'] == 1_300
+            'lost': 400, 'learnt': 8_000}
+    use = stream_use(10_000, info)
+    assert use.not_drained == 600
+    assert use.predicted is not None and use.lost is not None
+    assert use.predicted + use.skipped.total + use.lost + use.not_drained == 10_000
+    assert use.shortfall == 1_300
     whole = stream_use(10_000, {'processed': 10_000, 'predicted': 10_000, 'skipped': {},
                                 'lost': 0})
-    assert whole['not_drained'] == whole['shortfall'] == 0
-    assert stream_use(None, info)['not_drained'] is None
+    assert whole.not_drained == whole.shortfall == 0
+    assert stream_use(None, info).not_drained is None
+    # summary.json's row: the stream use inline, skipped per reason and its total
+    row = MethodRow.of(info, 10_000, 8_700, 'ffs.npz').as_dict()
+    assert row['skipped'] == info['skipped'] and row['skipped_total'] == 300
+    assert row['learnt'] == 8_000 and row['not_drained'] == 600 and row['recorded'] == 8_700

@@ -230,7 +230,7 @@ def test_summary_agrees_with_the_bag(run: Run, joint_states: JointStateSeries) -
         assert row['updates'] is not None and row['updates'] >= 1, (method, row)
         # the default trainer; the held-out blocks (10 %) are predicted, never learnt
         assert row['trainer'] == 'lm', (method, row)
-        assert row['learned'] + row['held_out'] == SAMPLES and row['held_out'] > 0, row
+        assert row['learnt'] + row['held_out'] == SAMPLES and row['held_out'] > 0, row
         assert np.isfinite(row['validation_nmse_total']), (method, row)
         assert Path(row['model']).is_file(), row['model']
     assert f'published {SAMPLES}, recorded {SAMPLES}' in run.output

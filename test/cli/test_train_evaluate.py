@@ -155,10 +155,10 @@ def test_identifier_warm_starts_from_a_trained_model(bags: dict[str, Path], tmp_
                        states.velocity[i], states.effort[i])
     # every sample is learnt, the last 10 (waiting for the centred q'') at the end of the
     # stream, as the node does on shutdown
-    assert online.counts.learned + online.counts.pending == states.stamp_ns.shape[0]
+    assert online.counts.learnt + online.counts.pending == states.stamp_ns.shape[0]
     assert online.counts.pending == 10
     online.finish()
-    assert online.counts.learned == states.stamp_ns.shape[0] and online.counts.pending == 0
+    assert online.counts.learnt == states.stamp_ns.shape[0] and online.counts.pending == 0
 
 
 def test_six_joints_bare_mcap_with_joint_selection(bags: dict[str, Path], tmp_path: Path,

@@ -221,7 +221,7 @@ def test_a_7_joint_arm_stream_keeps_up_with_the_learner_beside_it() -> None:
         assert counts.processed == len(record)
         assert counts.predicted == counts.processed - counts.pending
         assert sum(counts.skipped.values()) == 0
-        assert trainer.sent == counts.learned > 0 and trainer.dropped == 0
+        assert trainer.sent == counts.learnt > 0 and trainer.dropped == 0
         assert wait_until(lambda: trainer.updates >= 1, trainer), trainer.updates
         assert cpu < 4.0, cpu  # the stream's 4 s
     finally:

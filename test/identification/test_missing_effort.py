@@ -57,8 +57,8 @@ def test_missing_effort_is_predicted_not_learnt_and_counted(learn: bool) -> None
     assert len(ident.holdout.reservoir) == counts.held_out  # type: ignore[union-attr]
     assert ident.errors.count == 200 - 57
     if learn:
-        assert counts.learned + counts.held_out + counts.refused + counts.no_effort == 200
-        assert len(trainer.reservoir) == min(100, counts.learned)
-        assert counts.learned > 0
+        assert counts.learnt + counts.held_out + counts.refused + counts.no_effort == 200
+        assert len(trainer.reservoir) == min(100, counts.learnt)
+        assert counts.learnt > 0
     else:
-        assert counts.learned == 0 and len(trainer.reservoir) == 0
+        assert counts.learnt == 0 and len(trainer.reservoir) == 0

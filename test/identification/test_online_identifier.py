@@ -147,7 +147,7 @@ def test_hostile_stream() -> None:
                       SkipReason.STAMP_REPEATED: 1, SkipReason.STAMP_BACKWARDS: 1,
                       SkipReason.GAP: 1, SkipReason.WARMING_UP: 1}
     assert counts.skipped == {**dict.fromkeys(SkipReason, 0), **expected_skips}
-    assert counts.predicted == counts.learned == len(good)
+    assert counts.predicted == counts.learnt == len(good)
     assert counts.processed == counts.predicted + sum(counts.skipped.values())
 
     # The model learnt from exactly the good samples, in order, in joint order, all finite.
@@ -239,7 +239,7 @@ def test_prediction_only_mode() -> None:
     for k in range(10):
         names, q, qd, effort = message(k)
         ident.process(T0 + k * MS, names, q, qd, effort if k % 2 else [])
-    assert ident.counts.predicted == 9 and ident.counts.learned == 0
+    assert ident.counts.predicted == 9 and ident.counts.learnt == 0
     assert model.fits() == []
     assert ident.error_stats().count == 5  # only samples that carried an effort
     assert ident.paper_error().count == 5
@@ -257,7 +257,7 @@ def test_gap_restarts_the_differentiator_and_reset_restarts_the_stream() -> None
     reasons = [one(ident.process(T0 + k * MS, *message(k))).reason
                for k in range(3)]  # time went back
     assert reasons == [SkipReason.WARMING_UP] * 2 + [None]
-    assert ident.counts.processed == 12 and ident.counts.learned == 6
+    assert ident.counts.processed == 12 and ident.counts.learnt == 6
 
 
 @pytest.mark.parametrize('n_outputs, kwargs', [

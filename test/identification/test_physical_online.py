@@ -50,7 +50,7 @@ def test_a_physical_model_identifies_online(method: str, kind: type) -> None:
     assert isinstance(lazy.network, kind)
     stream(lazy, 6.0)
     core = lazy.core
-    assert core is not None and core.counts.learned > 4000
+    assert core is not None and core.counts.learnt > 4000
     validation = core.validation_stats()
     assert validation is not None
     # the SCARA is its URDF's rigid-body model with viscous and Coulomb friction: RLS

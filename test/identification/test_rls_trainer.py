@@ -36,7 +36,7 @@ def test_online_identifier_learns_a_physical_model_by_rls() -> None:
     for k in range(count):
         online.process(int(stamps[k]), names, q[k], qd[k], effort[k])
     online.finish()
-    assert online.counts.learned == trainer.rls.count == count
+    assert online.counts.learnt == trainer.rls.count == count
     # q'' is estimated (centred fit of q'): the friction comes out within 2 %
     np.testing.assert_allclose(model.theta[model.n_base:], FRICTION, rtol=0.02, atol=0.01)
     # the a-priori errors of the last window are a small fraction of the efforts

@@ -14,6 +14,7 @@ import yaml
 from scara_ident_ros.dynamics import ScaraParams
 from scara_ident_ros.dynamics.joint_limits import LimitsError
 from scara_ident_ros.errors import ConfigError
+from scara_ident_ros.identification.reports import SkipCounts, StreamFigures
 from scara_ident_ros.identification.session import IdentificationSession
 from scara_ident_ros.identification.reservoir_lm import ReservoirLM
 from scara_ident_ros.identification.warm_start import ModelMismatch
@@ -74,7 +75,7 @@ def test_the_joints_come_from_the_first_valid_sample() -> None:
     assert session.core is None and session.processed() == 1
     predictions, = feed(session, record, 50, start=1)
     assert session.names == NAMES and len(predictions) == 49 - LAG
-    assert session.summary()['skipped'] == {'no_velocity': 1}
+    assert session.summary().skipped == SkipCounts({'no_velocity': 1})
 
 
 def test_several_methods_share_one_input_stage() -> None:
@@ -86,7 +87,7 @@ def test_several_methods_share_one_input_stage() -> None:
     assert [r.stamp_ns for r in a] == [r.stamp_ns for r in b] == [
         T0 + i * MS for i in range(100 - LAG)]
     assert not np.allclose([r.effort for r in a], [r.effort for r in b])  # two networks
-    assert session.summary(ffs)['method'] == 'ffs' and session.processed() == 100
+    assert session.summary(ffs).method == 'ffs' and session.processed() == 100
 
 
 def test_a_joint_set_mismatch_says_how_to_fix_it() -> None:
@@ -143,12 +144,12 @@ def test_reset_keeps_the_summaries_of_before(tmp_path: Path) -> None:
     trained = session.network
     assert trained is not None
     weights = trained.get_theta()
-    ok, message, warning = session.reset(stream={'lost': 3})
-    assert ok and warning == '' and 'ffs: processed 200, learned' in message
+    ok, message, warning = session.reset(stream=StreamFigures(lost=3))
+    assert ok and warning == '' and 'ffs: processed 200, learnt' in message
     assert session.network is not None
     assert not np.array_equal(session.network.get_theta(), weights)  # fresh weights
     feed(session, record, 300, start=200)
-    info = session.summary()
+    info = session.summary().as_dict()  # as the stats_file holds it
     previous, = info['previous']
     assert previous['processed'] == 200 and previous['predicted'] == 200 - LAG
     assert previous['lost'] == 3 and 'previous' not in previous
@@ -182,14 +183,16 @@ def test_lags_are_kept_per_method_and_reported_once_per_period() -> None:
     run = session.first
     for lag_ms in (2, 9, 4):
         run.record_lag(lag_ms * MS)
-    assert (run.max_lag_ns, run.worst_lag_ns) == (9 * MS, 9 * MS)
-    assert session.health_figures(run)['lag_s'] == pytest.approx(0.009)
-    assert session.health_figures(run)['lag_s'] is None  # reported, the period starts anew
-    run.max_lag_ns = 0  # as a statistics line does
+    assert (run.line_lag_ns, run.worst_lag_ns) == (9 * MS, 9 * MS)
+    assert session.health_figures(run).period_worst_lag_ms == pytest.approx(9.0)
+    # reported: the period starts anew
+    assert session.health_figures(run).period_worst_lag_ms is None
+    run.line_lag_ns = 0  # as a statistics line does
     run.record_lag(1 * MS)
-    info = session.summary(stream={'lost': 0})
-    assert info['max_lag_ms'] == 9.0 and info['lost'] == 0
-    assert info['lag_p99_ms'] >= info['lag_p50_ms'] > 0
+    info = session.summary(stream=StreamFigures(lost=0))
+    assert info.worst_lag_ms == 9.0 and info.stream is not None and info.stream.lost == 0
+    assert info.lag_p99_ms is not None and info.lag_p50_ms is not None
+    assert info.lag_p99_ms >= info.lag_p50_ms > 0
 
 
 def test_save_says_why_not_and_writes_atomically(tmp_path: Path) -> None:
@@ -235,7 +238,9 @@ def test_a_background_hybrid_reports_its_learners_updates() -> None:
             run.background.poll()
             time.sleep(0.05)
         assert run.background.updates >= 1
-        assert run.learning()['updates'] == run.background.updates
+        learning = run.learning()
+        assert learning is not None and learning.updates == run.background.updates
+        assert session.summary(run).as_dict()['updates'] == learning.updates
     finally:
         session.close()
 
@@ -253,9 +258,9 @@ def test_a_stream_without_velocities_is_predicted_with_derived_velocities(derive
     inputs += session.flush()[1]
     summary = session.summary()
     if derive == 'never':
-        assert summary['skipped'] == {'no_velocity': 400} and not inputs
+        assert summary.skipped.as_dict() == {'no_velocity': 400} and not inputs
         return
-    assert summary['processed'] == summary['predicted'] == 400 and not summary['skipped']
+    assert summary.processed == summary.predicted == 400 and summary.skipped.total == 0
     qd = np.array([item.x[4:8] for item in inputs])
     stamps = [(item.stamp_ns - T0) // MS for item in inputs]
     inner = slice(LAG, -LAG)  # centred fits (the history's ends are off-centre, noisier)
@@ -287,10 +292,11 @@ def test_contact_calibration_is_an_explicit_step_and_arms_on_the_rate_bound() ->
     assert run.detector.armed, calibration.why_not
     assert calibration.false_alarms_per_hour is not None
     assert calibration.false_alarms_per_hour <= 1.0 + 1e-9
-    figures = session.health_figures(run)
+    figures = session.health_figures(run).as_dict()
     assert figures['contact_armed'] and figures['contact_why_not'] == ''
     summary = session.summary(run)
-    assert summary['contact_armed'] and len(summary['contact_thresholds']) == 4
+    assert summary.contact_armed and summary.contact_thresholds is not None
+    assert len(summary.contact_thresholds) == 4
     session.apply({'contact_false_alarms_per_hour': 0.5})  # a new detector: not armed
     assert not run.detector.armed
     assert run.calibrate_contacts(1e-3) is not None and run.detector.armed

@@ -72,9 +72,9 @@ def test_a_urdf_alone_predicts_every_sample_after_the_warm_up(robot: str) -> Non
     predicted, warnings = feed(session, names, q, qd, effort)
     assert warnings == [] and session.core is not None
     summary = session.summary()
-    assert summary['skipped'] == {}  # no unknown_joint, nothing else
+    assert summary.skipped.as_dict() == {}  # no unknown_joint, nothing else
     lag = DEFAULTS['window'] // 2
-    assert predicted == len(q) - lag == summary['predicted']  # the last lag are pending
+    assert predicted == len(q) - lag == summary.predicted  # the last lag are pending
     # one line says which limits, from where: the URDF's, and the stream's accelerations
     said = [line for line in lines if line.startswith('joint limits of')]
     assert len(said) == 1 and str(names) in said[0]
@@ -138,7 +138,7 @@ def test_joints_no_file_knows_stay_unknown() -> None:
     wrong = [*names[:-1], 'elbow_of_another_arm']
     _, warnings = feed(session, wrong, q, qd, effort)
     assert session.core is None
-    assert session.summary()['skipped'] == {'unknown_joint': len(q)}
+    assert session.summary().skipped.as_dict() == {'unknown_joint': len(q)}
     assert "no joint limits for ['elbow_of_another_arm']" in warnings[0]
 
 
@@ -147,7 +147,7 @@ def test_joint_names_of_the_urdf_need_no_acceleration_limits() -> None:
     session = session_for('ur5', [], joint_names=names[::-1])
     assert session.core is None  # built once the stream has completed the scaling
     feed(session, names, q, qd, effort)
-    assert session.names == names[::-1] and session.summary()['skipped'] == {}
+    assert session.names == names[::-1] and session.summary().skipped.total == 0
 
 
 def test_a_physical_model_needs_no_scaling_and_holds_the_fingers_fixed() -> None:
@@ -219,7 +219,8 @@ def test_a_sample_of_other_joints_while_scaling_is_skipped() -> None:
     feed(session, names, q[:10], qd[:10], effort[:10])
     results, _, warnings = session.process(T0 + 20 * MS, names[:3], q[20, :3], qd[20, :3],
                                            effort[20, :3])
-    assert warnings and session.summary()['skipped'] == {SkipReason.MISSING_JOINT.value: 1}
+    assert warnings and session.summary().skipped.as_dict() == {
+        SkipReason.MISSING_JOINT.value: 1}
 
 
 def test_several_methods_share_the_scaling_the_stream_gave() -> None:
@@ -229,8 +230,8 @@ def test_several_methods_share_the_scaling_the_stream_gave() -> None:
     feed(session, names, q, qd, effort)
     for run in session.runs:
         summary = session.summary(run)
-        assert summary['skipped'] == {}, run.method
-        assert summary['predicted'] == len(q) - DEFAULTS['window'] // 2, run.method
+        assert summary.skipped.total == 0, run.method
+        assert summary.predicted == len(q) - DEFAULTS['window'] // 2, run.method
     ffs, hybrid = session.runs[0].network, session.runs[1].network
     assert isinstance(ffs, FeedForwardNet)
     assert isinstance(hybrid, HybridModel)

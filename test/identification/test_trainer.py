@@ -84,8 +84,8 @@ def test_validation_samples_are_never_learnt_and_score_the_current_model() -> No
     results += ident.finish()
     held = {r.stamp_ns for r in results if r.held_out}
     counts = ident.counts
-    assert counts.held_out == len(held) > 0 and counts.learned == len(trainer.learnt)
-    assert counts.learned + counts.held_out + counts.refused == counts.predicted == len(data)
+    assert counts.held_out == len(held) > 0 and counts.learnt == len(trainer.learnt)
+    assert counts.learnt + counts.held_out + counts.refused == counts.predicted == len(data)
     held_x = {x.tobytes() for x in holdout.reservoir.X}
     assert held_x and held_x.isdisjoint(trainer.learnt)
     stats = ident.validation_stats()
@@ -209,7 +209,7 @@ def test_impossible_samples_never_reach_the_reservoir() -> None:
     ident.finish()
     assert ident.counts.skipped[SkipReason.OUT_OF_LIMITS] == 10
     assert np.abs(trainer.reservoir.X[:, 0]).max() < 3.0
-    assert len(trainer.reservoir) == ident.counts.learned == 990
+    assert len(trainer.reservoir) == ident.counts.learnt == 990
 
 
 def _bp_stream(learning_rate: float) -> tuple[BackPropagation, np.ndarray, np.ndarray]:

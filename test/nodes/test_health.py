@@ -17,9 +17,10 @@ MS = 1_000_000  # ns
 def healthy_identifier(**changes: Any) -> dict[str, Any]:
     """An identifier's figures over a 1 s period at 1 kHz with nothing wrong, changed."""
     figures: dict[str, Any] = {
-        'period_s': 1.0, 'since_sample_s': 0.001, 'processed': 5000, 'skipped': 10, 'lost': 0,
-        'learnt': 4500, 'recent_processed': 1000, 'recent_skipped': 0, 'recent_lost': 0,
-        'lag_s': 0.012, 'error_finite': True, 'validation_nmse': 0.05, 'learning': True}
+        'period_s': 1.0, 'since_sample_s': 0.001, 'processed': 5000, 'skipped_total': 10,
+        'lost': 0, 'learnt': 4500, 'recent_processed': 1000, 'recent_skipped': 0, 'recent_lost': 0,
+        'period_worst_lag_ms': 12.0, 'error_finite': True, 'validation_nmse_total': 0.05,
+        'learning': True}
     figures.update(changes)
     return figures
 
@@ -70,11 +71,11 @@ def test_identifier_diagnostics_say_why_not_armed_the_rate_and_the_delay() -> No
     ({'since_sample_s': 1.5, 'recent_processed': 0}, Level.WARN, 'no sample for 1.5 s (> 1 s)'),
     ({'since_sample_s': None, 'recent_processed': 0}, Level.WARN, 'no sample received yet'),
     ({'recent_skipped': 200}, Level.WARN, '20% of the samples skipped (> 10%)'),
-    ({'validation_nmse': 1.2}, Level.WARN, 'validation NMSE 1.2 > 1'),
+    ({'validation_nmse_total': 1.2}, Level.WARN, 'validation NMSE 1.2 > 1'),
     ({'recent_lost': 3, 'lost': 3}, Level.ERROR, '3 samples lost in the last 1.0 s'),
     ({'update_overdue_s': 12.4}, Level.WARN, 'learning stalled: no update for 12 s'),
     ({'error_finite': False}, Level.ERROR, 'not finite'),
-    ({'error_finite': False, 'validation_nmse': 2.0}, Level.ERROR, 'worse than the mean'),
+    ({'error_finite': False, 'validation_nmse_total': 2.0}, Level.ERROR, 'worse than the mean'),
 ])
 def test_identifier_levels_follow_the_conditions(changes: dict[str, Any], level: Level,
                                                  words: str) -> None:
@@ -84,12 +85,14 @@ def test_identifier_levels_follow_the_conditions(changes: dict[str, Any], level:
 
 
 def test_identifier_thresholds_are_exclusive() -> None:
-    at_limits = healthy_identifier(since_sample_s=1.0, recent_skipped=100, validation_nmse=1.0)
+    at_limits = healthy_identifier(since_sample_s=1.0, recent_skipped=100,
+                                   validation_nmse_total=1.0)
     assert identifier_health(**at_limits).level is Level.OK
 
 
 def test_identifier_without_validation_or_predictions_says_not_available() -> None:
-    health = identifier_health(**healthy_identifier(validation_nmse=float('nan'), lag_s=None))
+    health = identifier_health(**healthy_identifier(validation_nmse_total=float('nan'),
+                                                    period_worst_lag_ms=None))
     assert health.level is Level.OK
     assert health.values['validation NMSE'] == 'n/a'
     assert health.values['lag [ms]'] == 'n/a'

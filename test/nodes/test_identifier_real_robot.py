@@ -79,7 +79,7 @@ def test_learns_from_a_500_hz_jittered_stream_with_limits_from_robot_description
     info = json.loads(stats_file.read_text())
     assert info['processed'] == info['predicted'] == N
     assert info['skipped'] == {} and info['no_effort'] == 0 and info['pending'] == 0
-    assert info['learned'] + info['held_out'] == N and info['learned'] > 0
+    assert info['learnt'] + info['held_out'] == N and info['learnt'] > 0
     # every sample answered, in order, with finite efforts
     assert [msg.header.stamp for msg in torques] == [msg.header.stamp for msg in states]
     predicted = np.array([msg.effort for msg in torques])

@@ -165,7 +165,7 @@ def test_parameters_set_while_running_take_effect(tmp_path: Path,
     # The first 1990 samples were predicted (and learnt, but the held-out ones) before the
     # set; the 10 pending then and the 2000 after it were only predicted.
     assert stats['predicted'] == 4000
-    assert stats['learned'] == learnt_of(2000 - LAG)
+    assert stats['learnt'] == learnt_of(2000 - LAG)
 
 
 @pytest.mark.slow
@@ -193,9 +193,9 @@ def test_save_model_and_reset_services(tmp_path: Path, listener: rostest.Listene
         stats = session.stop(tmp_path)
     previous, = stats['previous']  # the counters of before the reset, apart
     assert previous['processed'] == 2000 and previous['predicted'] == 2000 - LAG
-    assert previous['learned'] == learnt_of(2000 - LAG)
+    assert previous['learnt'] == learnt_of(2000 - LAG)
     assert stats['processed'] == 1000 and stats['predicted'] == 1000
-    assert stats['learned'] == learnt_of(1000)
+    assert stats['learnt'] == learnt_of(1000)
 
 
 @pytest.mark.slow

@@ -31,7 +31,7 @@ def _net(**hyper: float) -> FeedForwardNet:
 def test_predictions_are_a_priori(stream: Dataset) -> None:
     net, twin = _net(), _net()
     trace = learn_online(net, stream.X[:50], stream.Y[:50], chunk=7)
-    assert trace.learned == 50 and trace.diverged_at is None
+    assert trace.learnt == 50 and trace.diverged_at is None
     # the twin predicts each sample before learning it, one sample at a time
     for x, y, predicted in zip(stream.X[:50], stream.Y[:50], trace.predicted):
         np.testing.assert_allclose(predicted, twin.predict(x), rtol=1e-10, atol=1e-12)
@@ -48,7 +48,7 @@ def test_online_learning_lowers_the_error(stream: Dataset) -> None:
 
 def test_divergence_stops_learning_and_leaves_nan(stream: Dataset) -> None:
     trace = learn_online(_net(learning_rate=1e8), stream.X, stream.Y, chunk=100)
-    assert trace.diverged_at is not None and trace.learned == trace.diverged_at
+    assert trace.diverged_at is not None and trace.learnt == trace.diverged_at
     assert np.all(np.isnan(trace.predicted[trace.diverged_at:]))
     rows = online_rows('FFMW', 1, trace, stream.Y, {'held-out': (stream.X, stream.Y)},
                        window=500)
