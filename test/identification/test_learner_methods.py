@@ -77,11 +77,11 @@ def test_kernel_predicts_every_sample_and_learns_as_its_own_partial_fit(
     counts = core.counts
     assert counts.predicted == len(predictions) == counts.processed - counts.pending
     assert sum(counts.skipped.values()) == 0
-    assert counts.held_out > 0 and counts.learned + counts.held_out == counts.predicted
+    assert counts.held_out > 0 and counts.learnt + counts.held_out == counts.predicted
     model = core.model
     assert isinstance(model, StreamedEstimator) and model.fitted
     trainer = core.trainer
-    assert isinstance(trainer, EstimatorLearner) and trainer.sent == counts.learned
+    assert isinstance(trainer, EstimatorLearner) and trainer.sent == counts.learnt
     # the reference: the same file's learner, given the learnt samples in the same calls
     reference = load_model(path)
     assert isinstance(reference, SparseSpectrumGP)
@@ -101,7 +101,7 @@ def test_kernel_predicts_every_sample_and_learns_as_its_own_partial_fit(
                                rtol=1e-9, atol=1e-9)
     assert reference.n_samples_ == model.learner.n_samples_ == 300 + done  # type: ignore
     # held-out samples were never learnt: the learner took exactly the learnt ones
-    assert counts.learned - done < batch
+    assert counts.learnt - done < batch
     held = np.array([item.x for r, item in zip(predictions, inputs) if r.held_out])
     np.testing.assert_allclose(model.predict(held), reference.predict(held), rtol=1e-9,
                                atol=1e-9)
@@ -133,7 +133,7 @@ def test_gp_warms_up_on_the_running_mean_then_learns_what_partial_fit_learns() -
     assert isinstance(trainer, EstimatorLearner)
     # the learner saw exactly the learnt samples (held-out ones never): its own count
     assert stream.learner.n_seen_ == trainer.learnt  # type: ignore[attr-defined]
-    assert trainer.sent == counts.learned and counts.learned - trainer.learnt < 25
+    assert trainer.sent == counts.learnt and counts.learnt - trainer.learnt < 25
 
 
 def test_a_learner_process_learns_and_hands_its_state_back(tmp_path: Path) -> None:

@@ -41,12 +41,12 @@ def test_kernel_beside_a_network_predicts_publishes_and_saves(
     ffs.receive_rest(n)
     info = json.loads((tmp_path / 'kernel.json').read_text())
     assert info['method'] == 'kernel' and info['predicted'] == n, info
-    assert info['held_out'] > 0 and info['learned'] + info['held_out'] == n, info
+    assert info['held_out'] > 0 and info['learnt'] + info['held_out'] == n, info
     assert stamps(kernel.torques) == [T0_NS + i * PERIOD_NS for i in range(n)]
     efforts = np.array([m.effort for m in kernel.torques])
     assert np.isfinite(efforts).all() and efforts.shape == (n, 4)
     saved = load_model(tmp_path / 'kernel.npz')
     assert isinstance(saved, SparseSpectrumGP) and saved.method == 'kernel'
     # the learner process took every learnt sample and no held-out one
-    assert saved.n_samples_ == info['learned']
+    assert saved.n_samples_ == info['learnt']
     assert list(saved.joint_names or ()) == ['joint1', 'joint2', 'joint3', 'joint4']
