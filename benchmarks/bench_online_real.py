@@ -46,12 +46,15 @@ def settings(changes: dict[str, Any]) -> dict[str, Any]:
 
 
 def run(path: str, changes: dict[str, Any], joints: list[str] | None, *,
-        live_velocity: bool = False) -> tuple[MethodReport, float]:
-    """Feed the recording at ``path`` sample by sample; return the session's summary.
+        live_velocity: bool = False, paced: bool = False
+        ) -> tuple[MethodReport, float, tuple[float, float]]:
+    """Feed the recording at ``path`` sample by sample; return the session's summary, the
+    seconds it took and the per-sample cost (median, p99; ms).
 
     ``live_velocity``: a recording without velocities is fed without them (the input
     stage derives q', ``derive_velocity``); else as ``play`` publishes it, with q' derived
-    from the whole recording.
+    from the whole recording. ``paced``: at the recording's own timing (a learner process
+    then learns as it would beside a live stream), else as fast as the session goes.
     """
     series = read_recording(path, derive=not live_velocity)
     if joints:
@@ -60,13 +63,22 @@ def run(path: str, changes: dict[str, Any], joints: list[str] | None, *,
     names = list(series.names)
     start = time.perf_counter()
     absent = bool(live_velocity and np.isnan(series.velocity).all())
+    cost = np.empty(len(series))
+    t0 = int(series.stamp_ns[0])
     for i in range(len(series)):
+        if paced:
+            ahead = (int(series.stamp_ns[i]) - t0) * 1e-9 - (time.perf_counter() - start)
+            if ahead > 0:
+                time.sleep(ahead)
+        began = time.perf_counter()
         session.process(int(series.stamp_ns[i]), names, series.position[i],
                         () if absent else series.velocity[i], series.effort[i])
+        cost[i] = time.perf_counter() - began
     session.flush()
+    session.close()  # a learner process hands its last state back
     summary = session.summary(fresh=True)
-    session.close()
-    return summary, time.perf_counter() - start
+    return summary, time.perf_counter() - start, (float(np.median(cost) * 1e3),
+                                                   float(np.percentile(cost, 99) * 1e3))
 
 
 def _value(text: str) -> Any:
@@ -84,18 +96,23 @@ def main() -> int:
     parser.add_argument('--joints', nargs='*', default=None)
     parser.add_argument('--live-velocity', action='store_true',
                         help='feed a recording without velocities without them')
+    parser.add_argument('--paced', action='store_true',
+                        help="feed at the recording's own timing")
     args = parser.parse_args()
     changes = {key: _value(value) for key, value in
                (item.split('=', 1) for item in args.set)}
-    summary, seconds = run(args.recording, changes, args.joints,
-                           live_velocity=args.live_velocity)
+    summary, seconds, cost_ms = run(args.recording, changes, args.joints,
+                                    live_velocity=args.live_velocity, paced=args.paced)
     if summary.validation_nmse_total is None:
         print(f'no model was built, or no held-out sample: {summary.as_dict()}',
               file=sys.stderr)
         return 1
+    learning = summary.learning
     print(f'| {args.recording} | {changes} | {summary.processed} | '
           f'{summary.predicted} | {summary.skipped.total} {summary.skipped.as_dict()} | '
-          f'{summary.held_out} | '
+          f'{learning.learn_dropped if learning else 0} | '
+          f'{learning.updates if learning else "–"} | '
+          f'{cost_ms[0]:.3f} / {cost_ms[1]:.2f} ms | {summary.held_out} | '
           + ', '.join(f'{v:.3g}' for v in summary.validation_nmse or ())
           + f' | {summary.validation_nmse_total:.3g} | {seconds:.0f} s, load '
           f'{os.getloadavg()[0]:.1f} |')

@@ -37,8 +37,9 @@ Learners (``--methods``):
     every training row, its kernel chosen by itself (validation blocks of its first rows).
 ``gponline``
     ``ExactGP.partial_fit`` one sample at a time in order (``--gp-budget`` points,
-    ``--gp-skip``, ``--gp-min-variance``), then frozen; time per sample at 1,000, 4,000 and
-    12,000 points. ``gponline_all``: the same with the budget at every training row.
+    ``--gp-rule`` once full, ``--gp-skip``, ``--gp-min-variance``), then frozen; time per
+    sample at 1,000, 4,000 and 12,000 points, median and p99. ``gponline_all``: the same
+    with the budget at every training row.
 ``ffs``
     the FFS network as ``scara-ident train`` trains it (21-40-7 for 7 joints, friction
     steps, Levenberg–Marquardt, early stop on a tenth of the training rows / blocks), with
@@ -77,6 +78,7 @@ from scipy.signal import butter, filtfilt
 from scara_ident_ros.blas_threads import single_blas_thread
 from scara_ident_ros.learners import ExactGP, SparseSpectrumGP
 from scara_ident_ros.learners.ard_hyperparameters import ArdHyperparameters
+from scara_ident_ros.learners.exact_gp import BUDGET_RULE, BUDGET_RULES, MIN_VARIANCE
 
 REALDATA = Path(__file__).resolve().parents[2] / 'shared' / 'realdata'
 if not REALDATA.exists():
@@ -305,11 +307,13 @@ def run_shipped_gp(s: Split, args: argparse.Namespace) -> tuple[np.ndarray, str]
                                  f'first {model.select_samples} training rows')
 
 
-def gp_online(s: Split, budget: int, skip: float, variance: float
+def gp_online(s: Split, budget: int, skip: float, variance: float, rule: str = 'thin'
               ) -> tuple[np.ndarray, str]:
     """ExactGP.partial_fit one sample at a time in order, then frozen; the time per sample
-    at 1,000, 4,000 and 12,000 points (mean over the samples learnt at 90-100 % of it)."""
-    model = ExactGP(budget=budget, skip_within=skip, min_variance=variance)
+    at 1,000, 4,000 and 12,000 points (mean over the samples learnt at 90-100 % of it), and
+    its median, 99th percentile and maximum over the samples after the warm-up."""
+    model = ExactGP(budget=budget, skip_within=skip, min_variance=variance,
+                    budget_rule=rule)
     points, seconds, prequential = [], [], []
     for i in range(len(s.X)):
         started = time.perf_counter()
@@ -325,18 +329,22 @@ def gp_online(s: Split, budget: int, skip: float, variance: float
     full = n_at >= budget
     if full.any():
         times.append(f'{dt[full].mean() * 1e3:.2f} ms/sample when full')
+    after = dt[model.warmup:] * 1e3
+    times.append(f'per sample after the warm-up: median {np.median(after):.2f} ms, p99 '
+                 f'{np.percentile(after, 99):.1f} ms, max {after.max():.0f} ms')
     late = slice(len(s.X) // 2, None)
     stream = nmse(s.Y[late], np.array(prequential)[late]).max()
     return model.predict(s.Xt), (
-        f'budget {budget}, skip within {skip:g} noise sd or variance < {variance:g}: '
-        f'{model.n_points_} points learnt '
+        f'rule {rule}, budget {budget}, skip within {skip:g} noise sd or variance < '
+        f'{variance:g}: {model.n_points_} points kept (stride {model.stride_} at the end, '
+        f'{model.n_evicted_} evicted) '
         f'of {len(s.X)}; length {model.length_:g}, noise {model.noise_:g} from the first '
         f'{model.warmup} rows; {"; ".join(times)}; factor {8 * budget ** 2 / 1e6:.0f} MB; '
         f'prequential worst-joint NMSE over the second half {stream:.3g}')
 
 
 def run_gp_online(s: Split, args: argparse.Namespace) -> tuple[np.ndarray, str]:
-    return gp_online(s, args.gp_budget, args.gp_skip, args.gp_min_variance)
+    return gp_online(s, args.gp_budget, args.gp_skip, args.gp_min_variance, args.gp_rule)
 
 
 def run_gp_online_all(s: Split, args: argparse.Namespace) -> tuple[np.ndarray, str]:
@@ -393,7 +401,8 @@ def main() -> int:
     parser.add_argument('--online-features', type=int, default=1000)
     parser.add_argument('--gp-budget', type=int, default=4000)
     parser.add_argument('--gp-skip', type=float, default=0.0)
-    parser.add_argument('--gp-min-variance', type=float, default=0.1)
+    parser.add_argument('--gp-min-variance', type=float, default=MIN_VARIANCE)
+    parser.add_argument('--gp-rule', default=BUDGET_RULE, choices=BUDGET_RULES)
     parser.add_argument('--ffs-iterations', type=int, default=500)
     parser.add_argument('--seed', type=int, default=0)
     parser.add_argument('--cache', type=Path, default=Path('/tmp/bench_realdata_hyper'))

@@ -37,6 +37,7 @@ from typing import Any
 from scara_ident_ros.cli import CliError
 from scara_ident_ros.cli.run_summary import JointStatesUse, MethodRow, RunSummary
 from scara_ident_ros.identification.trainer import TRAINERS
+from scara_ident_ros.identification.learner_methods import LEARNER_METHODS
 from scara_ident_ros.nn.presets import METHODS
 from scara_ident_ros.paths import unwritable_dir
 from scara_ident_ros.cli.process_graph import (NodeProcess, ProcessGraph, StopSignals,
@@ -65,8 +66,10 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
                         help='output directory (default: out/run)')
     parser.add_argument('--bag', type=Path, default=None,
                         help='bag directory to record (default: OUT/bag); must not exist')
-    parser.add_argument('--methods', nargs='+', default=list(METHODS), choices=list(METHODS),
-                        help='identifiers to run side by side (default: all three)')
+    parser.add_argument('--methods', nargs='+', default=list(METHODS),
+                        choices=[*METHODS, *LEARNER_METHODS],
+                        help='identifiers to run side by side (default: the three networks; '
+                             'kernel and gp are the kernel learners)')
     parser.add_argument('--trajectory', default=SEQUENCE,
                         help=f'excitation, one of {", ".join(TRAJECTORIES)} (default: '
                              f'{SEQUENCE}, a new random excitation every 5 s)')

@@ -295,8 +295,10 @@ _Learner = tuple[subprocess.Popen[bytes], Connection, Connection]
 _PRESTARTED: list[_Learner] = []  # learner processes started ahead, waiting for a model
 
 
-def _start_learner() -> _Learner:
-    """Start a learner process; return it with the pipes to and from it.
+def _start_learner(command: str = LEARNER_COMMAND) -> _Learner:
+    """Start a learner process running ``command`` (its program, given the two pipes'
+    descriptors as arguments; the LM learner's by default); return it with the pipes to and
+    from it.
 
     A fresh interpreter (not fork: the caller has DDS threads; not multiprocessing's spawn:
     it re-runs the caller's ``__main__``), with one BLAS thread of its own.
@@ -306,7 +308,7 @@ def _start_learner() -> _Learner:
     env = dict(os.environ, OPENBLAS_NUM_THREADS='1', OMP_NUM_THREADS='1',
                MKL_NUM_THREADS='1')
     process = subprocess.Popen(
-        [sys.executable, '-c', LEARNER_COMMAND, str(learner_reads), str(learner_writes)],
+        [sys.executable, '-c', command, str(learner_reads), str(learner_writes)],
         pass_fds=(learner_reads, learner_writes), env=env, stdin=subprocess.DEVNULL)
     os.close(learner_reads)
     os.close(learner_writes)

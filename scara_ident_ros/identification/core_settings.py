@@ -12,6 +12,9 @@ from collections.abc import Mapping
 from dataclasses import MISSING, dataclass, fields
 from typing import Any
 
+from scara_ident_ros.identification.learner_methods import (GP_BUDGET, KERNEL_FEATURES,
+                                                             LEARNER_BATCH, LEARNER_METHODS,
+                                                             LEARNER_WARMUP)
 from scara_ident_ros.nn.presets import METHODS
 
 __all__ = ['CoreSettings', 'ONLINE_METHODS', 'PHYSICAL_METHODS']
@@ -19,8 +22,9 @@ __all__ = ['CoreSettings', 'ONLINE_METHODS', 'PHYSICAL_METHODS']
 #: Models on the robot's URDF (they need it): its rigid-body model alone, learnt by RLS, or
 #: with an FFS network of its residual.
 PHYSICAL_METHODS = ('physical', 'hybrid')
-#: Every model an identifier learns online: the networks and the physical ones.
-ONLINE_METHODS = (*METHODS, *PHYSICAL_METHODS)
+#: Every model an identifier learns online: the networks, the physical ones, the kernel
+#: learners.
+ONLINE_METHODS = (*METHODS, *PHYSICAL_METHODS, *LEARNER_METHODS)
 
 
 @dataclass(frozen=True)
@@ -56,6 +60,10 @@ class CoreSettings:
     limit_margin: float
     min_joints: int
     derive_velocity: str = 'auto'
+    kernel_features: int = KERNEL_FEATURES
+    gp_budget: int = GP_BUDGET
+    learner_batch: int = LEARNER_BATCH
+    learner_warmup: int = LEARNER_WARMUP
 
     @classmethod
     def of(cls, values: Mapping[str, Any]) -> CoreSettings:

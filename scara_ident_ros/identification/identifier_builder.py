@@ -16,7 +16,7 @@ the held-out blocks and the sample checks of the robot's limits (:func:`build_id
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import cast
+from typing import Protocol, cast, runtime_checkable
 
 import numpy as np
 
@@ -24,6 +24,7 @@ from scara_ident_ros.dynamics.hybrid_model import HybridModel, online_hybrid
 from scara_ident_ros.dynamics.joint_limits import JointLimits
 from scara_ident_ros.dynamics.physical_model import PhysicalModel
 from scara_ident_ros.estimator import Estimator
+from scara_ident_ros.identification.background_estimator import BackgroundEstimator
 from scara_ident_ros.identification.background_lm import BackgroundLM
 from scara_ident_ros.identification.differentiator import (AccelerationEstimate,
                                                            make_differentiator)
@@ -31,16 +32,46 @@ from scara_ident_ros.identification.holdout import Holdout
 from scara_ident_ros.identification.hybrid_trainer import HybridTrainer
 from scara_ident_ros.identification.input_stage import InputStage
 from scara_ident_ros.identification.core_settings import PHYSICAL_METHODS, CoreSettings
+from scara_ident_ros.identification.estimator_learner import EstimatorLearner
+from scara_ident_ros.identification.learner_methods import (LEARNER_METHODS,
+                                                             make_learner_model)
 from scara_ident_ros.identification.online_identifier import OnlineIdentifier
 from scara_ident_ros.identification.parameters import parameter_defaults
 from scara_ident_ros.identification.rls_trainer import RecursiveLeastSquaresTrainer
 from scara_ident_ros.identification.sample_check import Bounds, joint_bounds
+from scara_ident_ros.identification.streamed_estimator import ArrayLearner, StreamedEstimator
 from scara_ident_ros.identification.trainer import (Trainer, make_trainer,
                                                     starts_with_friction_steps)
 from scara_ident_ros.nn import FeedForwardNet
 from scara_ident_ros.nn.presets import make_network
 
-__all__ = ['background_learner', 'build_identifier', 'make_learner', 'make_model']
+__all__ = ['LearnerProcess', 'background_learner', 'build_identifier', 'make_learner',
+           'make_model']
+
+
+@runtime_checkable
+class LearnerProcess(Protocol):
+    """A trainer that learns in a process beside the stream (``BackgroundLM``,
+    ``BackgroundEstimator``): what the session reports of it and how it is stopped."""
+
+    updates: int  # new weights (states) taken
+    steps_taken: int  # the learner's steps (LM steps; partial_fit calls)
+    dropped: int  # samples not learnt: the learner could not take them
+
+    def poll(self) -> bool:
+        """Take the newest weights, if any; return whether there were."""
+
+    def wait_ready(self, timeout: float) -> bool:
+        """Wait (at most ``timeout`` s) until the process has started."""
+
+    def rate(self) -> float:
+        """Updates per second, recently."""
+
+    def overdue(self) -> float | None:
+        """Seconds an update has been due, or None."""
+
+    def close(self) -> None:
+        """Take the last weights and end the process."""
 
 
 def make_model(names: Sequence[str], settings: CoreSettings, limits: JointLimits | None, *,
@@ -50,7 +81,9 @@ def make_model(names: Sequence[str], settings: CoreSettings, limits: JointLimits
 
     A network (``ffs``, ``ffw``, ``ffmw``) is scaled by ``limits`` (of ``names``).
     ``physical``: the URDF's rigid-body model with friction and rotor inertia, from the
-    URDF's own inertias (RLS's prior). ``hybrid``: that plus an FFS network of its residual,
+    URDF's own inertias (RLS's prior). ``kernel``, ``gp``: a fresh learner
+    (:func:`~scara_ident_ros.identification.learner_methods.make_learner_model`), which
+    :func:`build_identifier` streams. ``hybrid``: that plus an FFS network of its residual,
     starting at zero output, its outputs scaled to ``RESIDUAL_SHARE`` of the effort limits
     (a residual is a fraction of the effort:
     :func:`~scara_ident_ros.dynamics.hybrid_model.online_hybrid`). The physical part is
@@ -58,6 +91,10 @@ def make_model(names: Sequence[str], settings: CoreSettings, limits: JointLimits
     """
     s = settings
     names = list(names)
+    if s.method in LEARNER_METHODS:
+        return make_learner_model(s.method, kernel_features=s.kernel_features,
+                                  gp_budget=s.gp_budget, warmup=s.learner_warmup,
+                                  seed=s.seed)
     if s.method in PHYSICAL_METHODS:
         if physical is None:
             physical = PhysicalModel(urdf, joint_names=names, source=urdf_source)
@@ -85,8 +122,20 @@ def make_learner(model: Estimator, settings: CoreSettings, *,
     """The trainer of ``model``, a model of ``settings.method``: RLS for ``physical``, RLS
     and the network's trainer for ``hybrid``, ``settings.trainer`` for a network
     (``background``: ``lm`` in a learner process of its own, :class:`~scara_ident_ros.
-    identification.background_lm.BackgroundLM`)."""
+    identification.background_lm.BackgroundLM`), the learner's ``partial_fit`` in batches
+    of ``learner_batch`` for ``kernel`` and ``gp`` (a :class:`~scara_ident_ros.
+    identification.streamed_estimator.StreamedEstimator`; ``background``: in a process of
+    its own, :class:`~scara_ident_ros.identification.background_estimator.
+    BackgroundEstimator`)."""
     s = settings
+    if s.method in LEARNER_METHODS:
+        stream = cast(StreamedEstimator, model)
+        if background:
+            return BackgroundEstimator(stream, batch=s.learner_batch, warmup=s.learner_warmup,
+                                       capacity=s.reservoir_size, seed=s.seed,
+                                       label=s.method)
+        return EstimatorLearner(stream, batch=s.learner_batch, warmup=s.learner_warmup,
+                                capacity=s.reservoir_size, seed=s.seed)
 
     def trainer_of(net: FeedForwardNet, hybrid: HybridModel | None = None) -> Trainer:
         return make_trainer(s.trainer, net, reservoir_size=s.reservoir_size,
@@ -145,6 +194,8 @@ def build_identifier(names: Sequence[str], settings: CoreSettings,
     if model is None:
         model = make_model(names, settings, limits, urdf=urdf, urdf_source=urdf_source,
                            physical=physical)
+    if settings.method in LEARNER_METHODS:  # predicts from the first sample
+        model = StreamedEstimator(cast(ArrayLearner, model), len(names))
     model.metadata['joint_names'] = np.array(names)
     model.metadata['method'] = np.array(settings.method)
     if bounds is None and limits is not None and not limits.missing(names):
@@ -166,9 +217,9 @@ def build_identifier(names: Sequence[str], settings: CoreSettings,
         derive_velocity=settings.derive_velocity == 'auto')
 
 
-def background_learner(trainer: Trainer | None) -> BackgroundLM | None:
+def background_learner(trainer: Trainer | None) -> LearnerProcess | None:
     """The learner process of an identifier's ``trainer`` (a hybrid's: its network's), or
     None if it learns in the caller's process."""
     if isinstance(trainer, HybridTrainer):
         trainer = trainer.network
-    return trainer if isinstance(trainer, BackgroundLM) else None
+    return trainer if isinstance(trainer, (BackgroundLM, BackgroundEstimator)) else None

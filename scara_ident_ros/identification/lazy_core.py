@@ -29,6 +29,7 @@ from scara_ident_ros.identification.identifier_builder import (background_learne
                                                                build_identifier, make_model)
 from scara_ident_ros.identification.input_stage import InputStage
 from scara_ident_ros.identification.joint_map import JointMap
+from scara_ident_ros.identification.learner_methods import LEARNER_METHODS
 from scara_ident_ros.identification.online_identifier import Counts, OnlineIdentifier
 from scara_ident_ros.identification.sample_check import (Bounds, FloatArrayLike, SampleCheck,
                                                          joint_bounds)
@@ -40,6 +41,8 @@ __all__ = ['CoreSettings', 'LazyCore', 'ONLINE_METHODS', 'PHYSICAL_METHODS', 'Ra
 
 _JOINT_REASONS = (SkipReason.UNKNOWN_JOINT, SkipReason.MISSING_JOINT,
                   SkipReason.DUPLICATE_JOINT)
+#: Methods whose model is not scaled by the joint limits (a network's is)
+_UNSCALED = ('physical', *LEARNER_METHODS)
 
 
 class Skipped(NamedTuple):
@@ -128,7 +131,7 @@ class LazyCore:
         network = self.network
         if network is None:
             lacking, unknown = stream_joints(self.limits, self.urdf_limits, names)
-            if unknown:
+            if unknown and settings.method not in LEARNER_METHODS:  # they need no limits
                 urdf = self.urdf_limits.names if self.urdf_limits is not None else ()
                 known = [*self.limits.names,
                          *(name for name in urdf if name not in self.limits.names)]
@@ -137,7 +140,7 @@ class LazyCore:
                         + (f' and {self.urdf_limits.source}' if self.urdf_limits else '')
                         + '): set urdf_file, robot_config or position_min, position_max, '
                         'velocity_max, acceleration_max, effort_max and joint_names')
-            if lacking and settings.method != 'physical':
+            if lacking and settings.method not in _UNSCALED:
                 return (f'the scaling of {lacking} comes from the stream: build from '
                         'samples (LazyCore.first)')
             if settings.method in PHYSICAL_METHODS and not self.urdf:
@@ -183,7 +186,7 @@ class LazyCore:
         """Whether the network's scaling of ``names`` needs the stream (the files lack some
         limits of them, no file lacks all, and there is no warm start to take it from)."""
         lacking, unknown = stream_joints(self.limits, self.urdf_limits, names)
-        return (self.network is None and method != 'physical' and bool(lacking)
+        return (self.network is None and method not in _UNSCALED and bool(lacking)
                 and not unknown)
 
     def adopt_limits(self, other: LazyCore) -> None:

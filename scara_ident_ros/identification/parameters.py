@@ -14,6 +14,8 @@ from scara_ident_ros.identification.background_lm import NICE
 from scara_ident_ros.identification.differentiator import (DIFFERENTIATOR_WINDOW,
                                                            DIFFERENTIATORS)
 from scara_ident_ros.identification.core_settings import ONLINE_METHODS
+from scara_ident_ros.identification.learner_methods import (GP_BUDGET, KERNEL_FEATURES,
+                                                             LEARNER_BATCH, LEARNER_WARMUP)
 from scara_ident_ros.identification.reservoir_lm import LM_INTERVAL, LM_STEPS, RESERVOIR_SIZE
 from scara_ident_ros.identification.trainer import TRAINERS
 from scara_ident_ros.parameter_spec import ParamSpec
@@ -32,7 +34,9 @@ IDENTIFICATION_PARAMETERS: tuple[ParamSpec, ...] = (
               "best, docs/results.md), FFMW (MSLOG, the paper's) or FFW (SLOG); physical "
               "(the URDF's rigid-body model with friction and rotor inertia, recursive least "
               'squares) or hybrid (physical plus an FFS network of its residual): these need '
-              'urdf_file or robot_description', choices=ONLINE_METHODS, fixed=NETWORK),
+              'urdf_file or robot_description; kernel (sparse-spectrum GP, random features, '
+              'incremental) or gp (exact GP with a budget): need no URDF nor limits',
+              choices=ONLINE_METHODS, fixed=NETWORK),
     ParamSpec('methods', [], 'Several networks from one subscription, each publishing under '
               '<method>/ in the node\'s namespace (the samples are checked and q\'\' '
               'estimated once); empty: method alone, publishing in the node\'s namespace',
@@ -59,7 +63,8 @@ IDENTIFICATION_PARAMETERS: tuple[ParamSpec, ...] = (
               'of the whole stream, generalizes) or bp (the paper: one back-propagation step '
               'per sample, tracks)', choices=TRAINERS, fixed='the trainer keeps its state'),
     ParamSpec('reservoir_size', RESERVOIR_SIZE,
-              'Samples of the stream kept for the lm trainer', min=10, max=1_000_000,
+              'Samples of the stream kept for the lm trainer (and the reservoir a fresh '
+              'kernel or gp learner is refitted on)', min=10, max=1_000_000,
               fixed='the reservoir is allocated once'),
     ParamSpec('lm_steps', LM_STEPS, 'Levenberg-Marquardt steps of the lm trainer per update',
               min=1, max=100, read_only=False),
@@ -67,7 +72,8 @@ IDENTIFICATION_PARAMETERS: tuple[ParamSpec, ...] = (
               'Samples between two updates of the lm trainer (beside '
               'the stream: the least new samples between two)', min=1,
               max=1_000_000, read_only=False),
-    ParamSpec('lm_background', True, 'lm trainer: learn in a process beside the stream, at '
+    ParamSpec('lm_background', True, 'lm trainer (and methods kernel, gp): learn in a '
+              'process beside the stream, at '
               'lower CPU priority, so that no sample waits for a step (when the CPU is short, '
               'learning slows down and the updates/s say so); false: steps in the message '
               'path every lm_interval samples (reproducible, for experiments)',
@@ -86,6 +92,19 @@ IDENTIFICATION_PARAMETERS: tuple[ParamSpec, ...] = (
               "of each joint's speed at 0, the shape of Coulomb friction (half-widths 6.4, "
               '1.6, 0.4, 0.1 and 0.025 % of the velocity limit), the others random; false: all '
               'random (a Coulomb step is then learnt slowly, docs/results.md)', fixed=NETWORK),
+    ParamSpec('kernel_features', KERNEL_FEATURES, 'Random features D of method kernel (its '
+              'cost per learnt sample grows as D²)', min=2, max=20_000, fixed=NETWORK),
+    ParamSpec('gp_budget', GP_BUDGET, 'Most points of method gp (its factor takes '
+              'gp_budget² doubles: 4000 = 128 MB)', min=500, max=100_000, fixed=NETWORK),
+    ParamSpec('learner_batch', LEARNER_BATCH, 'Methods kernel and gp: samples per '
+              'partial_fit call of the learner (beside the stream with lm_background: at '
+              'least this many); 1: each sample learnt as it comes', min=1, max=100_000,
+              fixed='the learner is built once'),
+    ParamSpec('learner_warmup', LEARNER_WARMUP, 'Methods kernel and gp: samples gathered '
+              'before the learner\'s first partial_fit (its input and effort standardisation '
+              'and kernel come from them; predicted by their running mean meanwhile): they '
+              'should span the motion to come', min=2, max=1_000_000,
+              fixed='the learner is built once'),
     ParamSpec('validation_fraction', 0.1, 'Fraction of the samples (in blocks) never learnt, '
               'whose error is the validation NMSE; 0: none', min=0.0, max=0.9,
               fixed=HOLDOUT),

@@ -32,7 +32,8 @@ from scara_ident_ros.identification.contact_detector import Calibration, Contact
 from scara_ident_ros.identification.differentiator import (AccelerationEstimate,
                                                            make_differentiator)
 from scara_ident_ros.identification.error_window import ErrorWindow
-from scara_ident_ros.identification.identifier_builder import background_learner
+from scara_ident_ros.identification.identifier_builder import (LearnerProcess,
+                                                               background_learner)
 from scara_ident_ros.identification.input_stage import Input
 from scara_ident_ros.identification.lazy_core import CoreSettings, LazyCore
 from scara_ident_ros.identification.metrics import ErrorStats
@@ -127,11 +128,13 @@ class MethodRun:
 
     @property
     def network(self) -> Estimator | None:
-        """The model: a warm start, or built with the core."""
-        return self.lazy.network
+        """The model: the core's once built (a kernel learner's streamed model), else a
+        warm start."""
+        core = self.lazy.core
+        return core.model if core is not None else self.lazy.network
 
     @property
-    def background(self) -> BackgroundLM | None:
+    def background(self) -> LearnerProcess | None:
         """The trainer, if it learns beside the stream (a hybrid's: its network's)."""
         return background_learner(self.core.trainer if self.core is not None else None)
 

@@ -1,5 +1,5 @@
 """Exact Gaussian-process regression of joint efforts, learnt offline in one Cholesky or
-online by appending one row to the Cholesky factor per sample.
+online by appending one row to the Cholesky factor per sample, thinned evenly once full.
 
 Inputs are standardised with the training data (u = (x − x_mean) / x_scale), efforts too
 (t = (y − y_mean) / y_scale). One squared-exponential kernel with one isotropic length ℓ
@@ -23,21 +23,35 @@ Online (:meth:`ExactGP.partial_fit`), each sample is predicted, then appended::
 (one triangular solve, O(n²), done blockwise on the preallocated factor so that no n × n
 copy is made). The first ``warmup`` rows are only buffered (predicted by the mean of the
 efforts before them); then the standardisation and kernel are set from them and they are
-factored at once. With ``budget`` points learnt, further samples are predicted and
-skipped; before that, samples the model already predicts within ``skip_within`` noise
-standard deviations on every joint, or whose latent predictive variance (d² − σ², free
-from the solve) is below ``min_variance``, are skipped too (0: learn every sample). Dropping the
-oldest point instead would need a Cholesky downdate (a Python loop over n columns per
-sample) and was not implemented. With ``skip_within=0`` and a large enough budget, one pass
-of ``partial_fit`` gives the factor of ``fit`` on the same rows (test/learners).
+factored at once. Samples the model already predicts within ``skip_within`` noise standard
+deviations on every joint, or whose latent predictive variance (d² − σ², free from the
+solve) is below ``min_variance``, are predicted and skipped (0, the defaults: learn every
+sample the budget rule lets in).
+
+Once ``budget`` points are held, ``budget_rule='thin'`` (the default) keeps them spread
+evenly over the whole stream: only samples at a multiple of the stride s (stream position,
+s = 1 at first) are learnt, and each needs room: the oldest points at an odd multiple of s
+are evicted, ``budget // 8`` at a time, and the points after the first evicted one are
+factored again (the rows before it stand: L₃₃ = chol(K₃₃ − L₃₁ L₃₁ᵀ), O(n³) at worst, a few
+times per doubling of the stream). When no point at an odd multiple is left, s doubles. So
+the model always holds an older part of the stream at stride 2s and the recent part at s,
+between 7/8 of the budget and all of it, e.g. after 12,000 samples with a budget of 4,000:
+rows 0-7,999 at stride 4 and 8,000-11,998 at stride 2. ``budget_rule='stop'`` predicts
+only once full. With ``skip_within=0``, ``min_variance=0`` and a budget above the stream,
+one pass of ``partial_fit`` gives the factor of ``fit`` on the same rows; after evictions,
+the factor is the batch Cholesky of the points kept (test/learners).
 
 Measured on the WAM's published split (benchmarks/realdata.md; load 7-16 on 2 cores):
 ``fit`` on the 12,000 rows scores SMSE 9.8e-4 (8.8e-5 with ``val_block=1``; 42-61 s);
-online, one pass in order, frozen: 0.026 with the defaults (budget 4,000, ``min_variance``
-0.1: 3,730 points learnt; learning every sample until the budget is full: 0.146), 0.0011
-with the budget at every row (1.15 GB; 7-11 ms per sample at 4,000 points, 24-98 ms at
-12,000). An even thinning (every 3rd row, 4,000 points, not a streaming rule) reaches
-0.0030.
+online, one pass in order, frozen, budget 4,000: 0.0049 with the defaults ('thin': 4,000
+points over the whole stream; 6 ms median per sample, 31 ms p99, 3.6 s at worst while
+refactoring, at load 11; 128 MB), 0.026 with 'stop' and ``min_variance`` 0.1 (3,730 points
+from the start), 0.146 with 'stop' learning every sample until full; 0.0011 with the
+budget at every row (1.15 GB; 24-98 ms per sample at 12,000 points). Rules measured
+first as ``fit`` on the rows each would keep (kernel length 3.5, noise 0.01): every 3rd row
+(4,000, evenly) 0.0044; 'thin' 0.0049; stride doubling
+all at once (every 4th row, 3,000) 0.0062; reservoir sampling (4,000 at random, seeds 0
+and 1) 0.021 and 0.017: the gaps it leaves cost more than the points it adds.
 """
 from __future__ import annotations
 
@@ -52,8 +66,9 @@ from scipy.linalg.lapack import dpotrf
 from scara_ident_ros.estimator import SavedEstimator, check_samples, register_kind
 from scara_ident_ros.nn.errors import ModelFormatError
 
-__all__ = ['BUDGET', 'KIND', 'LENGTHS', 'MIN_VARIANCE', 'NOISES', 'SELECT_SAMPLES',
-           'VAL_BLOCK', 'WARMUP', 'ExactGP', 'choose_kernel', 'rbf']
+__all__ = ['BUDGET', 'BUDGET_RULE', 'BUDGET_RULES', 'KIND', 'LENGTHS', 'MIN_VARIANCE',
+           'NOISES', 'SELECT_SAMPLES', 'VAL_BLOCK', 'WARMUP', 'ExactGP', 'choose_kernel',
+           'rbf']
 
 KIND = 'gp'  #: the model file's kind
 #: The grid: isotropic length on standardised inputs, noise variance of the standardised
@@ -61,10 +76,16 @@ KIND = 'gp'  #: the model file's kind
 LENGTHS = (1.0, 2.0, 3.5, 5.0, 8.0)
 NOISES = (1e-4, 1e-2)
 BUDGET = 4000  #: default online budget: points in the factor
+#: What ``partial_fit`` does once the budget is full: 'thin' keeps the points spread over
+#: the whole stream (module docstring), 'stop' only predicts (learns nothing more).
+BUDGET_RULES = ('thin', 'stop')
+BUDGET_RULE = 'thin'  #: the default rule
 WARMUP = 1000  #: default rows buffered online before the kernel is chosen
-#: Default online novelty threshold: on the WAM (budget 4000) SMSE 0.030 at 0.1 against
-#: 0.146 learning every sample until full, 0.081 at 0.02, 0.074 at 0.2 (realdata.md).
-MIN_VARIANCE = 0.1
+#: Default online novelty threshold: 0, learn every sample the budget rule lets in. With
+#: 'stop' on the WAM (budget 4000) 0.1 scored SMSE 0.030 against 0.146 learning every sample
+#: until full; with 'thin' 0.1 keeps the budget from filling (3,730 points from the start
+#: of the stream, 0.026) where 0 spreads 4,000 over it (0.0049; realdata.md).
+MIN_VARIANCE = 0.0
 SELECT_SAMPLES = 3000  #: default rows (the first ones) the offline kernel is chosen on
 #: Default validation blocks: 50 consecutive rows, one block in 10. Single rows (1) suit
 #: the WAM, whose test rows lie between training rows (SMSE 9e-5 against 9.8e-4 with 50),
@@ -72,6 +93,7 @@ SELECT_SAMPLES = 3000  #: default rows (the first ones) the offline kernel is ch
 #: TIAGo 1.55 against 0.62): 50 meets the WAM's target and holds on both.
 VAL_BLOCK = 50
 _BLOCK = 512  # rows per block of the blockwise triangular solves
+_EVICT_PARTS = 8  # 'thin' evicts budget // 8 points at a time (one factorisation each)
 _CHUNK = 1024  # rows per block when filling a kernel matrix
 
 
@@ -143,12 +165,17 @@ class ExactGP(SavedEstimator):
         effort); by default both are chosen by :func:`choose_kernel`.
     budget : int, default 4000
         Online: most points in the factor (it is allocated at this size).
+    budget_rule : {'thin', 'stop'}, default 'thin'
+        Online, once ``budget`` points are held: 'thin' learns every ``stride_``-th sample
+        and evicts for each the oldest point at an odd multiple of the stride (the stride
+        doubles when none is left), so that the points stay spread evenly over the whole
+        stream; 'stop' only predicts.
     warmup : int, default 1000
         Online: rows buffered before the standardisation and kernel are set from them.
     skip_within : float, default 0.0
         Online: skip a sample predicted within this many noise standard deviations on every
         joint (0: learn every sample until the budget is full).
-    min_variance : float, default 0.1
+    min_variance : float, default 0.0
         Online: skip a sample whose latent predictive variance (standardised, at most 1)
         is below this: its neighbours in the model cover it (0: learn every sample).
     select_samples : int, default 3000
@@ -171,6 +198,10 @@ class ExactGP(SavedEstimator):
         Points in the model.
     n_seen_ : int
         Samples given to ``partial_fit`` (skipped ones included).
+    stride_ : int
+        Online, 'thin': samples at a multiple of it (stream position) are learnt.
+    n_evicted_ : int
+        Online, 'thin': points evicted to keep the budget.
     metadata : dict of str to ndarray
         Saved with the model.
     """
@@ -181,7 +212,7 @@ class ExactGP(SavedEstimator):
                  budget: int = BUDGET, warmup: int = WARMUP, skip_within: float = 0.0,
                  min_variance: float = MIN_VARIANCE,
                  select_samples: int = SELECT_SAMPLES, val_block: int = VAL_BLOCK,
-                 val_every: int = 10) -> None:
+                 val_every: int = 10, budget_rule: str = BUDGET_RULE) -> None:
         if (length is None) != (noise is None):
             raise ValueError('give both length and noise, or neither')
         if length is not None and not (length > 0.0 and noise is not None and noise > 0.0):
@@ -193,6 +224,9 @@ class ExactGP(SavedEstimator):
             raise ValueError(f'skip_within must be >= 0, got {skip_within}')
         if operator.index(val_block) < 1 or operator.index(val_every) < 2:
             raise ValueError('need val_block >= 1 and val_every >= 2')
+        if budget_rule not in BUDGET_RULES:
+            raise ValueError(f'budget_rule must be one of {", ".join(BUDGET_RULES)}, '
+                             f'got {budget_rule!r}')
         self.length = None if length is None else float(length)
         self.noise = None if noise is None else float(noise)
         self.budget = budget
@@ -202,10 +236,15 @@ class ExactGP(SavedEstimator):
         self.select_samples = operator.index(select_samples)
         self.val_block = int(val_block)
         self.val_every = int(val_every)
+        self.budget_rule = str(budget_rule)
         self.metadata: dict[str, np.ndarray] = {}
         self.selection_: dict[tuple[float, float], float] = {}
         self.n_points_ = 0
         self.n_seen_ = 0
+        self.stride_ = 1
+        self.n_evicted_ = 0
+        self._stream = 0  # stream position of the next partial_fit sample
+        self._positions = np.zeros(0, np.int64)  # stream position of each point
         self._ready = False
         self._buffer: list[tuple[np.ndarray, np.ndarray]] = []  # warm-up rows
         self._factor: np.ndarray | None = None   # L (capacity, capacity), lower rows
@@ -218,7 +257,7 @@ class ExactGP(SavedEstimator):
                 'warmup': self.warmup, 'skip_within': self.skip_within,
                 'min_variance': self.min_variance,
                 'select_samples': self.select_samples, 'val_block': self.val_block,
-                'val_every': self.val_every}
+                'val_every': self.val_every, 'budget_rule': self.budget_rule}
 
     def fit(self, X: npt.ArrayLike, Y: npt.ArrayLike) -> ExactGP:
         """Learn every sample of X (N, 3n), Y (N, n) in one Cholesky (not limited by the
@@ -247,6 +286,9 @@ class ExactGP(SavedEstimator):
         self._factor = lower
         self._points, self._targets = self._storage(capacity)
         self._points[:n], self._targets[:n] = u, t
+        self._positions = np.empty(capacity, np.int64)
+        self._positions[:n] = np.arange(n)
+        self._stream, self.stride_, self.n_evicted_ = n, 1, 0
         self.n_points_ = n
         self._beta = self._storage(capacity)[1]
         self._beta[:n] = self._forward(t)
@@ -280,7 +322,8 @@ class ExactGP(SavedEstimator):
             if self._factor is None:  # kernel set, nothing learnt yet
                 self._allocate()
             u, t = self._standardise(x[i:i + 1], y[i:i + 1])
-            out[i] = self._append(u[0], t[0]) * self.y_scale_ + self.y_mean_
+            out[i] = self._append(u[0], t[0], self._stream) * self.y_scale_ + self.y_mean_
+            self._stream += 1
         return out
 
     def predict(self, X: npt.ArrayLike) -> np.ndarray:
@@ -319,6 +362,8 @@ class ExactGP(SavedEstimator):
         self._factor = None
         self._alpha = None
         self.n_points_ = 0
+        self._stream, self.stride_, self.n_evicted_ = 0, 1, 0
+        self._positions = np.zeros(0, np.int64)
         return self
 
     def to_arrays(self) -> dict[str, np.ndarray]:
@@ -332,6 +377,9 @@ class ExactGP(SavedEstimator):
                           np.nan if self.noise is None else self.noise])
         return {'params': params, 'given': given, 'skip_within': np.array(self.skip_within),
                 'min_variance': np.array(self.min_variance),
+                'budget_rule': np.array(self.budget_rule),
+                'stream': np.array([self._stream, self.stride_, self.n_evicted_], np.int64),
+                'positions': self._positions[:n] if n else np.zeros(0, np.int64),
                 'kernel': np.array([self.length_, self.noise_]),
                 'x_mean': self.x_mean_, 'x_scale': self.x_scale_, 'y_mean': self.y_mean_,
                 'y_scale': self.y_scale_,
@@ -352,7 +400,10 @@ class ExactGP(SavedEstimator):
                         budget=budget, warmup=warmup,
                         skip_within=float(arrays['skip_within']),
                         min_variance=float(arrays['min_variance']), select_samples=select,
-                        val_block=val_block, val_every=val_every)
+                        val_block=val_block, val_every=val_every,
+                        # files written before the rule existed stopped when full
+                        budget_rule=str(arrays['budget_rule']) if 'budget_rule' in arrays
+                        else 'stop')
             values = {name: np.asarray(arrays[name], dtype=np.float64) for name in
                       ('kernel', 'x_mean', 'x_scale', 'y_mean', 'y_scale', 'points',
                        'targets', 'alpha')}
@@ -374,6 +425,14 @@ class ExactGP(SavedEstimator):
             model._points, model._targets = points, targets
             model._alpha = values['alpha']
             model.n_points_, model.n_seen_ = n, seen
+            positions = np.asarray(arrays.get('positions', np.arange(n)), dtype=np.int64)
+            stream, stride, evicted = (int(v) for v in arrays.get(
+                'stream', np.array([n, 1, 0])))
+            if positions.shape != (n,) or np.any(np.diff(positions) <= 0) or (
+                    n and not 0 <= positions[0] <= positions[-1] < stream) or stride < 1:
+                raise ValueError('positions must increase within the stream, stride >= 1')
+            model._positions, model._stream = positions, stream
+            model.stride_, model.n_evicted_ = stride, evicted
         except (KeyError, ValueError, TypeError) as exc:
             raise ModelFormatError(f'{source}: corrupt gp model: '
                                    f'{" ".join(str(exc).split())}') from None
@@ -403,8 +462,11 @@ class ExactGP(SavedEstimator):
         n = self.n_points_
         points = self._points[:n] if n else np.zeros((0, self.n_inputs_))
         targets = self._targets[:n] if n else np.zeros((0, self.n_outputs_))
+        positions = self._positions[:n].copy()
         self._points, self._targets = self._storage(max(self.budget, n))
         self._points[:n], self._targets[:n] = points, targets
+        self._positions = np.empty(max(self.budget, n), np.int64)
+        self._positions[:n] = positions
         self._beta = self._storage(max(self.budget, n))[1]
         self._factor = np.empty((max(self.budget, n),) * 2)
         if n:  # after load: refactor the points
@@ -416,8 +478,9 @@ class ExactGP(SavedEstimator):
             self._factor[:n, :n] = factor
             self._beta[:n] = self._forward(targets)
 
-    def _append(self, u: np.ndarray, t: np.ndarray) -> np.ndarray:
-        """Predict (standardised) and learn one sample; returns the prediction."""
+    def _append(self, u: np.ndarray, t: np.ndarray, position: int) -> np.ndarray:
+        """Predict (standardised) and learn one sample at stream ``position``; returns the
+        prediction made before learning."""
         n = self.n_points_
         assert self._factor is not None
         if n == 0:
@@ -425,8 +488,9 @@ class ExactGP(SavedEstimator):
             l_row = np.zeros(0)
         else:
             k = rbf(u[None, :], self._points[:n], self.length_)[0]
-            if n >= len(self._factor) or n >= self.budget:  # full: predict only, O(n)
-                return np.asarray(k @ self._weights())
+            full = n >= len(self._factor) or n >= self.budget
+            if (full and self.budget_rule == 'stop') or position % self.stride_:
+                return np.asarray(k @ self._weights())  # predict only, O(n)
             l_row = self._forward(k)
             prediction = l_row @ self._beta[:n]
         if (n and self.skip_within > 0.0 and np.all(
@@ -435,19 +499,70 @@ class ExactGP(SavedEstimator):
         diagonal = 1.0 + self.noise_ - float(l_row @ l_row)  # predictive variance
         if n and diagonal - self.noise_ < self.min_variance:  # covered by its neighbours
             return prediction
+        if n and full:  # 'thin': make room, then the row of the smaller factor
+            self._evict()
+            n = self.n_points_
+            l_row = self._forward(rbf(u[None, :], self._points[:n], self.length_)[0])
+            diagonal = 1.0 + self.noise_ - float(l_row @ l_row)
         d = np.sqrt(max(diagonal, 1e-12 * self.noise_))
         self._factor[n, :n] = l_row
         self._factor[n, n] = d
         self._points[n], self._targets[n] = u, t
-        self._beta[n] = (t - prediction) / d
+        self._positions[n] = position
+        self._beta[n] = (t - l_row @ self._beta[:n]) / d
         self.n_points_ = n + 1
         self._alpha = None
+        if self.n_evicted_:  # thinning: no point at an odd multiple left: double the stride
+            positions = self._positions[:n + 1]
+            while (self.stride_ <= positions[-1]
+                   and not np.any((positions // self.stride_) % 2)):
+                self.stride_ *= 2
         return prediction
 
-    def _forward(self, b: np.ndarray) -> np.ndarray:
-        """L⁻¹ b for b (n,) or (n, k), blockwise on views of the factor (no n × n copy)."""
+    def _evict(self) -> None:
+        """Evict the ``budget // 8`` oldest points at an odd multiple of the stride (fewer
+        if fewer are left; the stride doubles when none is), then factor the points after
+        the first evicted one again: the rows before it stand, and with L₃₁ the kept rows'
+        columns before it, L₃₃ = chol(K₃₃ − L₃₁ L₃₁ᵀ), β₃ = L₃₃⁻¹ (T₃ − L₃₁ β₁)."""
         assert self._factor is not None
-        lower, n = self._factor, len(b)
+        lower, n = self._factor, self.n_points_
+        positions = self._positions[:n]
+        odd = np.zeros(0, np.int64)
+        while not len(odd) and self.stride_ <= positions[-1]:
+            odd = np.flatnonzero((positions // self.stride_) % 2)
+            if not len(odd):
+                self.stride_ *= 2
+        if not len(odd):  # not reached for distinct positions
+            odd = np.array([n - 1])
+        evicted = odd[:max(1, self.budget // _EVICT_PARTS)]
+        j = int(evicted[0])
+        tail = np.setdiff1d(np.arange(j, n), evicted)
+        m = len(tail)
+        for rows in (self._points, self._targets, self._positions):
+            rows[j:j + m] = rows[tail]
+        if m:
+            outer = lower[tail, :j]  # a copy: L₃₁ of the kept rows
+            gram = rbf(self._points[j:j + m], self._points[j:j + m], self.length_)
+            gram[np.diag_indices(m)] += self.noise_
+            if j:
+                gram -= outer @ outer.T
+            factor, info = dpotrf(gram.T, lower=0, clean=0, overwrite_a=1)
+            if info:
+                raise LinAlgError(f'the kernel matrix is not positive definite (info {info})')
+            lower[j:j + m, :j] = outer
+            lower[j:j + m, j:j + m] = factor.T
+            rhs = self._targets[j:j + m] - outer @ self._beta[:j]
+            self._beta[j:j + m] = self._forward(rhs, start=j)
+        self.n_points_ = j + m
+        self.n_evicted_ += len(evicted)
+        self._alpha = None
+
+    def _forward(self, b: np.ndarray, start: int = 0) -> np.ndarray:
+        """L⁻¹ b for b (n,) or (n, k), blockwise on views of the factor (no n × n copy);
+        with ``start``, the solve on the factor's trailing block from row ``start``."""
+        assert self._factor is not None
+        n = len(b)
+        lower = self._factor[start:start + n, start:start + n]
         out = np.array(b, dtype=np.float64)
         for r0 in range(0, n, _BLOCK):
             r1 = min(r0 + _BLOCK, n)

@@ -141,6 +141,7 @@ class SparseSpectrumGP(SavedEstimator):
         self._pending: list[int] = []          # rows of this partial_fit not yet in A, B
         self._pending_rows: list[tuple[np.ndarray, np.ndarray]] = []  # earlier calls' rows
         self._unfolded = 0                     # rows learnt since A⁻¹ was last recomputed
+        self._inverse_due = False              # W is current, P = A⁻¹ not computed yet
 
     # ----------------------------------------------------------------- estimator contract
     def get_params(self) -> dict[str, Any]:
@@ -180,6 +181,8 @@ class SparseSpectrumGP(SavedEstimator):
         if not self._ready:
             self.set_kernel(x, y)
             self._reset_statistics()
+        if self._inverse_due:
+            self._solve()
         z = self._features(x)                       # (G, N, D)
         t = (y - self.y_mean_) / self.y_scale_      # (N, n)
         prediction = np.empty_like(t)
@@ -277,11 +280,15 @@ class SparseSpectrumGP(SavedEstimator):
                 'x_mean': self.x_mean_, 'x_scale': self.x_scale_, 'y_mean': self.y_mean_,
                 'y_scale': self.y_scale_, 'length_scales': self.hyper_.length_scales,
                 'signal': self.hyper_.signal, 'noise': self.hyper_.noise,
-                'omega': self.omega_, 'gram': self.gram_, 'moment': self.moment_}
+                'omega': self.omega_, 'gram': self.gram_, 'moment': self.moment_,
+                'weights': self._weights}
 
     @classmethod
     def from_arrays(cls, arrays: dict[str, np.ndarray], *, source: str) -> SparseSpectrumGP:
-        """Rebuild a model from :meth:`to_arrays`' entries.
+        """Rebuild a model from :meth:`to_arrays`' entries. With ``weights`` (W = A⁻¹B as
+        saved) it predicts at once and solves for A⁻¹ only when it learns again (what a
+        learner process hands to the message path costs no O(D³) solve there); files
+        without them are solved now.
 
         Raises
         ------
@@ -320,7 +327,16 @@ class SparseSpectrumGP(SavedEstimator):
             model._reset_statistics()
             model.gram_, model.moment_ = values['gram'].copy(), values['moment'].copy()
             model.n_samples_ = int(arrays['n_samples'])
-            model._solve()
+            weights = np.asarray(arrays['weights']) if 'weights' in arrays else None
+            if weights is None:
+                model._solve()
+            elif (weights.dtype != np.float64 or weights.shape != model.moment_.shape
+                  or not np.all(np.isfinite(weights))):
+                raise ValueError(f'weights must be finite float64 of shape '
+                                 f'{model.moment_.shape}')
+            else:
+                model._weights = weights.copy()
+                model._inverse_due = True
         except (KeyError, ValueError, TypeError, LinAlgError) as exc:
             raise ModelFormatError(f'{source}: corrupt kernel model: '
                                    f'{" ".join(str(exc).split())}') from None
@@ -374,6 +390,7 @@ class SparseSpectrumGP(SavedEstimator):
         self._pending = []
         self._pending_rows = []
         self._unfolded = 0
+        self._inverse_due = False
         self.n_samples_ = 0
 
     def _accumulate(self, x: np.ndarray, y: np.ndarray) -> None:
@@ -410,6 +427,8 @@ class SparseSpectrumGP(SavedEstimator):
 
     def _full_inverse(self) -> None:
         """Mirror the triangle of P that the recursive update keeps (its lower, C order)."""
+        if self._inverse_due:
+            self._solve()
         if self._triangle_only:
             for g in range(self._groups):
                 lower = np.tril(self._inverse[g])
@@ -424,6 +443,7 @@ class SparseSpectrumGP(SavedEstimator):
             self._weights[g] = cho_solve(factor, self.moment_[g], check_finite=False)
             self._inverse[g] = cho_solve(factor, eye, check_finite=False)
         self._triangle_only = False
+        self._inverse_due = False
 
     def __repr__(self) -> str:
         state = (f'{self.n_inputs_}->{self.n_outputs_}, {self.n_samples_} samples'

@@ -81,6 +81,28 @@ def test_file_round_trip(tmp_path: Path) -> None:
                                model.partial_fit(x[310:], y[310:]), atol=1e-9)
 
 
+def test_weights_in_the_file_spare_the_solve_and_files_without_them_still_load(
+        tmp_path: Path) -> None:
+    from scara_ident_ros.nn.model_file import write_model
+
+    x, y = data()
+    model = SparseSpectrumGP(40, hyperparameters='scale').fit(x[:300], y[:300])
+    arrays = model.to_arrays()
+    quick = SparseSpectrumGP.from_arrays(arrays, source='arrays')
+    assert quick._inverse_due  # predicts with the saved W; A⁻¹ only when it learns again
+    np.testing.assert_allclose(quick.predict(x[300:]), model.predict(x[300:]), atol=1e-12)
+    older = {key: value for key, value in arrays.items() if key != 'weights'}
+    write_model(tmp_path / 'old.npz', older, {}, kind='kernel')
+    loaded = load_model(tmp_path / 'old.npz')
+    np.testing.assert_allclose(loaded.predict(x[300:]), model.predict(x[300:]), atol=1e-9)
+    np.testing.assert_allclose(quick.partial_fit(x[300:], y[300:]),
+                               loaded.partial_fit(x[300:], y[300:]), atol=1e-9)
+    write_model(tmp_path / 'bad.npz', {**arrays, 'weights': arrays['weights'][:, :3]}, {},
+                kind='kernel')
+    with pytest.raises(ModelFormatError, match='weights must be'):
+        load_model(tmp_path / 'bad.npz')
+
+
 def test_corrupt_file_is_refused(tmp_path: Path) -> None:
     x, y = data(50)
     model = SparseSpectrumGP(20, hyperparameters='scale').fit(x, y)
