@@ -36,9 +36,10 @@ a pseudo-inertia LMI per body, solved with cvxpy) as close to least squares as t
 allow, which scara-ident export --urdf writes back as a URDF.
 --method hybrid: the physical model, then an FFS network on its residual (output scaling:
 the residual's range) with Levenberg-Marquardt on --samples of the training samples, early-
-stopped as above on every other validation block; its correction is then kept only on the
-joints where it lowers the physical model's error in every validation block (a gate per
-joint: the hybrid is not worse than its physical part on any of them). With --urdf, networks (the
+stopped as above on every other validation block; its correction is then scaled per joint
+by a factor in [0, 1] fitted on all validation blocks, and kept only on the joints where its
+gain, measured block by block, is significant (dynamics.hybrid_model.gate_scales: a gate per
+joint, so that the hybrid is not worse than its physical part). With --urdf, networks (the
 hybrid's too) scale their inputs by the URDF's joint limits (positions, velocities; the
 accelerations by the training data's largest |q''|) and a network alone its outputs by the
 effort limits.
@@ -440,12 +441,12 @@ def _train_physical(args: argparse.Namespace, names: Sequence[str], every_train:
         assert history is not None
         metadata.update(_network_metadata(args, history))
         metadata['network'] = np.array(HYBRID_NETWORK)
+        kept = ', '.join(f'{n} (×{g:.2f})' for n, g in zip(names, model.gate) if g)
         summary = (f'HYBRID: least squares on {len(every_train)} samples, then '
                    f'{HYBRID_NETWORK.upper()} on the residual of {len(train)}: '
                    f'{history.iterations} iterations in {time.perf_counter() - started:.1f} s '
                    f'(stopped: {history.stop_reason}; weights of iteration '
-                   f'{history.best_iteration}); correction kept on '
-                   f'{", ".join(n for n, g in zip(names, model.gate) if g) or "no joint"}')
+                   f'{history.best_iteration}); correction kept on {kept or "no joint"}')
     metadata.update({'coulomb': np.array(coulomb), 'coulomb_eps': np.array(eps)})
     model.metadata.update(metadata)
     return _save_and_report(args, model, names, train, validation, summary,

@@ -277,7 +277,7 @@ def test_the_gate_withholds_a_correction_that_makes_held_out_data_worse() -> Non
     held = (x[400:], tau[400:])
     alone, corrected = hybrid.validate_gate(*held)
     assert np.all(corrected < 0.5 * alone)  # the correction helps on every joint
-    np.testing.assert_array_equal(hybrid.gate, np.ones(4))
+    assert np.all((hybrid.gate > 0.9) & (hybrid.gate <= 1.0))  # kept, barely shrunk
     # spoil joint 2's correction: a bias of 3 N far larger than its residual
     theta = hybrid.network.get_theta()
     _, output = hybrid.network.unpack(theta)
@@ -285,22 +285,23 @@ def test_the_gate_withholds_a_correction_that_makes_held_out_data_worse() -> Non
     hybrid.network.set_theta(theta)
     alone, corrected = hybrid.validate_gate(*held)
     assert corrected[2] > alone[2]
-    np.testing.assert_array_equal(hybrid.gate, [1.0, 1.0, 0.0, 1.0])
+    # shrunk to the little of it that still helps (the learnt part under the bias)
+    assert hybrid.gate[2] < 0.2 and np.all(hybrid.gate[[0, 1, 3]] > 0.9)
     predicted, base = hybrid.predict(held[0]), hybrid.physical.predict(held[0])
-    np.testing.assert_array_equal(predicted[:, 2], base[:, 2])  # withheld: physical alone
     error = np.mean((predicted - held[1]) ** 2, axis=0)
     assert np.all(error <= np.mean((base - held[1]) ** 2, axis=0))
-    # by groups (time blocks): a correction that helps over all samples but hurts within
-    # one group is withheld; joint 0's residual of the last 40 samples is the correction's
-    # opposite
+    # by groups (time blocks): a correction that helps over all samples but hurts much in
+    # one of five blocks is withheld; joint 0's residual of the last 40 samples is the
+    # correction's opposite
     hybrid.gate = np.ones(4)
     x, y = held[0], held[1].copy()
     y[160:, 0] = (hybrid.physical.predict(x[160:])[:, 0]
                   - hybrid.raw_correction(x[160:])[:, 0])
-    alone, corrected = hybrid.validate_gate(x, y)
-    assert corrected[0] < alone[0] and hybrid.gate[0] == 1.0  # better over all samples
-    hybrid.validate_gate(x, y, groups=np.arange(200) >= 160)
-    np.testing.assert_array_equal(hybrid.gate, [0.0, 1.0, 0.0, 1.0])
+    alone, corrected = hybrid.validate_gate(x, y, groups=np.zeros(200))
+    assert corrected[0] < alone[0] and hybrid.gate[0] > 0.0  # better over all samples
+    hybrid.validate_gate(x, y, groups=np.arange(200) // 40)
+    assert hybrid.gate[0] == 0.0 and hybrid.gate[2] < 0.2
+    assert np.all(hybrid.gate[[1, 3]] > 0.9)
 
 
 def test_fit_hybrid_gates_on_its_validation_samples(tmp_path: Path) -> None:
@@ -316,7 +317,7 @@ def test_fit_hybrid_gates_on_its_validation_samples(tmp_path: Path) -> None:
     hybrid, _ = fit_hybrid(physical, make_network('ffs', 4, n_hidden=10),
                            (x[:400], tau[:400]), validation=(x[400:], tau[400:]),
                            iterations=40, min_iterations=40, max_fail=40)
-    assert hybrid.gate[0] == 0.0 and hybrid.gate[1] == 1.0
+    assert hybrid.gate[0] == 0.0 and hybrid.gate[1] > 0.9
     hybrid.save(tmp_path / 'gated.npz')
     loaded = HybridModel.load(tmp_path / 'gated.npz')
     np.testing.assert_array_equal(loaded.gate, hybrid.gate)
@@ -371,4 +372,4 @@ def test_fit_hybrid_gates_on_other_samples_than_it_stopped_on() -> None:
                            (x[:400], tau[:400]), validation=(x[400:500], tau[400:500]),
                            gate_validation=(x[500:], tau[500:]), iterations=40,
                            min_iterations=40, max_fail=40)
-    np.testing.assert_array_equal(hybrid.gate, [1.0, 1.0, 1.0, 0.0])
+    assert np.all(hybrid.gate[:3] > 0.9) and hybrid.gate[3] == 0.0
