@@ -7,8 +7,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from scara_ident_ros import (Estimator, FeedForwardNet, HybridModel, PhysicalModel,
-                             load_model, make_network, r2_score)
+from scara_ident_ros import (Estimator, ExactGP, FeedForwardNet, HybridModel,
+                             OnlineEstimator, PhysicalModel, SparseSpectrumGP, load_model,
+                             make_network, r2_score)
 from scara_ident_ros.estimator import registered_kinds
 from scara_ident_ros.nn import ModelFormatError
 from scara_ident_ros.nn.validation_blocks import row_split
@@ -73,6 +74,27 @@ def test_three_lines_fit_score_and_save_the_wam(tmp_path: Path, make) -> None:
     assert same.get_params() == model.get_params()
     again = FeedForwardNet(**model.get_params())  # hyperparameters as constructor data
     assert again.get_params() == model.get_params()
+
+
+@pytest.mark.parametrize('make', [
+    lambda: SparseSpectrumGP(400, hyperparameters='scale'),
+    lambda: ExactGP(),
+], ids=['sparse-spectrum-gp', 'exact-gp'])
+def test_three_lines_fit_score_and_save_the_wam_with_a_kernel_learner(
+        tmp_path: Path, make) -> None:
+    X, Y, Xt, Yt = wam()
+    path = tmp_path / 'wam.npz'
+    model = make()
+    model.fit(X, Y)
+    r2 = model.score(Xt, Yt)
+    model.save(path)
+
+    assert isinstance(model, OnlineEstimator)  # it learns on a stream too
+    assert 0.0 < r2 < 1.0  # better than each joint's mean on held-out rows
+    same = load_model(path)
+    assert type(same) is type(model) and same.kind == model.kind
+    np.testing.assert_allclose(same.predict(Xt), model.predict(Xt), rtol=1e-12, atol=1e-12)
+    assert type(model)(**model.get_params()).get_params() == model.get_params()
 
 
 def test_network_fit_holds_out_spread_row_blocks() -> None:
