@@ -70,6 +70,7 @@ from scara_ident_ros.identification.dataset import Dataset  # noqa: E402
 from scara_ident_ros.identification.split import (alternate_blocks, block_index,  # noqa: E402
                                                   block_split)
 from scara_ident_ros.learners.exact_gp import ExactGP  # noqa: E402
+from scara_ident_ros.learners.linear_features import LinearFeatures  # noqa: E402
 from scara_ident_ros.learners.sparse_spectrum_gp import SparseSpectrumGP  # noqa: E402
 from scara_ident_ros.nn.presets import make_network  # noqa: E402
 
@@ -135,28 +136,10 @@ def nmse(predicted: np.ndarray, y: np.ndarray) -> np.ndarray:
     return np.asarray(np.mean((predicted - y) ** 2, axis=0) / y.var(axis=0))
 
 
-def linear_features(x: np.ndarray) -> np.ndarray:
-    """[q, q', q'', sin q, cos q, tanh(q'/0.05), 1]."""
-    n = x.shape[1] // 3
-    q, qd = x[:, :n], x[:, n:2 * n]
-    return np.hstack([x, np.sin(q), np.cos(q), np.tanh(qd / 0.05), np.ones((len(x), 1))])
-
-
-class Linear:
-    """Least squares on :func:`linear_features`."""
-
-    def fit(self, x: np.ndarray, y: np.ndarray) -> Linear:
-        self.coef = np.linalg.lstsq(linear_features(x), y, rcond=None)[0]
-        return self
-
-    def predict(self, x: np.ndarray) -> np.ndarray:
-        return np.asarray(linear_features(x) @ self.coef)
-
-
-def learner(name: str) -> Linear | ExactGP | SparseSpectrumGP:
+def learner(name: str) -> LinearFeatures | ExactGP | SparseSpectrumGP:
     """A fresh learner of ``name``."""
     if name == 'linear':
-        return Linear()
+        return LinearFeatures()
     if name == 'gp':
         return ExactGP()
     return SparseSpectrumGP(1000)

@@ -76,7 +76,7 @@ from scipy.linalg import cho_factor, cho_solve
 from scipy.signal import butter, filtfilt
 
 from scara_ident_ros.blas_threads import single_blas_thread
-from scara_ident_ros.learners import ExactGP, SparseSpectrumGP
+from scara_ident_ros.learners import ExactGP, LinearFeatures, SparseSpectrumGP
 from scara_ident_ros.learners.ard_hyperparameters import ArdHyperparameters
 from scara_ident_ros.learners.exact_gp import BUDGET_RULE, BUDGET_RULES, MIN_VARIANCE
 
@@ -205,15 +205,8 @@ LOADERS: dict[str, Callable[[], Split]] = {
     'tx40': load_tx40}
 
 
-def linear_features(x: np.ndarray) -> np.ndarray:
-    n = x.shape[1] // 3
-    q, qd = x[:, :n], x[:, n:2 * n]
-    return np.hstack([x, np.sin(q), np.cos(q), np.tanh(qd / 0.05), np.ones((len(x), 1))])
-
-
 def run_linear(s: Split, _: argparse.Namespace) -> tuple[np.ndarray, str]:
-    coef, *_ = np.linalg.lstsq(linear_features(s.X), s.Y, rcond=None)
-    return linear_features(s.Xt) @ coef, ''
+    return LinearFeatures().fit(s.X, s.Y).predict(s.Xt), ''
 
 
 def standardised(s: Split) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray,

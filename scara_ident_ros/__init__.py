@@ -5,7 +5,8 @@ Every effort model keeps one estimator contract (:mod:`scara_ident_ros.estimator
     from scara_ident_ros import FeedForwardNet, load_model
 
     model = FeedForwardNet(21, 40, 7, 'sigmoid')   # X (N, 3n) = [q, q', q''], Y (N, n)
-    # or SparseSpectrumGP(1000), ExactGP(budget=4000), PhysicalModel.from_urdf_file(...)
+    # or ExactGP(), SparseSpectrumGP(1000), LinearFeatures(),
+    # PhysicalModel.from_urdf_file(...)
     model.fit(X, Y)
     model.score(X_test, Y_test)                    # R²
     model.save('wam.npz')
@@ -24,20 +25,22 @@ if TYPE_CHECKING:
     from scara_ident_ros.dynamics.hybrid_model import HybridModel
     from scara_ident_ros.dynamics.physical_model import PhysicalModel
     from scara_ident_ros.learners.exact_gp import ExactGP
+    from scara_ident_ros.learners.linear_features import LinearFeatures
     from scara_ident_ros.learners.sparse_spectrum_gp import SparseSpectrumGP
     from scara_ident_ros.nn.network import FeedForwardNet
     from scara_ident_ros.nn.presets import make_network
 
-__all__ = ['Estimator', 'ExactGP', 'FeedForwardNet', 'HybridModel', 'OnlineEstimator',
-           'PhysicalModel', 'SparseSpectrumGP', 'load_model', 'make_network', 'r2_score',
-           'register_kind']
+__all__ = ['Estimator', 'ExactGP', 'FeedForwardNet', 'HybridModel', 'LinearFeatures',
+           'OnlineEstimator', 'PhysicalModel', 'SparseSpectrumGP', 'load_model',
+           'make_network', 'r2_score', 'register_kind']
 
 _LAZY = {'FeedForwardNet': 'scara_ident_ros.nn.network',
          'make_network': 'scara_ident_ros.nn.presets',
          'PhysicalModel': 'scara_ident_ros.dynamics.physical_model',
          'HybridModel': 'scara_ident_ros.dynamics.hybrid_model',
          'SparseSpectrumGP': 'scara_ident_ros.learners.sparse_spectrum_gp',
-         'ExactGP': 'scara_ident_ros.learners.exact_gp'}
+         'ExactGP': 'scara_ident_ros.learners.exact_gp',
+         'LinearFeatures': 'scara_ident_ros.learners.linear_features'}
 
 
 def __getattr__(name: str) -> Any:

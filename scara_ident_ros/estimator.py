@@ -270,4 +270,5 @@ _MODEL_MODULES: list[str] = ['scara_ident_ros.nn.network',
                              'scara_ident_ros.dynamics.physical_model',
                              'scara_ident_ros.dynamics.hybrid_model',
                              'scara_ident_ros.learners.sparse_spectrum_gp',
-                             'scara_ident_ros.learners.exact_gp']
+                             'scara_ident_ros.learners.exact_gp',
+                             'scara_ident_ros.learners.linear_features']

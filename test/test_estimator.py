@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from scara_ident_ros import (Estimator, ExactGP, FeedForwardNet, HybridModel,
-                             OnlineEstimator, PhysicalModel, SparseSpectrumGP, load_model,
-                             make_network, r2_score)
+                             LinearFeatures, OnlineEstimator, PhysicalModel, SparseSpectrumGP,
+                             load_model, make_network, r2_score)
 from scara_ident_ros.estimator import registered_kinds
 from scara_ident_ros.nn import ModelFormatError
 from scara_ident_ros.nn.validation_blocks import row_split
@@ -37,7 +37,8 @@ def example_urdf(suffix: str) -> Path:
 
 
 def test_every_model_kind_is_registered() -> None:
-    assert {'network', 'physical', 'hybrid'} <= set(registered_kinds())
+    assert {'network', 'physical', 'hybrid', 'kernel', 'gp', 'linear'} <= set(
+        registered_kinds())
 
 
 def test_r2_score_is_one_minus_the_mean_nmse() -> None:
@@ -79,9 +80,9 @@ def test_three_lines_fit_score_and_save_the_wam(tmp_path: Path, make) -> None:
 @pytest.mark.parametrize('make', [
     lambda: SparseSpectrumGP(400, hyperparameters='scale'),
     lambda: ExactGP(),
-], ids=['sparse-spectrum-gp', 'exact-gp'])
-def test_three_lines_fit_score_and_save_the_wam_with_a_kernel_learner(
-        tmp_path: Path, make) -> None:
+    LinearFeatures,
+], ids=['sparse-spectrum-gp', 'exact-gp', 'linear'])
+def test_three_lines_fit_score_and_save_the_wam_with_a_learner(tmp_path: Path, make) -> None:
     X, Y, Xt, Yt = wam()
     path = tmp_path / 'wam.npz'
     model = make()
@@ -89,7 +90,7 @@ def test_three_lines_fit_score_and_save_the_wam_with_a_kernel_learner(
     r2 = model.score(Xt, Yt)
     model.save(path)
 
-    assert isinstance(model, OnlineEstimator)  # it learns on a stream too
+    assert isinstance(model, OnlineEstimator if model.kind != 'linear' else Estimator)
     assert 0.0 < r2 < 1.0  # better than each joint's mean on held-out rows
     same = load_model(path)
     assert type(same) is type(model) and same.kind == model.kind

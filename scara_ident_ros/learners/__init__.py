@@ -1,4 +1,5 @@
-"""Learners of joint efforts beyond the paper's networks (kernel methods), in pure numpy.
+"""Learners of joint efforts beyond the paper's networks, in pure numpy: kernel methods and
+the linear baseline.
 
 Nothing here imports rclpy. Each keeps the estimator contract of
 :mod:`scara_ident_ros.estimator`.
@@ -6,6 +7,7 @@ Nothing here imports rclpy. Each keeps the estimator contract of
 from __future__ import annotations
 
 from scara_ident_ros.learners.exact_gp import ExactGP
+from scara_ident_ros.learners.linear_features import LinearFeatures
 from scara_ident_ros.learners.sparse_spectrum_gp import KIND, SparseSpectrumGP
 
-__all__ = ['KIND', 'ExactGP', 'SparseSpectrumGP']
+__all__ = ['KIND', 'ExactGP', 'LinearFeatures', 'SparseSpectrumGP']

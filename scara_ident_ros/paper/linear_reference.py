@@ -8,10 +8,9 @@ function of its own features
     [q, q', q'', sin q, cos q, tanh(q' / 0.05), 1]    (all joints' q, q', q'' and the
                                                          trigonometric and friction terms)
 
-which takes inertia about a fixed pose, gravity of a single link, viscous and smoothed
-Coulomb friction and an effort offset. It is the linear baseline of issue 25's TIAGo
-figures. The rows carry the reference's label (:data:`~scara_ident_ros.paper.rows.REFERENCE`)
-and say which fit they are in their note.
+(:class:`~scara_ident_ros.learners.linear_features.LinearFeatures`, the linear baseline of
+issue 25's TIAGo figures). The rows carry the reference's label
+(:data:`~scara_ident_ros.paper.rows.REFERENCE`) and say which fit they are in their note.
 """
 from __future__ import annotations
 
@@ -24,6 +23,8 @@ import numpy.typing as npt
 from scara_ident_ros.identification import PAPER_WINDOW
 from scara_ident_ros.identification.error_window import recent_errors
 from scara_ident_ros.identification.metrics import effort_errors
+from scara_ident_ros.learners.linear_features import (COULOMB_VELOCITY, LinearFeatures,
+                                                      linear_features)
 from scara_ident_ros.paper.datasets import Evaluations
 from scara_ident_ros.paper.rows import REFERENCE, ResultRow
 from scara_ident_ros.paper.table3 import DEFAULT_WINDOW, stream_data_names
@@ -31,17 +32,7 @@ from scara_ident_ros.paper.table3 import DEFAULT_WINDOW, stream_data_names
 __all__ = ['COULOMB_VELOCITY', 'LinearFit', 'NOTE', 'fit_linear', 'linear_features',
            'linear_reference_rows', 'online_linear_reference_rows']
 
-COULOMB_VELOCITY = 0.05  # rad/s or m/s: the velocity scale of the smoothed Coulomb term
 NOTE = "linear least squares on [q, q', q'', sin q, cos q, tanh(q'/0.05), 1]"
-
-
-def linear_features(X: npt.ArrayLike) -> npt.NDArray[np.float64]:
-    """Features (N, 6n + 1) of samples X (N, 3n) = [q, q', q''] (rad or m, /s, /s²)."""
-    x = np.asarray(X, dtype=np.float64)
-    n = x.shape[1] // 3
-    q, qd = x[:, :n], x[:, n:2 * n]
-    return np.hstack([x, np.sin(q), np.cos(q), np.tanh(qd / COULOMB_VELOCITY),
-                      np.ones((x.shape[0], 1))])
 
 
 @dataclass(frozen=True)
@@ -60,12 +51,8 @@ class LinearFit:
 def fit_linear(X: npt.ArrayLike, Y: npt.ArrayLike) -> LinearFit:
     """Least squares (minimum norm) of Y (N, n) on the features of X (N, 3n)."""
     started, cpu = time.perf_counter(), time.process_time()
-    features = linear_features(X)
-    scale = np.abs(features).max(axis=0)
-    scale[scale == 0.0] = 1.0  # columns scaled for the conditioning, then scaled back
-    coef, *_ = np.linalg.lstsq(features / scale, np.asarray(Y, dtype=np.float64), rcond=None)
-    return LinearFit(coef / scale[:, None], time.perf_counter() - started,
-                     time.process_time() - cpu)
+    coef = LinearFeatures().fit(X, Y).coef_
+    return LinearFit(coef, time.perf_counter() - started, time.process_time() - cpu)
 
 
 def linear_reference_rows(X: npt.ArrayLike, Y: npt.ArrayLike,
