@@ -35,7 +35,9 @@ IDENTIFICATION_PARAMETERS: tuple[ParamSpec, ...] = (
               "(the URDF's rigid-body model with friction and rotor inertia, recursive least "
               'squares) or hybrid (physical plus an FFS network of its residual): these need '
               'urdf_file or robot_description; kernel (sparse-spectrum GP, random features, '
-              'incremental) or gp (exact GP with a budget): need no URDF nor limits',
+              'incremental), gp (exact GP with a budget) or linear (least squares on [q, '
+              "q', q'', sin q, cos q, tanh(q'/0.05), 1], its batch solution after every "
+              'batch: the best learner on TIAGo): need no URDF nor limits',
               choices=ONLINE_METHODS, fixed=NETWORK),
     ParamSpec('methods', [], 'Several networks from one subscription, each publishing under '
               '<method>/ in the node\'s namespace (the samples are checked and q\'\' '
