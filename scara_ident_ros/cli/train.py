@@ -38,7 +38,7 @@ allow, which scara-ident export --urdf writes back as a URDF.
 the residual's range) with Levenberg-Marquardt on --samples of the training samples, early-
 stopped as above on every other validation block; its correction is then scaled per joint
 by a factor in [0, 1] fitted on all validation blocks, and kept only on the joints where its
-gain, measured block by block, is significant (dynamics.hybrid_model.gate_scales: a gate per
+gain, measured block by block, is significant (learners.hybrid_model.gate_scales: a gate per
 joint, so that the hybrid is not worse than its physical part). With --urdf, networks (the
 hybrid's too) scale their inputs by the URDF's joint limits (positions, velocities; the
 accelerations by the training data's largest |q''|) and a network alone its outputs by the
@@ -444,7 +444,7 @@ def _train_physical(args: argparse.Namespace, names: Sequence[str], every_train:
     ``start_ns`` the recording's first stamp (its validation blocks count from it)."""
     from scara_ident_ros.blas_threads import single_blas_thread
     from scara_ident_ros.dynamics.coulomb_selection import select_coulomb
-    from scara_ident_ros.dynamics.hybrid_model import HybridModel
+    from scara_ident_ros.learners.hybrid_model import HybridModel
     from scara_ident_ros.dynamics.physical_model import PhysicalModel
     from scara_ident_ros.cli.physical_parameters import parameters_markdown
     from scara_ident_ros.identification.split import alternate_blocks, block_index

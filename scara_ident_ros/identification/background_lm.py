@@ -23,7 +23,7 @@ A process rather than a thread: the steps' Python glue would otherwise hold the 
 the message path needs, and a thread's priority cannot be lowered without risking that the
 GIL waits for it.
 
-A hybrid's network (``hybrid``: :class:`~scara_ident_ros.dynamics.hybrid_model.HybridModel`)
+A hybrid's network (``hybrid``: :class:`~scara_ident_ros.learners.hybrid_model.HybridModel`)
 learns there as in the caller's process
 (:class:`~scara_ident_ros.identification.residual_learner.ResidualLearner`): its residuals of
 the current θ, each update checked on held-back samples, the correction bounded. The
@@ -60,7 +60,7 @@ from scara_ident_ros.identification.reservoir_lm import (LM_INTERVAL, LM_STEPS, 
 from scara_ident_ros.nn import FeedForwardNet
 
 if TYPE_CHECKING:
-    from scara_ident_ros.dynamics.hybrid_model import HybridModel
+    from scara_ident_ros.learners.hybrid_model import HybridModel
 
 __all__ = ['NICE', 'BackgroundLM', 'LearnerSettings', 'prestart']
 
@@ -345,7 +345,7 @@ def _learner(inbox: Connection, outbox: Connection, model: FeedForwardNet,
                           lm_slow_share=settings.lm_slow_share)
     residual = None
     if physical is not None:
-        from scara_ident_ros.dynamics.hybrid_model import HybridModel
+        from scara_ident_ros.learners.hybrid_model import HybridModel
         from scara_ident_ros.dynamics.physical_model import PhysicalModel
         from scara_ident_ros.identification.residual_learner import ResidualLearner
 

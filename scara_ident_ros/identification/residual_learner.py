@@ -17,7 +17,7 @@ An update
 (:meth:`ResidualLearner.step`) fits the network to τ − Y(x) θ with the θ given to it (the
 physical model's latest), keeps it only if its validation error (summed over joints) does
 not rise, gates the correction per joint (:attr:`HybridModel.gate`, by
-:func:`~scara_ident_ros.dynamics.hybrid_model.gate_scales` as offline: the scale in [0, 1]
+:func:`~scara_ident_ros.learners.hybrid_model.gate_scales` as offline: the scale in [0, 1]
 the validation samples support, withheld where its gain over :data:`GATE_GROUPS` groups of
 them is not significant at :data:`GATE_LEVEL`, so that the hybrid is the physical model
 there until an update earns the joint back), and bounds the correction by the range of the
@@ -38,7 +38,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from scara_ident_ros.dynamics.hybrid_model import HybridModel, gate_errors, gate_scales
+from scara_ident_ros.learners.hybrid_model import HybridModel, gate_errors, gate_scales
 from scara_ident_ros.identification.reservoir import Reservoir
 from scara_ident_ros.identification.reservoir_lm import ReservoirLM
 
@@ -53,11 +53,11 @@ VALIDATION_BLOCK = 1
 #: Validation samples needed before the network's first update.
 MIN_VALIDATION = 100
 #: Groups the validation samples are dealt into (by reservoir slot) for the gate's paired
-#: test (:func:`~scara_ident_ros.dynamics.hybrid_model.gate_scales`): at least
+#: test (:func:`~scara_ident_ros.learners.hybrid_model.gate_scales`): at least
 #: :data:`MIN_VALIDATION` / 10 samples each.
 GATE_GROUPS = 10
 #: The online gate's test level: stricter than offline's
-#: (:data:`~scara_ident_ros.dynamics.hybrid_model.GATE_LEVEL`, one decision on held-out
+#: (:data:`~scara_ident_ros.learners.hybrid_model.GATE_LEVEL`, one decision on held-out
 #: blocks) because online the gate is decided again after every update on the same
 #: validation samples, so a correction fitted to noise gets many chances to pass by chance.
 GATE_LEVEL = 0.01

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from scara_ident_ros.cli.train import AUTO_CANDIDATES
-from scara_ident_ros.dynamics.hybrid_model import HybridModel
+from scara_ident_ros.learners.hybrid_model import HybridModel
 from scara_ident_ros.estimator import load_model
 from scara_ident_ros.learners import LinearFeatures
 

@@ -10,7 +10,7 @@ import pinocchio as pin
 import pytest
 import yaml
 
-from scara_ident_ros.dynamics.hybrid_model import HybridModel
+from scara_ident_ros.learners.hybrid_model import HybridModel
 from scara_ident_ros.dynamics.joint_limits import JointLimits
 from scara_ident_ros.dynamics.physical_model import PhysicalModel
 from scara_ident_ros.dynamics.urdf_limits import parse_urdf
