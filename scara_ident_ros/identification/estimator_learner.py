@@ -27,6 +27,7 @@ from numpy.typing import NDArray
 
 from scara_ident_ros.blas_threads import single_blas_thread
 from scara_ident_ros.identification.learner_stream import LearnerStream
+from scara_ident_ros.identification.reservoir_lm import RESERVOIR_SIZE
 from scara_ident_ros.identification.streamed_estimator import StreamedEstimator, is_fitted
 
 __all__ = ['EstimatorLearner', 'SampleBatch']
@@ -97,7 +98,7 @@ class EstimatorLearner:
     name = 'estimator'
 
     def __init__(self, model: StreamedEstimator, *, batch: int, warmup: int,
-                 capacity: int = 4000, seed: int = 0) -> None:
+                 capacity: int = RESERVOIR_SIZE, seed: int = 0) -> None:
         if batch < 1 or warmup < 1:
             raise ValueError(f'need batch >= 1 and warmup >= 1, got {batch} and {warmup}')
         self.model = model

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from scara_ident_ros.identification.background_lm import NICE
+from scara_ident_ros.identification.learner_process import NICE
 from scara_ident_ros.identification.differentiator import (DIFFERENTIATOR_WINDOW,
                                                            DIFFERENTIATORS)
 from scara_ident_ros.identification.core_settings import ONLINE_METHODS
