@@ -276,10 +276,10 @@ def run(args: argparse.Namespace) -> int:
 def _training_rows(args: argparse.Namespace, method: str, every_train: Dataset) -> Dataset:
     """The training samples ``method`` fits: all for least squares and the kernel, at most
     GP_SAMPLES for the GP, at most --samples (a random draw) for a network."""
+    if method == GP_METHOD:  # whatever --samples says: O(N^3)
+        return every_train.subsample(GP_SAMPLES, seed=args.seed, name='train')
     if method in ('physical', KERNEL_METHOD, LINEAR_METHOD) or not args.samples:
         return every_train
-    if method == GP_METHOD:
-        return every_train.subsample(GP_SAMPLES, seed=args.seed, name='train')
     return every_train.subsample(args.samples, seed=args.seed, name='train')
 
 
@@ -357,13 +357,23 @@ def _train_auto(args: argparse.Namespace, names: Sequence[str], every_train: Dat
     fitted: dict[str, tuple[Estimator, str, float, Dataset]] = {}
     for method in AUTO_CANDIDATES:
         train = _training_rows(args, method, every_train)
-        model, summary = _fit(args, method, names, train, stop, every_train)
+        try:
+            model, summary = _fit(args, method, names, train, stop, every_train)
+        except ValueError as exc:  # e.g. too few samples for the GP's kernel choice
+            print(f'auto: {method} not fitted: {exc}', flush=True)
+            continue
         per_joint = np.mean((model.predict(score.X) - score.Y) ** 2, axis=0) / variance
         nmse = float(np.mean(per_joint))
+        if not np.isfinite(nmse):
+            print(f'auto: {method} predicts non-finite efforts; not a candidate', flush=True)
+            continue
         print(f'auto: {method} mean NMSE {nmse:.4g} on {len(score)} validation samples '
               f'(per joint {", ".join(f"{e:.3g}" for e in per_joint)}; {summary})',
               flush=True)
         fitted[method] = (model, summary, nmse, train)
+    if not fitted:
+        raise CliError(f'{args.bag}: --method auto fitted none of '
+                       f'{", ".join(AUTO_CANDIDATES)} (above); give a --method')
     chosen = min(fitted, key=lambda method: fitted[method][2])
     model, summary, _, train = fitted[chosen]
     metadata['method'] = np.array(chosen)

@@ -79,3 +79,20 @@ def test_linear_train_then_evaluate(bags: dict[str, Path], tmp_path: Path,  # no
     code, out, err = run_cli(capsys, 'evaluate', model_path, bags['other'])
     assert code == 0, err
     assert out.startswith(f'LINEAR model {model_path} on ')
+
+
+def test_auto_goes_on_without_a_candidate_that_refuses_the_data(
+        bags: dict[str, Path], tmp_path: Path, monkeypatch: pytest.MonkeyPatch,  # noqa: F811
+        capsys: pytest.CaptureFixture[str]) -> None:
+    from scara_ident_ros.learners import ExactGP
+
+    def refuse(self: ExactGP, X: object, Y: object) -> ExactGP:
+        raise ValueError('too few samples to choose a kernel')
+
+    monkeypatch.setattr(ExactGP, 'fit', refuse)
+    model_path = tmp_path / 'auto.npz'
+    code, out, err = run_cli(capsys, 'train', bags['train'], '--iterations', '5',
+                             '--out', model_path)
+    assert code == 0, err
+    assert 'auto: gp not fitted: too few samples to choose a kernel' in out
+    assert load_model(model_path).method in ('linear', 'ffs')
