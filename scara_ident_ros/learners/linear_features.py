@@ -62,6 +62,9 @@ class LinearFeatures(SavedEstimator):
     """
 
     kind = KIND
+    #: ``partial_fit`` holds the batch solution on every sample learnt: a stream never
+    #: refits it (:mod:`~scara_ident_ros.identification.learner_stream`).
+    exact_online = True
 
     def __init__(self) -> None:
         self.metadata: dict[str, np.ndarray] = {}
