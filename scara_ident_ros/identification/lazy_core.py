@@ -37,12 +37,13 @@ from scara_ident_ros.identification.skip_reason import SkipReason
 from scara_ident_ros.identification.stream_scaling import StreamScaling, stream_joints
 
 __all__ = ['CoreSettings', 'LazyCore', 'ONLINE_METHODS', 'PHYSICAL_METHODS', 'RawSample',
+           'UNSCALED_METHODS',
            'Skipped']
 
 _JOINT_REASONS = (SkipReason.UNKNOWN_JOINT, SkipReason.MISSING_JOINT,
                   SkipReason.DUPLICATE_JOINT)
 #: Methods whose model is not scaled by the joint limits (a network's is)
-_UNSCALED = ('physical', *LEARNER_METHODS)
+UNSCALED_METHODS = ('physical', *LEARNER_METHODS)
 
 
 class Skipped(NamedTuple):
@@ -140,7 +141,7 @@ class LazyCore:
                         + (f' and {self.urdf_limits.source}' if self.urdf_limits else '')
                         + '): set urdf_file, robot_config or position_min, position_max, '
                         'velocity_max, acceleration_max, effort_max and joint_names')
-            if lacking and settings.method not in _UNSCALED:
+            if lacking and settings.method not in UNSCALED_METHODS:
                 return (f'the scaling of {lacking} comes from the stream: build from '
                         'samples (LazyCore.first)')
             if settings.method in PHYSICAL_METHODS and not self.urdf:
@@ -186,7 +187,7 @@ class LazyCore:
         """Whether the network's scaling of ``names`` needs the stream (the files lack some
         limits of them, no file lacks all, and there is no warm start to take it from)."""
         lacking, unknown = stream_joints(self.limits, self.urdf_limits, names)
-        return (self.network is None and method not in _UNSCALED and bool(lacking)
+        return (self.network is None and method not in UNSCALED_METHODS and bool(lacking)
                 and not unknown)
 
     def adopt_limits(self, other: LazyCore) -> None:

@@ -35,7 +35,7 @@ from scara_ident_ros.identification.error_window import ErrorWindow
 from scara_ident_ros.identification.identifier_builder import (LearnerProcess,
                                                                background_learner)
 from scara_ident_ros.identification.input_stage import Input
-from scara_ident_ros.identification.lazy_core import CoreSettings, LazyCore
+from scara_ident_ros.identification.lazy_core import UNSCALED_METHODS, CoreSettings, LazyCore
 from scara_ident_ros.identification.metrics import ErrorStats
 from scara_ident_ros.identification.online_identifier import OnlineIdentifier, StepResult
 from scara_ident_ros.identification.reports import (ContactState, HealthFigures,
@@ -333,6 +333,12 @@ class IdentificationSession:
                 method, LazyCore(self.limits, network, urdf=self.urdf[0],
                                  urdf_source=self.urdf[1], urdf_limits=urdf_limits),
                 _contact_settings(s)))
+        # the method whose core is built from the first valid sample and, where the files lack
+        # limits, completes them from the stream for all: the first that is scaled by them
+        # (a learner or the physical model first would build at once and leave the others
+        # waiting for limits nobody collects)
+        self.lead = next((run for run in self.runs if run.method not in UNSCALED_METHODS),
+                         self.runs[0])
         # checked at start (a bad window ends it in one line), used once the joints are known
         self.differentiator = self._differentiator()
         missing_limits = self._build(names) if names else ''
@@ -361,11 +367,11 @@ class IdentificationSession:
     @property
     def names(self) -> list[str]:
         """The identified joints, once the cores are built."""
-        return self.first.lazy.names
+        return self.lead.lazy.names
 
     def processed(self) -> int:
         """Samples taken so far."""
-        return self.first.lazy.counts.processed
+        return self.lead.lazy.counts.processed
 
     # ------------------------------------------------------------------ warm start
     def model_source(self, method: str) -> str:
@@ -427,7 +433,8 @@ class IdentificationSession:
         """Build the cores of ``runs`` (all by default) for ``names``, sharing one input
         stage (the first method's, if built); return '' or why not (a joint without
         limits)."""
-        stage = self.core.stage if runs is not None and self.core is not None else None
+        lead = self.lead.core
+        stage = lead.stage if runs is not None and lead is not None else None
         if any(run.lazy.needs_stream(names, run.method) for run in self.runs):
             return ''  # built from the first samples, which complete the limits
         for run in self.runs if runs is None else runs:
@@ -444,8 +451,8 @@ class IdentificationSession:
                     velocity: Any, effort: Any) -> list[str]:
         """Build for the joints of a sample if it is valid; else count it as skipped.
         Return the warnings (none when built)."""
-        first = self.first.lazy
-        skipped = first.first(self._core_settings(self.first.method), self.differentiator,
+        first = self.lead.lazy
+        skipped = first.first(self._core_settings(self.lead.method), self.differentiator,
                               stamp_ns, names, position, velocity, effort,
                               background=self.settings['lm_background'],
                               wanted=self.settings['joint_names'])
@@ -455,14 +462,15 @@ class IdentificationSession:
             return []
         if skipped is None:
             self.log(first.limits_note)
-            for run in self.runs[1:]:
+            others = [run for run in self.runs if run is not self.lead]
+            for run in others:
                 run.lazy.adopt_limits(first)
                 run.lazy.early = dataclasses.replace(first.early,
                                                      skipped=dict(first.early.skipped))
-            why = self._build(self.names, self.runs[1:])
+            why = self._build(self.names, others)
             if why:
                 return [why]
-            self.first.built(self.names)
+            self.lead.built(self.names)
             return []
         warnings = [skipped.note] if skipped.note else []
         reason = skipped.reason
@@ -480,14 +488,14 @@ class IdentificationSession:
         in order, the predictions now due; the samples the input stage let out (whose
         predictions these are); and why the sample was skipped, if it was.
         """
-        if self.core is None:
+        if self.lead.core is None:
             warnings = self._build_from(stamp_ns, names, position, velocity, effort)
-            if self.core is None or warnings:
+            if self.lead.core is None or warnings:
                 return [[] for _ in self.runs], [], warnings
-            replay = self.first.lazy.take_replay()  # samples that completed the limits
+            replay = self.lead.lazy.take_replay()  # samples that completed the limits
             if len(replay) > 1:
                 return self._replay(replay)
-        core = self.core
+        core = self.lead.core
         reason, inputs = core.stage.push(stamp_ns, names, position, velocity, effort)
         results = []
         for run in self.runs:
@@ -520,9 +528,9 @@ class IdentificationSession:
 
     def flush(self) -> tuple[list[list[StepResult]], list[Input]]:
         """On shutdown: the pending samples' predictions for each method, and the samples."""
-        if self.core is None:
+        if self.lead.core is None:
             return [[] for _ in self.runs], []
-        inputs = self.core.stage.flush()
+        inputs = self.lead.core.stage.flush()
         results = []
         for run in self.runs:
             assert run.core is not None
