@@ -16,7 +16,7 @@ the held-out blocks and the sample checks of the robot's limits (:func:`build_id
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Protocol, cast, runtime_checkable
+from typing import cast
 
 import numpy as np
 
@@ -25,7 +25,7 @@ from scara_ident_ros.dynamics.joint_limits import JointLimits
 from scara_ident_ros.dynamics.physical_model import PhysicalModel
 from scara_ident_ros.estimator import Estimator
 from scara_ident_ros.identification.background_estimator import BackgroundEstimator
-from scara_ident_ros.identification.background_lm import BackgroundLM
+from scara_ident_ros.identification.learner_process import LearnerClient
 from scara_ident_ros.identification.differentiator import (AccelerationEstimate,
                                                            make_differentiator)
 from scara_ident_ros.identification.holdout import Holdout
@@ -45,33 +45,8 @@ from scara_ident_ros.identification.trainer import (Trainer, make_trainer,
 from scara_ident_ros.nn import FeedForwardNet
 from scara_ident_ros.nn.presets import make_network
 
-__all__ = ['LearnerProcess', 'background_learner', 'build_identifier', 'make_learner',
+__all__ = ['background_learner', 'build_identifier', 'make_learner',
            'make_model']
-
-
-@runtime_checkable
-class LearnerProcess(Protocol):
-    """A trainer that learns in a process beside the stream (``BackgroundLM``,
-    ``BackgroundEstimator``): what the session reports of it and how it is stopped."""
-
-    updates: int  # new weights (states) taken
-    steps_taken: int  # the learner's steps (LM steps; partial_fit calls)
-    dropped: int  # samples not learnt: the learner could not take them
-
-    def poll(self) -> bool:
-        """Take the newest weights, if any; return whether there were."""
-
-    def wait_ready(self, timeout: float) -> bool:
-        """Wait (at most ``timeout`` s) until the process has started."""
-
-    def rate(self) -> float:
-        """Updates per second, recently."""
-
-    def overdue(self) -> float | None:
-        """Seconds an update has been due, or None."""
-
-    def close(self) -> None:
-        """Take the last weights and end the process."""
 
 
 def make_model(names: Sequence[str], settings: CoreSettings, limits: JointLimits | None, *,
@@ -209,17 +184,18 @@ def build_identifier(names: Sequence[str], settings: CoreSettings,
         differentiator = make_differentiator(defaults['differentiator'],
                                              window=defaults['window'],
                                              cutoff_hz=defaults['cutoff_hz'])
+    trainer = make_learner(model, settings, background=background)
     return OnlineIdentifier(
-        model, joint_names=names, differentiator=differentiator,
-        trainer=make_learner(model, settings, background=background), holdout=holdout,
-        mse_window=settings.mse_window, learn=settings.learn,
+        model, joint_names=names, differentiator=differentiator, trainer=trainer,
+        holdout=holdout, mse_window=settings.mse_window, learn=settings.learn,
         max_gap_ns=round(settings.max_gap * 1e9), bounds=bounds, stage=stage,
-        derive_velocity=settings.derive_velocity == 'auto')
+        derive_velocity=settings.derive_velocity == 'auto',
+        learner=background_learner(trainer))
 
 
-def background_learner(trainer: Trainer | None) -> LearnerProcess | None:
+def background_learner(trainer: Trainer | None) -> LearnerClient | None:
     """The learner process of an identifier's ``trainer`` (a hybrid's: its network's), or
     None if it learns in the caller's process."""
     if isinstance(trainer, HybridTrainer):
         trainer = trainer.network
-    return trainer if isinstance(trainer, (BackgroundLM, BackgroundEstimator)) else None
+    return trainer if isinstance(trainer, LearnerClient) else None

@@ -164,6 +164,8 @@ class LearnerClient:
         Samples not learnt: the pipe and the backlog were full.
     updates : int
         Updates taken from the learner.
+    steps_taken : int
+        The learner's steps (LM steps; ``partial_fit`` calls), as of its latest update.
     ready : bool
         Whether the learner has answered (started).
     """
@@ -176,12 +178,17 @@ class LearnerClient:
         self._update_times: deque[float] = deque()
         self._due: float | None = None  # when an update fell due, if one is due
         self._closed = False
-        self.sent = self.dropped = self.updates = 0
+        self.sent = self.dropped = self.updates = self.steps_taken = 0
         self.ready = False
         self._to_learner.send(start)  # the learner waits for it
 
     def poll(self) -> bool:  # pragma: no cover - each client's own
         """Take what the learner has answered; return whether the model changed."""
+        raise NotImplementedError
+
+    def close(self, timeout: float = STOP_TIMEOUT) -> None:  # pragma: no cover - its own
+        """Hand over the last samples, take the learner's last update and end it (at most
+        ``timeout`` s)."""
         raise NotImplementedError
 
     def wait_ready(self, timeout: float) -> bool:

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Protocol
 
 import numpy as np
 from numpy.typing import NDArray
@@ -26,6 +27,14 @@ from scara_ident_ros.identification.skip_reason import SkipReason
 from scara_ident_ros.identification.trainer import BackPropagation, Trainer
 
 __all__ = ['StepResult', 'Counts', 'OnlineIdentifier']
+
+
+class Polled(Protocol):
+    """A learner beside the stream whose finished updates the model takes when polled
+    (:class:`~scara_ident_ros.identification.learner_process.LearnerClient`)."""
+
+    def poll(self) -> bool:
+        """Take a finished update, if any; return whether the model changed."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -128,6 +137,10 @@ class OnlineIdentifier:
     ------
     ValueError
         If the model's sizes, ``joint_names`` or ``mse_window`` do not fit.
+    learner : Polled, optional
+        The trainer's learner process, if it learns beside the stream: polled every sample
+        (2.5 µs: a pipe's select), so that a finished update is taken even while nothing is
+        learnt (``learn`` False, a held-out block, samples without effort).
     """
 
     def __init__(self, model: Estimator, *, joint_names: Sequence[str] | None = None,
@@ -135,7 +148,8 @@ class OnlineIdentifier:
                  trainer: Trainer | None = None, holdout: Holdout | None = None,
                  mse_window: int = 1000, learn: bool = True,
                  max_gap_ns: int = DEFAULT_MAX_GAP_NS, bounds: Bounds | None = None,
-                 stage: InputStage | None = None, derive_velocity: bool = False) -> None:
+                 stage: InputStage | None = None, derive_velocity: bool = False,
+                 learner: Polled | None = None) -> None:
         n = model.n_outputs
         if n < 1 or model.n_inputs != 3 * n:
             raise ValueError(f'model has {model.n_inputs} inputs and {n} outputs; '
@@ -151,6 +165,7 @@ class OnlineIdentifier:
         self.stage = stage
         self.joint_map = stage.check.joint_map
         self.trainer: Trainer = trainer if trainer is not None else BackPropagation(model)
+        self.learner = learner
         self.holdout = holdout
         self.errors = ErrorWindow(n, mse_window)
         self.counts = Counts(skipped=self.stage.skipped)
@@ -216,6 +231,8 @@ class OnlineIdentifier:
         """
         if pushed:
             self.counts.processed += 1
+        if self.learner is not None:  # an update finished beside the stream, taken now:
+            self.learner.poll()       # not only when a learnt sample sends a batch
         results = [StepResult(stamp_ns, None, reason)] if reason is not None else []
         results += [self._predict_and_learn(item) for item in inputs]
         self.counts.pending = self.stage.pending

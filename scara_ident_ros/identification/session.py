@@ -32,9 +32,9 @@ from scara_ident_ros.identification.contact_detector import Calibration, Contact
 from scara_ident_ros.identification.differentiator import (AccelerationEstimate,
                                                            make_differentiator)
 from scara_ident_ros.identification.error_window import ErrorWindow
-from scara_ident_ros.identification.identifier_builder import (LearnerProcess,
-                                                               background_learner)
+from scara_ident_ros.identification.identifier_builder import background_learner
 from scara_ident_ros.identification.input_stage import Input
+from scara_ident_ros.identification.learner_process import LearnerClient
 from scara_ident_ros.identification.lazy_core import UNSCALED_METHODS, CoreSettings, LazyCore
 from scara_ident_ros.identification.metrics import ErrorStats
 from scara_ident_ros.identification.online_identifier import OnlineIdentifier, StepResult
@@ -134,7 +134,7 @@ class MethodRun:
         return core.model if core is not None else self.lazy.network
 
     @property
-    def background(self) -> LearnerProcess | None:
+    def background(self) -> LearnerClient | None:
         """The trainer, if it learns beside the stream (a hybrid's: its network's)."""
         return background_learner(self.core.trainer if self.core is not None else None)
 

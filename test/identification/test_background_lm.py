@@ -226,3 +226,30 @@ def test_a_7_joint_arm_stream_keeps_up_with_the_learner_beside_it() -> None:
         assert cpu < 4.0, cpu  # the stream's 4 s
     finally:
         trainer.close()
+
+
+def test_the_identifier_takes_a_finished_update_while_it_learns_nothing() -> None:
+    """Polled every sample: an update that finishes after the last learnt sample is taken
+    at the next sample, though that one is not learnt (``learn`` False)."""
+    from scara_ident_ros.identification.input_stage import Input
+    from scara_ident_ros.identification.online_identifier import OnlineIdentifier
+
+    made = BackgroundLM(network(), LearnerSettings(reservoir_size=500, lm_interval=100,
+                                                   lm_steps=2))
+    try:
+        assert made.wait_ready(WAIT)
+        ident = OnlineIdentifier(made.model, trainer=made, learner=made)
+        X, Y = data(200)
+        for k, (x, y) in enumerate(zip(X, Y, strict=True)):
+            ident.take(k, None, [Input(k, x, y)])
+        ident.learn = False
+        before = made.updates
+        # the learner's answers are in the pipe, not yet taken (nothing was learnt since)
+        assert made._from_learner.poll(WAIT)
+        deadline = time.monotonic() + WAIT
+        while made.updates == before and time.monotonic() < deadline:
+            ident.take(1000, None, [Input(1000, X[0], Y[0])])  # predicted, not learnt
+            time.sleep(0.01)
+        assert made.updates > before and ident.counts.learnt == 200
+    finally:
+        made.close()
