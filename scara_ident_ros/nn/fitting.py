@@ -41,7 +41,7 @@ def fit(net: FeedForwardNet, X: npt.ArrayLike, Y: npt.ArrayLike, *, algorithm: s
         iterations: int = 315, goal: float = 0.0,
         validation: tuple[npt.ArrayLike, npt.ArrayLike] | None = None,
         max_fail: int = 6, min_iterations: int = 0,
-        callback: Callback | None = None) -> FitHistory:
+        callback: Callback | None = None, weight_decay: float = 0.0) -> FitHistory:
     """Train ``net`` offline on a batch of samples, in place.
 
     If the scaling was never set, it is first fitted to the minima and maxima of X and Y
@@ -74,6 +74,10 @@ def fit(net: FeedForwardNet, X: npt.ArrayLike, Y: npt.ArrayLike, *, algorithm: s
         Iterations whose validation failures do not count (see ``validation``).
     callback : callable, optional
         ``callback(history)`` after each iteration; returning True stops training.
+    weight_decay : float, default 0.0
+        λ ≥ 0: Levenberg–Marquardt minimises Σ e² + λ‖θ‖² over the scaled errors e of all
+        samples and outputs and every weight θ (`LevenbergMarquardt`); 0: no penalty.
+        Only with ``algorithm='lm'``.
 
     Returns
     -------
@@ -91,6 +95,8 @@ def fit(net: FeedForwardNet, X: npt.ArrayLike, Y: npt.ArrayLike, *, algorithm: s
     min_iterations = operator.index(min_iterations)
     if iterations < 0 or max_fail < 1 or min_iterations < 0:
         raise ValueError('need iterations >= 0, max_fail >= 1 and min_iterations >= 0')
+    if weight_decay and algorithm != 'lm':
+        raise ValueError(f'weight_decay needs algorithm \'lm\', got {algorithm!r}')
     if not net.scaling_set:
         xsc, ysc = MinMaxScaling.from_data(x), MinMaxScaling.from_data(y)
         net.set_scaling(xsc.lo, xsc.hi, ysc.lo, ysc.hi)
@@ -101,7 +107,7 @@ def fit(net: FeedForwardNet, X: npt.ArrayLike, Y: npt.ArrayLike, *, algorithm: s
         yv = net.check_outputs(np.asarray(validation[1], dtype=np.float64), xv.shape[0])
         validation_mse = partial(mse_scaled, net, net.x_scaling.transform(xv),
                                  net.y_scaling.transform(yv))
-    step = (LevenbergMarquardt(net, xs, ys) if algorithm == 'lm'
+    step = (LevenbergMarquardt(net, xs, ys, weight_decay=weight_decay) if algorithm == 'lm'
             else GradientDescent(net, xs, ys))
     history = run_training(net, algorithm, step, iterations=iterations, goal=float(goal),
                            validation_mse=validation_mse, max_fail=max_fail,
@@ -116,7 +122,7 @@ def train_offline(net: FeedForwardNet, X: npt.ArrayLike, Y: npt.ArrayLike, *,
                   seed: int = 0, algorithm: str = 'lm', iterations: int = ITERATIONS,
                   goal: float = 0.0, max_fail: int = MAX_FAIL,
                   min_iterations: int = MIN_ITERATIONS,
-                  callback: Callback | None = None) -> FitHistory:
+                  callback: Callback | None = None, weight_decay: float = 0.0) -> FitHistory:
     """The project's default offline training of ``net`` (module docstring), in place.
 
     Parameters
@@ -136,7 +142,7 @@ def train_offline(net: FeedForwardNet, X: npt.ArrayLike, Y: npt.ArrayLike, *,
         Train on at most this many training samples drawn at random (0: all).
     seed : int, default 0
         Seed of the validation blocks and of the draw.
-    algorithm, iterations, goal, max_fail, min_iterations, callback
+    algorithm, iterations, goal, max_fail, min_iterations, callback, weight_decay
         As `fit`.
 
     Returns
@@ -158,4 +164,4 @@ def train_offline(net: FeedForwardNet, X: npt.ArrayLike, Y: npt.ArrayLike, *,
         x, y = x[rows], y[rows]
     return fit(net, x, y, algorithm=algorithm, iterations=iterations, goal=goal,
                validation=validation, max_fail=max_fail, min_iterations=min_iterations,
-               callback=callback)
+               callback=callback, weight_decay=weight_decay)

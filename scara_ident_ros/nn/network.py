@@ -375,7 +375,7 @@ class FeedForwardNet:
             validation_fraction: float | None = None, samples: int | None = None,
             algorithm: str = 'lm', iterations: int | None = None, goal: float = 0.0,
             max_fail: int | None = None, min_iterations: int | None = None,
-            callback: Callback | None = None) -> FeedForwardNet:
+            callback: Callback | None = None, weight_decay: float = 0.0) -> FeedForwardNet:
         """Train offline with the project's defaults (``scara-ident train``'s), in place.
 
         `fitting.train_offline`: blocks of consecutive rows validate (or ``validation``),
@@ -394,6 +394,8 @@ class FeedForwardNet:
             `fitting.train_offline`'s; None takes its default.
         algorithm, iterations, goal, max_fail, min_iterations, callback : optional
             `fitting.fit`'s; None takes `fitting.train_offline`'s default.
+        weight_decay : float, default 0.0
+            `fitting.fit`'s L2 penalty λ on the weights (0: none).
 
         Returns
         -------
@@ -407,7 +409,7 @@ class FeedForwardNet:
             'iterations': iterations, 'max_fail': max_fail, 'min_iterations': min_iterations}
         self.history_ = train_offline(
             self, X, Y, validation=validation, seed=self._seed, algorithm=algorithm,
-            goal=goal, callback=callback,
+            goal=goal, callback=callback, weight_decay=weight_decay,
             **{key: value for key, value in options.items() if value is not None})
         return self
 

@@ -1,7 +1,10 @@
 """Affine scaling of each column to [-1, 1], like MATLAB's ``mapminmax``.
 
 The network keeps one scaling for its inputs and one for its outputs, so that callers work
-in physical units (rad, m, rad/s, N·m, N) and training works on numbers of order one.
+in physical units (rad, m, rad/s, N·m, N) and training works on numbers of order one. The
+range mapped to [-1, 1] is each column's extremes (`MinMaxScaling.from_data`, the default)
+or its mean ± k standard deviations (`MinMaxScaling.standard`, a standard score), which
+outliers and rare large values do not stretch.
 """
 from __future__ import annotations
 
@@ -72,6 +75,29 @@ class MinMaxScaling:
         if data.ndim != 2 or data.shape[0] == 0:
             raise ValueError(f'need data of shape (n_samples, n_features), got {data.shape}')
         return cls(data.min(axis=0), data.max(axis=0))
+
+    @classmethod
+    def standard(cls, data: npt.ArrayLike, k: float = 1.0) -> MinMaxScaling:
+        """Return the scaling that maps each column's mean ± ``k`` standard deviations to
+        [-1, 1] (k = 1: the standard score, z = (x − mean) / std).
+
+        The mean goes to 0, the centre of the range; values beyond k deviations map
+        outside [-1, 1]. A constant column is centred on 0 with gain 1, as in the
+        constructor.
+
+        Parameters
+        ----------
+        data : array_like of shape (n_samples, n_features)
+        k : float, default 1.0
+            Deviations on each side of the mean that map to ±1; > 0.
+        """
+        data = np.asarray(data, dtype=np.float64)
+        if data.ndim != 2 or data.shape[0] == 0:
+            raise ValueError(f'need data of shape (n_samples, n_features), got {data.shape}')
+        if not (np.isfinite(k) and k > 0.0):
+            raise ValueError(f'k must be positive and finite, got {k}')
+        mean, spread = data.mean(axis=0), k * data.std(axis=0)
+        return cls(mean - spread, mean + spread)
 
     @property
     def n_features(self) -> int:

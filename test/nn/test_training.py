@@ -236,3 +236,15 @@ def test_fit_takes_min_iterations(smooth_data: Data) -> None:
     assert history.iterations >= 32
     with pytest.raises(ValueError, match='min_iterations'):
         fit(net, x, y, min_iterations=-1)
+
+
+def test_fit_passes_weight_decay_to_lm_only(smooth_data: Data) -> None:
+    x, y = smooth_data
+    norms = []
+    for decay in (0.0, 50.0):
+        net = FeedForwardNet(12, 6, 4, 'sigmoid', seed=2)
+        fit(net, x, y, iterations=20, weight_decay=decay)
+        norms.append(np.linalg.norm(net.theta))
+    assert norms[1] < norms[0]
+    with pytest.raises(ValueError, match='weight_decay'):
+        fit(FeedForwardNet(12, 6, 4, 'sigmoid'), x, y, algorithm='gd', weight_decay=1.0)
