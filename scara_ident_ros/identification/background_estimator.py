@@ -37,6 +37,7 @@ from scara_ident_ros.identification.background_lm import (BACKLOG, BATCH_BYTES, 
                                                           _set_title, _start_learner)
 from scara_ident_ros.identification.estimator_learner import SampleBatch
 from scara_ident_ros.identification.learner_stream import LearnerStream
+from scara_ident_ros.identification.reservoir import RESERVOIR_SIZE
 from scara_ident_ros.identification.streamed_estimator import (ArrayLearner,
                                                                StreamedEstimator, is_fitted)
 
@@ -55,7 +56,7 @@ class Start:
     learner: ArrayLearner
     batch: int
     warmup: int
-    capacity: int = 4000  # the reservoir a fresh learner is refitted on
+    reservoir_size: int = RESERVOIR_SIZE  # the reservoir a fresh learner is refitted on
     seed: int = 0
     nice: int = NICE
     label: str = 'learner'
@@ -100,7 +101,7 @@ class BackgroundEstimator:
         The identifier's model; its learner is replaced by each state handed back.
     batch, warmup : int
         Samples per ``partial_fit`` call (at least), of the first call.
-    capacity, seed : int
+    reservoir_size, seed : int
         The reservoir a fresh learner is refitted on, and its seed
         (:class:`~scara_ident_ros.identification.learner_stream.LearnerStream`).
     label : str
@@ -124,7 +125,8 @@ class BackgroundEstimator:
     name = 'estimator'
 
     def __init__(self, model: StreamedEstimator, *, batch: int, warmup: int,
-                 capacity: int = 4000, seed: int = 0, label: str = 'learner') -> None:
+                 reservoir_size: int = RESERVOIR_SIZE, seed: int = 0, label: str = 'learner'
+                 ) -> None:
         self.model = model
         n = model.n_outputs
         self._batch = SampleBatch(n, max(1, (BATCH_BYTES - _OVERHEAD) // (8 * 4 * n)))
@@ -137,7 +139,7 @@ class BackgroundEstimator:
         self._closed = False
         self.ready = False  # the learner has started and waits for samples
         self._process, self._to_learner, self._from_learner = _start_learner(COMMAND)
-        self._to_learner.send(Start(model.learner, batch, warmup, capacity, seed,
+        self._to_learner.send(Start(model.learner, batch, warmup, reservoir_size, seed,
                                     label=label))
 
     # ------------------------------------------------------------------ message path
@@ -278,8 +280,8 @@ def _learn(inbox: Connection, outbox: Connection, start: Start) -> None:
         pass
     _set_title(f'scara_ident_ros learner {start.label}')
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the caller stops it (close)
-    stream = LearnerStream(start.learner, capacity=start.capacity, warmup=start.warmup,
-                           seed=start.seed)
+    stream = LearnerStream(start.learner, reservoir_size=start.reservoir_size,
+                           warmup=start.warmup, seed=start.seed)
     lock = threading.Condition()
     pending: list[NDArray[np.float64]] = []
     state = {'new': 0, 'stop': False}

@@ -133,10 +133,10 @@ def make_learner(model: Estimator, settings: IdentifierSettings, *,
         stream = cast(StreamedEstimator, model)
         if background:
             return BackgroundEstimator(stream, batch=s.learner_batch, warmup=s.learner_warmup,
-                                       capacity=s.reservoir_size, seed=s.seed,
+                                       reservoir_size=s.reservoir_size, seed=s.seed,
                                        label=s.method)
         return EstimatorLearner(stream, batch=s.learner_batch, warmup=s.learner_warmup,
-                                capacity=s.reservoir_size, seed=s.seed)
+                                reservoir_size=s.reservoir_size, seed=s.seed)
 
     def trainer_of(net: FeedForwardNet, hybrid: HybridModel | None = None) -> Trainer:
         return make_trainer(s.trainer, net, reservoir_size=s.reservoir_size,
