@@ -63,7 +63,7 @@ from scara_ident_ros.blas_threads import single_blas_thread  # noqa: E402
 from scara_ident_ros.cli import train as train_cli  # noqa: E402
 from scara_ident_ros.dynamics import ScaraParams  # noqa: E402
 from scara_ident_ros.dynamics.coulomb_selection import select_coulomb  # noqa: E402
-from scara_ident_ros.dynamics.hybrid_model import fit_hybrid  # noqa: E402
+from scara_ident_ros.learners.hybrid_model import fit_hybrid  # noqa: E402
 from scara_ident_ros.dynamics.physical_model import PhysicalModel  # noqa: E402
 from scara_ident_ros.identification.dataset import Dataset, make_dataset  # noqa: E402
 from scara_ident_ros.identification.metrics import effort_errors  # noqa: E402

@@ -63,7 +63,7 @@ sys.path.insert(0, str(ROOT))
 
 from scara_ident_ros.blas_threads import single_blas_thread  # noqa: E402
 from scara_ident_ros.dynamics.coulomb_selection import select_coulomb  # noqa: E402
-from scara_ident_ros.dynamics.hybrid_model import (GATE_LEVEL, fit_hybrid,  # noqa: E402
+from scara_ident_ros.learners.hybrid_model import (GATE_LEVEL, fit_hybrid,  # noqa: E402
                                                    gate_errors, gate_scales)
 from scara_ident_ros.dynamics.physical_model import PhysicalModel  # noqa: E402
 from scara_ident_ros.identification.dataset import Dataset  # noqa: E402

@@ -68,7 +68,7 @@ def load_model(path: Path) -> object:
         from scara_ident_ros.dynamics.physical_model import PhysicalModel
         return PhysicalModel.load(path)
     if kind == 'hybrid':
-        from scara_ident_ros.dynamics.hybrid_model import HybridModel
+        from scara_ident_ros.learners.hybrid_model import HybridModel
         return HybridModel.load(path)
     from scara_ident_ros.nn import FeedForwardNet
     return FeedForwardNet.load(path)

@@ -22,7 +22,7 @@ from scara_ident_ros.estimator import (Estimator, OnlineEstimator, load_model, r
                                        register_kind)
 
 if TYPE_CHECKING:
-    from scara_ident_ros.dynamics.hybrid_model import HybridModel
+    from scara_ident_ros.learners.hybrid_model import HybridModel
     from scara_ident_ros.dynamics.physical_model import PhysicalModel
     from scara_ident_ros.learners.exact_gp import ExactGP
     from scara_ident_ros.learners.linear_features import LinearFeatures
@@ -37,7 +37,7 @@ __all__ = ['Estimator', 'ExactGP', 'FeedForwardNet', 'HybridModel', 'LinearFeatu
 _LAZY = {'FeedForwardNet': 'scara_ident_ros.nn.network',
          'make_network': 'scara_ident_ros.nn.presets',
          'PhysicalModel': 'scara_ident_ros.dynamics.physical_model',
-         'HybridModel': 'scara_ident_ros.dynamics.hybrid_model',
+         'HybridModel': 'scara_ident_ros.learners.hybrid_model',
          'SparseSpectrumGP': 'scara_ident_ros.learners.sparse_spectrum_gp',
          'ExactGP': 'scara_ident_ros.learners.exact_gp',
          'LinearFeatures': 'scara_ident_ros.learners.linear_features'}

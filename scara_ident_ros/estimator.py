@@ -268,7 +268,7 @@ def _import_models() -> None:
 #: Modules that call :func:`register_kind` when imported.
 _MODEL_MODULES: list[str] = ['scara_ident_ros.nn.network',
                              'scara_ident_ros.dynamics.physical_model',
-                             'scara_ident_ros.dynamics.hybrid_model',
+                             'scara_ident_ros.learners.hybrid_model',
                              'scara_ident_ros.learners.sparse_spectrum_gp',
                              'scara_ident_ros.learners.exact_gp',
                              'scara_ident_ros.learners.linear_features']

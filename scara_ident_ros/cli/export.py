@@ -108,12 +108,11 @@ def run(args: argparse.Namespace) -> int:
 
 def _export_urdf(args: argparse.Namespace, loaded: object) -> int:
     """``--urdf``: write, check with Pinocchio's rnea, print one summary line."""
-    from scara_ident_ros.dynamics.hybrid_model import HybridModel
     from scara_ident_ros.dynamics.physical_model import PhysicalModel
     from scara_ident_ros.dynamics.urdf_export import model_to_urdf
     from scara_ident_ros.errors import ScaraIdentError
 
-    physical = loaded.physical if isinstance(loaded, HybridModel) else loaded
+    physical = getattr(loaded, 'physical', loaded)  # a hybrid's physical part
     if not isinstance(physical, PhysicalModel):
         raise CliError(f'{args.model}: a {type(loaded).__name__}, not a physical or hybrid '
                        'model: --urdf writes identified physical parameters')

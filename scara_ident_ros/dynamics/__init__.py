@@ -1,9 +1,15 @@
-"""Robot physics: the SCARA's parameters, rigid-body model and linear regressor (pure numpy).
+"""Robot physics, pure numpy: any robot's rigid-body model and friction, identified.
 
 The physical model of any URDF robot (Pinocchio) lives in its own modules, imported by
-name so that the SCARA's users do not load it: ``physical_model`` (base parameters and
-friction), ``base_reduction``, ``coulomb_selection``, ``hybrid_model`` (plus a residual
-network) and ``recursive_least_squares`` (online, for either).
+name so that users of the SCARA's closed form do not load Pinocchio: ``physical_model``
+(base parameters, rotor inertias, friction and offsets; the estimator contract),
+``base_reduction``, ``coulomb_selection``, ``consistent_parameters`` (pseudo-inertia LMI),
+``recursive_least_squares`` (online), ``urdf_limits``/``joint_limits`` and ``urdf_export``.
+The SCARA also has its Lagrangian closed form (``model``, ``params``, ``regressor``, exported
+here): the paper's equations (``../shared/reference/scara-model.md``), which ``scara_sim``
+integrates for any ``ScaraParams`` file (other masses and lengths need no URDF) and which
+test_model.py checks against Pinocchio on ``urdf/scara.urdf``. The hybrid (this physics plus
+a learnt residual) is a learner: :mod:`scara_ident_ros.learners.hybrid_model`.
 """
 from __future__ import annotations
 

@@ -27,7 +27,7 @@ from numpy.typing import NDArray
 
 from scara_ident_ros.blas_threads import single_blas_thread
 from scara_ident_ros.identification.learner_stream import LearnerStream
-from scara_ident_ros.identification.reservoir import RESERVOIR_SIZE
+from scara_ident_ros.identification.reservoir_lm import RESERVOIR_SIZE
 from scara_ident_ros.identification.streamed_estimator import StreamedEstimator, is_fitted
 
 __all__ = ['EstimatorLearner', 'SampleBatch']

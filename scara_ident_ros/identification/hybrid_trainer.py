@@ -39,7 +39,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from scara_ident_ros.dynamics.hybrid_model import HybridModel
+from scara_ident_ros.learners.hybrid_model import HybridModel
 from scara_ident_ros.identification.background_lm import BackgroundLM
 from scara_ident_ros.identification.reservoir import Reservoir
 from scara_ident_ros.identification.reservoir_lm import ReservoirLM

@@ -21,7 +21,7 @@ from typing import Protocol, cast, runtime_checkable
 
 import numpy as np
 
-from scara_ident_ros.dynamics.hybrid_model import HybridModel, online_hybrid
+from scara_ident_ros.learners.hybrid_model import HybridModel, online_hybrid
 from scara_ident_ros.dynamics.joint_limits import JointLimits
 from scara_ident_ros.dynamics.physical_model import PhysicalModel
 from scara_ident_ros.estimator import Estimator
@@ -87,7 +87,7 @@ def make_model(names: Sequence[str], settings: IdentifierSettings, limits: Joint
     :func:`build_identifier` streams. ``hybrid``: that plus an FFS network of its residual,
     starting at zero output, its outputs scaled to ``RESIDUAL_SHARE`` of the effort limits
     (a residual is a fraction of the effort:
-    :func:`~scara_ident_ros.dynamics.hybrid_model.online_hybrid`). The physical part is
+    :func:`~scara_ident_ros.learners.hybrid_model.online_hybrid`). The physical part is
     ``physical`` if given (e.g. with another friction law), else built from ``urdf``.
     """
     s = settings

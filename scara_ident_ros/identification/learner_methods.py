@@ -1,4 +1,4 @@
-"""The kernel learners as identifier methods: ``kernel`` and ``gp``, and their fresh models.
+"""The learners as identifier methods: ``kernel``, ``gp`` and ``linear``, and their fresh models.
 
 An identifier's ``method`` is a network (``ffs``, ``ffw``, ``ffmw``), a model of the robot's
 URDF (``physical``, ``hybrid``) or one of these learners, which need neither the URDF nor
@@ -10,8 +10,12 @@ the joint limits (they standardise their inputs and efforts with their first dat
 ``gp``
     :class:`~scara_ident_ros.learners.exact_gp.ExactGP`: exact GP regression with at most
     ``gp_budget`` points.
+``linear``
+    :class:`~scara_ident_ros.learners.linear_features.LinearFeatures`: least squares on
+    [q, q', q'', sin q, cos q, tanh(q'/0.05), 1], its batch solution after every call: the
+    baseline, and on TIAGo the best learner (``scara-ident train --method auto``).
 
-Both learn through their ``partial_fit`` (the estimator contract), in batches of
+All learn through their ``partial_fit`` (the estimator contract), in batches of
 ``learner_batch`` samples: :mod:`~scara_ident_ros.identification.estimator_learner`.
 """
 from __future__ import annotations
@@ -21,8 +25,8 @@ from scara_ident_ros.estimator import OnlineEstimator
 __all__ = ['GP_BUDGET', 'KERNEL_FEATURES', 'KERNEL_HYPERPARAMETERS', 'LEARNER_BATCH',
            'LEARNER_METHODS', 'LEARNER_WARMUP', 'make_learner_model']
 
-#: The methods whose model is a kernel learner (no URDF, no joint limits needed).
-LEARNER_METHODS = ('kernel', 'gp')
+#: The methods whose model is a learner (no URDF, no joint limits needed).
+LEARNER_METHODS = ('kernel', 'gp', 'linear')
 KERNEL_FEATURES = 500  #: default random features D of ``kernel`` (0.05-0.1 ms per sample)
 #: Where ``kernel``'s hyperparameters come from online (``SparseSpectrumGP``'s
 #: ``hyperparameters``): 'gp' (ARD marginal likelihood on the warm-up) costs 30-40 s once
@@ -54,8 +58,10 @@ def make_learner_model(method: str, *, kernel_features: int = KERNEL_FEATURES,
     ValueError
         For another method, or sizes the learner refuses.
     """
-    from scara_ident_ros.learners import ExactGP, SparseSpectrumGP
+    from scara_ident_ros.learners import ExactGP, LinearFeatures, SparseSpectrumGP
 
+    if method == 'linear':
+        return LinearFeatures()
     if method == 'kernel':
         return SparseSpectrumGP(kernel_features, hyperparameters=KERNEL_HYPERPARAMETERS,
                                 seed=seed)

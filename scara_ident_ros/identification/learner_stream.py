@@ -7,7 +7,10 @@ inputs then lie tens of standard deviations out, where the kernel knows nothing.
 learner is refitted, when it has learnt 2, 4, 8, ... times ``warmup`` samples, from scratch
 (``type(learner)(**learner.get_params()).fit``) on a uniform reservoir of every sample it has
 learnt (in stream order), and goes on with ``partial_fit`` from there: log₂ refits in all. A
-warm start (a learner fitted before, e.g. offline on a whole recording) is not refitted.
+warm start (a learner fitted before, e.g. offline on a whole recording) is not refitted, nor
+is a learner whose ``partial_fit`` holds its batch solution on every sample learnt (a class
+attribute ``exact_online`` True: the linear model, which chooses nothing from its first data;
+a refit on the reservoir would only lose samples).
 """
 from __future__ import annotations
 
@@ -52,7 +55,8 @@ class LearnerStream:
         self.learnt = 0
         self.refits = 0
         self._reservoir_size, self._seed = int(reservoir_size), int(seed)
-        self._next = None if is_fitted(learner) else 2 * int(warmup)
+        refits = not is_fitted(learner) and not getattr(learner, 'exact_online', False)
+        self._next = 2 * int(warmup) if refits else None
         self._reservoir: Reservoir | None = None
 
     def learn(self, X: NDArray[np.float64], Y: NDArray[np.float64]) -> NDArray[np.float64]:

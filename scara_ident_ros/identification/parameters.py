@@ -9,7 +9,6 @@ here.
 """
 from __future__ import annotations
 
-from scara_ident_ros.identification.background_lm import NICE
 from scara_ident_ros.identification.contact_detector import (ARM_NMSE, ENVELOPE_MARGIN,
                                                              FALSE_ALARMS_PER_HOUR, MIN_SAMPLES,
                                                              SIGMA)
@@ -17,6 +16,7 @@ from scara_ident_ros.identification.differentiator import (CUTOFF_HZ, DIFFERENTI
                                                            DIFFERENTIATORS)
 from scara_ident_ros.identification.error_window import MSE_WINDOW
 from scara_ident_ros.identification.holdout import VALIDATION_BLOCK, VALIDATION_FRACTION
+from scara_ident_ros.identification.learner_process import NICE
 from scara_ident_ros.identification.learner_methods import (GP_BUDGET, KERNEL_FEATURES,
                                                              LEARNER_BATCH, LEARNER_METHODS,
                                                              LEARNER_WARMUP)
@@ -50,7 +50,9 @@ IDENTIFIER_PARAMETERS: tuple[ParamSpec, ...] = (
               "(the URDF's rigid-body model with friction and rotor inertia, recursive least "
               'squares) or hybrid (physical plus an FFS network of its residual): these need '
               'urdf_file or robot_description; kernel (sparse-spectrum GP, random features, '
-              'incremental) or gp (exact GP with a budget): need no URDF nor limits',
+              'incremental), gp (exact GP with a budget) or linear (least squares on [q, '
+              "q', q'', sin q, cos q, tanh(q'/0.05), 1], its batch solution after every "
+              'batch: the best learner on TIAGo): need no URDF nor limits',
               choices=ONLINE_METHODS, fixed=NETWORK),
     ParamSpec('methods', [], 'Several networks from one subscription, each publishing under '
               '<method>/ in the node\'s namespace (the samples are checked and q\'\' '

@@ -35,7 +35,7 @@ from scara_ident_ros.nn import FeedForwardNet
 from scara_ident_ros.nn.scaling import MinMaxScaling
 
 if TYPE_CHECKING:
-    from scara_ident_ros.dynamics.hybrid_model import HybridModel
+    from scara_ident_ros.learners.hybrid_model import HybridModel
 
 __all__ = ['Trainer', 'BackPropagation', 'TRAINERS', 'make_trainer',
            'starts_with_friction_steps']

@@ -1,5 +1,6 @@
-"""Learners of joint efforts beyond the paper's networks, in pure numpy: kernel methods and
-the linear baseline.
+"""Learners of joint efforts beyond the paper's networks, in pure numpy: kernel methods, the
+linear baseline, and the hybrid (the robot's physical model plus a network of its residual:
+:mod:`~scara_ident_ros.learners.hybrid_model`, imported by name, as it loads Pinocchio).
 
 Nothing here imports rclpy. Each keeps the estimator contract of
 :mod:`scara_ident_ros.estimator`.

@@ -117,7 +117,7 @@ def test_urdf_export_of_a_physical_model_reproduces_its_rigid_body_efforts(
     import xml.etree.ElementTree as ET
 
     from scara_ident_ros.dynamics.consistent_parameters import consistency_report
-    from scara_ident_ros.dynamics.hybrid_model import HybridModel
+    from scara_ident_ros.learners.hybrid_model import HybridModel
     from scara_ident_ros.dynamics.physical_model import PhysicalModel
     from scara_ident_ros.dynamics.urdf_export import rigid_body_effort
     from scara_ident_ros.sim.pinocchio_robot import PinocchioRobot

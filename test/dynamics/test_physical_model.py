@@ -10,7 +10,7 @@ import pytest
 from scara_ident_ros.dynamics import ScaraParams
 from scara_ident_ros.dynamics.base_reduction import reduce_columns
 from scara_ident_ros.dynamics.coulomb_selection import CANDIDATES, select_coulomb
-from scara_ident_ros.dynamics.hybrid_model import HybridModel, fit_hybrid
+from scara_ident_ros.learners.hybrid_model import HybridModel, fit_hybrid
 from scara_ident_ros.dynamics.model import ScaraModel
 from scara_ident_ros.dynamics.physical_model import PhysicalModel
 from scara_ident_ros.dynamics.recursive_least_squares import RecursiveLeastSquares

@@ -12,7 +12,7 @@ import pytest
 from numpy.typing import NDArray
 
 from scara_ident_ros.dynamics import ScaraParams
-from scara_ident_ros.dynamics.hybrid_model import HybridModel, online_hybrid
+from scara_ident_ros.learners.hybrid_model import HybridModel, online_hybrid
 from scara_ident_ros.dynamics.joint_limits import load_joint_limits
 from scara_ident_ros.dynamics.physical_model import PhysicalModel
 from scara_ident_ros.identification.background_lm import BackgroundLM, LearnerSettings

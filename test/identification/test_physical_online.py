@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from scara_ident_ros.dynamics import ScaraParams
-from scara_ident_ros.dynamics.hybrid_model import HybridModel, online_hybrid
+from scara_ident_ros.learners.hybrid_model import HybridModel, online_hybrid
 from scara_ident_ros.dynamics.physical_model import PhysicalModel
 from scara_ident_ros.dynamics.joint_limits import load_joint_limits
 from scara_ident_ros.identification import IdentifierSettings, LazyCore, make_differentiator

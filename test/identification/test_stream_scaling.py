@@ -9,7 +9,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from scara_ident_ros.dynamics.hybrid_model import HybridModel
+from scara_ident_ros.learners.hybrid_model import HybridModel
 from scara_ident_ros.dynamics.joint_limits import JointLimits
 from scara_ident_ros.dynamics.physical_model import PhysicalModel
 from scara_ident_ros.dynamics.urdf_limits import parse_urdf

@@ -56,3 +56,35 @@ def test_file_round_trip_and_refusals(tmp_path: Path) -> None:
         LinearFeatures().predict(X)
     with pytest.raises(ValueError, match='3n columns'):
         LinearFeatures().fit(X[:, :4], X[:, :1])
+
+
+def test_partial_fit_predicts_before_learning_and_ends_at_the_batch_solution(
+        tmp_path: Path) -> None:
+    """In calls of any size, each call's rows predicted with what came before; after every
+    call the coefficients are fit's on all rows so far; a saved model goes on learning."""
+    X = samples(rows=900)
+    Y = np.sin(X[:, :3]) * 3.0 + X[:, 3:6] * X[:, :3] + np.random.default_rng(3).normal(
+        0.0, 0.1, (900, 3))
+    online = LinearFeatures()
+    first = online.partial_fit(X[:100], Y[:100])
+    np.testing.assert_array_equal(first, 0.0)  # nothing learnt before the first call
+    np.testing.assert_allclose(online.coef_, LinearFeatures().fit(X[:100], Y[:100]).coef_,
+                               rtol=1e-7, atol=1e-8)
+    before = LinearFeatures().fit(X[:100], Y[:100])
+    predicted = online.partial_fit(X[100:101], Y[100:101])
+    np.testing.assert_allclose(predicted, before.predict(X[100:101]), rtol=1e-9)
+    online.save(tmp_path / 'linear.npz')
+    resumed = load_model(tmp_path / 'linear.npz')
+    assert isinstance(resumed, LinearFeatures)
+    for start, stop in ((101, 400), (400, 407), (407, 900)):
+        for model in (online, resumed):
+            model.partial_fit(X[start:stop], Y[start:stop])
+        batch = LinearFeatures().fit(X[:stop], Y[:stop])
+        np.testing.assert_allclose(online.coef_, batch.coef_, rtol=1e-7, atol=1e-8)
+        np.testing.assert_allclose(resumed.coef_, online.coef_, rtol=1e-9, atol=1e-12)
+    # fit then partial_fit: the same as learning everything at once
+    continued = LinearFeatures().fit(X[:500], Y[:500])
+    continued.partial_fit(X[500:], Y[500:])
+    np.testing.assert_allclose(continued.coef_, batch.coef_, rtol=1e-7, atol=1e-8)
+    with pytest.raises(ValueError, match='maps 9 inputs to 3 outputs'):
+        online.partial_fit(X[:5, :6], Y[:5, :2])

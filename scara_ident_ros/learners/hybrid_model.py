@@ -40,7 +40,7 @@ in 1 of 25 (split, seed) pairs (joint 4, 1.7×), this one in none; a positive me
 below the all-or-nothing gate's (benchmarks/physical_real.md).
 Offline :func:`fit_hybrid` gates on held-out samples, block by block (``scara-ident
 train``: its network early-stops on every other validation block and the gate uses all
-of them); online the residual learner gates 0 or 1 after every update on its own
+of them); online the residual learner gates the same way after every update, on its own
 held-out samples (:mod:`~scara_ident_ros.identification.residual_learner`).
 
 The hybrid keeps the estimator contract (:mod:`scara_ident_ros.estimator`): :meth:`HybridModel.fit`

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from scara_ident_ros.dynamics.hybrid_model import (GATE_LEVEL, HybridModel, fit_hybrid,
+from scara_ident_ros.learners.hybrid_model import (GATE_LEVEL, HybridModel, fit_hybrid,
                                                    gate_scales)
 from scara_ident_ros.dynamics.physical_model import PhysicalModel
 from scara_ident_ros.nn import ModelFormatError
