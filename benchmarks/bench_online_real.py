@@ -28,21 +28,20 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from scara_ident_ros.bag.recording_file import read_recording  # noqa: E402
+from scara_ident_ros.identification.identifier_settings import IdentifierSettings  # noqa: E402,E501
 from scara_ident_ros.identification.reports import MethodReport  # noqa: E402
 from scara_ident_ros.identification.session import IdentificationSession  # noqa: E402
 
 CONFIG = Path(__file__).resolve().parents[1] / 'config' / 'identifier.yaml'
 
 
-def settings(changes: dict[str, Any]) -> dict[str, Any]:
+def settings(changes: dict[str, Any]) -> IdentifierSettings:
     """The identifier's defaults, ``lm`` in the message path, with ``changes``."""
-    values: dict[str, Any] = yaml.safe_load(CONFIG.read_text())['/**']['ros__parameters']
-    return {**values, 'lm_background': False, **changes}
+    return IdentifierSettings.from_yaml(CONFIG).replace(**{'lm_background': False, **changes})
 
 
 def run(path: str, changes: dict[str, Any], joints: list[str] | None, *,

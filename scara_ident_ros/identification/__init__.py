@@ -19,7 +19,8 @@ from scara_ident_ros.identification.holdout import Holdout
 from scara_ident_ros.identification.input_stage import Input, InputStage
 from scara_ident_ros.identification.joint_map import JointMap
 from scara_ident_ros.identification.metrics import ErrorStats, effort_errors
-from scara_ident_ros.identification.lazy_core import CoreSettings, LazyCore, Skipped
+from scara_ident_ros.identification.identifier_settings import IdentifierSettings
+from scara_ident_ros.identification.lazy_core import LazyCore, Skipped
 from scara_ident_ros.identification.online_identifier import (Counts, OnlineIdentifier,
                                                               StepResult)
 from scara_ident_ros.identification.reports import (ContactState, HealthFigures,
@@ -36,9 +37,9 @@ from scara_ident_ros.identification.warm_start import ModelMismatch, check_warm_
 
 __all__ = [
     'AccelerationEstimate', 'BackPropagation', 'Bounds', 'CentredDifferentiator', 'ContactState',
-    'CoreSettings',
     'Counts', 'DEFAULT_MAX_GAP_NS', 'DIFFERENTIATORS', 'DIFFERENTIATOR_WINDOW', 'Differentiator',
-    'ErrorStats', 'ErrorWindow', 'HealthFigures', 'Holdout', 'Input', 'InputStage', 'JointMap',
+    'ErrorStats', 'ErrorWindow', 'HealthFigures', 'Holdout', 'IdentifierSettings', 'Input',
+    'InputStage', 'JointMap',
     'LazyCore', 'LearningFigures', 'MethodReport', 'ModelMismatch', 'OnlineIdentifier',
     'PAPER_WINDOW', 'Reservoir', 'ReservoirLM', 'Sample', 'SampleCheck', 'SkipCounts',
     'SkipReason', 'StreamFigures',

@@ -48,7 +48,7 @@ class BackgroundEstimator(LearnerClient):
         The identifier's model; its learner is replaced by each state handed back.
     batch, warmup : int
         Samples per ``partial_fit`` call (at least), of the first call.
-    capacity, seed : int
+    reservoir_size, seed : int
         The reservoir a fresh learner is refitted on, and its seed
         (:class:`~scara_ident_ros.identification.learner_stream.LearnerStream`).
     label : str
@@ -72,7 +72,7 @@ class BackgroundEstimator(LearnerClient):
     name = 'estimator'
 
     def __init__(self, model: StreamedEstimator, *, batch: int, warmup: int,
-                 capacity: int = RESERVOIR_SIZE, seed: int = 0,
+                 reservoir_size: int = RESERVOIR_SIZE, seed: int = 0,
                  label: str = 'learner') -> None:
         self.model = model
         n = model.n_outputs
@@ -80,8 +80,8 @@ class BackgroundEstimator(LearnerClient):
         self.learnt = self.steps_taken = 0
         self.seconds = 0.0
         self._batch_size, self._warmup = batch, warmup
-        super().__init__(COMMAND, EstimatorStart(model.learner, batch, warmup, capacity, seed,
-                                                 NICE, label))
+        super().__init__(COMMAND, EstimatorStart(model.learner, batch, warmup, reservoir_size,
+                                                 seed, NICE, label))
 
     # ------------------------------------------------------------------ message path
     def learn(self, x: NDArray[np.float64], y: NDArray[np.float64]) -> NDArray[np.float64]:

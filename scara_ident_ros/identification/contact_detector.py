@@ -59,10 +59,17 @@ import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 from numpy.typing import NDArray
 
-__all__ = ['Calibration', 'ContactDetector', 'MAD_TO_SIGMA', 'MIN_SEGMENTS',
+__all__ = ['ARM_NMSE', 'Calibration', 'ContactDetector', 'ENVELOPE_MARGIN',
+           'FALSE_ALARMS_PER_HOUR', 'MAD_TO_SIGMA', 'MIN_SAMPLES', 'MIN_SEGMENTS', 'SIGMA',
            'Tail', 'correlation_time', 'robust_spread']
 
 MAD_TO_SIGMA = 1.4826  # a Gaussian's standard deviation over its median absolute deviation
+#: Defaults of the node's parameters contact_<name in lower case>
+SIGMA = 5.0  # robust standard deviations: the lowest threshold
+ARM_NMSE = 0.01  # validation NMSE below which detection may be armed
+MIN_SAMPLES = 1  # consecutive samples over a threshold before a contact
+FALSE_ALARMS_PER_HOUR = 1.0  # the false-alarm rate the thresholds are set to meet
+ENVELOPE_MARGIN = 0.25  # fraction of the calibrated range the envelope is widened by
 MIN_SEGMENTS = 30  # independent draws (segments or blocks) before detection can be armed
 ACF_LEVEL = 0.1  # autocorrelation below which residuals count as decorrelated
 SECONDS_PER_HOUR = 3600.0
@@ -219,9 +226,11 @@ class ContactDetector:
         calibrated envelope.
     """
 
-    def __init__(self, n_joints: int, *, sigma: float = 5.0, arm_nmse: float = 0.01,
-                 min_samples: int = 1, false_alarms_per_hour: float = 1.0,
-                 envelope_margin: float = 0.25, envelope_acceleration: bool = False) -> None:
+    def __init__(self, n_joints: int, *, sigma: float = SIGMA, arm_nmse: float = ARM_NMSE,
+                 min_samples: int = MIN_SAMPLES,
+                 false_alarms_per_hour: float = FALSE_ALARMS_PER_HOUR,
+                 envelope_margin: float = ENVELOPE_MARGIN, envelope_acceleration: bool = False
+                 ) -> None:
         if n_joints < 1:
             raise ValueError(f'n_joints must be at least 1, got {n_joints}')
         if not (math.isfinite(sigma) and sigma > 0):

@@ -43,13 +43,14 @@ from numpy.typing import ArrayLike, NDArray
 from scara_ident_ros.identification.centred_differentiator import (DIFFERENTIATOR_WINDOW,
                                                                    CentredDifferentiator)
 
-__all__ = ['AccelerationEstimate', 'CAUSAL_DIFFERENTIATORS', 'DIFFERENTIATORS',
+__all__ = ['AccelerationEstimate', 'CAUSAL_DIFFERENTIATORS', 'CUTOFF_HZ', 'DIFFERENTIATORS',
            'DIFFERENTIATOR_WINDOW', 'Differentiator', 'make_differentiator']
 
 #: Names of the acceleration estimates: ``'centred'`` (:class:`CentredDifferentiator`, the
 #: zero-lag default), then the causal ones of :class:`Differentiator`.
 DIFFERENTIATORS = ('centred', 'lowpass', 'backward', 'polynomial')
 CAUSAL_DIFFERENTIATORS = DIFFERENTIATORS[1:]
+CUTOFF_HZ = 50.0  # Hz: the lowpass differentiator's cut-off (the node's ``cutoff_hz``)
 NS = 1e-9  # seconds per nanosecond
 
 
@@ -74,7 +75,8 @@ class Differentiator:
     ``'polynomial'``. The number of joints is fixed by the first sample (until a reset).
     """
 
-    def __init__(self, method: str = 'lowpass', *, cutoff_hz: float = 50.0, window: int = 7,
+    def __init__(self, method: str = 'lowpass', *, cutoff_hz: float = CUTOFF_HZ,
+                 window: int = 7,
                  degree: int = 2) -> None:
         if method not in CAUSAL_DIFFERENTIATORS:
             raise ValueError(f'unknown differentiation method {method!r}; choose from '
@@ -210,7 +212,7 @@ AccelerationEstimate = Differentiator | CentredDifferentiator
 
 
 def make_differentiator(method: str = 'centred', *, window: int = DIFFERENTIATOR_WINDOW,
-                        cutoff_hz: float = 50.0, degree: int = 2) -> AccelerationEstimate:
+                        cutoff_hz: float = CUTOFF_HZ, degree: int = 2) -> AccelerationEstimate:
     """Build the acceleration estimate called ``method`` (one of :data:`DIFFERENTIATORS`).
 
     Parameters

@@ -13,9 +13,10 @@ from numpy.typing import ArrayLike, NDArray
 from scara_ident_ros.identification.metrics import (ErrorStats, check_pair, error_stats,
                                                     no_error_stats)
 
-__all__ = ['ErrorWindow', 'PAPER_WINDOW', 'recent_errors']
+__all__ = ['ErrorWindow', 'MSE_WINDOW', 'PAPER_WINDOW', 'recent_errors']
 
 PAPER_WINDOW = 100  # samples: the paper's "error over the last 100 samples"
+MSE_WINDOW = 1000  # samples: the identifier's windowed MSE (the node's ``mse_window``)
 
 
 class ErrorWindow:
@@ -34,7 +35,7 @@ class ErrorWindow:
     gravity load.
     """
 
-    def __init__(self, n_joints: int, window: int = 1000) -> None:
+    def __init__(self, n_joints: int, window: int = MSE_WINDOW) -> None:
         if n_joints < 1 or window < 1:
             raise ValueError(f'need n_joints >= 1 and window >= 1, got {n_joints}, {window}')
         self.n_joints = int(n_joints)

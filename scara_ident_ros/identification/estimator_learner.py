@@ -74,7 +74,7 @@ class EstimatorLearner:
         Samples per ``partial_fit`` call after the first.
     warmup : int
         Samples of the first call, if the learner has learnt nothing yet.
-    capacity : int
+    reservoir_size : int
         Samples of the reservoir a fresh learner is refitted on
         (:class:`~scara_ident_ros.identification.learner_stream.LearnerStream`).
     seed : int
@@ -98,11 +98,12 @@ class EstimatorLearner:
     name = 'estimator'
 
     def __init__(self, model: StreamedEstimator, *, batch: int, warmup: int,
-                 capacity: int = RESERVOIR_SIZE, seed: int = 0) -> None:
+                 reservoir_size: int = RESERVOIR_SIZE, seed: int = 0) -> None:
         if batch < 1 or warmup < 1:
             raise ValueError(f'need batch >= 1 and warmup >= 1, got {batch} and {warmup}')
         self.model = model
-        self.stream = LearnerStream(model.learner, capacity=capacity, warmup=warmup, seed=seed)
+        self.stream = LearnerStream(model.learner, reservoir_size=reservoir_size, warmup=warmup,
+                                    seed=seed)
         self.batch_size = int(batch)
         self.warmup = int(warmup)
         self._batch = SampleBatch(model.n_outputs, max(batch, warmup))

@@ -36,8 +36,8 @@ def _learn(inbox_connection: Connection, outbox: Connection,
     from scara_ident_ros.blas_threads import single_blas_thread
 
     enter_learner(start.nice, start.label)
-    stream = LearnerStream(start.learner, capacity=start.capacity, warmup=start.warmup,
-                           seed=start.seed)
+    stream = LearnerStream(start.learner, reservoir_size=start.reservoir_size,
+                           warmup=start.warmup, seed=start.seed)
     pending: list[NDArray[np.float64]] = []
 
     def take(message: object) -> int:  # under the inbox's lock

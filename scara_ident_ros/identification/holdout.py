@@ -24,11 +24,15 @@ from numpy.typing import NDArray
 from scara_ident_ros.identification.metrics import ErrorStats, effort_errors
 from scara_ident_ros.identification.reservoir import Reservoir
 
-__all__ = ['CONTACT_SEGMENT', 'Holdout', 'MIN_VALIDATION_SAMPLES', 'SEGMENTS', 'SegmentReservoir']
+__all__ = ['CONTACT_SEGMENT', 'Holdout', 'MIN_VALIDATION_SAMPLES', 'SEGMENTS', 'SegmentReservoir',
+           'VALIDATION_BLOCK', 'VALIDATION_FRACTION']
 
 MIN_VALIDATION_SAMPLES = 100  # held-out samples before a validation NMSE is given
 CONTACT_SEGMENT = 100  # samples per contiguous held-out segment (0.1 s at 1 kHz)
 SEGMENTS = 200  # segments kept for contact calibration (20,000 samples by default)
+#: Defaults of the node's parameters of these names
+VALIDATION_FRACTION = 0.1  # of the samples, in blocks, held out
+VALIDATION_BLOCK = 500  # samples per held-out block
 
 
 class SegmentReservoir:
@@ -109,8 +113,8 @@ class Holdout:
     contact calibration (``segments`` 0: none).
     """
 
-    def __init__(self, n_inputs: int, n_outputs: int, *, fraction: float = 0.1,
-                 block: int = 500, capacity: int = 2000, seed: int = 0,
+    def __init__(self, n_inputs: int, n_outputs: int, *, fraction: float = VALIDATION_FRACTION,
+                 block: int = VALIDATION_BLOCK, capacity: int = 2000, seed: int = 0,
                  segments: int = SEGMENTS, segment: int = CONTACT_SEGMENT) -> None:
         if not (math.isfinite(fraction) and 0.0 <= fraction < 1.0):
             raise ValueError(f'validation fraction must be in [0, 1), got {fraction}')

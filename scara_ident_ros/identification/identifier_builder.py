@@ -3,11 +3,12 @@
 What the ``identifier`` node runs (through :class:`~scara_ident_ros.identification.
 lazy_core.LazyCore`), and what ``scara-ident``, the benchmarks and ``paper/`` run when they
 stream a record through an identifier without a node: one :class:`~scara_ident_ros.
-identification.lazy_core.CoreSettings` (the node's defaults: ``CoreSettings.defaults()``)
-makes the model of its ``method`` (:func:`make_model`), its trainer (:func:`make_learner`),
-the held-out blocks and the sample checks of the robot's limits (:func:`build_identifier`)::
+identification.identifier_settings.IdentifierSettings` (the node's defaults:
+``IdentifierSettings.defaults()``) makes the model of its ``method`` (:func:`make_model`),
+its trainer (:func:`make_learner`), the held-out blocks and the sample checks of the robot's
+limits (:func:`build_identifier`)::
 
-    settings = CoreSettings.defaults(method='ffs', seed=3)
+    settings = IdentifierSettings.defaults(method='ffs', seed=3)
     identifier = build_identifier(names, settings, limits)
     for sample in stream:
         identifier.process(...)
@@ -31,12 +32,12 @@ from scara_ident_ros.identification.differentiator import (AccelerationEstimate,
 from scara_ident_ros.identification.holdout import Holdout
 from scara_ident_ros.identification.hybrid_trainer import HybridTrainer
 from scara_ident_ros.identification.input_stage import InputStage
-from scara_ident_ros.identification.core_settings import PHYSICAL_METHODS, CoreSettings
 from scara_ident_ros.identification.estimator_learner import EstimatorLearner
 from scara_ident_ros.identification.learner_methods import (LEARNER_METHODS,
                                                              make_learner_model)
 from scara_ident_ros.identification.online_identifier import OnlineIdentifier
-from scara_ident_ros.identification.parameters import parameter_defaults
+from scara_ident_ros.identification.identifier_settings import IdentifierSettings
+from scara_ident_ros.identification.parameters import PHYSICAL_METHODS
 from scara_ident_ros.identification.rls_trainer import RecursiveLeastSquaresTrainer
 from scara_ident_ros.identification.sample_check import Bounds, joint_bounds
 from scara_ident_ros.identification.streamed_estimator import ArrayLearner, StreamedEstimator
@@ -49,7 +50,7 @@ __all__ = ['background_learner', 'build_identifier', 'make_learner',
            'make_model']
 
 
-def make_model(names: Sequence[str], settings: CoreSettings, limits: JointLimits | None, *,
+def make_model(names: Sequence[str], settings: IdentifierSettings, limits: JointLimits | None, *,
                urdf: str = '', urdf_source: str = 'robot_description',
                physical: PhysicalModel | None = None) -> Estimator:
     """A fresh model of ``settings.method`` for the joints ``names``.
@@ -92,7 +93,7 @@ def make_model(names: Sequence[str], settings: CoreSettings, limits: JointLimits
     return network
 
 
-def make_learner(model: Estimator, settings: CoreSettings, *,
+def make_learner(model: Estimator, settings: IdentifierSettings, *,
                  background: bool = False) -> Trainer:
     """The trainer of ``model``, a model of ``settings.method``: RLS for ``physical``, RLS
     and the network's trainer for ``hybrid``, ``settings.trainer`` for a network
@@ -107,10 +108,10 @@ def make_learner(model: Estimator, settings: CoreSettings, *,
         stream = cast(StreamedEstimator, model)
         if background:
             return BackgroundEstimator(stream, batch=s.learner_batch, warmup=s.learner_warmup,
-                                       capacity=s.reservoir_size, seed=s.seed,
+                                       reservoir_size=s.reservoir_size, seed=s.seed,
                                        label=s.method)
         return EstimatorLearner(stream, batch=s.learner_batch, warmup=s.learner_warmup,
-                                capacity=s.reservoir_size, seed=s.seed)
+                                reservoir_size=s.reservoir_size, seed=s.seed)
 
     def trainer_of(net: FeedForwardNet, hybrid: HybridModel | None = None) -> Trainer:
         return make_trainer(s.trainer, net, reservoir_size=s.reservoir_size,
@@ -129,7 +130,7 @@ def make_learner(model: Estimator, settings: CoreSettings, *,
     return trainer_of(cast(FeedForwardNet, model))
 
 
-def build_identifier(names: Sequence[str], settings: CoreSettings,
+def build_identifier(names: Sequence[str], settings: IdentifierSettings,
                      limits: JointLimits | None = None, *, model: Estimator | None = None,
                      urdf: str = '', urdf_source: str = 'robot_description',
                      physical: PhysicalModel | None = None,
@@ -142,8 +143,8 @@ def build_identifier(names: Sequence[str], settings: CoreSettings,
     ----------
     names : sequence of str
         The joints, in the order of the model's inputs and outputs.
-    settings : CoreSettings
-        Method, trainer, hold-out, checks (``CoreSettings.defaults()``: the node's).
+    settings : IdentifierSettings
+        Method, trainer, hold-out, checks (``IdentifierSettings.defaults()``: the node's).
     limits : JointLimits, optional
         Scale a fresh network; bound the samples (``settings.limit_margin``) if they name
         every joint of ``names``.
@@ -151,7 +152,8 @@ def build_identifier(names: Sequence[str], settings: CoreSettings,
         A model of ``settings.method`` to go on learning (a warm start); else
         :func:`make_model` (with ``urdf``, ``urdf_source``, ``physical``).
     differentiator : AccelerationEstimate, optional
-        The q'' estimate; default the node's (centred, its default window).
+        The q'' estimate; default that of ``settings`` (``differentiator``, ``window``,
+        ``cutoff_hz``).
     bounds : Bounds, optional
         The sample checks' bounds instead of those of ``limits``.
     stage : InputStage, optional
@@ -180,10 +182,8 @@ def build_identifier(names: Sequence[str], settings: CoreSettings,
                        block=settings.validation_block, seed=settings.seed)
                if settings.validation_fraction > 0 else None)
     if differentiator is None:
-        defaults = parameter_defaults()
-        differentiator = make_differentiator(defaults['differentiator'],
-                                             window=defaults['window'],
-                                             cutoff_hz=defaults['cutoff_hz'])
+        differentiator = make_differentiator(settings.differentiator, window=settings.window,
+                                             cutoff_hz=settings.cutoff_hz)
     trainer = make_learner(model, settings, background=background)
     return OnlineIdentifier(
         model, joint_names=names, differentiator=differentiator, trainer=trainer,

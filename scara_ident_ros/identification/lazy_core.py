@@ -3,8 +3,10 @@
 Without ``joint_names`` the identifier learns the joints of the first valid message: until
 then there is no network to predict with (its size is the number of joints), and the
 samples skipped meanwhile are counted apart, then added to the core's counters.
-:class:`LazyCore` holds that state; :class:`CoreSettings` is what the core is built from,
-by :func:`~scara_ident_ros.identification.identifier_builder.build_identifier`.
+:class:`LazyCore` holds that state; the
+:class:`~scara_ident_ros.identification.identifier_settings.IdentifierSettings` are what
+the core is built from, by
+:func:`~scara_ident_ros.identification.identifier_builder.build_identifier`.
 
 When the robot's files lack some limits of the joints (a URDF has no acceleration limit,
 nothing for a continuous joint), the network's scaling is completed from the stream's first
@@ -22,8 +24,8 @@ from typing import NamedTuple
 from scara_ident_ros.dynamics.joint_limits import JointLimits
 from scara_ident_ros.dynamics.urdf_limits import UrdfLimits
 from scara_ident_ros.estimator import Estimator
-from scara_ident_ros.identification.core_settings import (ONLINE_METHODS, PHYSICAL_METHODS,
-                                                          CoreSettings)
+from scara_ident_ros.identification.identifier_settings import IdentifierSettings
+from scara_ident_ros.identification.parameters import ONLINE_METHODS, PHYSICAL_METHODS
 from scara_ident_ros.identification.differentiator import AccelerationEstimate
 from scara_ident_ros.identification.identifier_builder import (background_learner,
                                                                build_identifier, make_model)
@@ -36,8 +38,7 @@ from scara_ident_ros.identification.sample_check import (Bounds, FloatArrayLike,
 from scara_ident_ros.identification.skip_reason import SkipReason
 from scara_ident_ros.identification.stream_scaling import StreamScaling, stream_joints
 
-__all__ = ['CoreSettings', 'LazyCore', 'ONLINE_METHODS', 'PHYSICAL_METHODS', 'RawSample',
-           'UNSCALED_METHODS',
+__all__ = ['LazyCore', 'ONLINE_METHODS', 'PHYSICAL_METHODS', 'RawSample', 'UNSCALED_METHODS',
            'Skipped']
 
 _JOINT_REASONS = (SkipReason.UNKNOWN_JOINT, SkipReason.MISSING_JOINT,
@@ -118,7 +119,7 @@ class LazyCore:
         self.network, self.core, self.names, self.early = None, None, [], Counts()
         self.scaling, self.replay = None, []
 
-    def build(self, names: Sequence[str], settings: CoreSettings,
+    def build(self, names: Sequence[str], settings: IdentifierSettings,
               differentiator: AccelerationEstimate, *, stage: InputStage | None = None,
               background: bool = False) -> str:
         """Build the core for ``names``; return '' or, if some joint lacks limits (and there
@@ -170,7 +171,7 @@ class LazyCore:
             counts.skipped[reason] += skipped
         return ''
 
-    def _fresh(self, names: list[str], settings: CoreSettings) -> Estimator:
+    def _fresh(self, names: list[str], settings: IdentifierSettings) -> Estimator:
         """A fresh model of ``settings.method`` for the joints ``names``
         (:func:`~scara_ident_ros.identification.identifier_builder.make_model`)."""
         return make_model(names, settings, self.limits, urdf=self.urdf,
@@ -202,7 +203,7 @@ class LazyCore:
         replay, self.replay = self.replay, []
         return replay
 
-    def first(self, settings: CoreSettings, differentiator: AccelerationEstimate,
+    def first(self, settings: IdentifierSettings, differentiator: AccelerationEstimate,
               stamp_ns: int, names: Sequence[str], position: FloatArrayLike,
               velocity: FloatArrayLike, effort: FloatArrayLike, *,
               background: bool = False, wanted: Sequence[str] = ()) -> Skipped | None:
@@ -250,7 +251,7 @@ class LazyCore:
         self.early.skipped[reason] += 1
         return Skipped(reason, note)
 
-    def _scale(self, settings: CoreSettings, differentiator: AccelerationEstimate,
+    def _scale(self, settings: IdentifierSettings, differentiator: AccelerationEstimate,
                stamp_ns: int, names: Sequence[str], position: FloatArrayLike,
                velocity: FloatArrayLike, effort: FloatArrayLike, *,
                background: bool) -> Skipped | None:

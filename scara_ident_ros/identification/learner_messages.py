@@ -43,12 +43,13 @@ class LmStart:
 @dataclass(frozen=True)
 class EstimatorStart:
     """The learner to learn and how: ``partial_fit`` on at least ``batch`` samples (the first
-    call ``warmup``); ``capacity``/``seed`` of the reservoir a fresh learner is refitted on."""
+    call ``warmup``); ``reservoir_size``/``seed`` of the reservoir a fresh learner is refitted
+    on."""
 
     learner: ArrayLearner
     batch: int
     warmup: int
-    capacity: int
+    reservoir_size: int
     seed: int
     nice: int  # the process's niceness
     label: str  # names the process (ps, top)

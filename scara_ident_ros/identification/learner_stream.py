@@ -32,8 +32,8 @@ class LearnerStream:
     ----------
     learner : ArrayLearner
         Fresh (refitted as the module docstring says) or fitted (never refitted).
-    capacity : int
-        Samples the reservoir keeps.
+    reservoir_size : int
+        Samples the reservoir keeps (the node's ``reservoir_size``).
     warmup : int
         Samples of the learner's first call; refits at 2, 4, 8, ... times this many.
     seed : int
@@ -49,12 +49,12 @@ class LearnerStream:
         Refits done.
     """
 
-    def __init__(self, learner: ArrayLearner, *, capacity: int, warmup: int,
+    def __init__(self, learner: ArrayLearner, *, reservoir_size: int, warmup: int,
                  seed: int = 0) -> None:
         self.learner = learner
         self.learnt = 0
         self.refits = 0
-        self._capacity, self._seed = int(capacity), int(seed)
+        self._reservoir_size, self._seed = int(reservoir_size), int(seed)
         refits = not is_fitted(learner) and not getattr(learner, 'exact_online', False)
         self._next = 2 * int(warmup) if refits else None
         self._reservoir: Reservoir | None = None
@@ -65,7 +65,7 @@ class LearnerStream:
         predicted = np.asarray(self.learner.partial_fit(X, Y), dtype=np.float64)
         if self._next is not None:
             if self._reservoir is None:
-                self._reservoir = Reservoir(self._capacity, X.shape[1] + 1, Y.shape[1],
+                self._reservoir = Reservoir(self._reservoir_size, X.shape[1] + 1, Y.shape[1],
                                             seed=self._seed)
             for i in range(X.shape[0]):
                 slot = self._reservoir.offer()

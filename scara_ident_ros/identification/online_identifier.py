@@ -15,7 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from scara_ident_ros.estimator import Estimator
-from scara_ident_ros.identification.error_window import PAPER_WINDOW, ErrorWindow
+from scara_ident_ros.identification.error_window import MSE_WINDOW, PAPER_WINDOW, ErrorWindow
 from scara_ident_ros.identification.metrics import ErrorStats
 from scara_ident_ros.identification.holdout import Holdout
 from scara_ident_ros.identification.differentiator import AccelerationEstimate
@@ -146,7 +146,7 @@ class OnlineIdentifier:
     def __init__(self, model: Estimator, *, joint_names: Sequence[str] | None = None,
                  differentiator: AccelerationEstimate | None = None,
                  trainer: Trainer | None = None, holdout: Holdout | None = None,
-                 mse_window: int = 1000, learn: bool = True,
+                 mse_window: int = MSE_WINDOW, learn: bool = True,
                  max_gap_ns: int = DEFAULT_MAX_GAP_NS, bounds: Bounds | None = None,
                  stage: InputStage | None = None, derive_velocity: bool = False,
                  learner: Polled | None = None) -> None:

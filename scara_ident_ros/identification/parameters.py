@@ -1,35 +1,50 @@
-"""The identifier's parameters that the core is built from: names, defaults, rules.
+"""The ``identifier`` node's parameters: names, defaults, units and rules, in one table.
 
-The first rows of the ``identifier`` node's table (``nodes.identifier.PARAMETERS`` adds the
-robot's limits, the outputs and contact detection): the one source of their defaults, for
-the node (which declares them), ``config/identifier.yaml`` and docs/parameters.md (checked
-and generated from the table), and the identifiers built without a node
-(:func:`parameter_defaults`, ``lazy_core.CoreSettings.defaults``). No ROS here.
+:data:`IDENTIFIER_PARAMETERS` is the one source of their defaults: the node declares them
+(``nodes.identifier.PARAMETERS`` is this table), ``config/identifier.yaml`` and
+docs/parameters.md are checked and generated from it, and the typed settings everything
+below the node takes are built from it
+(:class:`~scara_ident_ros.identification.identifier_settings.IdentifierSettings`). No ROS
+here.
 """
 from __future__ import annotations
 
-from typing import Any
-
-from scara_ident_ros.identification.learner_process import NICE
-from scara_ident_ros.identification.differentiator import (DIFFERENTIATOR_WINDOW,
+from scara_ident_ros.identification.contact_detector import (ARM_NMSE, ENVELOPE_MARGIN,
+                                                             FALSE_ALARMS_PER_HOUR, MIN_SAMPLES,
+                                                             SIGMA)
+from scara_ident_ros.identification.differentiator import (CUTOFF_HZ, DIFFERENTIATOR_WINDOW,
                                                            DIFFERENTIATORS)
-from scara_ident_ros.identification.core_settings import ONLINE_METHODS
+from scara_ident_ros.identification.error_window import MSE_WINDOW
+from scara_ident_ros.identification.holdout import VALIDATION_BLOCK, VALIDATION_FRACTION
+from scara_ident_ros.identification.learner_process import NICE
 from scara_ident_ros.identification.learner_methods import (GP_BUDGET, KERNEL_FEATURES,
-                                                             LEARNER_BATCH, LEARNER_WARMUP)
-from scara_ident_ros.identification.reservoir_lm import LM_INTERVAL, LM_STEPS, RESERVOIR_SIZE
+                                                             LEARNER_BATCH, LEARNER_METHODS,
+                                                             LEARNER_WARMUP)
+from scara_ident_ros.identification.reservoir import RESERVOIR_SIZE
+from scara_ident_ros.identification.reservoir_lm import LM_INTERVAL, LM_STEPS
+from scara_ident_ros.identification.sample_check import DEFAULT_MAX_GAP_NS, LIMIT_MARGIN
 from scara_ident_ros.identification.trainer import TRAINERS
+from scara_ident_ros.nn.presets import METHODS
 from scara_ident_ros.parameter_spec import ParamSpec
 
-__all__ = ['ESTIMATE', 'HOLDOUT', 'IDENTIFICATION_PARAMETERS', 'LIMITS', 'NETWORK',
-           'parameter_defaults']
+__all__ = ['ESTIMATE', 'HOLDOUT', 'IDENTIFIER_PARAMETERS', 'LIMITS', 'NETWORK',
+           'ONLINE_METHODS', 'PHYSICAL_METHODS', 'START']
+
+#: Models on the robot's URDF (they need it): its rigid-body model alone, learnt by RLS, or
+#: with an FFS network of its residual.
+PHYSICAL_METHODS = ('physical', 'hybrid')
+#: Every model an identifier learns online (parameter ``method``): the networks, the
+#: physical ones, the kernel learners.
+ONLINE_METHODS = (*METHODS, *PHYSICAL_METHODS, *LEARNER_METHODS)
 
 # Why a read-only parameter is fixed at start (shown by `ros2 param describe`)
 NETWORK = "the network's shape and inputs (a saved model keeps them)"
 HOLDOUT = 'which samples are held out must not change under the validation score'
 ESTIMATE = "the q'' estimate keeps a history of samples"
 LIMITS = "the network's input and output scaling"
+START = 'used at start only'
 
-IDENTIFICATION_PARAMETERS: tuple[ParamSpec, ...] = (
+IDENTIFIER_PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec('method', 'ffs', 'Model: the networks FFS (sigmoid, default: it identifies '
               "best, docs/results.md), FFMW (MSLOG, the paper's) or FFW (SLOG); physical "
               "(the URDF's rigid-body model with friction and rotor inertia, recursive least "
@@ -107,10 +122,12 @@ IDENTIFICATION_PARAMETERS: tuple[ParamSpec, ...] = (
               'and kernel come from them; predicted by their running mean meanwhile): they '
               'should span the motion to come', min=2, max=1_000_000,
               fixed='the learner is built once'),
-    ParamSpec('validation_fraction', 0.1, 'Fraction of the samples (in blocks) never learnt, '
+    ParamSpec('validation_fraction', VALIDATION_FRACTION,
+              'Fraction of the samples (in blocks) never learnt, '
               'whose error is the validation NMSE; 0: none', min=0.0, max=0.9,
               fixed=HOLDOUT),
-    ParamSpec('validation_block', 500, 'Samples per held-out block', min=1, max=1_000_000,
+    ParamSpec('validation_block', VALIDATION_BLOCK,
+              'Samples per held-out block', min=1, max=1_000_000,
               fixed=HOLDOUT),
     ParamSpec('model_path', '', 'Warm-start from this saved model (.npz; with methods, '
               '{method} in the path stands for each method); empty: fresh',
@@ -121,7 +138,7 @@ IDENTIFICATION_PARAMETERS: tuple[ParamSpec, ...] = (
               'given); empty: never', fixed='a model there is continued from at start'),
     ParamSpec('checkpoint_period', 60.0, 'Seconds between checkpoints to save_path; 0: only '
               'on shutdown (and ~/save_model)', 's', min=0.0, read_only=False),
-    ParamSpec('mse_window', 1000, 'Samples in the windowed MSE (a change starts the window '
+    ParamSpec('mse_window', MSE_WINDOW, 'Samples in the windowed MSE (a change starts the window '
               'anew)', min=100, read_only=False),
     ParamSpec('mse_rate_hz', 10.0, 'Rate of identification_mse', 'Hz', min=0.01, max=1000.0,
               read_only=False),
@@ -132,22 +149,76 @@ IDENTIFICATION_PARAMETERS: tuple[ParamSpec, ...] = (
               "efforts only): auto = from the positions, in the q'' estimate's window; never "
               '= such samples are skipped (no_velocity)', choices=('auto', 'never'),
               fixed=ESTIMATE),
-    ParamSpec('cutoff_hz', 50.0, 'Cut-off of the lowpass differentiator', 'Hz', min=0.1,
+    ParamSpec('cutoff_hz', CUTOFF_HZ, 'Cut-off of the lowpass differentiator', 'Hz', min=0.1,
               fixed=ESTIMATE),
     ParamSpec('window', DIFFERENTIATOR_WINDOW,
               'Samples of the centred (odd) and polynomial differentiators', min=3, max=101,
               fixed=ESTIMATE),
-    ParamSpec('limit_margin', 0.5, 'Refuse samples (out_of_limits) whose position leaves the '
+    ParamSpec('limit_margin', LIMIT_MARGIN,
+              'Refuse samples (out_of_limits) whose position leaves the '
               'joint range by more than this fraction of the range, or whose velocity or '
               'effort exceeds its limit by more than this fraction; negative: no check',
               min=-1.0, max=100.0, fixed=LIMITS),
-    ParamSpec('max_gap', 0.02, 'A larger gap between stamps, if also longer than 5 observed '
+    ParamSpec('max_gap', DEFAULT_MAX_GAP_NS / 1e9,
+              'A larger gap between stamps, if also longer than 5 observed '
               'sample periods (100 Hz: 50 ms), restarts the differentiator', 's', min=0.0,
               fixed=ESTIMATE),
+    ParamSpec('robot_config', '', "Robot YAML whose joint limits scale the network's inputs "
+              'and outputs; empty: the installed config/scara.yaml', fixed=LIMITS),
+    ParamSpec('urdf_file', '', 'URDF whose joint <limit>s (position, velocity, effort), '
+              'matched by joint name, replace those of robot_config; acceleration limits '
+              '(URDF has none) from acceleration_max with joint_names, else a robot_config '
+              "naming the joints, else 2 x the largest q'' of the stream's first second (a "
+              'continuous joint: all its limits so); empty: none', fixed=LIMITS),
+    ParamSpec('robot_description', '', 'The URDF as a string, as robot_state_publisher has '
+              'it: used like urdf_file', fixed=LIMITS),
+    ParamSpec('position_min', [], 'Per-joint position lower limits (rad or m); with the four '
+              'below, replaces robot_config for another robot', items=float, fixed=LIMITS),
+    ParamSpec('position_max', [], 'Per-joint position upper limits (rad or m)', items=float,
+              fixed=LIMITS),
+    ParamSpec('velocity_max', [], 'Per-joint |velocity| limits (rad/s or m/s)', items=float,
+              fixed=LIMITS),
+    ParamSpec('acceleration_max', [], 'Per-joint |acceleration| limits (rad/s² or m/s²)',
+              items=float, fixed=LIMITS),
+    ParamSpec('effort_max', [], 'Per-joint |effort| limits (N·m or N)', items=float,
+              fixed=LIMITS),
+    ParamSpec('wait_for_subscribers', 0, 'Subscribe joint_states only once identified_torque '
+              'and identification_mse (of each method) each have this many subscribers (e.g. '
+              'a recorder), so that no prediction goes unheard; 0: at once', min=0,
+              fixed=START),
+    ParamSpec('wait_timeout', 30.0, 'Longest wait for those subscribers', 's', min=0.0,
+              fixed=START),
+    ParamSpec('stats_file', '', 'Write the final counters and errors here as JSON on '
+              'shutdown (with methods, {method} in the path stands for each method); empty: '
+              'never', fixed='checked writable at start'),
+    ParamSpec('contact_false_alarms_per_hour', FALSE_ALARMS_PER_HOUR,
+              'Contact detection is armed only when '
+              'the false-alarm rate on free motion, estimated from the tail of the model\'s '
+              'residuals on the held-out segments (their size counted), is at most this; the '
+              'thresholds are set to meet it', min=1e-6, max=1e6, read_only=False),
+    ParamSpec('contact_sigma', SIGMA, 'Lowest contact threshold of each joint, in robust '
+              "standard deviations (1.4826 x MAD) of the model's residuals on the held-out "
+              'samples (the false-alarm bound usually sets a higher one)',
+              min=0.1, max=1000.0, read_only=False),
+    ParamSpec('contact_arm_nmse', ARM_NMSE, 'Contact detection is armed only while the '
+              'validation NMSE (mean over the joints) is below this', min=1e-12, max=10.0,
+              read_only=False),
+    ParamSpec('contact_envelope_margin', ENVELOPE_MARGIN, 'Samples whose q or q\' (and q\'\' with '
+              'contact_envelope_acceleration) leave the range of the held-out segments the '
+              'thresholds come from, widened by this fraction of it, are not checked for '
+              'contact (diagnostics count them)', min=0.0, max=10.0, read_only=False),
+    ParamSpec('contact_envelope_acceleration', False, "Bound q'' too by the calibrated "
+              "envelope; false: q and q' only (a contact is itself an acceleration the free "
+              'motion does not have: bounding q\'\' holds the samples a collision makes)',
+              read_only=False),
+    ParamSpec('contact_calibration_period', 10.0, 'Seconds between the starts of two '
+              'calibrations of the contact thresholds on the held-out segments (each predicts '
+              'them all, in steps of 2000 samples every 50 ms)', 's', min=0.1, max=3600.0,
+              read_only=False),
+    ParamSpec('contact_min_samples', MIN_SAMPLES,
+              'Consecutive samples over the threshold before a '
+              'joint is reported on contact', min=1, max=1000, read_only=False),
+    ParamSpec('external_torque', True, 'Publish external_torque (measured - predicted) for '
+              'every prediction; false: contact detection only (one message less per sample '
+              'and method)', read_only=False),
 )
-
-
-def parameter_defaults() -> dict[str, Any]:
-    """The default of each of :data:`IDENTIFICATION_PARAMETERS`, by name (lists copied)."""
-    return {spec.name: list(spec.default) if isinstance(spec.default, list) else spec.default
-            for spec in IDENTIFICATION_PARAMETERS}

@@ -10,7 +10,11 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ['Reservoir']
+__all__ = ['RESERVOIR_SIZE', 'Reservoir']
+
+#: Samples of the stream a learner keeps by default: the node's ``reservoir_size`` (for the
+#: ``lm`` trainer, and the kernel learners' refits).
+RESERVOIR_SIZE = 4000
 
 
 class Reservoir:

@@ -30,15 +30,15 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from scara_ident_ros.identification.reservoir import Reservoir
+from scara_ident_ros.identification.reservoir import RESERVOIR_SIZE, Reservoir
 from scara_ident_ros.nn import FeedForwardNet
 from scara_ident_ros.nn.levenberg_marquardt import LevenbergMarquardt
 from scara_ident_ros.nn.training import StopTraining
 
 __all__ = ['LM_INTERVAL', 'LM_MU', 'LM_STEPS', 'RESERVOIR_SIZE', 'SLOW_FRACTION', 'ReservoirLM']
 
-#: Defaults of the node's parameters of these names (``identification.parameters``).
-RESERVOIR_SIZE = 4000  # samples of the stream kept
+#: Defaults of the node's parameters of these names (``identification.parameters``; the
+#: reservoir's size: :data:`~scara_ident_ros.identification.reservoir.RESERVOIR_SIZE`).
 LM_INTERVAL = 200  # samples between two updates
 LM_STEPS = 2  # Levenberg–Marquardt steps per update
 

@@ -37,12 +37,15 @@ if TYPE_CHECKING:
     from scara_ident_ros.dynamics.joint_limits import JointLimits
 
 __all__ = ['Bounds', 'FloatArrayLike', 'Sample', 'SampleCheck', 'DEFAULT_MAX_GAP_NS',
-           'GAP_PERIODS', 'PERIOD_SAMPLES', 'RESTART_SAMPLES', 'joint_bounds']
+           'GAP_PERIODS', 'LIMIT_MARGIN', 'PERIOD_SAMPLES', 'RESTART_SAMPLES',
+           'joint_bounds']
 
 FloatArrayLike = Sequence[float] | NDArray[np.float64]
 """A message array: a list, an ``array.array('d')`` (what rclpy gives) or an ndarray."""
 
-DEFAULT_MAX_GAP_NS = 20_000_000  # ns: 20 missed samples at 1 kHz
+DEFAULT_MAX_GAP_NS = 20_000_000  # ns: 20 missed samples at 1 kHz (the node's ``max_gap``)
+#: Fraction of a limit's range a sample may exceed it by (the node's ``limit_margin``)
+LIMIT_MARGIN = 0.5
 GAP_PERIODS = 5  # a gap is also longer than this many observed sample periods (4 lost)
 #: A clock restarts (a bag played again, a simulator restarted) when this many consecutive
 #: samples are stamped far behind the last accepted one; fewer are bad stamps, refused.
@@ -89,7 +92,7 @@ class Bounds(NamedTuple):
     @classmethod
     def from_limits(cls, position_min: NDArray[np.float64], position_max: NDArray[np.float64],
                     velocity_max: NDArray[np.float64], effort_max: NDArray[np.float64], *,
-                    margin: float = 0.5) -> Bounds:
+                    margin: float = LIMIT_MARGIN) -> Bounds:
         """Bounds ``margin`` (a fraction) beyond a robot's limits.
 
         Positions may leave ``[min, max]`` by ``margin`` times the range, velocities and

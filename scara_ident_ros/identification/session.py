@@ -9,14 +9,15 @@ running, ``~/reset`` with the summaries of before kept, saving, and the summary 
 and errors a stats file holds. :class:`MethodRun` is one method's part: its core, contact
 detector, held-out score and lag figures.
 
-``settings`` is the mapping of the node's parameters (``nodes.identifier.PARAMETERS``).
+``settings`` are the node's parameters, typed
+(:class:`~scara_ident_ros.identification.identifier_settings.IdentifierSettings`).
 """
 from __future__ import annotations
 
 import dataclasses
 import math
 import time
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Collection, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -34,8 +35,9 @@ from scara_ident_ros.identification.differentiator import (AccelerationEstimate,
 from scara_ident_ros.identification.error_window import ErrorWindow
 from scara_ident_ros.identification.identifier_builder import background_learner
 from scara_ident_ros.identification.input_stage import Input
+from scara_ident_ros.identification.identifier_settings import IdentifierSettings
+from scara_ident_ros.identification.lazy_core import UNSCALED_METHODS, LazyCore
 from scara_ident_ros.identification.learner_process import LearnerClient
-from scara_ident_ros.identification.lazy_core import UNSCALED_METHODS, CoreSettings, LazyCore
 from scara_ident_ros.identification.metrics import ErrorStats
 from scara_ident_ros.identification.online_identifier import OnlineIdentifier, StepResult
 from scara_ident_ros.identification.reports import (ContactState, HealthFigures,
@@ -49,7 +51,8 @@ from scara_ident_ros.nn import ModelFormatError
 from scara_ident_ros.nn.presets import METHODS
 
 __all__ = ['CONTACT_PARAMETERS', 'JOINT_SET_REASONS', 'METHOD_FIELD', 'PATH_PARAMETERS',
-           'VALIDATION_PERIOD', 'IdentificationSession', 'MethodRun', 'method_path']
+           'VALIDATION_PERIOD', 'IdentificationSession', 'MethodRun', 'contact_detector',
+           'method_path']
 
 METHOD_FIELD = '{method}'  # stands for each method in a path parameter, with methods
 PATH_PARAMETERS = ('save_path', 'stats_file', 'model_path')
@@ -76,13 +79,14 @@ def _set_step(model: Estimator, learning_rate: float | None, momentum: float | N
             setattr(model, key, value)
 
 
-def _contact_settings(settings: Mapping[str, Any]) -> dict[str, Any]:
-    """The :class:`ContactDetector` settings of the node's parameters."""
-    return {'sigma': settings['contact_sigma'], 'arm_nmse': settings['contact_arm_nmse'],
-            'min_samples': settings['contact_min_samples'],
-            'false_alarms_per_hour': settings['contact_false_alarms_per_hour'],
-            'envelope_margin': settings['contact_envelope_margin'],
-            'envelope_acceleration': settings['contact_envelope_acceleration']}
+def contact_detector(n_joints: int, settings: IdentifierSettings) -> ContactDetector:
+    """A fresh (unarmed) contact detector of ``n_joints`` of the ``contact_*`` settings."""
+    return ContactDetector(
+        n_joints, sigma=settings.contact_sigma, arm_nmse=settings.contact_arm_nmse,
+        min_samples=settings.contact_min_samples,
+        false_alarms_per_hour=settings.contact_false_alarms_per_hour,
+        envelope_margin=settings.contact_envelope_margin,
+        envelope_acceleration=settings.contact_envelope_acceleration)
 
 
 class _Round:
@@ -97,17 +101,16 @@ class _Round:
 
 
 class MethodRun:
-    """One method (of ``lazy_core.ONLINE_METHODS``) in a session: its ``lazy`` core, a
-    contact detector of the ``contact`` settings (:class:`ContactDetector`'s keywords), its
-    held-out score and lag figures.
+    """One method (of ``parameters.ONLINE_METHODS``) in a session: its ``lazy`` core, a
+    contact detector of the ``contact_*`` ``settings``, its held-out score and lag figures.
 
     The held-out score is a cached reading (:meth:`validation`); the contact thresholds
     change only in the explicit step :meth:`calibrate_contacts`."""
 
-    def __init__(self, method: str, lazy: LazyCore, contact: dict[str, Any]) -> None:
+    def __init__(self, method: str, lazy: LazyCore, settings: IdentifierSettings) -> None:
         self.method = method
         self.lazy = lazy
-        self.contact_settings = dict(contact)
+        self.settings = settings  # the session's, as of the last apply
         self.detector: ContactDetector | None = None  # once the joints are known
         self.contacts = 0  # samples with a joint over its contact threshold
         self.line_lag_ns = 0  # ns, largest since the last statistics line
@@ -140,16 +143,9 @@ class MethodRun:
 
     def built(self, names: Sequence[str]) -> None:
         """The core is built for ``names``: a disarmed contact detector, no score yet."""
-        self.detector = ContactDetector(len(names), **self.contact_settings)
+        self.detector = contact_detector(len(names), self.settings)
         self._validation, self._validated_at = None, -math.inf
         self._round = None
-
-    def set_contact(self, **settings: Any) -> None:
-        """Change the contact detector's settings: a new, unarmed detector until the next
-        :meth:`calibrate_contacts`."""
-        self.contact_settings.update(settings)
-        if self.detector is not None:
-            self.detector = ContactDetector(self.detector.n_joints, **self.contact_settings)
 
     @property
     def validation_stale(self) -> bool:
@@ -269,70 +265,73 @@ class MethodRun:
                                lm_steps_taken=background.steps_taken,
                                learn_dropped=background.dropped)
 
-    def apply(self, settings: Mapping[str, Any], changed: Mapping[str, Any]) -> None:
-        """Make parameters set while running take effect."""
+    def apply(self, settings: IdentifierSettings, changed: Collection[str]) -> None:
+        """Make parameters set while running take effect: ``settings`` now, of which the
+        parameters named ``changed`` were set. A change of the contact settings makes a
+        new, unarmed detector until the next :meth:`calibrate_contacts`."""
+        self.settings = s = settings
         network, core = self.network, self.core
         if network is not None and self.method in METHODS:
             preset = METHODS[self.method]
             _set_step(network,
-                      (settings['learning_rate'] or preset.learning_rate
+                      (s.learning_rate or preset.learning_rate
                        if 'learning_rate' in changed else None),
-                      ((settings['momentum'] if settings['momentum'] >= 0 else preset.momentum)
+                      ((s.momentum if s.momentum >= 0 else preset.momentum)
                        if 'momentum' in changed else None))
-        if CONTACT_PARAMETERS & set(changed):
-            self.set_contact(**_contact_settings(settings))
+        if CONTACT_PARAMETERS & set(changed) and self.detector is not None:
+            self.detector = contact_detector(self.detector.n_joints, s)
         if core is None:
             return
-        core.learn = settings['learn']
-        core.stage.check.need_effort = settings['learn']  # predict-only takes any sample
+        core.learn = s.learn
+        core.stage.check.need_effort = s.learn  # predict-only takes any sample
         if 'mse_window' in changed:
-            core.errors = ErrorWindow(core.n_joints, settings['mse_window'])
+            core.errors = ErrorWindow(core.n_joints, s.mse_window)
         trainer = core.trainer
         if isinstance(trainer, ReservoirLM):
-            trainer.lm_interval = settings['lm_interval']
-            trainer.lm_steps = settings['lm_steps']
+            trainer.lm_interval = s.lm_interval
+            trainer.lm_steps = s.lm_steps
         elif isinstance(trainer, BackgroundLM) and {'lm_interval', 'lm_steps'} & set(changed):
-            trainer.set_schedule(lm_interval=settings['lm_interval'],
-                                 lm_steps=settings['lm_steps'])
+            trainer.set_schedule(lm_interval=s.lm_interval, lm_steps=s.lm_steps)
 
 
 class IdentificationSession:
     """The methods of one identifier, their warm starts and cores (module docstring).
 
-    ``settings`` (the node's parameters by name) is kept: :meth:`apply` reads the values
-    changed later from it. ``log(text)`` takes what is worth an info line. Bad settings
+    ``settings`` are kept, and replaced by :meth:`apply` when parameters are set while
+    running. ``log(text)`` takes what is worth an info line. Bad settings
     raise ConfigError, LimitsError, UrdfError or ParamError, one line naming the parameter.
     """
 
-    def __init__(self, settings: Mapping[str, Any], *,
+    def __init__(self, settings: IdentifierSettings, *,
                  log: Callable[[str], None] | None = None) -> None:
         s = self.settings = settings
         self.log = log or (lambda text: None)
         self.limits = load_joint_limits(
-            joint_names=s['joint_names'], robot_config=s['robot_config'],
-            urdf_file=s['urdf_file'], robot_description=s['robot_description'],
-            explicit={key: s[key] for key in LIMIT_NAMES}, partial=True)
-        methods = list(s['methods']) or [s['method']]
+            joint_names=s.joint_names, robot_config=s.robot_config, urdf_file=s.urdf_file,
+            robot_description=s.robot_description,
+            explicit={key: getattr(s, key) for key in LIMIT_NAMES}, partial=True)
+        methods = list(s.methods) or [s.method]
         self.urdf = self._urdf()
         # what the stream completes: the URDF's joints without acceleration (or any) limits
         urdf_limits = parse_urdf(self.urdf[0], source=self.urdf[1]) if self.urdf[0] else None
         if len(set(methods)) != len(methods):
             raise ConfigError(f'methods names a method twice: {methods}')
-        self.several = len(s['methods']) > 0
-        for key in PATH_PARAMETERS:
-            if self.several and s[key] and METHOD_FIELD not in s[key]:
-                raise ConfigError(f'{key} {s[key]}: with methods, the path needs '
+        self.several = len(s.methods) > 0
+        paths = {key: str(getattr(s, key)) for key in PATH_PARAMETERS}
+        for key, path in paths.items():
+            if self.several and path and METHOD_FIELD not in path:
+                raise ConfigError(f'{key} {path}: with methods, the path needs '
                                   f'{METHOD_FIELD} (one file per method)')
-        self.paths = {key: {m: method_path(s[key], m) for m in methods}
-                      for key in PATH_PARAMETERS}
-        names = list(s['joint_names'])
+        self.paths = {key: {m: method_path(path, m) for m in methods}
+                      for key, path in paths.items()}
+        names = list(s.joint_names)
         self.runs: list[MethodRun] = []
         for method in methods:
             network, names = self._warm_start(method, names, log)
             self.runs.append(MethodRun(
                 method, LazyCore(self.limits, network, urdf=self.urdf[0],
                                  urdf_source=self.urdf[1], urdf_limits=urdf_limits),
-                _contact_settings(s)))
+                s))
         # the method whose core is built from the first valid sample and, where the files lack
         # limits, completes them from the stream for all: the first that is scaled by them
         # (a learner or the physical model first would build at once and leave the others
@@ -403,31 +402,30 @@ class IdentificationSession:
         except (ModelFormatError, UrdfError, OSError) as exc:
             raise ConfigError(f'cannot warm-start: {exc}') from None
         s = self.settings
-        _set_step(network, s['learning_rate'] if s['learning_rate'] > 0 else None,
-                  s['momentum'] if s['momentum'] >= 0 else None)
+        _set_step(network, s.learning_rate if s.learning_rate > 0 else None,
+                  s.momentum if s.momentum >= 0 else None)
         return network
 
     def _urdf(self) -> tuple[str, str]:
         """The robot's URDF (text) and its source, from robot_description or urdf_file."""
         s = self.settings
-        if s['robot_description']:
-            return s['robot_description'], 'robot_description'
-        if s['urdf_file']:
+        if s.robot_description:
+            return s.robot_description, 'robot_description'
+        if s.urdf_file:
             try:
-                return Path(s['urdf_file']).read_text(encoding='utf-8'), s['urdf_file']
+                return Path(s.urdf_file).read_text(encoding='utf-8'), s.urdf_file
             except (OSError, UnicodeDecodeError) as exc:
-                raise ConfigError(f"urdf_file {s['urdf_file']}: cannot read it: {exc}"
+                raise ConfigError(f'urdf_file {s.urdf_file}: cannot read it: {exc}'
                                   ) from None
         return '', ''
 
     # ------------------------------------------------------------------ building
     def _differentiator(self) -> AccelerationEstimate:
         s = self.settings
-        return make_differentiator(s['differentiator'], window=s['window'],
-                                   cutoff_hz=s['cutoff_hz'])
+        return make_differentiator(s.differentiator, window=s.window, cutoff_hz=s.cutoff_hz)
 
-    def _core_settings(self, method: str) -> CoreSettings:
-        return dataclasses.replace(CoreSettings.of(self.settings), method=method)
+    def _core_settings(self, method: str) -> IdentifierSettings:
+        return self.settings.replace(method=method)
 
     def _build(self, names: list[str], runs: Sequence[MethodRun] | None = None) -> str:
         """Build the cores of ``runs`` (all by default) for ``names``, sharing one input
@@ -439,7 +437,7 @@ class IdentificationSession:
             return ''  # built from the first samples, which complete the limits
         for run in self.runs if runs is None else runs:
             why = run.lazy.build(names, self._core_settings(run.method), self.differentiator,
-                                 stage=stage, background=self.settings['lm_background'])
+                                 stage=stage, background=self.settings.lm_background)
             if why:
                 return why
             assert run.core is not None
@@ -454,8 +452,8 @@ class IdentificationSession:
         first = self.lead.lazy
         skipped = first.first(self._core_settings(self.lead.method), self.differentiator,
                               stamp_ns, names, position, velocity, effort,
-                              background=self.settings['lm_background'],
-                              wanted=self.settings['joint_names'])
+                              background=self.settings.lm_background,
+                              wanted=self.settings.joint_names)
         if skipped is not None and skipped.reason is None:  # kept to complete the limits
             if skipped.note:
                 self.log(skipped.note)
@@ -538,10 +536,17 @@ class IdentificationSession:
         return results, inputs
 
     # ------------------------------------------------------------------ while running
-    def apply(self, changed: Mapping[str, Any]) -> None:
-        """Make parameters set while running (already in ``settings``) take effect."""
+    def apply(self, settings: IdentifierSettings, changed: Collection[str] | None = None
+              ) -> None:
+        """Make parameters set while running take effect: ``settings`` now, of which the
+        parameters named ``changed`` were set (None: those whose values differ)."""
+        if changed is None:
+            old = self.settings.as_dict()
+            changed = {name for name, value in settings.as_dict().items()
+                       if old[name] != value}
+        self.settings = settings
         for run in self.runs:
-            run.apply(self.settings, changed)
+            run.apply(settings, changed)
 
     def reset(self, *, stream: StreamFigures | None = None) -> tuple[bool, str, str]:
         """Start again from fresh weights, the summaries of before (with the ``stream``
@@ -563,7 +568,7 @@ class IdentificationSession:
             run.lazy.reset()
         self.differentiator = self._differentiator()
         why = self._build(names) if names is not None else ''
-        message = f"fresh weights (seed {self.settings['seed']}); before the reset: " + '; '.join(
+        message = f'fresh weights (seed {self.settings.seed}); before the reset: ' + '; '.join(
             f'{before.method}: processed {before.processed}, learnt {before.learnt}, '
             f'validation NMSE {before.validation_nmse_total}' for before in befores)
         return True, message, why
@@ -593,7 +598,7 @@ class IdentificationSession:
         detector = run.detector
         per_joint = MethodReport.per_joint
         return MethodReport(
-            method=run.method, trainer=self.settings['trainer'],
+            method=run.method, trainer=self.settings.trainer,
             joint_names=tuple(self.names),
             processed=counts.processed, predicted=counts.predicted, learnt=counts.learnt,
             held_out=counts.held_out, refused=counts.refused, clipped=counts.clipped,
@@ -633,11 +638,11 @@ class IdentificationSession:
             skipped=SkipCounts.of(counts.skipped),
             period_worst_lag_ms=lag_ns / 1e6 if lag_ns else None,
             error_finite=error_finite, validation_nmse_total=validation,
-            learning=self.settings['learn'],
+            learning=self.settings.learn,
             update_rate=background.rate() if background is not None else None,
             update_overdue_s=background.overdue() if background is not None else None,
             contact=run.contact_health(),
-            contact_arm_nmse=self.settings['contact_arm_nmse'])
+            contact_arm_nmse=self.settings.contact_arm_nmse)
 
     def save(self, run: MethodRun | None = None) -> tuple[bool, str]:
         """Save a method's model (the first's by default) to its ``save_path`` now

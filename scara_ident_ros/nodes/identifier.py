@@ -52,7 +52,8 @@ from scara_ident_ros.errors import ConfigError
 from scara_ident_ros.identification import StepResult
 from scara_ident_ros.identification.background_lm import prestart
 from scara_ident_ros.identification.input_stage import Input
-from scara_ident_ros.identification.parameters import IDENTIFICATION_PARAMETERS, LIMITS
+from scara_ident_ros.identification.identifier_settings import IdentifierSettings
+from scara_ident_ros.identification.parameters import IDENTIFIER_PARAMETERS
 from scara_ident_ros.identification.reports import MethodReport, StreamFigures
 from scara_ident_ros.identification.sample_check import GAP_PERIODS
 from scara_ident_ros.identification.session import IdentificationSession, MethodRun
@@ -63,7 +64,7 @@ from scara_ident_ros.nodes.health import Deltas, Health, LossCounter, identifier
 from scara_ident_ros.nodes.joint_state_cdr import (JointStateReader, JointStateTemplate,
                                                    RawJointState)
 from scara_ident_ros.nodes.messages import joint_state
-from scara_ident_ros.nodes.parameters import ParamSpec, declare_parameters
+from scara_ident_ros.nodes.parameters import declare_parameters
 from scara_ident_ros.nodes.publisher_watch import PublisherWatch
 from scara_ident_ros.nodes.runtime import run_node
 from scara_ident_ros.paths import unwritable_file
@@ -89,69 +90,8 @@ CALIBRATION_TICK = 0.05  # s between two steps of the contact calibration
 CALIBRATION_SLICE = 2000  # held-out samples a calibration step predicts
 FLUSH_TIMEOUT = 2.0  # s on shutdown for the subscribers to acknowledge the last predictions
 SETTLE_LOSS_S = 0.2  # s without a sample after which a long stamp step's losses are counted
-# Why a read-only parameter is fixed at start (shown by `ros2 param describe`; the others in
-# identification.parameters)
-START = 'used at start only'
-
-PARAMETERS = (
-    *IDENTIFICATION_PARAMETERS,
-    ParamSpec('robot_config', '', "Robot YAML whose joint limits scale the network's inputs "
-              'and outputs; empty: the installed config/scara.yaml', fixed=LIMITS),
-    ParamSpec('urdf_file', '', 'URDF whose joint <limit>s (position, velocity, effort), '
-              'matched by joint name, replace those of robot_config; acceleration limits '
-              '(URDF has none) from acceleration_max with joint_names, else a robot_config '
-              "naming the joints, else 2 x the largest q'' of the stream's first second (a "
-              'continuous joint: all its limits so); empty: none', fixed=LIMITS),
-    ParamSpec('robot_description', '', 'The URDF as a string, as robot_state_publisher has '
-              'it: used like urdf_file', fixed=LIMITS),
-    ParamSpec('position_min', [], 'Per-joint position lower limits (rad or m); with the four '
-              'below, replaces robot_config for another robot', items=float, fixed=LIMITS),
-    ParamSpec('position_max', [], 'Per-joint position upper limits (rad or m)', items=float,
-              fixed=LIMITS),
-    ParamSpec('velocity_max', [], 'Per-joint |velocity| limits (rad/s or m/s)', items=float,
-              fixed=LIMITS),
-    ParamSpec('acceleration_max', [], 'Per-joint |acceleration| limits (rad/s² or m/s²)',
-              items=float, fixed=LIMITS),
-    ParamSpec('effort_max', [], 'Per-joint |effort| limits (N·m or N)', items=float,
-              fixed=LIMITS),
-    ParamSpec('wait_for_subscribers', 0, 'Subscribe joint_states only once identified_torque '
-              'and identification_mse (of each method) each have this many subscribers (e.g. '
-              'a recorder), so that no prediction goes unheard; 0: at once', min=0,
-              fixed=START),
-    ParamSpec('wait_timeout', 30.0, 'Longest wait for those subscribers', 's', min=0.0,
-              fixed=START),
-    ParamSpec('stats_file', '', 'Write the final counters and errors here as JSON on '
-              'shutdown (with methods, {method} in the path stands for each method); empty: '
-              'never', fixed='checked writable at start'),
-    ParamSpec('contact_false_alarms_per_hour', 1.0, 'Contact detection is armed only when '
-              'the false-alarm rate on free motion, estimated from the tail of the model\'s '
-              'residuals on the held-out segments (their size counted), is at most this; the '
-              'thresholds are set to meet it', min=1e-6, max=1e6, read_only=False),
-    ParamSpec('contact_sigma', 5.0, 'Lowest contact threshold of each joint, in robust '
-              "standard deviations (1.4826 x MAD) of the model's residuals on the held-out "
-              'samples (the false-alarm bound usually sets a higher one)',
-              min=0.1, max=1000.0, read_only=False),
-    ParamSpec('contact_arm_nmse', 0.01, 'Contact detection is armed only while the '
-              'validation NMSE (mean over the joints) is below this', min=1e-12, max=10.0,
-              read_only=False),
-    ParamSpec('contact_envelope_margin', 0.25, 'Samples whose q or q\' (and q\'\' with '
-              'contact_envelope_acceleration) leave the range of the held-out segments the '
-              'thresholds come from, widened by this fraction of it, are not checked for '
-              'contact (diagnostics count them)', min=0.0, max=10.0, read_only=False),
-    ParamSpec('contact_envelope_acceleration', False, "Bound q'' too by the calibrated "
-              "envelope; false: q and q' only (a contact is itself an acceleration the free "
-              'motion does not have: bounding q\'\' holds the samples a collision makes)',
-              read_only=False),
-    ParamSpec('contact_calibration_period', 10.0, 'Seconds between the starts of two '
-              'calibrations of the contact thresholds on the held-out segments (each predicts '
-              'them all, in steps of 2000 samples every 50 ms)', 's', min=0.1, max=3600.0,
-              read_only=False),
-    ParamSpec('contact_min_samples', 1, 'Consecutive samples over the threshold before a '
-              'joint is reported on contact', min=1, max=1000, read_only=False),
-    ParamSpec('external_torque', True, 'Publish external_torque (measured - predicted) for '
-              'every prediction; false: contact detection only (one message less per sample '
-              'and method)', read_only=False),
-)
+#: The node's parameters (:mod:`scara_ident_ros.identification.parameters`)
+PARAMETERS = IDENTIFIER_PARAMETERS
 #: contact messages are rare: a few seconds of them at 1 kHz
 CONTACT_QOS = QoSProfile(depth=1000, history=HistoryPolicy.KEEP_LAST,
                          reliability=ReliabilityPolicy.RELIABLE)
@@ -256,7 +196,9 @@ class IdentifierNode(Node):
 
     def __init__(self) -> None:
         super().__init__('identifier')
-        self.settings = s = declare_parameters(self, PARAMETERS, on_change=self._apply)
+        # the parameters, converted once: replaced by the new settings when some are set
+        self.settings = s = IdentifierSettings.of(
+            declare_parameters(self, PARAMETERS, on_change=self._apply))
         self.session = session = IdentificationSession(s, log=self.get_logger().info)
         for key in ('save_path', 'stats_file'):
             for path in session.paths[key].values():
@@ -267,15 +209,15 @@ class IdentifierNode(Node):
         self.outputs = [Outputs(self, run, f'{run.method}/' if session.several else '')
                         for run in session.runs]
         for out in self.outputs:
-            out.send_external = s['external_torque']
+            out.send_external = s.external_torque
             out.publish_armed()
-        if s['trainer'] == 'lm' and s['lm_background']:
+        if s.trainer == 'lm' and s.lm_background:
             prestart(len(self.outputs))  # their interpreters start now, not with the stream
         self.frame_id = ''  # header.frame_id of the latest sample, given to its predictions
         self.reader = JointStateReader()
         self.subscription: Subscription | None = None
         self.publisher_watch: PublisherWatch | None = None  # once subscribed
-        self.mse_timer = self.create_timer(1.0 / s['mse_rate_hz'], self.publish_mse)
+        self.mse_timer = self.create_timer(1.0 / s.mse_rate_hz, self.publish_mse)
         self.create_timer(STATS_PERIOD, self.log_stats)
         # contact calibration: every contact_calibration_period a round per method, done
         # in steps of CALIBRATION_SLICE held-out samples, one step every CALIBRATION_TICK
@@ -286,7 +228,7 @@ class IdentifierNode(Node):
         self._start_checkpoints()
         # samples missing from the stream, from the stamps; longer jumps than the q''
         # estimate bridges are pauses (between recordings), counted apart
-        self.loss = LossCounter(span_s=s['max_gap'], pause_periods=GAP_PERIODS)
+        self.loss = LossCounter(span_s=s.max_gap, pause_periods=GAP_PERIODS)
         self.clock = StreamClock()  # lags against the stream's own clock
         self.path = PathDelays()  # arrival to publication of each sample's predictions
         self.last_sample: float | None = None  # monotonic s of the latest sample
@@ -301,11 +243,11 @@ class IdentifierNode(Node):
         # does not walk them all while samples wait (it did, for tens of ms).
         self.frozen_with_cores = False
         gc.freeze()
-        if s['wait_for_subscribers'] > 0:
-            self.wait_deadline = time.monotonic() + s['wait_timeout']
+        if s.wait_for_subscribers > 0:
+            self.wait_deadline = time.monotonic() + s.wait_timeout
             self.wait_timer = self.create_timer(WAIT_POLL_PERIOD, self._subscribe_when_heard)
             self.get_logger().info(
-                f"waiting for {s['wait_for_subscribers']} subscriber(s) on " + ', '.join(
+                f'waiting for {s.wait_for_subscribers} subscriber(s) on ' + ', '.join(
                     f'{o.torque_publisher.topic_name} and {o.mse_publisher.topic_name}'
                     for o in self.outputs))
         else:
@@ -321,11 +263,11 @@ class IdentifierNode(Node):
         self.get_logger().info(
             f"{'/'.join(o.run.method.upper() for o in self.outputs)} identifier on "
             f'{self.subscription.topic_name} → {outputs}, joints {self.session.joints_text}, '
-            f"learning {'on' if self.settings['learn'] else 'off'}")
+            f"learning {'on' if self.settings.learn else 'off'}")
 
     def _subscribe_when_heard(self) -> None:
         """Timer: subscribe once every output has ``wait_for_subscribers`` subscribers."""
-        wanted = self.settings['wait_for_subscribers']
+        wanted = self.settings.wait_for_subscribers
         heard = min(min(o.torque_publisher.get_subscription_count(),
                         o.mse_publisher.get_subscription_count())
                     for o in self.outputs)
@@ -334,7 +276,7 @@ class IdentifierNode(Node):
         if heard < wanted:
             self.get_logger().warning(
                 f'only {heard} of {wanted} subscribers on the outputs after '
-                f"{self.settings['wait_timeout']:g} s; subscribing anyway")
+                f'{self.settings.wait_timeout:g} s; subscribing anyway')
         self.wait_timer.cancel()
         self.destroy_timer(self.wait_timer)
         self._subscribe()
@@ -342,15 +284,15 @@ class IdentifierNode(Node):
     # ------------------------------------------------------------------ while running
     def _apply(self, changed: dict[str, Any]) -> None:
         """Make parameters set while running take effect (they passed their checks)."""
-        s = self.settings
+        self.settings = s = self.settings.replace(**changed)
         self.get_logger().info('set ' + ', '.join(f'{k} = {v!r}' for k, v in changed.items()))
-        self.session.apply(changed)
+        self.session.apply(s, changed)
         for out in self.outputs:
-            out.send_external = s['external_torque']
+            out.send_external = s.external_torque
             out.publish_armed()
         if 'mse_rate_hz' in changed:
             self.destroy_timer(self.mse_timer)
-            self.mse_timer = self.create_timer(1.0 / s['mse_rate_hz'], self.publish_mse)
+            self.mse_timer = self.create_timer(1.0 / s.mse_rate_hz, self.publish_mse)
         if 'checkpoint_period' in changed:
             self._start_checkpoints()
 
@@ -359,8 +301,8 @@ class IdentifierNode(Node):
         if self.checkpoint_timer is not None:
             self.destroy_timer(self.checkpoint_timer)
             self.checkpoint_timer = None
-        if self.settings['save_path'] and self.settings['checkpoint_period'] > 0:
-            self.checkpoint_timer = self.create_timer(self.settings['checkpoint_period'],
+        if self.settings.save_path and self.settings.checkpoint_period > 0:
+            self.checkpoint_timer = self.create_timer(self.settings.checkpoint_period,
                                                       self.checkpoint)
 
     def on_save_model(self, request: Trigger.Request,
@@ -444,7 +386,7 @@ class IdentifierNode(Node):
         queue, now = self.calibration_queue, time.monotonic()
         if not queue and now >= self.next_calibration:
             queue.extend(self.outputs)
-            self.next_calibration = now + self.settings['contact_calibration_period']
+            self.next_calibration = now + self.settings.contact_calibration_period
         if not queue:
             return
         out = queue[0]
@@ -527,7 +469,7 @@ class IdentifierNode(Node):
 
     def checkpoint(self) -> None:
         """Save each model to its ``save_path``, if there is one; a failure is logged."""
-        if not self.settings['save_path']:
+        if not self.settings.save_path:
             return
         for run in self.session.runs:
             if run.core is not None:

@@ -32,7 +32,7 @@ from scara_ident_ros.dynamics.joint_limits import LIMIT_NAMES, JointLimits
 from scara_ident_ros.estimator import Estimator
 from scara_ident_ros.identification import InputStage, JointMap
 from scara_ident_ros.identification.contact_detector import ContactDetector
-from scara_ident_ros.identification.core_settings import CoreSettings
+from scara_ident_ros.identification.identifier_settings import IdentifierSettings
 from scara_ident_ros.identification.identifier_builder import build_identifier
 from scara_ident_ros.nn import FeedForwardNet
 from scara_ident_ros.dynamics.joint_limits import load_motion_limits
@@ -129,7 +129,7 @@ def train_model(params: ScaraParams, *, seconds: float, seed: int, config: SimCo
               Simulator(params, make_trajectory('sequence', params, seed), config).simulate(n))
     limits = JointLimits.of(params.joint_names,
                             {name: params.array(name) for name in LIMIT_NAMES}, source='robot')
-    ident = build_identifier(params.joint_names, CoreSettings.defaults(
+    ident = build_identifier(params.joint_names, IdentifierSettings.defaults(
         method='ffs', trainer='lm', hidden_units=hidden, seed=seed), limits)
     net = cast(FeedForwardNet, ident.model)
     names = params.joint_names

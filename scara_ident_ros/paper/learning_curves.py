@@ -59,7 +59,7 @@ from scara_ident_ros.dynamics.joint_limits import JointLimits
 from scara_ident_ros.dynamics.physical_model import PhysicalModel
 from scara_ident_ros.dynamics.recursive_least_squares import RecursiveLeastSquares
 from scara_ident_ros.identification import InputStage, JointMap, make_differentiator
-from scara_ident_ros.identification.core_settings import CoreSettings
+from scara_ident_ros.identification.identifier_settings import IdentifierSettings
 from scara_ident_ros.identification.dataset import Dataset
 from scara_ident_ros.identification.identifier_builder import (background_learner,
                                                                build_identifier)
@@ -178,7 +178,7 @@ def network_curve(record: SimRecord, held_out: Dataset, params: Robot, *, method
     """Stream ``record`` through the node's identifier of ``method`` and ``trainer``.
 
     The identifier is the node's (:func:`~scara_ident_ros.identification.
-    identifier_builder.build_identifier` with ``CoreSettings.defaults()``): the network
+    identifier_builder.build_identifier` with ``IdentifierSettings.defaults()``): the network
     scaled by the robot's limits, the samples checked against them, a tenth of the samples
     (blocks of ``validation_block``) held back for its own validation. ``lm_steps``,
     ``lm_interval``, ``lm_float64``, ``lm_slow_share``, ``lm_friction_steps``, ``window``,
@@ -200,8 +200,8 @@ def network_curve(record: SimRecord, held_out: Dataset, params: Robot, *, method
                'validation_block': validation_block, 'lm_float64': lm_float64,
                'lm_slow_share': lm_slow_share, 'lm_friction_steps': lm_friction_steps,
                'reservoir_size': reservoir_size}
-    settings = CoreSettings.defaults(method=method, trainer=trainer, seed=seed,
-                                     **{k: v for k, v in changes.items() if v is not None})
+    settings = IdentifierSettings.defaults(method=method, trainer=trainer, seed=seed,
+                                           **{k: v for k, v in changes.items() if v is not None})
     limits = JointLimits.of(params.joint_names,
                             {name: params.array(name) for name in LIMIT_NAMES}, source='robot')
     ident = build_identifier(
@@ -236,7 +236,7 @@ def network_curve(record: SimRecord, held_out: Dataset, params: Robot, *, method
     if beside is not None:
         beside.close()
     label = 'hybrid' if method == 'hybrid' else f'{method_spec(method).label} {trainer}'
-    node = CoreSettings.defaults()
+    node = IdentifierSettings.defaults()
     if trainer == 'lm' and settings.lm_steps != node.lm_steps:
         label += f' ×{settings.lm_steps}'
     if trainer == 'lm' and settings.reservoir_size != node.reservoir_size:

@@ -5,27 +5,22 @@ import numpy as np
 import pytest
 
 from scara_ident_ros.dynamics.joint_limits import JointLimits
-from scara_ident_ros.identification import (CoreSettings, LazyCore, SkipReason, Skipped,
-                                            make_differentiator)
+from scara_ident_ros.identification import (IdentifierSettings, LazyCore, SkipReason,
+                                            Skipped, make_differentiator)
 from scara_ident_ros.nn.presets import make_network
 
 NAMES = ['a', 'b']
 LIMITS = JointLimits.of(NAMES, {
     'position_min': [-1.0, 0.0], 'position_max': [1.0, 0.5], 'velocity_max': [2.0, 1.0],
     'acceleration_max': [10.0, 5.0], 'effort_max': [20.0, 100.0]})
-SETTINGS = CoreSettings.of({
-    'method': 'ffs', 'hidden_units': 5, 'seed': 0, 'learning_rate': 0.0, 'momentum': -1.0,
-    'k': 2.5, 'a': 5.0, 'b': 5.0, 'trainer': 'bp', 'reservoir_size': 100, 'lm_steps': 1,
-    'lm_interval': 10, 'lm_nice': 10, 'lm_float64': False, 'lm_slow_share': 0.0,
-    'lm_friction_steps': True,
-    'validation_fraction': 0.0, 'validation_block': 10,
-    'mse_window': 100, 'learn': True, 'max_gap': 0.02, 'limit_margin': 0.5, 'min_joints': 1,
-    'unrelated': 'ignored'})
+SETTINGS = IdentifierSettings.defaults(
+    method='ffs', hidden_units=5, trainer='bp', reservoir_size=100, lm_steps=1,
+    lm_interval=10, validation_fraction=0.0, validation_block=10, mse_window=100)
 MS = 1_000_000  # ns
 
 
 def first(lazy: LazyCore, names: list[str], stamp_ms: int = 1,
-          settings: CoreSettings = SETTINGS, effort: list[float] | None = None
+          settings: IdentifierSettings = SETTINGS, effort: list[float] | None = None
           ) -> Skipped | None:
     n = len(names)
     return lazy.first(settings, make_differentiator('centred', window=5), stamp_ms * MS,
@@ -54,7 +49,7 @@ def test_the_first_valid_sample_builds_and_the_early_ones_are_counted() -> None:
 
 def test_min_joints_waits_for_a_message_naming_enough() -> None:
     lazy = LazyCore(LIMITS)
-    settings = CoreSettings.of({**SETTINGS.__dict__, 'min_joints': 2})
+    settings = SETTINGS.replace(min_joints=2)
     skipped = first(lazy, ['a'], settings=settings)
     assert skipped is not None and skipped.reason is SkipReason.JOINT_COUNT
     assert skipped.note == ("waiting for a message naming at least 2 joints (min_joints); "
@@ -75,7 +70,7 @@ def test_a_warm_start_needs_its_joint_count_not_limits() -> None:
 @pytest.mark.parametrize('margin', [-1.0, 0.5])
 def test_a_negative_margin_bounds_nothing(margin: float) -> None:
     lazy = LazyCore(LIMITS)
-    settings = CoreSettings.of({**SETTINGS.__dict__, 'limit_margin': margin})
+    settings = SETTINGS.replace(limit_margin=margin)
     assert lazy.build(NAMES, settings, make_differentiator('centred', window=5)) == ''
     assert lazy.core is not None
     assert (lazy.core.stage.check.bounds is None) == (margin < 0)
@@ -86,7 +81,7 @@ def test_the_lm_trainers_network_starts_with_friction_steps(trainer: str, steps:
     """``lm_friction_steps`` shapes the lm trainer's fresh network; the paper's bp keeps
     all-random weights."""
     lazy = LazyCore(LIMITS)
-    settings = CoreSettings.of({**SETTINGS.__dict__, 'trainer': trainer})
+    settings = SETTINGS.replace(trainer=trainer)
     assert first(lazy, NAMES, settings=settings) is None
     assert lazy.network is not None
     Vt = lazy.network.unpack(lazy.network.theta)[0]

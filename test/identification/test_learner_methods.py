@@ -8,14 +8,13 @@ from typing import Any
 
 import numpy as np
 import pytest
-import yaml
 
 from scara_ident_ros.dynamics import ScaraParams
 from scara_ident_ros.estimator import load_model
 from scara_ident_ros.identification.background_estimator import BackgroundEstimator
-from scara_ident_ros.identification.core_settings import CoreSettings
 from scara_ident_ros.identification.estimator_learner import EstimatorLearner
 from scara_ident_ros.identification.identifier_builder import build_identifier, make_model
+from scara_ident_ros.identification.identifier_settings import IdentifierSettings
 from scara_ident_ros.identification.learner_methods import LEARNER_WARMUP, make_learner_model
 from scara_ident_ros.identification.session import IdentificationSession
 from scara_ident_ros.identification.streamed_estimator import StreamedEstimator
@@ -25,8 +24,7 @@ from scara_ident_ros.sim import SimConfig, SimRecord, Simulator, make_trajectory
 
 SCARA = ScaraParams.from_yaml(config_path('scara.yaml'))
 NAMES = list(SCARA.joint_names)
-DEFAULTS: dict[str, Any] = yaml.safe_load(
-    Path(config_path('identifier.yaml')).read_text())['/**']['ros__parameters']
+DEFAULTS = IdentifierSettings.from_yaml(config_path('identifier.yaml'))
 MS = 1_000_000  # ns
 T0 = 1_000 * 1_000_000_000  # ns
 
@@ -68,9 +66,9 @@ def kernel_file(tmp_path: Path) -> Path:
 def test_kernel_predicts_every_sample_and_learns_as_its_own_partial_fit(
         tmp_path: Path, batch: int) -> None:
     path = kernel_file(tmp_path)
-    session = IdentificationSession({**DEFAULTS, 'method': 'kernel', 'model_path': str(path),
-                                     'lm_background': False, 'learner_batch': batch,
-                                     'validation_fraction': 0.2, 'validation_block': 50})
+    session = IdentificationSession(DEFAULTS.replace(
+        method='kernel', model_path=str(path), lm_background=False, learner_batch=batch,
+        validation_fraction=0.2, validation_block=50))
     predictions, inputs = feed(session, 1000)
     core = session.core
     assert core is not None
@@ -108,8 +106,8 @@ def test_kernel_predicts_every_sample_and_learns_as_its_own_partial_fit(
 
 
 def test_gp_warms_up_on_the_running_mean_then_learns_what_partial_fit_learns() -> None:
-    settings = CoreSettings.defaults(method='gp', gp_budget=2000, learner_batch=25,
-                                     validation_fraction=0.2, validation_block=50)
+    settings = IdentifierSettings.defaults(method='gp', gp_budget=2000, learner_batch=25,
+                                           validation_fraction=0.2, validation_block=50)
     model = make_model(NAMES, settings, None)
     assert isinstance(model, ExactGP)
     identifier = build_identifier(NAMES, settings, model=model)
@@ -161,9 +159,9 @@ def test_a_learner_process_learns_and_hands_its_state_back(tmp_path: Path) -> No
 
 def test_the_saved_learner_warm_starts_an_identifier(tmp_path: Path) -> None:
     path = kernel_file(tmp_path)
-    session = IdentificationSession({**DEFAULTS, 'method': 'kernel', 'model_path': str(path),
-                                     'lm_background': False, 'validation_fraction': 0.0,
-                                     'save_path': str(tmp_path / 'out.npz')})
+    session = IdentificationSession(DEFAULTS.replace(
+        method='kernel', model_path=str(path), lm_background=False, validation_fraction=0.0,
+        save_path=str(tmp_path / 'out.npz')))
     feed(session, 200)
     ok, message = session.save()
     assert ok, message
@@ -177,8 +175,8 @@ def test_the_saved_learner_warm_starts_an_identifier(tmp_path: Path) -> None:
 
 
 def test_an_unfitted_learner_is_not_saved(tmp_path: Path) -> None:
-    session = IdentificationSession({**DEFAULTS, 'method': 'gp', 'lm_background': False,
-                                     'save_path': str(tmp_path / 'gp.npz')})
+    session = IdentificationSession(DEFAULTS.replace(method='gp', lm_background=False,
+                                                     save_path=str(tmp_path / 'gp.npz')))
     feed(session, 100)  # fewer than the warm-up
     ok, message = session.save()
     assert not ok and 'learnt nothing yet' in message
@@ -191,9 +189,9 @@ def test_make_learner_model_refuses_other_methods() -> None:
 
 
 def test_a_fresh_learner_is_refitted_on_its_reservoir_as_the_stream_grows() -> None:
-    settings = CoreSettings.defaults(method='kernel', kernel_features=40, learner_batch=10,
-                                     learner_warmup=100, reservoir_size=250,
-                                     validation_fraction=0.0)
+    settings = IdentifierSettings.defaults(method='kernel', kernel_features=40,
+                                           learner_batch=10, learner_warmup=100,
+                                           reservoir_size=250, validation_fraction=0.0)
     identifier = build_identifier(NAMES, settings)
     for i in range(1000):
         identifier.process(T0 + i * MS, NAMES, RECORD.q[i], RECORD.qd[i], RECORD.effort[i])

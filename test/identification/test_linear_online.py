@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from scara_ident_ros.dynamics import ScaraParams
-from scara_ident_ros.identification.core_settings import CoreSettings
+from scara_ident_ros.identification.identifier_settings import IdentifierSettings
 from scara_ident_ros.identification.estimator_learner import EstimatorLearner
 from scara_ident_ros.identification.identifier_builder import build_identifier, make_model
 from scara_ident_ros.learners import LinearFeatures
@@ -21,8 +21,8 @@ T0 = 1_000 * 1_000_000_000  # ns
 def test_linear_learns_online_what_its_batch_fit_learns() -> None:
     record = Simulator(SCARA, make_trajectory('standard', SCARA, seed=0),
                        SimConfig(seed=0)).simulate(3000)
-    settings = CoreSettings.defaults(method='linear', learner_batch=25,
-                                     validation_fraction=0.2, validation_block=50)
+    settings = IdentifierSettings.defaults(method='linear', learner_batch=25,
+                                           validation_fraction=0.2, validation_block=50)
     model = make_model(NAMES, settings, None)
     assert isinstance(model, LinearFeatures)
     identifier = build_identifier(NAMES, settings, model=model)

@@ -6,13 +6,12 @@ from typing import Any
 
 import numpy as np
 import pytest
-import yaml
 
 from scara_ident_ros.dynamics import ScaraParams
 from scara_ident_ros.learners.hybrid_model import HybridModel, online_hybrid
 from scara_ident_ros.dynamics.physical_model import PhysicalModel
 from scara_ident_ros.dynamics.joint_limits import load_joint_limits
-from scara_ident_ros.identification import CoreSettings, LazyCore, make_differentiator
+from scara_ident_ros.identification import IdentifierSettings, LazyCore, make_differentiator
 from scara_ident_ros.identification.hybrid_trainer import HybridTrainer
 from scara_ident_ros.identification.residual_learner import MIN_VALIDATION
 from scara_ident_ros.identification.reservoir_lm import ReservoirLM
@@ -25,10 +24,10 @@ NAMES = ['joint1', 'joint2', 'joint3', 'joint4']
 
 def core_for(method: str, urdf: str) -> LazyCore:
     # the node's defaults, as config/identifier.yaml holds them (test/nodes checks it does)
-    values = yaml.safe_load(config_path('identifier.yaml').read_text())['/**']['ros__parameters']
-    values.update(method=method, validation_block=200)
+    settings = IdentifierSettings.from_yaml(config_path('identifier.yaml')).replace(
+        method=method, validation_block=200)
     lazy = LazyCore(load_joint_limits(joint_names=NAMES), urdf=urdf, urdf_source=str(URDF))
-    why = lazy.build(NAMES, CoreSettings.of(values), make_differentiator('centred'))
+    why = lazy.build(NAMES, settings, make_differentiator('centred'))
     assert why == ''
     return lazy
 
@@ -60,10 +59,10 @@ def test_a_physical_model_identifies_online(method: str, kind: type) -> None:
 
 def test_a_physical_model_without_a_urdf_says_what_it_needs() -> None:
     # the node's defaults, as config/identifier.yaml holds them (test/nodes checks it does)
-    values = yaml.safe_load(config_path('identifier.yaml').read_text())['/**']['ros__parameters']
-    values.update(method='physical')
+    settings = IdentifierSettings.from_yaml(config_path('identifier.yaml')).replace(
+        method='physical')
     lazy = LazyCore(load_joint_limits(joint_names=NAMES))
-    why = lazy.build(NAMES, CoreSettings.of(values), make_differentiator('centred'))
+    why = lazy.build(NAMES, settings, make_differentiator('centred'))
     assert 'needs the robot\'s URDF' in why and lazy.core is None
 
 

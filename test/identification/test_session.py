@@ -9,11 +9,11 @@ from typing import Any
 
 import numpy as np
 import pytest
-import yaml
 
 from scara_ident_ros.dynamics import ScaraParams
 from scara_ident_ros.dynamics.joint_limits import LimitsError
 from scara_ident_ros.errors import ConfigError
+from scara_ident_ros.identification.identifier_settings import IdentifierSettings
 from scara_ident_ros.identification.reports import SkipCounts, StreamFigures
 from scara_ident_ros.identification.session import IdentificationSession
 from scara_ident_ros.identification.reservoir_lm import ReservoirLM
@@ -25,17 +25,16 @@ from scara_ident_ros.sim import SimConfig, SimRecord, Simulator, make_trajectory
 
 SCARA = ScaraParams.from_yaml(config_path('scara.yaml'))
 NAMES = list(SCARA.joint_names)
-DEFAULTS: dict[str, Any] = yaml.safe_load(
-    Path(config_path('identifier.yaml')).read_text())['/**']['ros__parameters']
+DEFAULTS = IdentifierSettings.from_yaml(config_path('identifier.yaml'))
 MS = 1_000_000  # ns
 T0 = 1_000 * 1_000_000_000  # ns
-LAG = DEFAULTS['window'] // 2  # samples the centred q'' estimate holds back
+LAG = DEFAULTS.window // 2  # samples the centred q'' estimate holds back
 WAIT = 30.0  # s: the longest a test waits for a learner process (a loaded CI machine)
 
 
-def settings(**changes: Any) -> dict[str, Any]:
+def settings(**changes: Any) -> IdentifierSettings:
     """The node's defaults with ``changes``; learning in the message path (no process)."""
-    return {**DEFAULTS, 'lm_background': False, **changes}
+    return DEFAULTS.replace(**{'lm_background': False, **changes})
 
 
 def simulated(n: int) -> SimRecord:
@@ -161,8 +160,7 @@ def test_parameters_set_while_running_reach_core_and_trainer() -> None:
     session = IdentificationSession(s)
     core = session.core
     assert core is not None and isinstance(core.trainer, ReservoirLM)
-    s.update(learn=False, lm_interval=400, lm_steps=1, mse_window=500)
-    session.apply({'learn': False, 'lm_interval': 400, 'lm_steps': 1, 'mse_window': 500})
+    session.apply(s.replace(learn=False, lm_interval=400, lm_steps=1, mse_window=500))
     assert core.learn is False and core.stage.check.need_effort is False
     assert core.trainer.lm_interval == 400 and core.trainer.lm_steps == 1
     assert core.errors.window == 500
@@ -170,12 +168,11 @@ def test_parameters_set_while_running_reach_core_and_trainer() -> None:
     session = IdentificationSession(bp)
     network = session.network
     assert isinstance(network, FeedForwardNet)
-    bp.update(learning_rate=0.125, momentum=0.25)
-    session.apply({'learning_rate': 0.125, 'momentum': 0.25})
+    session.apply(bp.replace(learning_rate=0.125, momentum=0.25))
     assert (network.learning_rate, network.momentum) == (0.125, 0.25)
-    bp.update(contact_sigma=3.0)
-    session.apply({'contact_sigma': 3.0})
-    assert session.first.contact_settings['sigma'] == 3.0
+    session.apply(session.settings.replace(contact_sigma=3.0))
+    assert session.first.detector is not None and session.first.detector.sigma == 3.0
+    assert session.settings.learning_rate == 0.125  # the settings of before, but one
 
 
 def test_lags_are_kept_per_method_and_reported_once_per_period() -> None:
@@ -297,6 +294,7 @@ def test_contact_calibration_is_an_explicit_step_and_arms_on_the_rate_bound() ->
     summary = session.summary(run)
     assert summary.contact_armed and summary.contact_thresholds is not None
     assert len(summary.contact_thresholds) == 4
-    session.apply({'contact_false_alarms_per_hour': 0.5})  # a new detector: not armed
+    # set (to its value): a new detector, not armed
+    session.apply(session.settings, {'contact_false_alarms_per_hour'})
     assert not run.detector.armed
     assert run.calibrate_contacts(1e-3) is not None and run.detector.armed

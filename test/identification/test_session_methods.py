@@ -3,13 +3,11 @@ scaling) named before a network whose limits the stream completes still builds t
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
-
 import numpy as np
 import pytest
-import yaml
 
 from scara_ident_ros.dynamics import ScaraParams
+from scara_ident_ros.identification.identifier_settings import IdentifierSettings
 from scara_ident_ros.identification.session import IdentificationSession
 from scara_ident_ros.resources import config_path
 from scara_ident_ros.sim import SimConfig, Simulator, make_trajectory
@@ -18,8 +16,6 @@ SCARA = ScaraParams.from_yaml(config_path('scara.yaml'))
 NAMES = list(SCARA.joint_names)
 OTHER = ['axis_a', 'axis_b', 'axis_c', 'axis_d']
 URDF = Path(__file__).resolve().parents[2] / 'urdf' / 'scara.urdf'
-DEFAULTS: dict[str, Any] = yaml.safe_load(
-    Path(config_path('identifier.yaml')).read_text())['/**']['ros__parameters']
 MS = 1_000_000  # ns
 T0 = 1_000 * 1_000_000_000  # ns
 
@@ -34,8 +30,8 @@ def test_every_method_predicts_whatever_the_order(methods: list[str], tmp_path: 
         text = text.replace(f'"{name}"', f'"{other}"')
     urdf = tmp_path / 'renamed.urdf'
     urdf.write_text(text, encoding='utf-8')
-    session = IdentificationSession({**DEFAULTS, 'lm_background': False, 'methods': methods,
-                                     'urdf_file': str(urdf), 'joint_names': OTHER})
+    session = IdentificationSession(IdentifierSettings.defaults(
+        lm_background=False, methods=methods, urdf_file=str(urdf), joint_names=OTHER))
     record = Simulator(SCARA, make_trajectory('standard', SCARA, seed=0),
                        SimConfig(seed=0)).simulate(2500)
     predicted = [0] * len(methods)

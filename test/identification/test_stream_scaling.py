@@ -8,13 +8,13 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 import pytest
-import yaml
 
 from scara_ident_ros.learners.hybrid_model import HybridModel
 from scara_ident_ros.dynamics.joint_limits import JointLimits
 from scara_ident_ros.dynamics.physical_model import PhysicalModel
 from scara_ident_ros.dynamics.urdf_limits import parse_urdf
 from scara_ident_ros.identification import make_differentiator
+from scara_ident_ros.identification.identifier_settings import IdentifierSettings
 from scara_ident_ros.identification.session import IdentificationSession
 from scara_ident_ros.identification.skip_reason import SkipReason
 from scara_ident_ros.identification.stream_scaling import (ACCELERATION_TIME_S, FLOOR, MARGIN,
@@ -24,8 +24,7 @@ from scara_ident_ros.resources import config_path
 from scara_ident_ros.sim.example_robots import EXAMPLE_ROBOTS, example_robot
 from scara_ident_ros.sim.pinocchio_robot import PinocchioRobot
 
-DEFAULTS: dict[str, Any] = yaml.safe_load(
-    Path(config_path('identifier.yaml')).read_text())['/**']['ros__parameters']
+DEFAULTS = IdentifierSettings.from_yaml(config_path('identifier.yaml'))
 MS = 1_000_000  # ns
 T0 = 1_000 * 1_000_000_000  # ns
 RATE = 1000  # Hz
@@ -49,8 +48,9 @@ def stream(name: str, seconds: float) -> tuple[list[str], np.ndarray, np.ndarray
 
 def session_for(name: str, lines: list[str], **changes: Any) -> IdentificationSession:
     return IdentificationSession(
-        {**DEFAULTS, 'lm_background': False, 'trainer': 'bp', 'urdf_file':
-         str(example_robot(name).urdf), **changes}, log=lines.append)
+        DEFAULTS.replace(**{'lm_background': False, 'trainer': 'bp',
+                            'urdf_file': str(example_robot(name).urdf), **changes}),
+        log=lines.append)
 
 
 def feed(session: IdentificationSession, names: list[str], q: np.ndarray, qd: np.ndarray,
@@ -73,7 +73,7 @@ def test_a_urdf_alone_predicts_every_sample_after_the_warm_up(robot: str) -> Non
     assert warnings == [] and session.core is not None
     summary = session.summary()
     assert summary.skipped.as_dict() == {}  # no unknown_joint, nothing else
-    lag = DEFAULTS['window'] // 2
+    lag = DEFAULTS.window // 2
     assert predicted == len(q) - lag == summary.predicted  # the last lag are pending
     # one line says which limits, from where: the URDF's, and the stream's accelerations
     said = [line for line in lines if line.startswith('joint limits of')]
@@ -155,7 +155,7 @@ def test_a_physical_model_needs_no_scaling_and_holds_the_fingers_fixed() -> None
     lines: list[str] = []
     session = session_for('panda', lines, method='physical')
     predicted, warnings = feed(session, names, q, qd, effort)
-    assert warnings == [] and predicted == len(q) - DEFAULTS['window'] // 2
+    assert warnings == [] and predicted == len(q) - DEFAULTS.window // 2
     model = session.network
     assert isinstance(model, PhysicalModel) and model.joint_names == tuple(names)
     assert any('joint limits of' in line for line in lines)
@@ -174,7 +174,7 @@ def test_a_physical_model_needs_no_scaling_and_holds_the_fingers_fixed() -> None
             expected = pin.rnea(arm, data, x[:n], x[n:2 * n], x[2 * n:])
             np.testing.assert_allclose(result.effort, expected, rtol=1e-6, atol=1e-9)
             checked += 1
-    assert checked == 60 - DEFAULTS['window'] // 2
+    assert checked == 60 - DEFAULTS.window // 2
 
 
 CONTINUOUS = """<robot name="wheel">
@@ -231,7 +231,7 @@ def test_several_methods_share_the_scaling_the_stream_gave() -> None:
     for run in session.runs:
         summary = session.summary(run)
         assert summary.skipped.total == 0, run.method
-        assert summary.predicted == len(q) - DEFAULTS['window'] // 2, run.method
+        assert summary.predicted == len(q) - DEFAULTS.window // 2, run.method
     ffs, hybrid = session.runs[0].network, session.runs[1].network
     assert isinstance(ffs, FeedForwardNet)
     assert isinstance(hybrid, HybridModel)
