@@ -24,7 +24,7 @@ from scara_ident_ros.identification.reservoir import RESERVOIR_SIZE
 from scara_ident_ros.identification.reservoir_lm import LM_INTERVAL, LM_STEPS
 from scara_ident_ros.identification.sample_check import DEFAULT_MAX_GAP_NS, LIMIT_MARGIN
 from scara_ident_ros.identification.trainer import TRAINERS
-from scara_ident_ros.nn.presets import METHODS
+from scara_ident_ros.nn.presets import HIDDEN_UNITS, METHODS
 from scara_ident_ros.parameter_spec import ParamSpec
 
 __all__ = ['ESTIMATE', 'HOLDOUT', 'IDENTIFIER_PARAMETERS', 'LIMITS', 'NETWORK',
@@ -63,7 +63,7 @@ IDENTIFIER_PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec('min_joints', 1, 'Without joint_names: take the joints of the first valid '
               'message naming at least this many (a partial message does not fix the set)',
               min=1, max=1000, fixed=NETWORK),
-    ParamSpec('hidden_units', 40, 'Hidden units of the network', min=1, max=10_000,
+    ParamSpec('hidden_units', HIDDEN_UNITS, 'Hidden units of the network', min=1, max=10_000,
               fixed=NETWORK),
     ParamSpec('seed', 0, 'Seed of the initial weights, the reservoir and the validation '
               'blocks', min=0, fixed='the weights are drawn once (~/reset draws them again)'),

@@ -66,7 +66,7 @@ from scara_ident_ros.estimator import r2_score, register_kind
 from scara_ident_ros.nn import FeedForwardNet, FitHistory, ModelFormatError, fit
 from scara_ident_ros.nn.fitting import ITERATIONS, MAX_FAIL, MIN_ITERATIONS, SAMPLES
 from scara_ident_ros.nn.validation_blocks import VALIDATION_FRACTION, row_split
-from scara_ident_ros.nn.presets import make_network
+from scara_ident_ros.nn.presets import HIDDEN_UNITS, make_network
 from scara_ident_ros.nn.model_file import NETWORK_PREFIX, read_model_file, write_model
 from scara_ident_ros.nn.training import Callback
 
@@ -417,7 +417,7 @@ def start_at_zero(network: FeedForwardNet) -> None:
 
 def online_hybrid(physical: PhysicalModel,
                   scaling: Sequence[ArrayLike], *,
-                  n_hidden: int = 40, seed: int = 0, friction_steps: bool = True,
+                  n_hidden: int = HIDDEN_UNITS, seed: int = 0, friction_steps: bool = True,
                   share: float = RESIDUAL_SHARE) -> HybridModel:
     """A hybrid to learn online: ``physical`` from the URDF's inertias, an FFS residual
     network at zero output.

@@ -22,7 +22,7 @@ from scara_ident_ros.paper.hyperparameters import Hyperparameters, Scaling
 from scara_ident_ros.identification.metrics import effort_errors
 from scara_ident_ros.paper.rows import ResultRow
 from scara_ident_ros.paper.tables import PAPER_ITERATIONS
-from scara_ident_ros.nn.presets import METHODS, make_network
+from scara_ident_ros.nn.presets import HIDDEN_UNITS, METHODS, make_network
 from scara_ident_ros.nn.presets import method as method_spec
 from scara_ident_ros.nn import FeedForwardNet, FitHistory
 
@@ -51,7 +51,7 @@ class OfflineFit:
 def fit_offline(method: str, X: npt.ArrayLike, Y: npt.ArrayLike, *, seed: int = 0,
                 hyperparameters: Hyperparameters | None = None,
                 iterations: int = PAPER_ITERATIONS, scaling: Scaling | None = None,
-                n_hidden: int = 40) -> OfflineFit:
+                n_hidden: int = HIDDEN_UNITS) -> OfflineFit:
     """Train one network of ``method`` with Levenberg–Marquardt for ``iterations``.
 
     Parameters
