@@ -12,6 +12,13 @@ Every effort model keeps one estimator contract (:mod:`scara_ident_ros.estimator
     model.save('wam.npz')
     same = load_model('wam.npz')                   # the kind is read from the file
 
+An online identifier with the node's settings, without a node::
+
+    from scara_ident_ros import IdentifierSettings, build_identifier
+
+    identifier = build_identifier(names, IdentifierSettings.defaults(method='linear'))
+    results = identifier.process(stamp_ns, names, q, qd, effort)   # one sample at a time
+
 The model classes are imported on first use (the physical models bring Pinocchio).
 """
 from __future__ import annotations
@@ -24,15 +31,17 @@ from scara_ident_ros.estimator import (Estimator, OnlineEstimator, load_model, r
 if TYPE_CHECKING:
     from scara_ident_ros.learners.hybrid_model import HybridModel
     from scara_ident_ros.dynamics.physical_model import PhysicalModel
+    from scara_ident_ros.identification.identifier_builder import build_identifier
+    from scara_ident_ros.identification.identifier_settings import IdentifierSettings
     from scara_ident_ros.learners.exact_gp import ExactGP
     from scara_ident_ros.learners.linear_features import LinearFeatures
     from scara_ident_ros.learners.sparse_spectrum_gp import SparseSpectrumGP
     from scara_ident_ros.nn.network import FeedForwardNet
     from scara_ident_ros.nn.presets import make_network
 
-__all__ = ['Estimator', 'ExactGP', 'FeedForwardNet', 'HybridModel', 'LinearFeatures',
-           'OnlineEstimator', 'PhysicalModel', 'SparseSpectrumGP', 'load_model',
-           'make_network', 'r2_score', 'register_kind']
+__all__ = ['Estimator', 'ExactGP', 'FeedForwardNet', 'HybridModel', 'IdentifierSettings',
+           'LinearFeatures', 'OnlineEstimator', 'PhysicalModel', 'SparseSpectrumGP',
+           'build_identifier', 'load_model', 'make_network', 'r2_score', 'register_kind']
 
 _LAZY = {'FeedForwardNet': 'scara_ident_ros.nn.network',
          'make_network': 'scara_ident_ros.nn.presets',
@@ -40,7 +49,9 @@ _LAZY = {'FeedForwardNet': 'scara_ident_ros.nn.network',
          'HybridModel': 'scara_ident_ros.learners.hybrid_model',
          'SparseSpectrumGP': 'scara_ident_ros.learners.sparse_spectrum_gp',
          'ExactGP': 'scara_ident_ros.learners.exact_gp',
-         'LinearFeatures': 'scara_ident_ros.learners.linear_features'}
+         'LinearFeatures': 'scara_ident_ros.learners.linear_features',
+         'IdentifierSettings': 'scara_ident_ros.identification.identifier_settings',
+         'build_identifier': 'scara_ident_ros.identification.identifier_builder'}
 
 
 def __getattr__(name: str) -> Any:
