@@ -139,8 +139,10 @@ class OnlineIdentifier:
         If the model's sizes, ``joint_names`` or ``mse_window`` do not fit.
     learner : Polled, optional
         The trainer's learner process, if it learns beside the stream: polled every sample
-        (2.5 µs: a pipe's select), so that a finished update is taken even while nothing is
-        learnt (``learn`` False, a held-out block, samples without effort).
+        while ``learn`` (2.5 µs: a pipe's select), so that a finished update is taken even
+        while a sample is not learnt (a held-out block, samples without effort). With
+        ``learn`` False the model is frozen as it is: an update the learner finishes after
+        the switch is taken only once learning resumes.
     """
 
     def __init__(self, model: Estimator, *, joint_names: Sequence[str] | None = None,
@@ -231,8 +233,8 @@ class OnlineIdentifier:
         """
         if pushed:
             self.counts.processed += 1
-        if self.learner is not None:  # an update finished beside the stream, taken now:
-            self.learner.poll()       # not only when a learnt sample sends a batch
+        if self.learner is not None and self.learn:  # an update finished beside the stream,
+            self.learner.poll()  # taken now, not only when a learnt sample sends a batch
         results = [StepResult(stamp_ns, None, reason)] if reason is not None else []
         results += [self._predict_and_learn(item) for item in inputs]
         self.counts.pending = self.stage.pending

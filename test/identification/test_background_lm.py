@@ -230,7 +230,8 @@ def test_a_7_joint_arm_stream_keeps_up_with_the_learner_beside_it() -> None:
 
 def test_the_identifier_takes_a_finished_update_while_it_learns_nothing() -> None:
     """Polled every sample: an update that finishes after the last learnt sample is taken
-    at the next sample, though that one is not learnt (``learn`` False)."""
+    at the next sample, though that one is not learnt (no effort); with ``learn`` False the
+    model stays as it is."""
     from scara_ident_ros.identification.input_stage import Input
     from scara_ident_ros.identification.online_identifier import OnlineIdentifier
 
@@ -242,13 +243,17 @@ def test_the_identifier_takes_a_finished_update_while_it_learns_nothing() -> Non
         X, Y = data(200)
         for k, (x, y) in enumerate(zip(X, Y, strict=True)):
             ident.take(k, None, [Input(k, x, y)])
-        ident.learn = False
         before = made.updates
         # the learner's answers are in the pipe, not yet taken (nothing was learnt since)
         assert made._from_learner.poll(WAIT)
+        ident.learn = False  # frozen: the answer waits
+        for k in range(20):
+            ident.take(1000 + k, None, [Input(1000 + k, X[k], Y[k])])
+        assert made.updates == before
+        ident.learn = True
         deadline = time.monotonic() + WAIT
         while made.updates == before and time.monotonic() < deadline:
-            ident.take(1000, None, [Input(1000, X[0], Y[0])])  # predicted, not learnt
+            ident.take(2000, None, [Input(2000, X[0], None)])  # predicted, not learnt
             time.sleep(0.01)
         assert made.updates > before and ident.counts.learnt == 200
     finally:
