@@ -74,8 +74,9 @@ IDENTIFIER_PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec('k', 2.5, 'MSLOG gain K (ffmw only)', fixed=NETWORK),
     ParamSpec('a', 5.0, 'MSLOG divisor a in z = (x·v − b)/a (ffmw only)', fixed=NETWORK),
     ParamSpec('b', 5.0, 'MSLOG offset b (ffmw only)', fixed=NETWORK),
-    ParamSpec('learn', True, 'Learn online; false: predict only (samples without effort are '
-              'then predicted too)', read_only=False),
+    ParamSpec('learn', True, 'Learn online; false: predict only, with the model frozen as '
+              'it is (samples without effort are then predicted too; an update a learner '
+              'process finishes meanwhile is taken when learning resumes)', read_only=False),
     ParamSpec('trainer', 'lm', 'Online training: lm (Levenberg-Marquardt steps on a reservoir '
               'of the whole stream, generalizes) or bp (the paper: one back-propagation step '
               'per sample, tracks)', choices=TRAINERS, fixed='the trainer keeps its state'),
