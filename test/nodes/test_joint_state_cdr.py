@@ -57,12 +57,18 @@ def test_template_bytes_are_rclpys_message_at_its_exact_length(n: int, state: bo
         exact = rosbags_bytes(msg)
         assert len(data) == len(exact) == template.size
         assert split_joint_state(data).end == len(data)
-        # the same bytes as rclpy's, but for the padding between names (left uninitialized)
+        # the same bytes as rclpy's, but for the padding (rclpy leaves it uninitialized: between
+        # names, and before an array's first float64 after an empty array's count)
         spans = split_joint_state(data)
         reference = bytes(serialize_message(msg))
+        ref = split_joint_state(reference)
         assert data[:12] == reference[:12]
-        first_array = min(spans.position[0], spans.velocity[0], spans.effort[0])
-        assert data[first_array:] == reference[first_array:len(data)]
+        assert (spans.stamp_ns, spans.names, spans.end) == (ref.stamp_ns, ref.names, ref.end)
+        for (mine, count), (theirs, their_count) in zip(
+                (spans.position, spans.velocity, spans.effort),
+                (ref.position, ref.velocity, ref.effort), strict=True):
+            assert (mine, count) == (theirs, their_count)
+            assert data[mine:mine + 8 * count] == reference[theirs:theirs + 8 * count]
         expected = joint_state_fields(msg)
         for reader, decode in READERS.items():
             assert joint_state_fields(decode(data, JOINT_STATE)) == expected, reader
