@@ -1,9 +1,11 @@
 """Online identification core: joint-state samples in, a-priori effort predictions out.
 
-Pure numpy, no rclpy: the ``identifier`` node converts messages and calls
-:meth:`OnlineIdentifier.process`. What it is built from is here too: the checks of a warm
-start (:mod:`.warm_start`) and the build for the first valid sample's joints
-(:mod:`.lazy_core`), from the joint limits of :mod:`scara_ident_ros.dynamics.joint_limits`.
+Pure numpy, no rclpy: the ``identifier`` node converts messages, calls
+:meth:`.session.IdentificationSession.process` (over one :class:`OnlineIdentifier` per
+method) and publishes the :class:`SampleOutcome` it returns. What it is built from is
+here too: the checks of a warm start (:mod:`.warm_start`) and the build for the first
+valid sample's joints (:mod:`.lazy_core`), from the joint limits of
+:mod:`scara_ident_ros.dynamics.joint_limits`.
 Batch training takes its samples the same way: :mod:`.dataset` (samples through the same
 input stage), :mod:`.recording` (from a bag), :mod:`.split` (the validation split);
 :mod:`.metrics` is the one MSE and NMSE.
@@ -26,6 +28,7 @@ from scara_ident_ros.identification.online_identifier import (Counts, OnlineIden
 from scara_ident_ros.identification.reports import (ContactState, HealthFigures,
                                                     LearningFigures, MethodReport, SkipCounts,
                                                     StreamFigures)
+from scara_ident_ros.identification.sample_outcome import Prediction, SampleOutcome
 from scara_ident_ros.identification.sample_check import (DEFAULT_MAX_GAP_NS, Bounds, Sample,
                                                          SampleCheck)
 from scara_ident_ros.identification.reservoir import Reservoir
@@ -41,7 +44,8 @@ __all__ = [
     'ErrorStats', 'ErrorWindow', 'HealthFigures', 'Holdout', 'IdentifierSettings', 'Input',
     'InputStage', 'JointMap',
     'LazyCore', 'LearningFigures', 'MethodReport', 'ModelMismatch', 'OnlineIdentifier',
-    'PAPER_WINDOW', 'Reservoir', 'ReservoirLM', 'Sample', 'SampleCheck', 'SkipCounts',
+    'PAPER_WINDOW', 'Prediction', 'Reservoir', 'ReservoirLM', 'Sample', 'SampleCheck',
+    'SampleOutcome', 'SkipCounts',
     'SkipReason', 'StreamFigures',
     'Skipped', 'StepResult', 'TRAINERS', 'Trainer', 'check_warm_start', 'effort_errors',
     'make_differentiator', 'make_trainer',

@@ -9,6 +9,12 @@ running, ``~/reset`` with the summaries of before kept, saving, and the summary 
 and errors a stats file holds. :class:`MethodRun` is one method's part: its core, contact
 detector, held-out score and lag figures.
 
+The path is one way: :meth:`IdentificationSession.process` returns, per method, each
+prediction with its external torque, contact flags and lag
+(:class:`~scara_ident_ros.identification.sample_outcome.SampleOutcome`), and the node only
+publishes them; the contact thresholds change only in the explicit step
+:meth:`MethodRun.calibrate_contacts`.
+
 ``settings`` are the node's parameters, typed
 (:class:`~scara_ident_ros.identification.identifier_settings.IdentifierSettings`).
 """
@@ -44,8 +50,9 @@ from scara_ident_ros.identification.reports import (ContactState, HealthFigures,
                                                     LearningFigures, MethodReport, SkipCounts,
                                                     StreamFigures)
 from scara_ident_ros.identification.skip_reason import SkipReason
-from scara_ident_ros.identification.stream_clock import LagHistogram
+from scara_ident_ros.identification.stream_clock import LagHistogram, StreamClock
 from scara_ident_ros.identification.reservoir_lm import ReservoirLM
+from scara_ident_ros.identification.sample_outcome import Prediction, SampleOutcome
 from scara_ident_ros.identification.warm_start import check_warm_start
 from scara_ident_ros.nn import ModelFormatError
 from scara_ident_ros.nn.presets import METHODS
@@ -214,6 +221,34 @@ class MethodRun:
         """Whether a calibration round is under way (:meth:`calibrate_contacts`)."""
         return self._round is not None
 
+    def predictions(self, results: Sequence[StepResult], inputs: Sequence[Input],
+                    lag: Callable[[int], int] | None) -> tuple[Prediction, ...]:
+        """The core's ``results`` for ``inputs`` (one input per result with a prediction,
+        in order) as what is published: each with its external torque and contact flags
+        (:meth:`check_contact`, against the sample's input for the envelope) and its lag,
+        ``lag(stamp_ns)`` (ns; recorded with the contact decision's delay; None on
+        shutdown: not recorded)."""
+        out = []
+        samples = iter(inputs)
+        for result in results:
+            effort = result.effort
+            if effort is None:  # a rejection: no prediction
+                continue
+            x = next(samples).x
+            measured = result.measured
+            lag_ns = None if lag is None else lag(result.stamp_ns)
+            external = contact = None
+            if measured is not None:
+                external = measured - effort
+                contact = self.check_contact(external, x)
+                if lag_ns is not None:
+                    self.record_decision(lag_ns)
+            if lag_ns is not None:
+                self.record_lag(lag_ns)
+            out.append(Prediction(result.stamp_ns, effort, x, result.held_out, measured,
+                                  external, contact, lag_ns))
+        return tuple(out)
+
     def record_lag(self, lag_ns: int) -> None:
         """Take how late (ns) a prediction was published."""
         self.lags.add(lag_ns)
@@ -340,6 +375,7 @@ class IdentificationSession:
                          self.runs[0])
         # checked at start (a bad window ends it in one line), used once the joints are known
         self.differentiator = self._differentiator()
+        self.clock = StreamClock()  # the lags, against the stream's own clock
         missing_limits = self._build(names) if names else ''
         if missing_limits:
             raise ConfigError(f'joint_names: {missing_limits}')
@@ -477,19 +513,40 @@ class IdentificationSession:
 
     # ------------------------------------------------------------------ per sample
     def process(self, stamp_ns: int, names: tuple[str, ...] | list[str], position: Any,
-                velocity: Any,
-                effort: Any) -> tuple[list[list[StepResult]], list[Input], list[str]]:
+                velocity: Any, effort: Any, *, arrived_ns: int | None = None,
+                restart: bool = False) -> SampleOutcome:
         """Check and differentiate a sample once; predict and learn for each method.
 
-        The sample: its stamp (ns), joint names, and q (rad, m), q' (rad/s, m/s) and
-        efforts (N·m, N) of shape (len(names),), each may be empty. Returns, for each method
-        in order, the predictions now due; the samples the input stage let out (whose
-        predictions these are); and why the sample was skipped, if it was.
+        Parameters
+        ----------
+        stamp_ns : int
+            The sample's stamp (ns).
+        names : sequence of str of length m
+            Its joint names, in message order.
+        position, velocity, effort : array_like of shape (m,) or (0,)
+            q (rad, m), q' (rad/s, m/s) and efforts (N·m, N), each may be empty.
+        arrived_ns : int, optional
+            Wall time (ns) the sample arrived, for the lags; by default now.
+        restart : bool
+            The sample follows a pause or a restarted clock (the lags' offset starts anew).
+
+        Returns
+        -------
+        SampleOutcome
+            For each method in order, the predictions now due with all that is published of
+            them; the samples they are of; why this sample was skipped, if it was.
         """
+        self.clock.arrived(stamp_ns, time.time_ns() if arrived_ns is None else arrived_ns,
+                           restart=restart)
+        return self._process(stamp_ns, names, position, velocity, effort)
+
+    def _process(self, stamp_ns: int, names: tuple[str, ...] | list[str], position: Any,
+                 velocity: Any, effort: Any) -> SampleOutcome:
+        """:meth:`process` a sample whose arrival the clock has taken."""
         if self.lead.core is None:
             warnings = self._build_from(stamp_ns, names, position, velocity, effort)
             if self.lead.core is None or warnings:
-                return [[] for _ in self.runs], [], warnings
+                return SampleOutcome.nothing(len(self.runs), tuple(warnings))
             replay = self.lead.lazy.take_replay()  # samples that completed the limits
             if len(replay) > 1:
                 return self._replay(replay)
@@ -499,41 +556,51 @@ class IdentificationSession:
         for run in self.runs:
             assert run.core is not None
             results.append(run.core.take(stamp_ns, reason, inputs))
+        now_ns, clock = time.time_ns(), self.clock
+
+        def lag(stamp: int) -> int:
+            return clock.lag_ns(stamp, now_ns)
+
+        predictions = tuple(run.predictions(mine, inputs, lag)
+                            for run, mine in zip(self.runs, results))
         if reason is None or reason is SkipReason.WARMING_UP:
-            return results, inputs, []
+            return SampleOutcome(predictions, tuple(inputs), reason)
         if reason in JOINT_SET_REASONS:
             why = (f'skipped a sample ({reason.value}): it names joints {list(names)}, the '
                    f'identifier identifies {self.names} (set joint_names, or min_joints to '
                    'wait for a message naming them all)')
         else:
             why = f'skipped a sample ({reason.value}); {sum(core.counts.skipped.values())} so far'
-        return results, inputs, [why]
+        return SampleOutcome(predictions, tuple(inputs), reason, (why,))
 
-    def _replay(self, samples: Sequence[Any]
-                ) -> tuple[list[list[StepResult]], list[Input], list[str]]:
+    def _replay(self, samples: Sequence[Any]) -> SampleOutcome:
         """:meth:`process` the samples kept while the stream completed the limits (of
-        :class:`~scara_ident_ros.identification.lazy_core.RawSample`), at once."""
-        results: list[list[StepResult]] = [[] for _ in self.runs]
-        inputs: list[Input] = []
-        warnings: list[str] = []
+        :class:`~scara_ident_ros.identification.lazy_core.RawSample`), at once; the
+        outcome of all, the last one's skip reason, the first warning."""
+        predictions: list[tuple[Prediction, ...]] = [() for _ in self.runs]
+        inputs: tuple[Input, ...] = ()
+        warnings: tuple[str, ...] = ()
+        skipped = None
         for sample in samples:
-            out, new, why = self.process(*sample)
-            for mine, theirs in zip(results, out):
-                mine += theirs
-            inputs += new
-            warnings += why
-        return results, inputs, warnings[:1]
+            outcome = self._process(*sample)
+            predictions = [mine + theirs
+                           for mine, theirs in zip(predictions, outcome.predictions)]
+            inputs += outcome.inputs
+            warnings += outcome.warnings
+            skipped = outcome.skipped
+        return SampleOutcome(tuple(predictions), inputs, skipped, warnings[:1])
 
-    def flush(self) -> tuple[list[list[StepResult]], list[Input]]:
-        """On shutdown: the pending samples' predictions for each method, and the samples."""
+    def flush(self) -> SampleOutcome:
+        """On shutdown: the pending samples' predictions for each method (without lags)."""
         if self.lead.core is None:
-            return [[] for _ in self.runs], []
+            return SampleOutcome.nothing(len(self.runs))
         inputs = self.lead.core.stage.flush()
-        results = []
+        predictions = []
         for run in self.runs:
             assert run.core is not None
-            results.append(run.core.take(0, None, inputs, pushed=False))
-        return results, inputs
+            results = run.core.take(0, None, inputs, pushed=False)
+            predictions.append(run.predictions(results, inputs, None))
+        return SampleOutcome(tuple(predictions), tuple(inputs))
 
     # ------------------------------------------------------------------ while running
     def apply(self, settings: IdentifierSettings, changed: Collection[str] | None = None

@@ -37,7 +37,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
 from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
@@ -49,15 +48,14 @@ from std_srvs.srv import Trigger
 
 from scara_ident_ros.blas_threads import single_blas_thread
 from scara_ident_ros.errors import ConfigError
-from scara_ident_ros.identification import StepResult
 from scara_ident_ros.identification.background_lm import prestart
-from scara_ident_ros.identification.input_stage import Input
 from scara_ident_ros.identification.identifier_settings import IdentifierSettings
 from scara_ident_ros.identification.parameters import IDENTIFIER_PARAMETERS
 from scara_ident_ros.identification.reports import MethodReport, StreamFigures
+from scara_ident_ros.identification.sample_outcome import Prediction
 from scara_ident_ros.identification.sample_check import GAP_PERIODS
 from scara_ident_ros.identification.session import IdentificationSession, MethodRun
-from scara_ident_ros.identification.stream_clock import PathDelays, StreamClock
+from scara_ident_ros.identification.stream_clock import PathDelays
 from scara_ident_ros.mse_layout import encode_mse
 from scara_ident_ros.nodes.diagnostics import Diagnostics
 from scara_ident_ros.nodes.health import Deltas, Health, LossCounter, identifier_health
@@ -134,13 +132,11 @@ class Outputs:
             self.armed = armed
             self.armed_publisher.publish(Bool(data=armed))
 
-    def publish(self, results: list[StepResult], inputs: list[Input], frame_id: str,
-                clock: StreamClock | None = None) -> None:
-        """Publish each prediction with its sample's q and q', its external torque and any
-        contact (the sample's q, q', q'' against the calibrated envelope), stamped with its
-        sample; ``inputs`` are the samples of the predictions (one per result with an
-        effort, in order); ``clock`` records the lags (not given on shutdown)."""
-        if not results:
+    def publish(self, predictions: tuple[Prediction, ...], frame_id: str) -> None:
+        """Publish the session's ``predictions`` of this method: each with its sample's q
+        and q', its external torque (unless switched off) and, if some joints are over their
+        threshold, a contact message naming them; stamped with its sample."""
+        if not predictions:
             return
         template, external = self.template, self.external_template
         if template is None or template.frame_id != frame_id:
@@ -148,33 +144,18 @@ class Outputs:
             template = self.template = JointStateTemplate(names, frame_id, state=True)
             external = self.external_template = JointStateTemplate(names, frame_id)
         assert external is not None
-        publish, run, samples = self.send_torque, self.run, iter(inputs)
-        for result in results:
-            if result.effort is None:
+        publish, send_external = self.send_torque, self.send_external
+        for p in predictions:
+            publish(template.fill(p.stamp_ns, p.effort, p.x))
+            if p.external is None:
                 continue
-            x = next(samples).x
-            publish(template.fill(result.stamp_ns, result.effort, x))
-            if result.measured is not None:
-                self.publish_external(result.stamp_ns, result.measured - result.effort,
-                                      external, x)
-                if clock is not None:
-                    run.record_decision(clock.lag_ns(result.stamp_ns, time.time_ns()))
-            if clock is not None:
-                run.record_lag(clock.lag_ns(result.stamp_ns, time.time_ns()))
-
-    def publish_external(self, stamp_ns: int, torque: NDArray[np.float64],
-                         template: JointStateTemplate,
-                         x: NDArray[np.float64] | None = None) -> None:
-        """Publish a sample's external torque (n,) (unless switched off) and, if some joints
-        are over their threshold (given the sample's input ``x`` (3n,), for the envelope),
-        a contact message naming them."""
-        if self.send_external:
-            self.send_external_torque(template.fill(stamp_ns, torque))
-        over = self.run.check_contact(torque, x)
-        if over.any():
-            names = [name for name, hit in zip(template.names, over) if hit]
-            self.contact_publisher.publish(joint_state(stamp_ns, names, effort=torque[over],
-                                                       frame_id=template.frame_id))
+            if send_external:
+                self.send_external_torque(external.fill(p.stamp_ns, p.external))
+            contact = p.contact
+            if contact is not None and contact.any():
+                names = [name for name, hit in zip(external.names, contact) if hit]
+                self.contact_publisher.publish(joint_state(
+                    p.stamp_ns, names, effort=p.external[contact], frame_id=frame_id))
 
     def publish_mse(self, *, refresh: bool = True) -> bool:
         """Publish the windowed per-joint and overall MSE and NMSE; ``refresh`` False: with
@@ -229,7 +210,6 @@ class IdentifierNode(Node):
         # samples missing from the stream, from the stamps; longer jumps than the q''
         # estimate bridges are pauses (between recordings), counted apart
         self.loss = LossCounter(span_s=s.max_gap, pause_periods=GAP_PERIODS)
-        self.clock = StreamClock()  # lags against the stream's own clock
         self.path = PathDelays()  # arrival to publication of each sample's predictions
         self.last_sample: float | None = None  # monotonic s of the latest sample
         self.diagnostics = [
@@ -353,22 +333,23 @@ class IdentifierNode(Node):
         """Check and differentiate once; predict, publish, learn for each method."""
         self.last_sample = time.monotonic()
         stamp_ns, now_ns = msg.stamp_ns, time.time_ns()
-        self.clock.arrived(stamp_ns, now_ns, restart=self.loss.observe(stamp_ns))
         self.path.arrived(stamp_ns, now_ns)
         assert self.publisher_watch is not None  # subscribed
         self.publisher_watch.stamps.observe(stamp_ns)
-        results, inputs, warnings = self.session.process(
-            stamp_ns, msg.names, msg.position, msg.velocity, msg.effort)
+        outcome = self.session.process(
+            stamp_ns, msg.names, msg.position, msg.velocity, msg.effort, arrived_ns=now_ns,
+            restart=self.loss.observe(stamp_ns))
         if self.session.core is not None:
             self.frame_id = msg.frame_id
             if not self.frozen_with_cores:
                 self.frozen_with_cores = True
                 gc.freeze()
-        for out, method_results in zip(self.outputs, results):
-            out.publish(method_results, inputs, self.frame_id, self.clock)
+        for out, predictions in zip(self.outputs, outcome.predictions):
+            out.publish(predictions, self.frame_id)
+        inputs = outcome.inputs
         if inputs:
             self.path.out(inputs[0].stamp_ns, inputs[-1].stamp_ns, time.time_ns())
-        for text in warnings:
+        for text in outcome.warnings:
             self._warn(text)
 
     def _warn(self, text: str) -> None:
@@ -423,7 +404,7 @@ class IdentifierNode(Node):
             lost=self.loss.lost, pauses=self.loss.pauses, paused_s=self.loss.paused_s,
             path_delay_p50_ms=self.path.delays.percentile_ms(50),
             path_delay_p99_ms=self.path.delays.percentile_ms(99),
-            wall_clock_stamps=self.clock.wall,
+            wall_clock_stamps=self.session.clock.wall,
             joint_states_publishers=watch.most_publishers if watch else 0,
             stamps_backward=watch.stamps.backward if watch else 0)
 
@@ -481,10 +462,10 @@ class IdentifierNode(Node):
         """On shutdown: predict and learn the pending samples, wait (at most
         :data:`FLUSH_TIMEOUT`) until subscribers acknowledge them, take the learners' last
         weights, checkpoint and log the final statistics."""
-        results, inputs = self.session.flush()
-        for out, method_results in zip(self.outputs, results):
-            out.publish(method_results, inputs, self.frame_id)
-        if inputs:
+        outcome = self.session.flush()
+        for out, predictions in zip(self.outputs, outcome.predictions):
+            out.publish(predictions, self.frame_id)
+        if outcome.inputs:
             for out in self.outputs:
                 for publisher in (out.torque_publisher, out.external_publisher,
                                   out.contact_publisher):

@@ -42,11 +42,11 @@ def feed(session: IdentificationSession, n: int) -> tuple[list[Any], list[Any]]:
     predictions: list[Any] = []
     inputs: list[Any] = []
     for i in range(n):
-        results, given, warnings = session.process(
+        outcome = session.process(
             T0 + i * MS, NAMES, RECORD.q[i], RECORD.qd[i], RECORD.effort[i])
-        assert warnings == []
-        predictions += [r for r in results[0] if r.reason is None]
-        inputs += given
+        assert outcome.warnings == ()
+        predictions += outcome.predictions[0]
+        inputs += outcome.inputs
     assert len(predictions) == len(inputs)
     return predictions, inputs
 

@@ -16,6 +16,7 @@ from scara_ident_ros.errors import ConfigError
 from scara_ident_ros.identification.identifier_settings import IdentifierSettings
 from scara_ident_ros.identification.reports import SkipCounts, StreamFigures
 from scara_ident_ros.identification.session import IdentificationSession
+from scara_ident_ros.identification.skip_reason import SkipReason
 from scara_ident_ros.identification.reservoir_lm import ReservoirLM
 from scara_ident_ros.identification.warm_start import ModelMismatch
 from scara_ident_ros.nn.presets import limit_scaling, make_network
@@ -47,10 +48,10 @@ def feed(session: IdentificationSession, record: SimRecord, n: int,
     """Process samples start..n-1; return each method's predictions."""
     out: list[list[Any]] = [[] for _ in session.runs]
     for i in range(start, n):
-        results, _, warnings = session.process(T0 + i * MS, NAMES, record.q[i], record.qd[i],
-                                               record.effort[i])
-        assert warnings == []
-        for mine, theirs in zip(out, results):
+        outcome = session.process(T0 + i * MS, NAMES, record.q[i], record.qd[i],
+                                  record.effort[i])
+        assert outcome.warnings == ()
+        for mine, theirs in zip(out, outcome.predictions):
             mine.extend(theirs)
     return out
 
@@ -69,7 +70,7 @@ def test_the_joints_come_from_the_first_valid_sample() -> None:
     session = IdentificationSession(settings(derive_velocity='never'))  # [] q': invalid
     assert session.core is None and session.joints_text == '(from the first message)'
     record = simulated(50)
-    _, _, warnings = session.process(T0, NAMES[:2], record.q[0, :2], [], [])
+    warnings = session.process(T0, NAMES[:2], record.q[0, :2], [], []).warnings
     assert warnings and 'before the first valid one' in warnings[-1]
     assert session.core is None and session.processed() == 1
     predictions, = feed(session, record, 50, start=1)
@@ -92,8 +93,10 @@ def test_several_methods_share_one_input_stage() -> None:
 def test_a_joint_set_mismatch_says_how_to_fix_it() -> None:
     session = IdentificationSession(settings(joint_names=NAMES))
     record = simulated(1)
-    _, _, warnings = session.process(T0, NAMES[:3], record.q[0, :3], record.qd[0, :3],
-                                     record.effort[0, :3])
+    outcome = session.process(T0, NAMES[:3], record.q[0, :3], record.qd[0, :3],
+                              record.effort[0, :3])
+    assert outcome.predictions == ((),) and outcome.skipped is SkipReason.MISSING_JOINT
+    warnings = outcome.warnings
     assert 'set joint_names, or min_joints' in warnings[0]
 
 
@@ -250,9 +253,8 @@ def test_a_stream_without_velocities_is_predicted_with_derived_velocities(derive
     session = IdentificationSession(settings(derive_velocity=derive, learn=False))
     inputs = []
     for i in range(400):
-        _, new, _ = session.process(T0 + i * MS, NAMES, record.q[i], [], record.effort[i])
-        inputs += new
-    inputs += session.flush()[1]
+        inputs += session.process(T0 + i * MS, NAMES, record.q[i], [], record.effort[i]).inputs
+    inputs += session.flush().inputs
     summary = session.summary()
     if derive == 'never':
         assert summary.skipped.as_dict() == {'no_velocity': 400} and not inputs
@@ -265,17 +267,26 @@ def test_a_stream_without_velocities_is_predicted_with_derived_velocities(derive
                                atol=1e-2 * np.abs(record.qd).max())
 
 
-def test_contact_calibration_is_an_explicit_step_and_arms_on_the_rate_bound() -> None:
-    """Reading the validation score changes no threshold; the calibration step does, in
-    budgeted steps, and arms detection once the held-out draws allow the bound."""
-    record = simulated(4000)
+def noisy_session(n: int, length: int, noise: float = 0.05
+                  ) -> tuple[IdentificationSession, SimRecord]:
+    """A session fed the first ``n`` samples of a ``length``-sample record with sensor
+    noise (σ a fraction ``noise`` of the effort limits), its contact detector not
+    calibrated yet, and the record."""
+    record = simulated(length)
     rng = np.random.default_rng(0)
-    record.effort[:] += rng.normal(size=record.effort.shape) * 0.05 * SCARA.array(
-        'effort_max')  # sensor noise; 40 held-out blocks: enough draws either way
+    record.effort[:] += rng.normal(size=record.effort.shape) * noise * SCARA.array(
+        'effort_max')  # 40 held-out blocks: enough draws either way
     session = IdentificationSession(settings(
         joint_names=NAMES, validation_fraction=0.5, validation_block=50,
         contact_arm_nmse=10.0))
-    feed(session, record, 4000)
+    feed(session, record, n)
+    return session, record
+
+
+def test_contact_calibration_is_an_explicit_step_and_arms_on_the_rate_bound() -> None:
+    """Reading the validation score changes no threshold; the calibration step does, in
+    budgeted steps, and arms detection once the held-out draws allow the bound."""
+    session, _ = noisy_session(4000, 4000)
     run = session.first
     assert run.detector is not None
     run.validation(fresh=True)
@@ -298,3 +309,34 @@ def test_contact_calibration_is_an_explicit_step_and_arms_on_the_rate_bound() ->
     session.apply(session.settings, {'contact_false_alarms_per_hour'})
     assert not run.detector.armed
     assert run.calibrate_contacts(1e-3) is not None and run.detector.armed
+
+
+def test_each_prediction_comes_with_its_external_torque_contact_flags_and_lag() -> None:
+    """The session decides all the node publishes: external torque = measured − predicted,
+    the armed detector's flags (a push on joint 2 only), and the lag, recorded per method."""
+    session, record = noisy_session(4000, 4000, noise=0.01)
+    run = session.first
+    assert run.calibrate_contacts(1e-3) is not None and run.detector is not None
+    assert run.detector.armed and run.detector.thresholds is not None
+    push = np.zeros(4)
+    push[1] = 2.5 * run.detector.thresholds[1]  # N·m, over joint 2's threshold
+    # motion seen before (inside the calibrated envelope), after a pause of 1 s
+    again, pushed_from = range(2000, 2300), T0 + 7150 * MS
+    assert np.all(np.abs(record.effort[again]) + push < SCARA.array('effort_max'))
+    lags_before = run.lags.count
+    predictions = []
+    for i in again:
+        stamp = T0 + (5000 + i) * MS
+        effort = record.effort[i] + (push if stamp >= pushed_from else 0.0)
+        predictions += session.process(stamp, NAMES, record.q[i], record.qd[i],
+                                       effort).predictions[0]
+    assert predictions and run.lags.count - lags_before == len(predictions)
+    for p in predictions:
+        assert p.measured is not None and p.external is not None and p.contact is not None
+        np.testing.assert_array_equal(p.external, p.measured - p.effort)
+        assert p.lag_ns is not None and p.lag_ns >= 0
+    pushed = [p.contact for p in predictions if p.stamp_ns >= pushed_from]
+    quiet = [p.contact for p in predictions if p.stamp_ns < pushed_from]
+    assert len(pushed) > 100 and all(c[1] and not c[[0, 2, 3]].any() for c in pushed)
+    assert len(quiet) > 100 and not any(c.any() for c in quiet)
+    assert session.summary(run).contacts == len(pushed)

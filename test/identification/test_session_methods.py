@@ -36,10 +36,10 @@ def test_every_method_predicts_whatever_the_order(methods: list[str], tmp_path: 
                        SimConfig(seed=0)).simulate(2500)
     predicted = [0] * len(methods)
     for i in range(2500):
-        results, _, _ = session.process(T0 + i * MS, OTHER, record.q[i], record.qd[i],
-                                        record.effort[i])
-        for k, out in enumerate(results):
-            predicted[k] += sum(r.effort is not None for r in out)
+        outcome = session.process(T0 + i * MS, OTHER, record.q[i], record.qd[i],
+                                  record.effort[i])
+        for k, out in enumerate(outcome.predictions):
+            predicted[k] += len(out)
     assert all(run.core is not None for run in session.runs)
     # every method predicts the same samples: all but the q'' estimate's last few
     assert len(set(predicted)) == 1 and predicted[0] > 2400, predicted

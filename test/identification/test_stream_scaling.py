@@ -58,9 +58,9 @@ def feed(session: IdentificationSession, names: list[str], q: np.ndarray, qd: np
     """Process samples start..; return the predictions made and the warnings."""
     predicted, warnings = 0, []
     for i in range(start, len(q)):
-        results, _, why = session.process(T0 + i * MS, names, q[i], qd[i], effort[i])
-        predicted += sum(r.effort is not None for r in results[0])
-        warnings += why
+        outcome = session.process(T0 + i * MS, names, q[i], qd[i], effort[i])
+        predicted += len(outcome.predictions[0])
+        warnings += outcome.warnings
     return predicted, warnings
 
 
@@ -116,11 +116,11 @@ def test_the_scaling_is_fixed_once_set_and_larger_inputs_are_still_predicted() -
     stamps = T0 + (start + np.arange(len(q))) * MS
     predicted, largest = 0, 0.0
     for i, stamp in enumerate(stamps):
-        results, inputs, why = session.process(int(stamp), names, q[i], fast_qd[i], effort[i])
-        assert why == []
-        for item in inputs:
+        outcome = session.process(int(stamp), names, q[i], fast_qd[i], effort[i])
+        assert outcome.warnings == ()
+        for item in outcome.inputs:
             largest = max(largest, np.abs(network.x_scaling.transform(item.x)).max())
-        for result in results[0]:
+        for result in outcome.predictions[0]:
             predicted += 1
             assert result.effort is not None and np.all(np.isfinite(result.effort))
     assert predicted == len(q)
@@ -167,8 +167,8 @@ def test_a_physical_model_needs_no_scaling_and_holds_the_fingers_fixed() -> None
     arm = pin.buildReducedModel(full, fingers, pin.neutral(full))
     data, n, checked = arm.createData(), len(names), 0
     for i in range(60):
-        results, inputs, _ = still.process(T0 + i * MS, names, q[i], qd[i], effort[i])
-        for result, item in zip(results[0], inputs):
+        outcome = still.process(T0 + i * MS, names, q[i], qd[i], effort[i])
+        for result, item in zip(outcome.predictions[0], outcome.inputs):
             x = item.x
             assert result.effort is not None
             expected = pin.rnea(arm, data, x[:n], x[n:2 * n], x[2 * n:])
@@ -217,8 +217,8 @@ def test_a_sample_of_other_joints_while_scaling_is_skipped() -> None:
     names, q, qd, _, effort = stream('panda', 0.05)
     session = session_for('panda', [])
     feed(session, names, q[:10], qd[:10], effort[:10])
-    results, _, warnings = session.process(T0 + 20 * MS, names[:3], q[20, :3], qd[20, :3],
-                                           effort[20, :3])
+    warnings = session.process(T0 + 20 * MS, names[:3], q[20, :3], qd[20, :3],
+                               effort[20, :3]).warnings
     assert warnings and session.summary().skipped.as_dict() == {
         SkipReason.MISSING_JOINT.value: 1}
 
