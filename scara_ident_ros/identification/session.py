@@ -40,7 +40,7 @@ from scara_ident_ros.identification.differentiator import (AccelerationEstimate,
                                                            make_differentiator)
 from scara_ident_ros.identification.error_window import ErrorWindow
 from scara_ident_ros.identification.identifier_builder import background_learner
-from scara_ident_ros.identification.input_stage import Input
+from scara_ident_ros.identification.input_stage import Input, InputStage
 from scara_ident_ros.identification.identifier_settings import IdentifierSettings
 from scara_ident_ros.identification.lazy_core import UNSCALED_METHODS, LazyCore
 from scara_ident_ros.identification.learner_process import LearnerClient
@@ -376,6 +376,9 @@ class IdentificationSession:
         # checked at start (a bad window ends it in one line), used once the joints are known
         self.differentiator = self._differentiator()
         self.clock = StreamClock()  # the lags, against the stream's own clock
+        #: the stream's one input stage (checks, q'' estimate), made with the first core built
+        #: and given to every other: each sample is checked and differentiated once
+        self.stage: InputStage | None = None
         missing_limits = self._build(names) if names else ''
         if missing_limits:
             raise ConfigError(f'joint_names: {missing_limits}')
@@ -464,11 +467,10 @@ class IdentificationSession:
         return self.settings.replace(method=method)
 
     def _build(self, names: list[str], runs: Sequence[MethodRun] | None = None) -> str:
-        """Build the cores of ``runs`` (all by default) for ``names``, sharing one input
-        stage (the first method's, if built); return '' or why not (a joint without
+        """Build the cores of ``runs`` (all by default: with a fresh input stage) for
+        ``names``, sharing the session's input stage; return '' or why not (a joint without
         limits)."""
-        lead = self.lead.core
-        stage = lead.stage if runs is not None and lead is not None else None
+        stage = self.stage if runs is not None else None
         if any(run.lazy.needs_stream(names, run.method) for run in self.runs):
             return ''  # built from the first samples, which complete the limits
         for run in self.runs if runs is None else runs:
@@ -477,7 +479,7 @@ class IdentificationSession:
             if why:
                 return why
             assert run.core is not None
-            stage = run.core.stage
+            stage = self.stage = run.core.stage
             run.built(names)
         return ''
 
@@ -495,6 +497,8 @@ class IdentificationSession:
                 self.log(skipped.note)
             return []
         if skipped is None:
+            assert self.lead.core is not None
+            self.stage = self.lead.core.stage
             self.log(first.limits_note)
             others = [run for run in self.runs if run is not self.lead]
             for run in others:
@@ -550,8 +554,9 @@ class IdentificationSession:
             replay = self.lead.lazy.take_replay()  # samples that completed the limits
             if len(replay) > 1:
                 return self._replay(replay)
-        core = self.lead.core
-        reason, inputs = core.stage.push(stamp_ns, names, position, velocity, effort)
+        core, stage = self.lead.core, self.stage
+        assert stage is not None  # made with the cores
+        reason, inputs = stage.push(stamp_ns, names, position, velocity, effort)
         results = []
         for run in self.runs:
             assert run.core is not None
@@ -592,9 +597,9 @@ class IdentificationSession:
 
     def flush(self) -> SampleOutcome:
         """On shutdown: the pending samples' predictions for each method (without lags)."""
-        if self.lead.core is None:
+        if self.lead.core is None or self.stage is None:
             return SampleOutcome.nothing(len(self.runs))
-        inputs = self.lead.core.stage.flush()
+        inputs = self.stage.flush()
         predictions = []
         for run in self.runs:
             assert run.core is not None
@@ -633,7 +638,7 @@ class IdentificationSession:
             run.previous.append(before)
             befores.append(before)
             run.lazy.reset()
-        self.differentiator = self._differentiator()
+        self.differentiator, self.stage = self._differentiator(), None
         why = self._build(names) if names is not None else ''
         message = f'fresh weights (seed {self.settings.seed}); before the reset: ' + '; '.join(
             f'{before.method}: processed {before.processed}, learnt {before.learnt}, '
