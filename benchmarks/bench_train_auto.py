@@ -61,9 +61,9 @@ def main() -> int:
     commit = subprocess.run(['git', 'rev-parse', '--short', 'HEAD'], capture_output=True,
                             text=True, cwd=HERE).stdout.strip()
     lines = [f'\n## {time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())}, commit {commit}\n',
-             '| data | seed | linear | gp | ffs | chosen | its validation NMSE (all blocks, '
-             'mean) | its test SMSE (published rows) | s | load |',
-             '|---|---|---|---|---|---|---|---|---|---|']
+             '| data | seed | linear | linear_hybrid | gp | ffs | chosen | its validation NMSE '
+             '(all blocks, mean) | its test SMSE (published rows) | s | load |',
+             '|---|---|---|---|---|---|---|---|---|---|---|']
     print('\n'.join(lines), flush=True)
     with tempfile.TemporaryDirectory() as tmp:
         for name in args.data:
@@ -78,6 +78,7 @@ def main() -> int:
                 chosen = re.search(r'^auto: (\w+), the lowest', out, flags=re.MULTILINE)
                 tested = mean_nmse(run('evaluate', str(model), test)) if test else '–'
                 row = (f'| {name} | {seed} | {scores.get("linear", "?")} | '
+                       f'{scores.get("linear_hybrid", "?")} | '
                        f'{scores.get("gp", "?")} | {scores.get("ffs", "?")} | '
                        f'{chosen.group(1).lower() if chosen else "?"} | {mean_nmse(out)} | '
                        f'{tested} | {time.perf_counter() - started:.0f} | '

@@ -58,7 +58,7 @@ def run(args: argparse.Namespace) -> int:
           f'(skipped: {skipped_text(samples)}{recording_note(recording)})\n')
     stats = evaluate(model, samples.data.X, samples.data.Y)
     print(errors_markdown(samples.names, {args.bag.name or str(args.bag): stats}))
-    physical = getattr(model, 'physical', model)  # a hybrid's physical part
+    physical = getattr(model, 'base', model)  # a hybrid's physical (or linear) part
     if isinstance(physical, PhysicalModel):
         print(parameters_markdown(physical))
     return 0

@@ -112,10 +112,10 @@ def _export_urdf(args: argparse.Namespace, loaded: object) -> int:
     from scara_ident_ros.dynamics.urdf_export import model_to_urdf
     from scara_ident_ros.errors import ScaraIdentError
 
-    physical = getattr(loaded, 'physical', loaded)  # a hybrid's physical part
+    physical = getattr(loaded, 'base', loaded)  # a hybrid's physical (or linear) part
     if not isinstance(physical, PhysicalModel):
-        raise CliError(f'{args.model}: a {type(loaded).__name__}, not a physical or hybrid '
-                       'model: --urdf writes identified physical parameters')
+        raise CliError(f'{args.model}: a {type(loaded).__name__} without a physical model of a '
+                       'URDF: --urdf writes identified physical parameters')
     out: Path = args.urdf
     if out.resolve() == args.model.resolve():
         raise CliError(f'--urdf {out} is the model file itself; give another name')

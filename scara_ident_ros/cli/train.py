@@ -49,11 +49,14 @@ the joints, its length and noise chosen on blocks of 50 of the first 3000 traini
 on every training sample, at most 12000 (a random draw of them beyond: O(N^3) time, 8 N^2
 bytes); --method kernel: the sparse-spectrum GP (random features) on every training sample;
 --method linear: least squares of each effort on [q, q', q'', sin q, cos q, tanh(q'/0.05), 1]
-(learners.linear_features), the baseline every learner must beat.
+(learners.linear_features), the baseline every learner must beat; --method linear_hybrid:
+that least squares in place of the physical model of --method hybrid (an FFS network on its
+residual, early-stopped and gated per joint the same way), for an arm without a URDF.
 
 --method auto (the default) follows the measurements (docs/results.md): with --urdf, the
-hybrid (its gate keeps it no worse than its physical part); without, the best of linear, gp
-and ffs on the recording itself. The validation blocks are dealt alternately in two: the
+hybrid (its gate keeps it no worse than its physical part); without, the best of linear,
+linear_hybrid, gp and ffs on the recording itself (linear_hybrid gates its network on the
+blocks it early-stops on). The validation blocks are dealt alternately in two: the
 network early-stops on the first, every candidate is scored on the second (mean over the
 joints of the MSE over the variance of all validation efforts; a single validation block is
 cut in its two halves), the best is saved and all scores printed. No learner wins
@@ -93,7 +96,8 @@ if TYPE_CHECKING:
     from scara_ident_ros.nn import FitHistory
 
 __all__ = ['AUTO_CANDIDATES', 'AUTO_METHOD', 'FRICTION_STEPS', 'GP_METHOD', 'GP_SAMPLES',
-           'HYBRID_NETWORK', 'ITERATIONS', 'KERNEL_METHOD', 'LINEAR_METHOD', 'MAX_FAIL',
+           'HYBRID_NETWORK', 'ITERATIONS', 'KERNEL_METHOD', 'LINEAR_HYBRID_METHOD',
+           'LINEAR_METHOD', 'MAX_FAIL',
            'MIN_ITERATIONS', 'PHYSICAL_METHODS', 'SAMPLES', 'VALIDATION_BLOCK_S', 'add_parser',
            'run']
 
@@ -109,10 +113,13 @@ GP_METHOD = 'gp'
 GP_SAMPLES = 12000
 #: Least squares on simple features (``learners.linear_features``): the baseline.
 LINEAR_METHOD = 'linear'
+#: That least squares plus an FFS network of its residual, gated per joint (the hybrid of an
+#: arm without a URDF).
+LINEAR_HYBRID_METHOD = 'linear_hybrid'
 #: Choose by validation (module docstring): the hybrid with a URDF, else the best of
 #: AUTO_CANDIDATES.
 AUTO_METHOD = 'auto'
-AUTO_CANDIDATES = (LINEAR_METHOD, GP_METHOD, 'ffs')
+AUTO_CANDIDATES = (LINEAR_METHOD, LINEAR_HYBRID_METHOD, GP_METHOD, 'ffs')
 HYBRID_NETWORK = 'ffs'     # the hybrid's residual network
 
 
@@ -125,15 +132,16 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
                         help=RECORDING_HELP)
     parser.add_argument('--method', default=AUTO_METHOD,
                         choices=[AUTO_METHOD, *METHODS, *PHYSICAL_METHODS, KERNEL_METHOD,
-                                 GP_METHOD, LINEAR_METHOD],
-                        help='auto: hybrid with --urdf, else the best of linear, gp and ffs '
-                             'on validation blocks (default); '
+                                 GP_METHOD, LINEAR_METHOD, LINEAR_HYBRID_METHOD],
+                        help='auto: hybrid with --urdf, else the best of linear, '
+                             'linear_hybrid, gp and ffs on validation blocks (default); '
                              'network: ffmw (MSLOG), ffw (SLOG) or ffs (sigmoid); physical: '
                              'least squares on the URDF\'s base parameters and friction; '
                              'hybrid: physical plus an FFS network on its residual; '
                              'kernel: sparse-spectrum GP regression (random features); '
                              'gp: exact GP regression (at most 12000 samples); linear: least '
-                             'squares on [q, dq, ddq, sin q, cos q, tanh(dq/0.05), 1]')
+                             'squares on [q, dq, ddq, sin q, cos q, tanh(dq/0.05), 1]; '
+                             'linear_hybrid: that plus an FFS network on its residual')
     parser.add_argument('--urdf', type=Path, default=None, metavar='ROBOT.urdf',
                         help='the robot\'s URDF: required by physical and hybrid; gives a '
                              'network its limit scaling')
@@ -212,8 +220,8 @@ def run(args: argparse.Namespace) -> int:
         raise CliError('--method auto trains its network with lm only')
     if args.method in PHYSICAL_METHODS and args.urdf is None:
         raise CliError(f'--method {args.method} needs the robot\'s --urdf')
-    if args.method == 'hybrid' and args.algorithm != 'lm':
-        raise CliError('--method hybrid trains its network with lm only')
+    if args.method in ('hybrid', LINEAR_HYBRID_METHOD) and args.algorithm != 'lm':
+        raise CliError(f'--method {args.method} trains its network with lm only')
     if not args.coulomb_eps > 0.0:
         raise CliError(f'--coulomb-eps must be positive, got {args.coulomb_eps}')
     problem = unwritable_file(args.out)
@@ -268,7 +276,8 @@ def run(args: argparse.Namespace) -> int:
     if args.method == AUTO_METHOD:
         return _train_auto(args, names, every_train, validation, metadata,
                            start_ns=int(samples.data.stamp_ns[0]))
-    model, summary = _fit(args, args.method, names, train, validation, every_train)
+    model, summary = _fit(args, args.method, names, train, validation, every_train,
+                          start_ns=int(samples.data.stamp_ns[0]))
     model.metadata.update(metadata)
     return _save_and_report(args, model, names, train, validation, summary)
 
@@ -278,17 +287,23 @@ def _training_rows(args: argparse.Namespace, method: str, every_train: Dataset) 
     GP_SAMPLES for the GP, at most --samples (a random draw) for a network."""
     if method == GP_METHOD:  # whatever --samples says: O(N^3)
         return every_train.subsample(GP_SAMPLES, seed=args.seed, name='train')
-    if method in ('physical', KERNEL_METHOD, LINEAR_METHOD) or not args.samples:
+    if method in ('physical', KERNEL_METHOD, LINEAR_METHOD, LINEAR_HYBRID_METHOD) \
+            or not args.samples:  # the linear hybrid draws its network's samples itself
         return every_train
     return every_train.subsample(args.samples, seed=args.seed, name='train')
 
 
 def _fit(args: argparse.Namespace, method: str, names: Sequence[str], train: Dataset,
-         stop: Dataset, every_train: Dataset) -> tuple[Estimator, str]:
-    """Fit a model of no URDF's ``method`` (a network, kernel, gp or linear) to ``train``,
-    a network early-stopped on ``stop`` (if it has samples) and, with --urdf, scaled by its
-    limits and ``every_train``'s accelerations; return it, with its training recorded in
-    its metadata, and a line saying how it was fitted."""
+         stop: Dataset, every_train: Dataset, *, start_ns: int,
+         gate: Dataset | None = None) -> tuple[Estimator, str]:
+    """Fit a model of no URDF's ``method`` (a network, kernel, gp, linear or
+    linear_hybrid) to ``train``, a network early-stopped on ``stop`` (if it has samples)
+    and, with --urdf, scaled by its limits and ``every_train``'s accelerations; return it,
+    with its training recorded in its metadata, and a line saying how it was fitted.
+
+    linear_hybrid gates its network on ``gate`` (in --validation-block blocks from
+    ``start_ns``, the recording's first stamp); without, it early-stops on every other
+    block of ``stop`` and gates on all of them, as --method hybrid."""
     from scara_ident_ros.blas_threads import single_blas_thread
     from scara_ident_ros.cli.progress import TrainingProgress
     from scara_ident_ros.learners import ExactGP, LinearFeatures, SparseSpectrumGP
@@ -311,6 +326,8 @@ def _fit(args: argparse.Namespace, method: str, names: Sequence[str], train: Dat
         linear = LinearFeatures().fit(train.X, train.Y)
         return linear, (f'LINEAR (least squares on {linear.coef_.shape[0]} features) fitted '
                         f'in {time.perf_counter() - started:.1f} s')
+    if method == LINEAR_HYBRID_METHOD:
+        return _fit_linear_hybrid(args, names, train, stop, start_ns=start_ns, gate=gate)
     network = make_network(method, len(names), seed=args.seed,
                            friction_steps=args.friction_steps)
     if args.urdf is not None:
@@ -332,6 +349,53 @@ def _fit(args: argparse.Namespace, method: str, names: Sequence[str], train: Dat
                      f'{history.iterations} iterations in '
                      f'{time.perf_counter() - started:.1f} s (stopped: '
                      f'{history.stop_reason}; weights of iteration {history.best_iteration})')
+
+
+def _fit_linear_hybrid(args: argparse.Namespace, names: Sequence[str], train: Dataset,
+                       stop: Dataset, *, start_ns: int, gate: Dataset | None
+                       ) -> tuple[Estimator, str]:
+    """``_fit``'s linear_hybrid: least squares on every sample of ``train``, then an FFS
+    network on its residual (--samples of them), early-stopped and gated (``_fit``)."""
+    from scara_ident_ros.blas_threads import single_blas_thread
+    from scara_ident_ros.cli.progress import TrainingProgress
+    from scara_ident_ros.identification.split import alternate_blocks, block_index
+    from scara_ident_ros.learners import LinearFeatures
+    from scara_ident_ros.learners.hybrid_model import fit_hybrid
+
+    started = time.perf_counter()
+    if gate is None:  # as --method hybrid: stop on every other block, gate on all
+        gate = stop
+        stop, other = alternate_blocks(gate, block_s=args.validation_block, start_ns=start_ns)
+        if not len(other):
+            stop = gate
+    linear = LinearFeatures()
+    linear.metadata['joint_names'] = np.array(names)
+    network = make_network(HYBRID_NETWORK, len(names), seed=args.seed,
+                           friction_steps=args.friction_steps)
+    x_range = None
+    if args.urdf is not None:
+        x_min, x_max, _, _ = _limit_ranges(args.urdf, names, train.X, train.Y)
+        x_range = (x_min, x_max)
+    progress = TrainingProgress(args.iterations, label=f'LINEAR_HYBRID {HYBRID_NETWORK} lm')
+    with single_blas_thread():
+        hybrid, history = fit_hybrid(
+            linear, network, (train.X, train.Y),
+            validation=(stop.X, stop.Y) if len(stop) else None,
+            gate_validation=(gate.X, gate.Y) if len(gate) else None,
+            gate_groups=(block_index(gate.stamp_ns, block_s=args.validation_block,
+                                     start_ns=start_ns) if len(gate) else None),
+            x_range=x_range, network_samples=args.samples, seed=args.seed,
+            iterations=args.iterations, max_fail=args.max_fail,
+            min_iterations=args.min_iterations, callback=progress)
+    progress.close()
+    hybrid.metadata.update(_network_metadata(args, history))
+    hybrid.metadata['network'] = np.array(HYBRID_NETWORK)
+    kept = ', '.join(f'{n} (×{g:.2f})' for n, g in zip(names, hybrid.gate) if g)
+    return hybrid, (f'LINEAR_HYBRID: least squares on {len(train)} samples, then '
+                    f'{HYBRID_NETWORK.upper()} on its residual: {history.iterations} '
+                    f'iterations in {time.perf_counter() - started:.1f} s (stopped: '
+                    f'{history.stop_reason}; weights of iteration {history.best_iteration}); '
+                    f'correction kept on {kept or "no joint"}')
 
 
 def _train_auto(args: argparse.Namespace, names: Sequence[str], every_train: Dataset,
@@ -358,7 +422,8 @@ def _train_auto(args: argparse.Namespace, names: Sequence[str], every_train: Dat
     for method in AUTO_CANDIDATES:
         train = _training_rows(args, method, every_train)
         try:
-            model, summary = _fit(args, method, names, train, stop, every_train)
+            model, summary = _fit(args, method, names, train, stop, every_train,
+                                  start_ns=start_ns, gate=stop)
         except ValueError as exc:  # e.g. too few samples for the GP's kernel choice
             print(f'auto: {method} not fitted: {exc}', flush=True)
             continue

@@ -5,7 +5,11 @@
 The physical part (:class:`~scara_ident_ros.dynamics.physical_model.PhysicalModel`) carries
 what the rigid-body structure and the friction law explain; the network N (an FFS network
 by default) learns the residual τ − Y θ: unmodelled effects, a Coulomb shape other than the
-law's, the q'' estimate's lag. Offline (:func:`fit_hybrid`): least squares first, on every
+law's, the q'' estimate's lag. Without the robot's URDF the part linear in its parameters
+can be least squares on simple features instead
+(:class:`~scara_ident_ros.learners.linear_features.LinearFeatures`, ``scara-ident train
+--method linear_hybrid``): the same fit, gate and file, offline only (the online hybrid
+learns a physical part by RLS). Offline (:func:`fit_hybrid`): least squares first, on every
 training sample, then the network on the residual with Levenberg–Marquardt. The network's
 output scaling is the residual's range on the training samples, not the effort limits (the
 residual is a small fraction of them: scaled by the limits, its targets would crowd near 0).
@@ -46,23 +50,25 @@ held-out samples (:mod:`~scara_ident_ros.identification.residual_learner`).
 The hybrid keeps the estimator contract (:mod:`scara_ident_ros.estimator`): :meth:`HybridModel.fit`
 is :func:`fit_hybrid` with the project's defaults of offline training.
 
-Files: kind ``'hybrid'`` (:mod:`scara_ident_ros.nn.model_file`): the physical model's entries
-prefixed ``physical.``, the network's ``network.``, the bounds (if any) ``residual_low``
+Files: kind ``'hybrid'`` (:mod:`scara_ident_ros.nn.model_file`): the physical part's entries
+prefixed ``physical.`` (its kind in ``base_kind``: ``physical`` if absent, older files), the
+network's ``network.``, the bounds (if any) ``residual_low``
 and ``residual_high``, the gate ``residual_gate`` (in [0, 1]; all 1 if absent: older
 files).
 """
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.stats import t as student_t
 
 from scara_ident_ros.dynamics.physical_model import PhysicalModel
-from scara_ident_ros.estimator import r2_score, register_kind
+from scara_ident_ros.estimator import Estimator, r2_score, register_kind
+from scara_ident_ros.learners.linear_features import LinearFeatures
 from scara_ident_ros.nn import FeedForwardNet, FitHistory, ModelFormatError, fit
 from scara_ident_ros.nn.fitting import ITERATIONS, MAX_FAIL, MIN_ITERATIONS, SAMPLES
 from scara_ident_ros.nn.validation_blocks import VALIDATION_FRACTION, row_split
@@ -87,13 +93,28 @@ GATE_LEVEL = 0.1
 GATE_CHUNKS = 5
 
 
+class LinearPart(Estimator, Protocol):
+    """The part of a hybrid linear in its parameters, τ = Y(x) θ, that the network corrects:
+    a :class:`PhysicalModel` (from a URDF) or :class:`LinearFeatures` (none)."""
+
+    def to_arrays(self) -> dict[str, np.ndarray]:
+        """The entries its ``from_arrays`` rebuilds it from."""
+
+
+#: How a file's physical part is rebuilt, by its kind (``base_kind``)
+_LINEAR_PARTS: dict[str, Callable[..., LinearPart]] = {
+    PhysicalModel.kind: PhysicalModel.from_arrays,
+    LinearFeatures.kind: LinearFeatures.from_arrays}
+
+
 class HybridModel:
     """Physical model plus a residual network; predicts like a network.
 
     Parameters
     ----------
-    physical : PhysicalModel
-        The fitted physical part.
+    physical : PhysicalModel or LinearFeatures
+        The fitted part linear in its parameters (:class:`LinearPart`): the robot's
+        physical model or, without its URDF, least squares on simple features.
     network : FeedForwardNet
         A 3n-H-n network of the residual, in the same joint order.
 
@@ -114,31 +135,52 @@ class HybridModel:
     #: The model file's kind (:func:`scara_ident_ros.estimator.load_model`).
     kind = KIND
 
-    def __init__(self, physical: PhysicalModel, network: FeedForwardNet) -> None:
+    def __init__(self, physical: LinearPart, network: FeedForwardNet) -> None:
         if (network.n_inputs, network.n_outputs) != (physical.n_inputs, physical.n_outputs):
             raise ValueError(f'a {network.n_inputs}-{network.n_outputs} network cannot correct '
-                             f'a physical model of {physical.n_joints} joints')
-        self.physical, self.network = physical, network
+                             f'a {physical.kind} model of {physical.n_outputs} joints')
+        self.base, self.network = physical, network
         self.bounds: tuple[FloatArray, FloatArray] | None = None
         self.gate: FloatArray = np.ones(physical.n_outputs)
-        self.metadata: dict[str, np.ndarray] = {
-            'joint_names': np.array(physical.joint_names)}
+        names = physical.joint_names
+        self.metadata: dict[str, np.ndarray] = (
+            {} if names is None else {'joint_names': np.array(names)})
         self.history_: FitHistory | None = None
+
+    @property
+    def physical(self) -> PhysicalModel:
+        """The physical part as the robot's physical model (what the online hybrid learns
+        and ``export --urdf`` writes).
+
+        Raises
+        ------
+        TypeError
+            If it is least squares on simple features (:attr:`base`'s kind ``linear``).
+        """
+        if self.base.kind != PhysicalModel.kind:
+            raise TypeError(f'this hybrid\'s linear part is a {self.base.kind} model, not a '
+                            'physical model of a URDF')
+        return cast(PhysicalModel, self.base)
 
     @property
     def n_inputs(self) -> int:
         """3n."""
-        return self.physical.n_inputs
+        return self.base.n_inputs
 
     @property
     def n_outputs(self) -> int:
         """n."""
-        return self.physical.n_outputs
+        return self.base.n_outputs
 
     @property
-    def joint_names(self) -> tuple[str, ...]:
-        """The joints, in input and output order."""
-        return self.physical.joint_names
+    def joint_names(self) -> tuple[str, ...] | None:
+        """The joints, in input and output order: the physical part's, else those recorded in
+        :attr:`metadata` (None if neither has them)."""
+        names = self.base.joint_names
+        recorded = self.metadata.get('joint_names')
+        if names is None and recorded is not None:
+            names = tuple(str(name) for name in np.atleast_1d(recorded))
+        return names
 
     @property
     def method(self) -> str:
@@ -148,7 +190,7 @@ class HybridModel:
     def get_params(self) -> dict[str, Any]:
         """The hyperparameters of both parts, as data: ``{'physical': {...},
         'network': {...}}``."""
-        return {'physical': self.physical.get_params(), 'network': self.network.get_params()}
+        return {'physical': self.base.get_params(), 'network': self.network.get_params()}
 
     def fit(self, X: ArrayLike, Y: ArrayLike, *,
             validation: tuple[ArrayLike, ArrayLike] | None = None,
@@ -190,7 +232,7 @@ class HybridModel:
                 validation = (x[held], y[held])
                 x, y = x[train], y[train]
         fitted, history = fit_hybrid(
-            self.physical, self.network, (x, y), validation=validation,
+            self.base, self.network, (x, y), validation=validation,
             gate_validation=gate_validation, gate_groups=gate_groups, x_range=x_range,
             network_samples=samples, seed=seed, iterations=iterations, max_fail=max_fail,
             min_iterations=min_iterations, callback=callback)
@@ -208,7 +250,7 @@ class HybridModel:
     def predict(self, X: ArrayLike) -> FloatArray:
         """Efforts of X (N, 3n) = [q, q', q''] (or (3n,)): physical plus network, (N, n)."""
         x = np.asarray(X, dtype=np.float64)
-        return self.physical.predict(x) + self.correction(x)
+        return self.base.predict(x) + self.correction(x)
 
     def correction(self, X: ArrayLike) -> FloatArray:
         """The network's part of :meth:`predict`, within :attr:`bounds`, times :attr:`gate`:
@@ -257,7 +299,7 @@ class HybridModel:
                 or y.shape[1] != self.n_outputs:
             raise ValueError(f'need held-out X (N, {self.n_inputs}) and Y (N, '
                              f'{self.n_outputs}), N > 0; got {x.shape} and {y.shape}')
-        residual = y - self.physical.predict(x)
+        residual = y - self.base.predict(x)
         correction = self.raw_correction(x)
         self.gate = gate_scales(correction, residual, groups, level=level)
         return gate_errors(correction, residual)
@@ -275,7 +317,8 @@ class HybridModel:
 
     def save(self, path: str | Path) -> None:
         """Write both parts (kind ``'hybrid'``) with :attr:`metadata`, atomically."""
-        arrays = {_PHYSICAL_PREFIX + k: v for k, v in self.physical.to_arrays().items()}
+        arrays = {_PHYSICAL_PREFIX + k: v for k, v in self.base.to_arrays().items()}
+        arrays['base_kind'] = np.array(self.base.kind)
         arrays.update({NETWORK_PREFIX + k: v for k, v in self.network.to_arrays().items()})
         if self.bounds is not None:
             arrays['residual_low'], arrays['residual_high'] = self.bounds
@@ -292,7 +335,11 @@ class HybridModel:
             If the file is not a hybrid model of ours or is corrupt.
         """
         file = read_model_file(path, kind=KIND)
-        physical = PhysicalModel.from_arrays(
+        base_kind = str(file.arrays.get('base_kind', PhysicalModel.kind))
+        if base_kind not in _LINEAR_PARTS:
+            raise ModelFormatError(f'{path}: a hybrid whose linear part is of unknown kind '
+                                   f'{base_kind!r} (known: {", ".join(_LINEAR_PARTS)})')
+        physical = _LINEAR_PARTS[base_kind](
             {k[len(_PHYSICAL_PREFIX):]: v for k, v in file.arrays.items()
              if k.startswith(_PHYSICAL_PREFIX)}, source=str(path))
         network = FeedForwardNet.from_arrays(
@@ -444,7 +491,7 @@ def online_hybrid(physical: PhysicalModel,
     return HybridModel(physical, network)
 
 
-def fit_hybrid(physical: PhysicalModel, network: FeedForwardNet,
+def fit_hybrid(physical: LinearPart, network: FeedForwardNet,
                train: tuple[ArrayLike, ArrayLike], *,
                validation: tuple[ArrayLike, ArrayLike] | None = None,
                gate_validation: tuple[ArrayLike, ArrayLike] | None = None,
@@ -457,8 +504,9 @@ def fit_hybrid(physical: PhysicalModel, network: FeedForwardNet,
 
     Parameters
     ----------
-    physical : PhysicalModel
-        Fitted here, on every training sample.
+    physical : PhysicalModel or LinearFeatures
+        The part linear in its parameters (:class:`LinearPart`), fitted here on every
+        training sample.
     network : FeedForwardNet
         Fresh 3n-H-n network (e.g. ``make_network('ffs', n)``); its scaling is set here.
     train : (X, Y)

@@ -161,4 +161,5 @@ def test_urdf_export_of_a_physical_model_reproduces_its_rigid_body_efforts(
     assert code == 0 and (tmp_path / 'hybrid.urdf').exists(), err
     saved_model(tmp_path / 'ffs.npz', 'ffs')
     code, _, err = run_cli(capsys, 'export', tmp_path / 'ffs.npz', '--urdf', tmp_path / 'x')
-    assert code == 2 and 'not a physical or hybrid model' in err and not (tmp_path / 'x').exists()
+    assert code == 2 and 'without a physical model of a URDF' in err
+    assert not (tmp_path / 'x').exists()

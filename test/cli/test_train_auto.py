@@ -96,3 +96,26 @@ def test_auto_goes_on_without_a_candidate_that_refuses_the_data(
     assert code == 0, err
     assert 'auto: gp not fitted: too few samples to choose a kernel' in out
     assert load_model(model_path).method in ('linear', 'ffs')
+
+
+def test_linear_hybrid_is_no_worse_than_linear_on_its_validation_blocks(
+        bags: dict[str, Path], tmp_path: Path,  # noqa: F811
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """``--method linear_hybrid``: linear least squares plus a gated FFS network of its
+    residual; gated on the validation blocks, it cannot be worse than linear there."""
+    errors = {}
+    for method in ('linear', 'linear_hybrid'):
+        code, out, err = run_cli(capsys, 'train', bags['train'], '--method', method,
+                                 '--iterations', '20', '--validation-block', '0.25',
+                                 '--out', tmp_path / f'{method}.npz')  # 5 blocks to gate on
+        assert code == 0, err
+        errors[method] = np.array([float(row[3]) for name, row in table(out, 'joint').items()
+                                   if name != 'mean'])
+    assert 'LINEAR_HYBRID: least squares on 2375 samples, then FFS on its residual' in out
+    model = load_model(tmp_path / 'linear_hybrid.npz')
+    assert isinstance(model, HybridModel) and model.method == 'linear_hybrid'
+    assert model.base.kind == 'linear' and model.joint_names is not None
+    assert np.all(errors['linear_hybrid'] <= errors['linear'] * (1 + 1e-9) + 1e-12)
+    assert np.any(errors['linear_hybrid'] < 0.5 * errors['linear'])  # smooth dynamics
+    code, out, err = run_cli(capsys, 'evaluate', tmp_path / 'linear_hybrid.npz', bags['other'])
+    assert code == 0, err

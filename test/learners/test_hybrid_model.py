@@ -111,3 +111,41 @@ def test_the_gate_withholds_a_residual_that_makes_held_out_data_worse(tmp_path: 
     write_model(tmp_path / 'bad.npz', file.arrays, file.metadata, kind='hybrid')
     with pytest.raises(ModelFormatError, match=r'not in \[0, 1\]'):
         HybridModel.load(tmp_path / 'bad.npz')
+
+
+def test_a_hybrid_of_linear_least_squares_fits_saves_and_loads(tmp_path: Path) -> None:
+    """Without a URDF the linear part is least squares on simple features: the same fit,
+    gate and file (its kind recorded), and no physical model to hand out."""
+    from scara_ident_ros.learners import LinearFeatures
+
+    rng = np.random.default_rng(0)
+    X = rng.uniform(-1.0, 1.0, (3000, 6))
+    Y = np.column_stack([np.sin(3 * X[:, 0]) * X[:, 2], X[:, 1] * X[:, 3] ** 2])
+    train, held = slice(0, 2000), slice(2000, 3000)
+    linear = LinearFeatures()
+    linear.metadata['joint_names'] = np.array(['a', 'b'])
+    network = make_network('ffs', 2, seed=0, friction_steps=False)
+    hybrid, history = fit_hybrid(linear, network, (X[train], Y[train]),
+                                 validation=(X[held], Y[held]), iterations=30)
+    assert hybrid.base is linear and history.iterations > 0
+    alone = np.mean((LinearFeatures().fit(X[train], Y[train]).predict(X[held])
+                     - Y[held]) ** 2, axis=0)
+    corrected = np.mean((hybrid.predict(X[held]) - Y[held]) ** 2, axis=0)
+    assert np.all(hybrid.gate > 0) and np.all(corrected < 0.5 * alone)  # products: nonlinear
+    assert hybrid.joint_names == ('a', 'b')
+    with pytest.raises(TypeError, match='linear part is a linear model'):
+        _ = hybrid.physical
+    hybrid.metadata['method'] = np.array('linear_hybrid')
+    hybrid.save(tmp_path / 'lh.npz')
+    assert str(read_model_file(tmp_path / 'lh.npz', kind='hybrid').arrays['base_kind']) \
+        == 'linear'
+    loaded = HybridModel.load(tmp_path / 'lh.npz')
+    assert loaded.base.kind == 'linear' and loaded.method == 'linear_hybrid'
+    assert loaded.joint_names == ('a', 'b')
+    np.testing.assert_array_equal(loaded.predict(X[held]), hybrid.predict(X[held]))
+    # a file whose linear part is of a kind no code knows is refused in one line
+    file = read_model_file(tmp_path / 'lh.npz', kind='hybrid')
+    write_model(tmp_path / 'odd.npz', {**file.arrays, 'base_kind': np.array('spline')},
+                file.metadata, kind='hybrid')
+    with pytest.raises(ModelFormatError, match="unknown kind 'spline'"):
+        HybridModel.load(tmp_path / 'odd.npz')
