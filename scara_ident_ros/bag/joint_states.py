@@ -17,14 +17,13 @@ another order lands in the same columns; a value a message does not carry (an em
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from numpy.typing import NDArray
 
 from scara_ident_ros.bag.cdr import JointStateSpans, decode_names, split_joint_state
 from scara_ident_ros.bag.errors import BagError
+from scara_ident_ros.bag.joint_state_series import JointStateSeries
 from scara_ident_ros.bag.reader import BagSource, open_bag
 from scara_ident_ros.topics import JOINT_STATES, in_namespace
 
@@ -34,37 +33,6 @@ __all__ = ['JOINT_STATE', 'JOINT_STATES_TOPIC', 'JointStateSeries', 'find_joint_
 JOINT_STATE = 'sensor_msgs/msg/JointState'
 JOINT_STATES_TOPIC = in_namespace(JOINT_STATES)
 _FIELDS = ('position', 'velocity', 'effort')
-
-
-@dataclass(frozen=True)
-class JointStateSeries:
-    """The JointState messages of one topic, one row per message, in log-time order.
-
-    Attributes
-    ----------
-    topic : str
-        The topic they were read from.
-    names : tuple of str of length n
-        The joints, in the column order of the arrays.
-    stamp_ns : ndarray of shape (N,) of int64
-        ``header.stamp`` of each message, integer nanoseconds.
-    log_time_ns : ndarray of shape (N,) of int64
-        When each message was recorded (reception time), integer nanoseconds.
-    position, velocity, effort : ndarray of shape (N, n) of float64
-        q (rad or m), q' (rad/s or m/s) and effort (N·m or N); NaN where a message
-        lacks the value.
-    """
-
-    topic: str
-    names: tuple[str, ...]
-    stamp_ns: NDArray[np.int64]
-    log_time_ns: NDArray[np.int64]
-    position: NDArray[np.float64]
-    velocity: NDArray[np.float64]
-    effort: NDArray[np.float64]
-
-    def __len__(self) -> int:
-        return int(self.stamp_ns.shape[0])
 
 
 def find_joint_state_topic(bag: BagSource, topic: str | None = None) -> str:

@@ -26,9 +26,10 @@ import time
 from collections import Counter
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
-from types import TracebackType
 
 from mcap.writer import CompressionType, Writer
+
+from scara_ident_ros.bag.closing_writer import ClosingWriter
 
 __all__ = ['COMPRESSIONS', 'MAGIC', 'McapFileWriter', 'PROFILE']
 
@@ -47,7 +48,7 @@ COMPRESSIONS: dict[str, CompressionType] = {
 }
 
 
-class McapFileWriter:
+class McapFileWriter(ClosingWriter):
     """Write one MCAP file; see the module docstring for the guarantees.
 
     Parameters
@@ -175,12 +176,3 @@ class McapFileWriter:
         if not self._file.closed:
             self._file.close()
 
-    def __enter__(self) -> McapFileWriter:
-        return self
-
-    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
-                 traceback: TracebackType | None) -> None:
-        if exc_type is None:
-            self.close()
-        else:
-            self.abort()

@@ -26,6 +26,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from scara_ident_ros.bag.errors import BagError
+from scara_ident_ros.bag.joint_state_series import JointStateSeries
 
 __all__ = ['KINDS', 'TIMELESS_PERIOD_S', 'RecordingSeries', 'is_rosbag2', 'read_recording',
            'recording_kind', 'split_name']
@@ -37,9 +38,14 @@ KINDS = ('rosbag2', 'ros1', 'npz', 'csv')
 _TABLE_TOPIC = '(table)'
 
 
-@dataclass(frozen=True)
-class RecordingSeries:
+@dataclass(frozen=True, kw_only=True)
+class RecordingSeries(JointStateSeries):
     """Joint states of a recording, one row per sample, in the order of the file.
+
+    The arrays and names of a :class:`~scara_ident_ros.bag.joint_state_series.JointStateSeries`
+    (``topic`` is ``'(table)'`` or ``'(table):split'`` for a table; a table without time has
+    ``stamp_ns`` and ``log_time_ns`` row order times :data:`TIMELESS_PERIOD_S`), and what
+    they came from (keyword-only):
 
     Attributes
     ----------
@@ -47,14 +53,6 @@ class RecordingSeries:
         The file or folder (without a ``:split``).
     kind : str
         One of :data:`KINDS`.
-    topic : str
-        The JointState topic of a bag; ``'(table)'`` or ``'(table):split'`` for a table.
-    names : tuple of str of length n
-    stamp_ns, log_time_ns : ndarray of shape (N,) of int64
-        Sample stamps and recording times (ns); row order times :data:`TIMELESS_PERIOD_S`
-        for a table without time.
-    position, velocity, effort : ndarray of shape (N, n)
-        q, q', effort (SI); NaN where absent.
     acceleration : ndarray of shape (N, n) or None
         q'' as the table gives it; None: to be estimated from q'.
     timed : bool
@@ -65,19 +63,9 @@ class RecordingSeries:
 
     path: Path
     kind: str
-    topic: str
-    names: tuple[str, ...]
-    stamp_ns: NDArray[np.int64]
-    log_time_ns: NDArray[np.int64]
-    position: NDArray[np.float64]
-    velocity: NDArray[np.float64]
-    effort: NDArray[np.float64]
     acceleration: NDArray[np.float64] | None = None
     timed: bool = True
     velocity_derived: tuple[str, ...] = ()
-
-    def __len__(self) -> int:
-        return int(self.stamp_ns.shape[0])
 
     def select(self, joints: Sequence[str]) -> RecordingSeries:
         """The series of ``joints`` only, in that order.
@@ -183,8 +171,8 @@ def read_recording(path: str | Path, *, topic: str | None = None,
         else:
             from scara_ident_ros.bag.ros1_bag import read_ros1_joint_states
             bag = read_ros1_joint_states(file, topic=topic, joints=joints)
-        series = RecordingSeries(file, kind, bag.topic, bag.names, bag.stamp_ns,
-                                 bag.log_time_ns, bag.position, bag.velocity, bag.effort)
+        series = RecordingSeries(bag.topic, bag.names, bag.stamp_ns, bag.log_time_ns,
+                                 bag.position, bag.velocity, bag.effort, path=file, kind=kind)
     else:
         if topic is not None:
             raise BagError(f'{file}: a table has no topics (got --topic {topic})')
@@ -214,9 +202,10 @@ def _table_series(path: Path, kind: str, split: str | None) -> RecordingSeries:
         stamps = np.arange(count, dtype=np.int64) * round(TIMELESS_PERIOD_S * 1e9)
     nan = np.full((count, n), np.nan)
     label = _TABLE_TOPIC + (f':{split}' if split else '')
-    return RecordingSeries(path, kind, label, table.names, stamps, stamps.copy(),
-                           table.values['position'], table.values.get('velocity', nan),
-                           table.values['effort'], table.values.get('acceleration'), timed)
+    return RecordingSeries(label, table.names, stamps, stamps.copy(), table.values['position'],
+                           table.values.get('velocity', nan), table.values['effort'],
+                           path=path, kind=kind, acceleration=table.values.get('acceleration'),
+                           timed=timed)
 
 
 def _with_velocity(series: RecordingSeries) -> RecordingSeries:

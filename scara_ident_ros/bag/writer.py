@@ -24,11 +24,11 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from types import TracebackType
 
 import yaml
 from rosbags.interfaces import Qos
 
+from scara_ident_ros.bag.closing_writer import ClosingWriter
 from scara_ident_ros.bag.errors import BagError
 from scara_ident_ros.bag.mcap_file import COMPRESSIONS, McapFileWriter
 from scara_ident_ros.bag.metadata import FileSummary, TopicSummary, write_metadata
@@ -62,7 +62,7 @@ def channel_metadata(connection: Connection) -> dict[str, str]:
     return metadata
 
 
-class BagWriter:
+class BagWriter(ClosingWriter):
     """Record messages into a new rosbag2 bag directory; see the module docstring.
 
     Parameters
@@ -249,13 +249,6 @@ class BagWriter:
 
     def __enter__(self) -> BagWriter:
         return self.open()
-
-    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
-                 traceback: TracebackType | None) -> None:
-        if exc_type is None:
-            self.close()
-        else:
-            self.abort()
 
 
 def _definition_of(connections: Sequence[Connection], msgtype: str) -> TypeDefinition:

@@ -70,6 +70,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from scara_ident_ros.dynamics.base_reduction import BaseReduction, reduce_columns
+from scara_ident_ros.dynamics.joint_sizes import JointSizes
 from scara_ident_ros.dynamics.least_squares import BlockLeastSquares, fit_least_squares
 from scara_ident_ros.dynamics.urdf_limits import UrdfError
 from scara_ident_ros.errors import ScaraIdentError
@@ -104,7 +105,7 @@ def _pinocchio() -> Any:
     return pinocchio
 
 
-class PhysicalModel:
+class PhysicalModel(JointSizes):
     """Inverse dynamics τ = Y(q, q', q'') θ of a URDF robot (module docstring).
 
     Parameters
@@ -253,22 +254,7 @@ class PhysicalModel:
             raise UrdfError(f'{path}: cannot read the URDF: {exc}') from None
         return cls(text, source=str(path), **options)
 
-    # ---------------------------------------------------------------------------- sizes
-    @property
-    def n_joints(self) -> int:
-        """Number of modelled joints n."""
-        return self._n
-
-    @property
-    def n_inputs(self) -> int:
-        """3n: [q, q', q''] like a network's inputs."""
-        return 3 * self._n
-
-    @property
-    def n_outputs(self) -> int:
-        """n joint efforts."""
-        return self._n
-
+    # ------------------------------------------------- sizes (n_joints, ...: JointSizes)
     @property
     def n_parameters(self) -> int:
         """Length of θ: base parameters plus the friction coefficients and offsets."""

@@ -22,6 +22,7 @@ import numpy.typing as npt
 from numpy.typing import NDArray
 
 from scara_ident_ros.dynamics.joint_limits import JointLimits, LimitsError
+from scara_ident_ros.excitation.duration_search import shortest_duration
 from scara_ident_ros.excitation.joint_sequence import JointSequence, Motion
 from scara_ident_ros.sim.sequence import SEQUENCE_LIMITS, smoothstep
 
@@ -94,13 +95,16 @@ class ExcitationPlan:
         velocity_max = SEQUENCE_LIMITS['velocity_fraction'] * self.limits.velocity_max
         acceleration_max = (SEQUENCE_LIMITS['acceleration_fraction']
                             * self.limits.acceleration_max)
-        duration = _APPROACH_MIN
-        while duration <= _APPROACH_MAX:
+
+        def keeps_to_limits(duration: float) -> float | None:
             t = np.linspace(0.0, duration, int(np.ceil(duration / _CHECK_STEP)) + 1)
             _, qd, qdd = self._approach(t, duration)
-            if (np.all(np.abs(qd) <= velocity_max)
-                    and np.all(np.abs(qdd) <= acceleration_max)):
-                return duration
-            duration *= _APPROACH_GROWTH
+            fits = np.all(np.abs(qd) <= velocity_max) and np.all(np.abs(qdd) <= acceleration_max)
+            return duration if fits else None
+
+        found = shortest_duration(keeps_to_limits, shortest=_APPROACH_MIN,
+                                  longest=_APPROACH_MAX, growth=_APPROACH_GROWTH)
+        if found is not None:
+            return found
         raise LimitsError(f'no approach of up to {_APPROACH_MAX:g} s from {self.start} '
                                 'keeps to the limits')

@@ -22,6 +22,7 @@ import numpy as np
 import numpy.typing as npt
 
 from scara_ident_ros.dynamics.joint_limits import JointLimits, LimitsError
+from scara_ident_ros.excitation.duration_search import shortest_duration
 from scara_ident_ros.excitation.joint_sequence import Motion
 from scara_ident_ros.excitation.plan import ExcitationPlan
 
@@ -86,15 +87,18 @@ def plan_stop(plan: ExcitationPlan, start: float, limits: JointLimits,
         If no stop of up to two minutes keeps to the acceleration limits (the plan itself
         would have to be outside them).
     """
-    k = 0
-    while (candidate := _STOP_MIN * _STOP_GROWTH ** k) <= _STOP_MAX:
-        k += 1
+
+    def keeps_to_limits(candidate: float) -> Stop | None:
         duration = math.ceil(round(candidate / step, 6)) * step
         stop = Stop(plan, start, duration)
         times = start + (step / _CHECK_PER_STEP) * np.arange(
             _CHECK_PER_STEP * round(duration / step) + 1)
         _, _, qdd = stop.evaluate(times)
-        if np.all(np.abs(qdd) <= limits.acceleration_max):
-            return stop
+        return stop if np.all(np.abs(qdd) <= limits.acceleration_max) else None
+
+    found = shortest_duration(keeps_to_limits, shortest=_STOP_MIN, longest=_STOP_MAX,
+                              growth=_STOP_GROWTH)
+    if found is not None:
+        return found
     raise LimitsError(f'no stop from plan time {start:g} s of up to {_STOP_MAX:g} s '
                             'keeps to the acceleration limits')

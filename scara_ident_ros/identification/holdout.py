@@ -40,7 +40,8 @@ class SegmentReservoir:
 
     Samples come in one at a time (:meth:`add`) with the index of the block they belong to;
     a segment is complete after ``length`` samples of one block, and is then offered to the
-    reservoir (algorithm R over segments); a block that ends first drops its partial segment.
+    reservoir (algorithm R over segments, the draws of a :class:`Reservoir` whose pairs are
+    whole segments); a block that ends first drops its partial segment.
 
     Attributes
     ----------
@@ -57,28 +58,31 @@ class SegmentReservoir:
         if capacity < 1 or length < 1:
             raise ValueError(f'need capacity >= 1 and length >= 1, got {capacity}, {length}')
         self.capacity, self.length = int(capacity), int(length)
-        self._x = np.empty((self.capacity, self.length, n_inputs))
-        self._y = np.empty((self.capacity, self.length, n_outputs))
+        self._kept = Reservoir(self.capacity, (self.length, n_inputs), (self.length, n_outputs),
+                               seed=seed)
         self._blocks = np.empty(self.capacity, dtype=np.int64)
         self._stage_x = np.empty((self.length, n_inputs))
         self._stage_y = np.empty((self.length, n_outputs))
         self._fill = 0  # samples in the segment being filled
         self._block = -1  # block of the segment being filled
-        self._rng = np.random.default_rng(seed)
-        self.count = 0  # complete segments offered so far
 
     def __len__(self) -> int:
-        return min(self.count, self.capacity)
+        return len(self._kept)
+
+    @property
+    def count(self) -> int:
+        """Complete segments offered so far."""
+        return self._kept.count
 
     @property
     def X(self) -> NDArray[np.float64]:
         """The kept segments' inputs (a view)."""
-        return self._x[:len(self)]
+        return self._kept.X
 
     @property
     def Y(self) -> NDArray[np.float64]:
         """The kept segments' outputs (a view)."""
-        return self._y[:len(self)]
+        return self._kept.Y
 
     @property
     def blocks(self) -> NDArray[np.int64]:
@@ -95,12 +99,9 @@ class SegmentReservoir:
         if self._fill < self.length:
             return
         self._fill = 0
-        count = self.count
-        self.count = count + 1
-        slot = count if count < self.capacity else int(self._rng.random() * (count + 1))
-        if slot < self.capacity:
-            self._x[slot] = self._stage_x
-            self._y[slot] = self._stage_y
+        slot = self._kept.offer()
+        if slot >= 0:
+            self._kept.put(slot, self._stage_x, self._stage_y)
             self._blocks[slot] = block
 
 

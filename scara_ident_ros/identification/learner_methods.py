@@ -21,6 +21,7 @@ All learn through their ``partial_fit`` (the estimator contract), in batches of
 from __future__ import annotations
 
 from scara_ident_ros.estimator import OnlineEstimator
+from scara_ident_ros.learners.exact_gp import BUDGET
 
 __all__ = ['GP_BUDGET', 'KERNEL_FEATURES', 'KERNEL_HYPERPARAMETERS', 'LEARNER_BATCH',
            'LEARNER_METHODS', 'LEARNER_WARMUP', 'make_learner_model']
@@ -33,7 +34,7 @@ KERNEL_FEATURES = 500  #: default random features D of ``kernel`` (0.05-0.1 ms p
 #: in the learner's first call; 'scale' (length √d on standardised inputs, noise 0.01)
 #: costs nothing, and scored alike on TIAGo online (benchmarks/online_real.md).
 KERNEL_HYPERPARAMETERS = 'scale'
-GP_BUDGET = 4000  #: default most points of ``gp`` (its factor: budget² doubles, 128 MB)
+GP_BUDGET = BUDGET  #: default most points of ``gp``: ExactGP's own (its factor: budget² doubles)
 #: Default samples per ``partial_fit`` call of a learner: 1 learns each sample as it
 #: comes (the estimator's own a-priori predictions); more amortise a call's overhead and
 #: let a learner process keep up.

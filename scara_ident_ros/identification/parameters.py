@@ -113,7 +113,8 @@ IDENTIFIER_PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec('kernel_features', KERNEL_FEATURES, 'Random features D of method kernel (its '
               'cost per learnt sample grows as D²)', min=2, max=20_000, fixed=NETWORK),
     ParamSpec('gp_budget', GP_BUDGET, 'Most points of method gp (its factor takes '
-              'gp_budget² doubles: 4000 = 128 MB)', min=500, max=100_000, fixed=NETWORK),
+              f'gp_budget² doubles: {GP_BUDGET} = {8 * GP_BUDGET**2 // 10**6} MB)', min=500,
+              max=100_000, fixed=NETWORK),
     ParamSpec('learner_batch', LEARNER_BATCH, 'Methods kernel and gp: samples per '
               'partial_fit call of the learner (beside the stream with lm_background: at '
               'least this many); 1: each sample learnt as it comes', min=1, max=100_000,

@@ -24,18 +24,20 @@ class Reservoir:
     ----------
     capacity : int
         Most pairs kept, at least 1.
-    n_inputs, n_outputs : int
-        Lengths of x and y.
+    n_inputs, n_outputs : int or tuple of int
+        Lengths of x and y, or their shapes (a :class:`~.holdout.SegmentReservoir` keeps each
+        segment of shape (length, n_inputs) as one x).
     seed : int
         Seed of the replacement draws.
     """
 
-    def __init__(self, capacity: int, n_inputs: int, n_outputs: int, *, seed: int = 0) -> None:
+    def __init__(self, capacity: int, n_inputs: int | tuple[int, ...],
+                 n_outputs: int | tuple[int, ...], *, seed: int = 0) -> None:
         if capacity < 1:
             raise ValueError(f'capacity must be at least 1, got {capacity}')
         self.capacity = int(capacity)
-        self._x = np.empty((self.capacity, n_inputs))
-        self._y = np.empty((self.capacity, n_outputs))
+        self._x = np.empty((self.capacity, *np.atleast_1d(n_inputs)))
+        self._y = np.empty((self.capacity, *np.atleast_1d(n_outputs)))
         self._rng = np.random.default_rng(seed)
         self.count = 0  # pairs offered so far
 
@@ -44,12 +46,12 @@ class Reservoir:
 
     @property
     def X(self) -> NDArray[np.float64]:
-        """The kept inputs, shape (len(self), n_inputs) (a view: do not keep it)."""
+        """The kept inputs, shape (len(self), *n_inputs) (a view: do not keep it)."""
         return self._x[:len(self)]
 
     @property
     def Y(self) -> NDArray[np.float64]:
-        """The kept outputs, shape (len(self), n_outputs) (a view: do not keep it)."""
+        """The kept outputs, shape (len(self), *n_outputs) (a view: do not keep it)."""
         return self._y[:len(self)]
 
     def add(self, x: NDArray[np.float64], y: NDArray[np.float64]) -> bool:
@@ -57,8 +59,8 @@ class Reservoir:
 
         Parameters
         ----------
-        x : ndarray of shape (n_inputs,)
-        y : ndarray of shape (n_outputs,)
+        x : ndarray of shape (n_inputs,) (or the shape given)
+        y : ndarray of shape (n_outputs,) (or the shape given)
         """
         slot = self.offer()
         if slot < 0:

@@ -20,6 +20,7 @@ from typing import Any, Protocol, TypeVar
 import numpy as np
 import numpy.typing as npt
 
+from scara_ident_ros.dynamics.joint_sizes import JointSizes
 from scara_ident_ros.estimator import OnlineEstimator, r2_score
 
 __all__ = ['ArrayLearner', 'StreamedEstimator', 'is_fitted']
@@ -49,7 +50,7 @@ def is_fitted(learner: OnlineEstimator) -> bool:
     return True
 
 
-class StreamedEstimator:
+class StreamedEstimator(JointSizes):
     """A learner of n joints' efforts that predicts from the first sample.
 
     Parameters
@@ -90,16 +91,6 @@ class StreamedEstimator:
     @metadata.setter
     def metadata(self, value: dict[str, np.ndarray]) -> None:
         self.learner.metadata = value
-
-    @property
-    def n_inputs(self) -> int:
-        """3n."""
-        return 3 * self._n
-
-    @property
-    def n_outputs(self) -> int:
-        """n."""
-        return self._n
 
     @property
     def joint_names(self) -> tuple[str, ...] | None:

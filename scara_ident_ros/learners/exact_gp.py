@@ -163,7 +163,7 @@ class ExactGP(SavedEstimator):
     length, noise : float, optional
         Fix the kernel (length on standardised inputs, noise variance of the standardised
         effort); by default both are chosen by :func:`choose_kernel`.
-    budget : int, default 4000
+    budget : int, default :data:`BUDGET`
         Online: most points in the factor (it is allocated at this size).
     budget_rule : {'thin', 'stop'}, default 'thin'
         Online, once ``budget`` points are held: 'thin' learns every ``stride_``-th sample
