@@ -61,7 +61,8 @@ network early-stops on the first, every candidate is scored on the second (mean 
 joints of the MSE over the variance of all validation efforts; a single validation block is
 cut in its two halves), the best is saved and all scores printed. No learner wins
 everywhere: on TIAGo's held-out seconds auto chooses linear (0.54 against GP 0.72, FFS
-0.70), on the WAM's FFS (0.11 against linear 0.18, GP 0.32 with 50-row blocks). The GP
+0.70), on the WAM's linear_hybrid or FFS (0.11-0.13 against linear 0.17-0.18, GP 0.32-0.37;
+benchmarks/train_auto.md). The GP
 wins the WAM's published split (9.8e-4), whose test rows lie between training rows: for
 that, --method gp. The chosen model's validation errors are slightly optimistic (half of
 those blocks chose it). --method kernel is not a candidate: with its default features it
