@@ -37,17 +37,15 @@ Public API::
 """
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any, NamedTuple
+from typing import Any, NamedTuple, Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from scara_ident_ros.dynamics.base_reduction import BaseReduction
 from scara_ident_ros.errors import ScaraIdentError
 
-if TYPE_CHECKING:
-    from scara_ident_ros.dynamics.physical_model import PhysicalModel
-
-__all__ = ['ConsistentFit', 'MIN_EIGENVALUE', 'PRIOR_WEIGHT', 'consistency_report',
+__all__ = ['ConsistentFit', 'MIN_EIGENVALUE', 'PRIOR_WEIGHT', 'ReducedModel', 'consistency_report',
            'consistent_fit', 'pseudo_inertia']
 
 FloatArray = NDArray[np.float64]
@@ -123,14 +121,39 @@ def consistency_report(parameters: ArrayLike) -> dict[str, float]:
                                   moments[1] + moments[2] - moments[0]))}
 
 
-def consistent_fit(model: PhysicalModel, upper: ArrayLike, *,
+class ReducedModel(Protocol):
+    """What :func:`consistent_fit` needs of a physical model
+    (:class:`~scara_ident_ros.dynamics.physical_model.PhysicalModel` has it): its sizes, the
+    base reduction, which θ entries are friction, the URDF's standard parameters."""
+
+    @property
+    def n_parameters(self) -> int: ...
+    @property
+    def n_base(self) -> int: ...
+    @property
+    def n_joints(self) -> int: ...
+    @property
+    def n_bodies(self) -> int: ...
+    @property
+    def reduction(self) -> BaseReduction: ...
+    @property
+    def asymmetric(self) -> bool: ...
+    @property
+    def stribeck_velocity(self) -> float: ...
+    @property
+    def source(self) -> str: ...
+
+    def urdf_standard_parameters(self) -> NDArray[np.float64]: ...
+
+
+def consistent_fit(model: ReducedModel, upper: ArrayLike, *,
                    prior: ArrayLike | None = None) -> ConsistentFit:
     """Solve the module docstring's semidefinite program.
 
     Parameters
     ----------
-    model : PhysicalModel
-        Gives the base reduction K, the bodies and which θ entries are friction.
+    model : ReducedModel
+        A physical model: gives the base reduction K, the bodies and which θ entries are friction.
     upper : array_like of shape (k, p + 1)
         [R | Qᵀτ] of the stacked system (``BlockLeastSquares.upper``), k ≤ p + 1 rows; or,
         to find consistent parameters near given base parameters θ (p,) alone, the rows

@@ -29,8 +29,9 @@ from scara_ident_ros.identification.estimator_learner import SampleBatch
 from scara_ident_ros.identification.estimator_process import COMMAND
 from scara_ident_ros.identification.learner_messages import (EstimatorStart, LearnerState,
                                                              Samples, Stop)
-from scara_ident_ros.identification.learner_process import (BATCH_BYTES, NICE, STOP_TIMEOUT,
+from scara_ident_ros.identification.learner_process import (BATCH_BYTES, STOP_TIMEOUT,
                                                             LearnerClient)
+from scara_ident_ros.identification.learner_settings import NICE
 from scara_ident_ros.identification.reservoir_lm import RESERVOIR_SIZE
 from scara_ident_ros.identification.streamed_estimator import StreamedEstimator
 

@@ -44,16 +44,17 @@ from numpy.typing import NDArray
 
 from scara_ident_ros.identification.learner_messages import (LmStart, LmUpdate, Samples,
                                                              Schedule, Stop)
-from scara_ident_ros.identification.learner_process import (BACKLOG, BATCH_BYTES, NICE,
+from scara_ident_ros.identification.learner_process import (BACKLOG, BATCH_BYTES,
                                                             STOP_TIMEOUT, LearnerClient)
 from scara_ident_ros.identification.learner_process import prestart as _prestart
-from scara_ident_ros.identification.lm_process import COMMAND, LearnerSettings
+from scara_ident_ros.identification.learner_settings import LearnerSettings
+from scara_ident_ros.identification.lm_process import COMMAND
 from scara_ident_ros.nn import FeedForwardNet
 
 if TYPE_CHECKING:
     from scara_ident_ros.learners.hybrid_model import HybridModel
 
-__all__ = ['BACKLOG', 'NICE', 'BackgroundLM', 'LearnerSettings', 'prestart']
+__all__ = ['BACKLOG', 'BackgroundLM', 'prestart']
 
 
 def prestart(count: int) -> None:

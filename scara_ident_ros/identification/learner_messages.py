@@ -19,7 +19,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 if TYPE_CHECKING:
-    from scara_ident_ros.identification.lm_process import LearnerSettings
+    from scara_ident_ros.identification.learner_settings import LearnerSettings
     from scara_ident_ros.identification.streamed_estimator import ArrayLearner
     from scara_ident_ros.nn import FeedForwardNet
 

@@ -35,7 +35,7 @@ from typing import Any
 
 from scara_ident_ros.identification.learner_messages import Ready, Samples, Stop
 
-__all__ = ['BACKLOG', 'BATCH_BYTES', 'Inbox', 'LearnerClient', 'NICE', 'RATE_SPAN',
+__all__ = ['BACKLOG', 'BATCH_BYTES', 'Inbox', 'LearnerClient', 'RATE_SPAN',
            'STOP_TIMEOUT', 'enter_learner', 'prestart', 'run_learner', 'start_learner']
 
 #: Bytes of one batch message at most: below PIPE_BUF (4096 on Linux), so a write into a
@@ -43,7 +43,6 @@ __all__ = ['BACKLOG', 'BATCH_BYTES', 'Inbox', 'LearnerClient', 'NICE', 'RATE_SPA
 BATCH_BYTES = 3000
 BACKLOG = 2000  # messages kept while the pipe is full (at 1 kHz, 4 joints: ~30 s of samples)
 STOP_TIMEOUT = 10.0  # s the learner gets to finish its work and send its last state
-NICE = 10  # the learner's niceness: below the stream's processes (0), above `nice 19` jobs
 RATE_SPAN = 10.0  # s over which updates per second are reported
 
 Learner = tuple[subprocess.Popen[bytes], Connection, Connection]

@@ -22,36 +22,19 @@ and gated; its answers carry the correction's state
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
 from multiprocessing.connection import Connection
 
 
 from scara_ident_ros.identification.learner_messages import (HybridState, LmStart, LmUpdate,
                                                              Samples, Schedule, Stopped)
-from scara_ident_ros.identification.learner_process import (NICE, Inbox, enter_learner,
-                                                            run_learner)
-from scara_ident_ros.identification.reservoir_lm import (LM_INTERVAL, LM_STEPS, RESERVOIR_SIZE,
-                                                         ReservoirLM)
+from scara_ident_ros.identification.learner_process import Inbox, enter_learner, run_learner
+from scara_ident_ros.identification.reservoir_lm import ReservoirLM
 
-__all__ = ['COMMAND', 'LearnerSettings', 'main']
+__all__ = ['COMMAND', 'main']
 
 #: The learner process's program: run with ``-c`` rather than ``-m``, which would import
 #: this module twice (once as the package's, once as ``__main__``).
 COMMAND = f'from {__name__} import main; main()'
-
-
-@dataclass(frozen=True)
-class LearnerSettings:
-    """What the learner process builds its :class:`ReservoirLM` from (see there)."""
-
-    reservoir_size: int = RESERVOIR_SIZE
-    lm_interval: int = LM_INTERVAL
-    lm_steps: int = LM_STEPS
-    seed: int = 0
-    lm_float64: bool = False
-    lm_slow_share: float = 0.0
-    lm_nice: int = NICE
-    label: str = 'lm'  # names the learner (e.g. the method): its process title, for ps/top
 
 
 def _learn(inbox_connection: Connection, outbox: Connection, start: LmStart) -> None:

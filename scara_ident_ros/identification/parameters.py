@@ -16,7 +16,7 @@ from scara_ident_ros.identification.differentiator import (CUTOFF_HZ, DIFFERENTI
                                                            DIFFERENTIATORS)
 from scara_ident_ros.identification.error_window import MSE_WINDOW
 from scara_ident_ros.identification.holdout import VALIDATION_BLOCK, VALIDATION_FRACTION
-from scara_ident_ros.identification.learner_process import NICE
+from scara_ident_ros.identification.learner_settings import NICE
 from scara_ident_ros.identification.learner_methods import (GP_BUDGET, KERNEL_FEATURES,
                                                              LEARNER_BATCH, LEARNER_METHODS,
                                                              LEARNER_WARMUP)

@@ -28,7 +28,8 @@ from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import NDArray
 
-from scara_ident_ros.identification.background_lm import NICE, BackgroundLM, LearnerSettings
+from scara_ident_ros.identification.background_lm import BackgroundLM
+from scara_ident_ros.identification.learner_settings import NICE, LearnerSettings
 from scara_ident_ros.identification.reservoir_lm import (LM_INTERVAL, LM_STEPS, RESERVOIR_SIZE,
                                                          ReservoirLM)
 from scara_ident_ros.nn import FeedForwardNet

@@ -15,7 +15,8 @@ from scara_ident_ros.dynamics import ScaraParams
 from scara_ident_ros.learners.hybrid_model import HybridModel, online_hybrid
 from scara_ident_ros.dynamics.joint_limits import load_joint_limits
 from scara_ident_ros.dynamics.physical_model import PhysicalModel
-from scara_ident_ros.identification.background_lm import BackgroundLM, LearnerSettings
+from scara_ident_ros.identification.background_lm import BackgroundLM
+from scara_ident_ros.identification.learner_settings import LearnerSettings
 from scara_ident_ros.identification.hybrid_trainer import HybridTrainer
 from scara_ident_ros.identification.metrics import effort_errors
 from scara_ident_ros.identification.reservoir_lm import ReservoirLM

@@ -11,7 +11,8 @@ import pytest
 from numpy.typing import NDArray
 
 from scara_ident_ros.identification import make_trainer
-from scara_ident_ros.identification.background_lm import BACKLOG, BackgroundLM, LearnerSettings
+from scara_ident_ros.identification.background_lm import BACKLOG, BackgroundLM
+from scara_ident_ros.identification.learner_settings import LearnerSettings
 from scara_ident_ros.nn.presets import make_network
 from scara_ident_ros.nn import FeedForwardNet
 from robot_scaling import robot_scaling  # test/robot_scaling.py
