@@ -250,7 +250,7 @@ class MethodRun:
         return tuple(out)
 
     def record_lag(self, lag_ns: int) -> None:
-        """Take how late (ns) a prediction was published."""
+        """Take how late (ns) a prediction was ready to publish, against its stamp."""
         self.lags.add(lag_ns)
         self.period_lag_ns = max(self.period_lag_ns, lag_ns)
         if lag_ns > self.line_lag_ns:
