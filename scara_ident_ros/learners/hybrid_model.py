@@ -120,6 +120,8 @@ class HybridModel:
 
     Attributes
     ----------
+    base : PhysicalModel or LinearFeatures
+        The ``physical`` argument; :attr:`physical` hands it out typed as a physical model.
     metadata : dict of str to ndarray
         Saved with the model (``joint_names``, ``method``, ...).
     bounds : (low, high) of ndarrays of shape (n,), or None
