@@ -252,7 +252,7 @@ class OnlineIdentifier:
         if effort is None:
             counts.no_effort += 1
         held_out = (effort is not None and self.holdout is not None
-                    and self.holdout.held_out(index))
+                    and self.holdout.held_out(index, item.stamp_ns))
         if held_out:
             assert self.holdout is not None and effort is not None
             predicted = self.model.predict(item.x)

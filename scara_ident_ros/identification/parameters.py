@@ -15,7 +15,8 @@ from scara_ident_ros.identification.contact_detector import (ARM_NMSE, ENVELOPE_
 from scara_ident_ros.identification.differentiator import (CUTOFF_HZ, DIFFERENTIATOR_WINDOW,
                                                            DIFFERENTIATORS)
 from scara_ident_ros.identification.error_window import MSE_WINDOW
-from scara_ident_ros.identification.holdout import VALIDATION_BLOCK, VALIDATION_FRACTION
+from scara_ident_ros.identification.holdout import (VALIDATION_BLOCK, VALIDATION_BLOCK_S,
+                                                    VALIDATION_FRACTION)
 from scara_ident_ros.identification.learner_settings import NICE
 from scara_ident_ros.identification.learner_methods import (GP_BUDGET, KERNEL_FEATURES,
                                                              LEARNER_BATCH, LEARNER_METHODS,
@@ -129,7 +130,9 @@ IDENTIFIER_PARAMETERS: tuple[ParamSpec, ...] = (
               'whose error is the validation NMSE; 0: none', min=0.0, max=0.9,
               fixed=HOLDOUT),
     ParamSpec('validation_block', VALIDATION_BLOCK,
-              'Samples per held-out block', min=1, max=1_000_000,
+              f'Samples per held-out block; 0: {VALIDATION_BLOCK_S:g} s of the stream\'s '
+              f'stamps whatever its rate ({VALIDATION_BLOCK_S * 1000:g} samples at 1 kHz, '
+              f'{VALIDATION_BLOCK_S * 100:g} at 100 Hz)', min=0, max=1_000_000,
               fixed=HOLDOUT),
     ParamSpec('model_path', '', 'Warm-start from this saved model (.npz; with methods, '
               '{method} in the path stands for each method); empty: fresh',

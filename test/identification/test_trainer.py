@@ -58,6 +58,39 @@ def test_holdout_blocks_are_whole_and_about_the_fraction() -> None:
     assert not any(Holdout(3, 1, fraction=0.0).held_out(i) for i in range(1000))
 
 
+def test_time_blocks_are_half_a_second_of_stamps_whatever_the_rate() -> None:
+    """The default block (0) is 0.5 s of the stamps: at 1 kHz the 500-sample blocks of
+    before, at 100 Hz 50-sample ones (not 5 s); jittered stamps keep whole blocks in time;
+    segments for contact calibration are at most half a block (100 at 1 kHz, 25 at 100 Hz)."""
+    rng = np.random.default_rng(0)
+    x, y = np.zeros(3), np.zeros(1)
+    for rate, per_block, segment in ((1000, 500, 100), (100, 50, 25)):
+        period = 1_000_000_000 // rate
+        by_time = Holdout(3, 1, fraction=0.2, seed=3)
+        by_count = Holdout(3, 1, fraction=0.2, block=per_block, seed=3)
+        held = []
+        for i in range(20_000):
+            held.append(by_time.held_out(i, 7 * period + i * period))
+            assert held[-1] == by_count.held_out(i)
+            if held[-1]:
+                by_time.add(x, y)
+        assert by_time.segments is not None and by_time.segments.length == segment
+        assert 0.1 < np.mean(held) < 0.3
+    jittered = Holdout(3, 1, fraction=0.5, seed=1)
+    stamps = np.cumsum(rng.uniform(5e6, 15e6, 5000)).astype(np.int64)  # 100 Hz ± 50 %
+    held = np.array([jittered.held_out(i, int(t)) for i, t in enumerate(stamps)])
+    block = (stamps - stamps[0]) // 500_000_000
+    for b in np.unique(block):  # a block in time is all in or all out
+        assert held[block == b].all() or not held[block == b].any()
+    # a clock jump forwards counts a tenth of a block, a replay restarted backwards nothing:
+    # all these samples are in the first block, none raises
+    restarted = Holdout(3, 1, fraction=0.5, seed=1)
+    stamps = [0, 1_000_000, 2_000_000, 10 ** 10, 10 ** 10 + 1_000_000, 5 * 10 ** 8, 10 ** 9]
+    assert len({restarted.held_out(i, t) for i, t in enumerate(stamps)}) == 1
+    with pytest.raises(ValueError, match='need the sample'):
+        Holdout(3, 1).held_out(0)
+
+
 class _Counting(BackPropagation):
     """BP that remembers the inputs it learnt from."""
 
