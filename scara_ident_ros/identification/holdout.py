@@ -13,7 +13,8 @@ the stream's own stamps, so that a block means the same stretch of motion whatev
 robot's rate (0.5 s: 500 samples at 1 kHz, 50 at 100 Hz; a block of 500 samples at 100 Hz
 would be 5 s, and the held-out score one of few long extrapolations). The time is the
 stream's progress: a step between stamps longer than a tenth of a block (a pause, a clock
-jump) counts as a tenth, and a step back (a replay restarted) as nothing.
+jump) counts as a tenth, and a step back (a replay restarted) as nothing. (Below 20 Hz every
+step is such a step, and a block holds ten samples.)
 
 Contact detection needs more than a uniform sample: its false-alarm rate depends on how
 the residuals run in time (a model error lasts several samples), so the held-out samples
