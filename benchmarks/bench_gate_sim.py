@@ -31,7 +31,7 @@ from bench_physical_real import GATES  # noqa: E402
 
 from scara_ident_ros.blas_threads import single_blas_thread  # noqa: E402
 from scara_ident_ros.cli import train as train_cli  # noqa: E402
-from scara_ident_ros.dynamics.coulomb_selection import select_coulomb  # noqa: E402
+from scara_ident_ros.dynamics.physical_options import select_coulomb  # noqa: E402
 from scara_ident_ros.learners.hybrid_model import fit_hybrid  # noqa: E402
 from scara_ident_ros.dynamics.physical_model import PhysicalModel  # noqa: E402
 from scara_ident_ros.identification.split import block_index, block_split  # noqa: E402

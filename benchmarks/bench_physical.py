@@ -23,7 +23,7 @@ Every model trains on the samples outside the validation blocks (``train``'s blo
 ``physical[...]``
     least squares on every training sample, Coulomb shape sign or tanh(q'/ε) (ε in rad/s).
 ``physical[auto]``
-    the shape of lowest validation NMSE among ``coulomb_selection.CANDIDATES``, as
+    the shape of lowest validation NMSE among ``physical_options.CANDIDATES``, as
     ``scara-ident train`` chooses it by default.
 ``hybrid``
     physical[auto], then FFS on its residual: ``--samples`` training
@@ -62,7 +62,7 @@ sys.path.insert(0, str(ROOT))
 from scara_ident_ros.blas_threads import single_blas_thread  # noqa: E402
 from scara_ident_ros.cli import train as train_cli  # noqa: E402
 from scara_ident_ros.dynamics import ScaraParams  # noqa: E402
-from scara_ident_ros.dynamics.coulomb_selection import select_coulomb  # noqa: E402
+from scara_ident_ros.dynamics.physical_options import select_coulomb  # noqa: E402
 from scara_ident_ros.learners.hybrid_model import fit_hybrid  # noqa: E402
 from scara_ident_ros.dynamics.physical_model import PhysicalModel  # noqa: E402
 from scara_ident_ros.identification.dataset import Dataset, make_dataset  # noqa: E402

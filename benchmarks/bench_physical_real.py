@@ -62,7 +62,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from scara_ident_ros.blas_threads import single_blas_thread  # noqa: E402
-from scara_ident_ros.dynamics.coulomb_selection import select_coulomb  # noqa: E402
+from scara_ident_ros.dynamics.physical_options import select_coulomb  # noqa: E402
 from scara_ident_ros.learners.hybrid_model import (GATE_LEVEL, fit_hybrid,  # noqa: E402
                                                    gate_errors, gate_scales)
 from scara_ident_ros.dynamics.physical_model import PhysicalModel  # noqa: E402

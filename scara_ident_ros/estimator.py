@@ -271,4 +271,5 @@ _MODEL_MODULES: list[str] = ['scara_ident_ros.nn.network',
                              'scara_ident_ros.learners.hybrid_model',
                              'scara_ident_ros.learners.sparse_spectrum_gp',
                              'scara_ident_ros.learners.exact_gp',
-                             'scara_ident_ros.learners.linear_features']
+                             'scara_ident_ros.learners.linear_features',
+                             'scara_ident_ros.learners.joint_choice']

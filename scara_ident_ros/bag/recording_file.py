@@ -210,6 +210,7 @@ def _table_series(path: Path, kind: str, split: str | None) -> RecordingSeries:
 
 def _with_velocity(series: RecordingSeries) -> RecordingSeries:
     """Derive q' from q for the joints whose velocity column is all NaN."""
+    from scara_ident_ros.identification.centred_differentiator import recording_window
     from scara_ident_ros.identification.derived_velocity import derive_velocity
 
     absent = np.asarray(np.isnan(series.velocity).all(axis=0)
@@ -220,7 +221,8 @@ def _with_velocity(series: RecordingSeries) -> RecordingSeries:
     velocity = series.velocity.copy()
     derived = np.empty((len(series), int(absent.sum())))
     derived[order] = derive_velocity(series.stamp_ns[order], series.position[order][:, absent],
-                                     effort=series.effort[order])
+                                     effort=series.effort[order],
+                                     window=recording_window(series.stamp_ns))
     velocity[:, absent] = derived
     names = tuple(name for j, name in enumerate(series.names) if bool(absent[j]))
     return replace(series, velocity=velocity, velocity_derived=names)

@@ -18,7 +18,8 @@ import argparse
 from pathlib import Path
 
 from scara_ident_ros.cli import CliError
-from scara_ident_ros.cli.recording_options import RECORDING_HELP, recording_note
+from scara_ident_ros.cli.recording_options import (RECORDING_HELP, add_span_option,
+                                                    cut_span, recording_note)
 
 __all__ = ['add_parser', 'run']
 
@@ -31,6 +32,7 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     parser.add_argument('model', type=Path, metavar='MODEL', help='model file (.npz)')
     parser.add_argument('bag', type=Path, metavar='RECORDING',
                         help=RECORDING_HELP)
+    add_span_option(parser)
     parser.add_argument('--topic', default=None,
                         help='JointState topic (default: the only one, or /joint_states)')
     parser.set_defaults(func=run)
@@ -51,12 +53,16 @@ def run(args: argparse.Namespace) -> int:
     if len(samples.names) != n:
         raise CliError(f'{args.model} is a model of {n} joints, but {args.bag} '
                        f'{recording.topic} has {len(samples.names)}: {list(samples.names)}')
+    data = samples.data if args.span is None else cut_span(samples.data, args.span)
+    if len(data) < 2:
+        raise CliError(f'{args.bag}: --span {args.span[0]:g}:{args.span[1]:g} holds '
+                       f'{len(data)} samples')
     method = model.method.upper()
     mapping = 'mapped by name' if names is not None else 'in message order (model has no names)'
     print(f'{method} model {args.model} on {args.bag} {recording.topic}: '
-          f'{len(samples.data)} samples over {samples.data.seconds:.1f} s, joints {mapping} '
+          f'{len(data)} samples over {data.seconds:.1f} s, joints {mapping} '
           f'(skipped: {skipped_text(samples)}{recording_note(recording)})\n')
-    stats = evaluate(model, samples.data.X, samples.data.Y)
+    stats = evaluate(model, data.X, data.Y)
     print(errors_markdown(samples.names, {args.bag.name or str(args.bag): stats}))
     physical = getattr(model, 'base', model)  # a hybrid's physical (or linear) part
     if isinstance(physical, PhysicalModel):

@@ -11,12 +11,50 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ['RECORDING_HELP', 'recording_note', 'urdf_joints_not_recorded']
+__all__ = ['RECORDING_HELP', 'add_span_option', 'cut_span', 'parse_span', 'recording_note',
+           'urdf_joints_not_recorded']
 
 RECORDING_HELP = ('the recording: a rosbag2 bag (directory, .mcap or .db3), a ROS 1 .bag, an '
                   '.npz table (q, qd, qdd, tau, t, names; or X_<split>/Y_<split> named '
                   'FILE.npz:SPLIT), a CSV table with named columns, or a /joint_states CSV '
                   'export (its folder or one of its files)')
+
+
+def parse_span(text: str) -> tuple[float, float]:
+    """``'0:0.7'`` → (0.0, 0.7): a part of a recording's time, as fractions 0 ≤ a < b ≤ 1
+    (argparse type: ``ArgumentTypeError`` otherwise)."""
+    import argparse
+
+    try:
+        start, end = (float(part) for part in text.split(':'))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f'{text!r} is not START:END') from None
+    if not 0.0 <= start < end <= 1.0:
+        raise argparse.ArgumentTypeError(f'{text}: need 0 <= START < END <= 1')
+    return start, end
+
+
+def add_span_option(parser: Any) -> None:
+    """Add ``--span START:END`` (``train`` and ``evaluate``: the same part of a recording
+    to learn from and to score on)."""
+    parser.add_argument('--span', type=parse_span, default=None, metavar='START:END',
+                        help='use only this part of the recording\'s time, as fractions: '
+                             '0:0.7 its first 70 %%, 0.7:1 the rest (default: all)')
+
+
+def cut_span(data: Any, span: tuple[float, float]) -> Any:
+    """The samples of ``data`` (a :class:`~scara_ident_ros.identification.dataset.Dataset`)
+    stamped in the ``span`` (start, end) fractions of its time: [start, end), the end
+    included when it is 1. The samples are built from the whole recording first, so q'' at
+    the cut uses the samples beyond it, as it would online."""
+    stamps = np.asarray(data.stamp_ns)
+    if not stamps.shape[0]:
+        return data
+    first, span_ns = int(stamps[0]), int(stamps[-1] - stamps[0])
+    low = first + round(span[0] * span_ns)
+    high = first + round(span[1] * span_ns)
+    mask = (stamps >= low) & ((stamps < high) | (span[1] >= 1.0))
+    return data.take(mask, data.name)
 
 
 def recording_note(recording: Any) -> str:

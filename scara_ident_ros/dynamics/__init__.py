@@ -3,7 +3,7 @@
 The physical model of any URDF robot (Pinocchio) lives in its own modules, imported by
 name so that users of the SCARA's closed form do not load Pinocchio: ``physical_model``
 (base parameters, rotor inertias, friction and offsets; the estimator contract),
-``base_reduction``, ``coulomb_selection``, ``consistent_parameters`` (pseudo-inertia LMI),
+``base_reduction``, ``physical_options``, ``consistent_parameters`` (pseudo-inertia LMI),
 ``recursive_least_squares`` (online), ``urdf_limits``/``joint_limits`` and ``urdf_export``.
 The SCARA also has its Lagrangian closed form (``model``, ``params``, ``regressor``, exported
 here): the paper's equations (``../shared/reference/scara-model.md``), which ``scara_sim``

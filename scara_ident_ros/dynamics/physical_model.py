@@ -88,7 +88,7 @@ INERTIAL_NAMES = ('m', 'mx', 'my', 'mz', 'Ixx', 'Ixy', 'Iyy', 'Ixz', 'Iyz', 'Izz
 COULOMB_MODES = ('tanh', 'sign')
 #: Default ε of tanh(q'/ε) (rad/s, m/s), the simulated SCARA's. Which ε fits depends on the
 #: robot (benchmarks/physical.md): ``scara-ident train`` chooses it on validation data
-#: (:mod:`~scara_ident_ros.dynamics.coulomb_selection`) and falls back to this without any.
+#: (:mod:`~scara_ident_ros.dynamics.physical_options`) and falls back to this without any.
 COULOMB_EPS = 0.05
 KIND = 'physical'  #: the model file's kind
 _REDUCTION_STATES = 200   # random states stacked for the base reduction

@@ -48,6 +48,7 @@ from scara_ident_ros.identification.learner_process import (BACKLOG, BATCH_BYTES
                                                             STOP_TIMEOUT, LearnerClient)
 from scara_ident_ros.identification.learner_process import prestart as _prestart
 from scara_ident_ros.identification.learner_settings import LearnerSettings
+from scara_ident_ros.learners.data_region import DataRegion
 from scara_ident_ros.identification.lm_process import COMMAND
 from scara_ident_ros.nn import FeedForwardNet
 
@@ -170,6 +171,8 @@ class BackgroundLM(LearnerClient):
                 if answer.hybrid is not None and self.hybrid is not None:
                     self.hybrid.bounds = answer.hybrid.bounds
                     self.undone, self.hybrid.gate = answer.hybrid.undone, answer.hybrid.gate
+                    if answer.hybrid.region is not None:
+                        self.hybrid.region = DataRegion.from_arrays(answer.hybrid.region)
         except (EOFError, OSError):  # the learner has ended: keep the weights we have
             pass
         return got

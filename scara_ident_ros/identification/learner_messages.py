@@ -86,11 +86,13 @@ class Ready:
 @dataclass(frozen=True)
 class HybridState:
     """A hybrid's correction as the ``lm`` learner left it: ``bounds`` (low, high) (n,) each
-    or None, its updates ``undone`` by the check, the per-joint ``gate`` (n,)."""
+    or None, its updates ``undone`` by the check, the per-joint ``gate`` (n,), the ``region``
+    its correction fades outside (``DataRegion.to_arrays``; None: none yet)."""
 
     bounds: tuple[FloatArray, FloatArray] | None
     undone: int
     gate: FloatArray
+    region: dict[str, FloatArray] | None = None
 
 
 @dataclass(frozen=True)

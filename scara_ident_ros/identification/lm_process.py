@@ -100,7 +100,9 @@ def _learn(inbox_connection: Connection, outbox: Connection, start: LmStart) -> 
                 answer = LmUpdate(model.get_theta() if changed else None,
                                   trainer.steps_taken,
                                   HybridState(residual.model.bounds, residual.undone,
-                                              residual.model.gate.copy()))
+                                              residual.model.gate.copy(),
+                                              None if residual.model.region is None else
+                                              residual.model.region.to_arrays()))
             try:
                 outbox.send(answer)
             except (BrokenPipeError, OSError):

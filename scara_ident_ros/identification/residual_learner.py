@@ -38,6 +38,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from scara_ident_ros.learners.data_region import DataRegion
 from scara_ident_ros.learners.hybrid_model import HybridModel, gate_errors, gate_scales
 from scara_ident_ros.identification.reservoir import Reservoir
 from scara_ident_ros.identification.reservoir_lm import ReservoirLM
@@ -167,6 +168,8 @@ class ResidualLearner:
         before = net.get_theta()
         residual = self._residual(snap.stored, snap.theta)
         self.model.bounds = (residual.min(axis=0), residual.max(axis=0))
+        if snap.X.shape[0] >= 2:  # the correction fades away from the states it learns
+            self.model.region = DataRegion.of(snap.X, held_out=snap.X_val)
         correction = self.model.raw_correction(snap.X_val)
         error = gate_errors(correction * self.model.gate, r_val)[1] / scale  # as predicted
         if not self.network.step_on(snap.X, residual):

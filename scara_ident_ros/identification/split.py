@@ -11,6 +11,12 @@ would never see overfitting. Why not the last part of the recording: a
 recording of several excitations ends with another motion than the rest, so its validation
 error measures an extrapolation the training cannot improve, and early stopping fires
 while Levenberg–Marquardt is still adapting its damping.
+
+Blocks interleaved with the training motion measure interpolation: the motion around them
+was learnt. A user predicts what the arm does next. :func:`later_split` holds out the motion
+that comes *after* the training motion (the end of a recording, or the last of several
+recordings, held out whole: forward chaining with one fold, leave the latest recording out);
+``scara-ident train`` chooses its model, stops its networks and gates its hybrid on that.
 """
 from __future__ import annotations
 
@@ -21,10 +27,12 @@ from scara_ident_ros.errors import ScaraIdentError
 from scara_ident_ros.identification.dataset import Dataset
 from scara_ident_ros.nn.validation_blocks import VALIDATION_FRACTION, choose_blocks
 
-__all__ = ['SplitError', 'VALIDATION_BLOCK_S', 'VALIDATION_FRACTION', 'alternate_blocks',
-           'block_index', 'block_split']
+__all__ = ['LATER_FRACTION', 'SplitError', 'VALIDATION_BLOCK_S', 'VALIDATION_FRACTION',
+           'alternate_blocks', 'block_index', 'block_split', 'later_split']
 
 VALIDATION_BLOCK_S = 1.0  # s, length of the validation time blocks
+#: Share of a recording's time, at its end, held out as later motion (:func:`later_split`).
+LATER_FRACTION = 0.3
 
 
 class SplitError(ScaraIdentError, ValueError):
@@ -107,3 +115,54 @@ def alternate_blocks(data: Dataset, *, block_s: float = VALIDATION_BLOCK_S,
     present = np.unique(blocks)
     mask = np.isin(blocks, present[1::2])
     return data.take(~mask, data.name), data.take(mask, data.name)
+
+
+def later_split(data: Dataset, fraction: float = LATER_FRACTION, *,
+                recording: npt.ArrayLike | None = None) -> tuple[Dataset, Dataset]:
+    """Split samples into earlier and later motion: what a model learns, what it predicts.
+
+    With one recording, the samples stamped in the last ``fraction`` of its time span are
+    the later motion. With several (``recording``: a label per sample, in the order the
+    recordings were made), the last recording is held out whole and ``fraction`` is unused.
+
+    Parameters
+    ----------
+    data : Dataset
+        Samples in time order (N,).
+    fraction : float
+        Share of the time span held out, in (0, 1).
+    recording : array_like of shape (N,), optional
+        The recording each sample comes from (any labels; the last label is the latest).
+
+    Returns
+    -------
+    earlier, later : Dataset
+        Named ``'earlier'`` and ``'later'``; no sample is in both.
+
+    Raises
+    ------
+    ValueError
+        If ``fraction`` is outside (0, 1) or ``recording`` does not label every sample.
+    SplitError
+        If either part would hold fewer than 2 samples.
+    """
+    if not 0.0 < fraction < 1.0:
+        raise ValueError(f'later-motion fraction must be in (0, 1), got {fraction}')
+    if recording is not None:
+        labels = np.asarray(recording).reshape(-1)
+        if labels.shape != (len(data),):
+            raise ValueError(f'need a recording label per sample ({len(data)}), got '
+                             f'{labels.shape}')
+        mask = labels == labels[-1] if len(data) else np.zeros(0, dtype=bool)
+        what = 'the last recording'
+    else:
+        stamps = data.stamp_ns
+        span = int(stamps[-1] - stamps[0]) if len(data) else 0
+        cut = int(stamps[0]) + span - round(fraction * span) if len(data) else 0
+        mask = stamps >= cut
+        what = f'the last {fraction:.0%} of {data.seconds:.3g} s'
+    earlier, later = data.take(~mask, 'earlier'), data.take(mask, 'later')
+    if len(earlier) < 2 or len(later) < 2:
+        raise SplitError(f'{what} leaves {len(earlier)} earlier and {len(later)} later '
+                         'samples; need at least 2 of each')
+    return earlier, later

@@ -47,6 +47,13 @@ train``: its network early-stops on every other validation block and the gate us
 of them); online the residual learner gates the same way after every update, on its own
 held-out samples (:mod:`~scara_ident_ros.identification.residual_learner`).
 
+And the correction fades where the input leaves the states it was learnt on
+(:attr:`HybridModel.region`, :class:`~scara_ident_ros.learners.data_region.DataRegion`: 1
+near the network's training inputs, 0 beyond twice the distance typical of them), so that on
+motion it has not seen the hybrid returns to its physical part instead of extrapolating
+(:func:`fit_hybrid` sets it; online the residual learner sets it to its reservoir's inputs
+after every update).
+
 The hybrid keeps the estimator contract (:mod:`scara_ident_ros.estimator`): :meth:`HybridModel.fit`
 is :func:`fit_hybrid` with the project's defaults of offline training.
 
@@ -54,7 +61,7 @@ Files: kind ``'hybrid'`` (:mod:`scara_ident_ros.nn.model_file`): the physical pa
 prefixed ``physical.`` (its kind in ``base_kind``: ``physical`` if absent, older files), the
 network's ``network.``, the bounds (if any) ``residual_low``
 and ``residual_high``, the gate ``residual_gate`` (in [0, 1]; all 1 if absent: older
-files).
+files), the data region (if any) ``region.``-prefixed (none in older files: no fade).
 """
 from __future__ import annotations
 
@@ -68,6 +75,7 @@ from scipy.stats import t as student_t
 
 from scara_ident_ros.dynamics.physical_model import PhysicalModel
 from scara_ident_ros.estimator import Estimator, r2_score, register_kind
+from scara_ident_ros.learners.data_region import DataRegion
 from scara_ident_ros.learners.linear_features import LinearFeatures
 from scara_ident_ros.nn import FeedForwardNet, FitHistory, ModelFormatError, fit
 from scara_ident_ros.nn.fitting import ITERATIONS, MAX_FAIL, MIN_ITERATIONS, SAMPLES
@@ -85,6 +93,7 @@ KIND = 'hybrid'  #: the model file's kind
 #: a fraction of the effort; online its range is not known in advance).
 RESIDUAL_SHARE = 0.25
 _PHYSICAL_PREFIX = 'physical.'
+_REGION_PREFIX = 'region.'
 #: Level of the gate's one-sided paired t-test: a correction is kept on a joint if its mean
 #: held-out gain over B blocks exceeds t(1 − level, B − 1) standard errors
 #: (:func:`gate_scales`; benchmarks/physical_real.md).
@@ -130,6 +139,9 @@ class HybridModel:
     gate : ndarray of shape (n,)
         The correction's scale per joint, in [0, 1]: 0 where it is withheld
         (:meth:`validate_gate`); all 1 until validated.
+    region : DataRegion or None
+        The inputs the network was fitted to: its correction is weighted by
+        :meth:`DataRegion.weight` (0 far from them); None: not weighted.
     history_ : FitHistory or None
         The network's training in the last :meth:`fit`.
     """
@@ -144,6 +156,7 @@ class HybridModel:
         self.base, self.network = physical, network
         self.bounds: tuple[FloatArray, FloatArray] | None = None
         self.gate: FloatArray = np.ones(physical.n_outputs)
+        self.region: DataRegion | None = None
         names = physical.joint_names
         self.metadata: dict[str, np.ndarray] = (
             {} if names is None else {'joint_names': np.array(names)})
@@ -201,7 +214,7 @@ class HybridModel:
             gate_groups: ArrayLike | None = None,
             x_range: tuple[ArrayLike, ArrayLike] | None = None,
             samples: int = SAMPLES, iterations: int = ITERATIONS, max_fail: int = MAX_FAIL,
-            min_iterations: int = MIN_ITERATIONS,
+            min_iterations: int = MIN_ITERATIONS, region_inputs: ArrayLike | None = None,
             callback: Callback | None = None) -> HybridModel:
         """Least squares, then the network on the residual (:func:`fit_hybrid`), in place.
 
@@ -215,7 +228,9 @@ class HybridModel:
             Validation samples; if None, blocks of consecutive rows (a
             ``validation_fraction`` of them, spread over the rows, drawn with the network's
             seed: ``nn.validation_blocks.row_split``) validate and the others train.
-        gate_validation, gate_groups, x_range, iterations, max_fail, min_iterations, callback
+        gate_validation, gate_groups, x_range, iterations, max_fail, min_iterations
+            :func:`fit_hybrid`'s.
+        region_inputs, callback
             :func:`fit_hybrid`'s.
         samples : int
             The network trains on at most this many training samples (0: all).
@@ -237,7 +252,7 @@ class HybridModel:
             self.base, self.network, (x, y), validation=validation,
             gate_validation=gate_validation, gate_groups=gate_groups, x_range=x_range,
             network_samples=samples, seed=seed, iterations=iterations, max_fail=max_fail,
-            min_iterations=min_iterations, callback=callback)
+            min_iterations=min_iterations, region_inputs=region_inputs, callback=callback)
         # the fitted hybrid's state (its parts are this one's; bounds and the like), this
         # one's metadata kept
         state = {key: value for key, value in vars(fitted).items() if key != 'metadata'}
@@ -260,11 +275,15 @@ class HybridModel:
         return self.raw_correction(X) * self.gate
 
     def raw_correction(self, X: ArrayLike) -> FloatArray:
-        """The network's correction within :attr:`bounds`, not gated: (N, n) or (n,)."""
-        out = self.network.predict(np.asarray(X, dtype=np.float64))
-        if self.bounds is None:
-            return out
-        return np.clip(out, self.bounds[0], self.bounds[1])
+        """The network's correction within :attr:`bounds`, weighted by :attr:`region`, not
+        gated: (N, n) or (n,)."""
+        x = np.asarray(X, dtype=np.float64)
+        out = self.network.predict(x)
+        if self.bounds is not None:
+            out = np.clip(out, self.bounds[0], self.bounds[1])
+        if self.region is not None:
+            out = out * self.region.weight(x)[..., None]
+        return out
 
     def validate_gate(self, X: ArrayLike, Y: ArrayLike, *, groups: ArrayLike | None = None,
                       level: float = GATE_LEVEL) -> tuple[FloatArray, FloatArray]:
@@ -317,15 +336,64 @@ class HybridModel:
         """
         raise NotImplementedError('a HybridModel is fitted offline (fit)')
 
-    def save(self, path: str | Path) -> None:
-        """Write both parts (kind ``'hybrid'``) with :attr:`metadata`, atomically."""
+    def to_arrays(self) -> dict[str, np.ndarray]:
+        """Both parts, the bounds, the gate and the region as the file's entries (module
+        docstring), without the metadata."""
         arrays = {_PHYSICAL_PREFIX + k: v for k, v in self.base.to_arrays().items()}
         arrays['base_kind'] = np.array(self.base.kind)
         arrays.update({NETWORK_PREFIX + k: v for k, v in self.network.to_arrays().items()})
         if self.bounds is not None:
             arrays['residual_low'], arrays['residual_high'] = self.bounds
         arrays['residual_gate'] = self.gate.copy()
-        write_model(path, arrays, self.metadata, kind=KIND)
+        if self.region is not None:
+            arrays.update({_REGION_PREFIX + k: v for k, v in self.region.to_arrays().items()})
+        return arrays
+
+    @classmethod
+    def from_arrays(cls, arrays: dict[str, np.ndarray], *, source: str) -> HybridModel:
+        """Rebuild from :meth:`to_arrays`'s entries; ``source`` names them in errors.
+
+        Raises
+        ------
+        ModelFormatError
+            If they are not a hybrid model of ours or are corrupt.
+        """
+        base_kind = str(arrays.get('base_kind', PhysicalModel.kind))
+        if base_kind not in _LINEAR_PARTS:
+            raise ModelFormatError(f'{source}: a hybrid whose linear part is of unknown kind '
+                                   f'{base_kind!r} (known: {", ".join(_LINEAR_PARTS)})')
+
+        def part(prefix: str) -> dict[str, np.ndarray]:
+            return {k[len(prefix):]: v for k, v in arrays.items() if k.startswith(prefix)}
+
+        physical = _LINEAR_PARTS[base_kind](part(_PHYSICAL_PREFIX), source=source)
+        network = FeedForwardNet.from_arrays(part(NETWORK_PREFIX))
+        try:
+            model = cls(physical, network)
+            if 'residual_low' in arrays:
+                low = np.asarray(arrays['residual_low'], np.float64)
+                high = np.asarray(arrays['residual_high'], np.float64)
+                if low.shape != (model.n_outputs,) or high.shape != low.shape:
+                    raise ValueError(f'bounds of shape {low.shape}, {high.shape}')
+                model.bounds = (low, high)
+            if 'residual_gate' in arrays:
+                gate = np.asarray(arrays['residual_gate'], np.float64)
+                if gate.shape != (model.n_outputs,) or not np.all((gate >= 0) & (gate <= 1)):
+                    raise ValueError(f'a gate of shape {gate.shape} not in [0, 1]')
+                model.gate = gate
+            region = part(_REGION_PREFIX)
+            if region:
+                model.region = DataRegion.from_arrays(region)
+                if model.region.reference.shape[1] != model.n_inputs:
+                    raise ValueError(f'a data region of {model.region.reference.shape[1]} '
+                                     f'inputs, not {model.n_inputs}')
+        except (KeyError, ValueError) as exc:
+            raise ModelFormatError(f'{source}: corrupt hybrid model: {exc}') from None
+        return model
+
+    def save(self, path: str | Path) -> None:
+        """Write both parts (kind ``'hybrid'``) with :attr:`metadata`, atomically."""
+        write_model(path, self.to_arrays(), self.metadata, kind=KIND)
 
     @classmethod
     def load(cls, path: str | Path) -> HybridModel:
@@ -337,31 +405,7 @@ class HybridModel:
             If the file is not a hybrid model of ours or is corrupt.
         """
         file = read_model_file(path, kind=KIND)
-        base_kind = str(file.arrays.get('base_kind', PhysicalModel.kind))
-        if base_kind not in _LINEAR_PARTS:
-            raise ModelFormatError(f'{path}: a hybrid whose linear part is of unknown kind '
-                                   f'{base_kind!r} (known: {", ".join(_LINEAR_PARTS)})')
-        physical = _LINEAR_PARTS[base_kind](
-            {k[len(_PHYSICAL_PREFIX):]: v for k, v in file.arrays.items()
-             if k.startswith(_PHYSICAL_PREFIX)}, source=str(path))
-        network = FeedForwardNet.from_arrays(
-            {k[len(NETWORK_PREFIX):]: v for k, v in file.arrays.items()
-             if k.startswith(NETWORK_PREFIX)})
-        try:
-            model = cls(physical, network)
-            if 'residual_low' in file.arrays:
-                low = np.asarray(file.arrays['residual_low'], np.float64)
-                high = np.asarray(file.arrays['residual_high'], np.float64)
-                if low.shape != (model.n_outputs,) or high.shape != low.shape:
-                    raise ValueError(f'bounds of shape {low.shape}, {high.shape}')
-                model.bounds = (low, high)
-            if 'residual_gate' in file.arrays:
-                gate = np.asarray(file.arrays['residual_gate'], np.float64)
-                if gate.shape != (model.n_outputs,) or not np.all((gate >= 0) & (gate <= 1)):
-                    raise ValueError(f'a gate of shape {gate.shape} not in [0, 1]')
-                model.gate = gate
-        except (KeyError, ValueError) as exc:
-            raise ModelFormatError(f'{path}: corrupt hybrid model: {exc}') from None
+        model = cls.from_arrays(file.arrays, source=str(path))
         model.metadata = file.metadata
         return model
 
@@ -501,6 +545,7 @@ def fit_hybrid(physical: LinearPart, network: FeedForwardNet,
                x_range: tuple[ArrayLike, ArrayLike] | None = None,
                network_samples: int = 0, seed: int = 0, iterations: int = ITERATIONS,
                max_fail: int = MAX_FAIL, min_iterations: int = MIN_ITERATIONS,
+               fade: bool = True, region_inputs: ArrayLike | None = None,
                callback: Callback | None = None) -> tuple[HybridModel, FitHistory]:
     """Least squares, then the network on the residual, early-stopped on validation.
 
@@ -533,6 +578,15 @@ def fit_hybrid(physical: LinearPart, network: FeedForwardNet,
         Seed of that draw.
     iterations, max_fail, min_iterations : int
         Levenberg–Marquardt's limits (``nn.fit``).
+    fade : bool
+        Weight the correction by the region of the training inputs
+        (:attr:`HybridModel.region`), so that the gate judges the correction as it is
+        applied (early stopping judges the network's own output).
+    region_inputs : array_like of shape (M, 3n), optional
+        Held-out inputs inside the region learnt on, whose distances to the training inputs
+        set the region's radius (:meth:`DataRegion.of`): samples interleaved with the
+        training motion, not later motion (there the correction should fade). Default the
+        validation inputs.
     callback : callable, optional
         ``nn.fit``'s progress callback.
 
@@ -545,6 +599,7 @@ def fit_hybrid(physical: LinearPart, network: FeedForwardNet,
     x = np.asarray(train[0], dtype=np.float64)
     y = np.asarray(train[1], dtype=np.float64)
     physical.fit(x, y)
+    x_all = x
     if network_samples and network_samples < x.shape[0]:
         rows = np.sort(np.random.default_rng(seed).choice(x.shape[0], network_samples,
                                                           replace=False))
@@ -564,6 +619,10 @@ def fit_hybrid(physical: LinearPart, network: FeedForwardNet,
                   validation=val, max_fail=max_fail, min_iterations=min_iterations,
                   callback=callback)
     model = HybridModel(physical, network)
+    if fade and x_all.shape[0] >= 2:
+        inside = region_inputs if region_inputs is not None else (
+            None if val is None else val[0])
+        model.region = DataRegion.of(x_all, held_out=inside, seed=seed)
     if gate_validation is not None and np.asarray(gate_validation[0]).shape[0]:
         held = (np.asarray(gate_validation[0], dtype=np.float64),
                 np.asarray(gate_validation[1], dtype=np.float64))

@@ -63,7 +63,7 @@ FORMAT = 'scara_ident_ros.nn.FeedForwardNet'
 FORMAT_VERSION = 1
 METADATA_PREFIX = 'meta.'
 #: Kinds of model file; ``'network'`` when the file has no ``kind`` entry.
-KINDS = ('network', 'physical', 'hybrid', 'kernel', 'gp', 'linear')
+KINDS = ('network', 'physical', 'hybrid', 'kernel', 'gp', 'linear', 'joint_choice')
 NETWORK_PREFIX = 'network.'  # a hybrid's network entries
 
 _FIELDS = ('sizes', 'activation', 'constants', 'params', 'velocity', 'x_min', 'x_max',

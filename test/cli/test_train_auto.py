@@ -1,5 +1,6 @@
-"""``scara-ident train`` without ``--method`` (auto): the best learner on validation blocks,
-the hybrid with a URDF; and ``--method linear``."""
+"""``scara-ident train`` without ``--method`` (auto): per joint the best candidate on later
+motion, the physical model unless another is clearly better with a URDF; and ``--method
+linear``."""
 from __future__ import annotations
 
 import re
@@ -9,57 +10,90 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from scara_ident_ros.cli.train import AUTO_CANDIDATES
+from scara_ident_ros.cli.train import AUTO_CANDIDATES, URDF_CANDIDATES
+from scara_ident_ros.dynamics.physical_model import PhysicalModel
 from scara_ident_ros.learners.hybrid_model import HybridModel
 from scara_ident_ros.estimator import load_model
 from scara_ident_ros.learners import LinearFeatures
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from in_process_cli import run_cli  # noqa: E402  (test/in_process_cli.py)
-from test_train_physical import URDF, bags, table  # noqa: E402, F401  (bags: a fixture)
+from test_train_physical import (URDF, States, bags, scara_states, table,  # noqa: E402, F401
+                                 write_rosbag)  # (bags: a fixture)
 
 pytestmark = pytest.mark.slow  # a GP and a network are fitted to choose
 
 
-def test_auto_saves_the_candidate_of_the_lowest_validation_error(
+def _scores(out: str) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
+    """Each candidate's NMSE per joint on the later motion and on the validation blocks,
+    as ``auto`` prints them."""
+    later, blocks = {}, {}
+    for method, values, rest in re.findall(r'^auto: (\w+) NMSE per joint ([^(]+) \(mean '
+                                           r'[^)]+\) on \d+ held-out samples(.*)$', out,
+                                           flags=re.MULTILINE):
+        later[method] = np.array([float(v) for v in values.split(',')])
+        found = re.match(r' \(validation blocks: ([^)]+)\)', rest)
+        if found:
+            blocks[method] = np.array([float(v) for v in found.group(1).split(',')])
+    return later, blocks
+
+
+def test_auto_keeps_per_joint_the_candidate_of_the_lowest_error_on_later_motion(
         bags: dict[str, Path], tmp_path: Path,  # noqa: F811
         capsys: pytest.CaptureFixture[str]) -> None:
     model_path = tmp_path / 'auto.npz'
-    code, out, err = run_cli(capsys, 'train', bags['train'], '--out', model_path)
+    code, out, err = run_cli(capsys, 'train', bags['train'], '--iterations', '30',
+                             '--out', model_path)
     assert code == 0, err
-    scores = {m: float(v) for m, v in re.findall(r'^auto: (\w+) mean NMSE (\S+) on ', out,
-                                                   flags=re.MULTILINE)}
-    assert set(scores) == set(AUTO_CANDIDATES)
-    chosen = min(scores, key=scores.__getitem__)
-    assert f'auto: {chosen.upper()}, the lowest mean validation NMSE of ' in out
+    assert 'later motion, held out to choose and stop on: ' in out
+    later, blocks = _scores(out)
+    assert set(later) == set(AUTO_CANDIDATES) and set(blocks) == set(AUTO_CANDIDATES)
+    labels = list(later)
+    expected = [labels[k] for k in np.argmin([later[m] for m in labels], axis=0)]
     model = load_model(model_path)
-    assert model.method == chosen and str(model.metadata['chosen_by']) == 'auto'
-    assert float(model.metadata[f'auto_nmse_{chosen}']) == pytest.approx(scores[chosen],
-                                                                          rel=1e-3)
-    # on this smooth motion a learner beats the linear baseline, and the choice is kept
-    assert chosen != 'linear' and scores[chosen] < scores['linear']
-    assert float(table(out, 'joint')['mean'][3]) < 1e-2  # validation NMSE of the saved
+    assert [str(v) for v in model.metadata['joint_choice']] == expected
+    assert str(model.metadata['chosen_by']) == 'auto'
+    assert model.method == (expected[0] if len(set(expected)) == 1 else 'joint_choice')
+    # on this smooth motion a learner beats the linear baseline somewhere
+    assert set(expected) != {'linear'}
+    rows = table(out, 'joint')
+    assert rows['joint1 (N·m or N)'][5] != ''  # the later motion's column is reported
     code, out, err = run_cli(capsys, 'evaluate', model_path, bags['other'])
     assert code == 0, err
 
 
-def test_auto_with_a_urdf_is_the_hybrid(bags: dict[str, Path], tmp_path: Path,  # noqa: F811
-                                        capsys: pytest.CaptureFixture[str]) -> None:
-    model_path = tmp_path / 'hybrid.npz'
-    code, out, err = run_cli(capsys, 'train', bags['train'], '--urdf', URDF,
-                             '--iterations', '5', '--out', model_path)
+def test_auto_with_a_urdf_keeps_the_physical_model_where_a_hybrid_wins_only_on_blocks(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """The first recording's joint 1 carries a sensor offset the second does not: the
+    hybrid's network learns it and wins on the validation blocks interleaved with the first
+    recording, and loses on the second, the later motion; auto keeps the physical model."""
+    first = scara_states(6.0, seed=1)
+    drifted = States(first.stamp_ns, first.names, first.position, first.velocity,
+                     first.effort + np.array([4.0, 0.0, 0.0, 0.0]))
+    later = scara_states(4.0, seed=3)
+    recordings = [write_rosbag(tmp_path / 'first', drifted, storage='mcap'),
+                  write_rosbag(tmp_path / 'second', later, storage='mcap')]
+    model_path = tmp_path / 'auto.npz'
+    code, out, err = run_cli(capsys, 'train', *recordings, '--urdf', URDF,
+                             '--iterations', '30', '--out', model_path)
     assert code == 0, err
-    assert '--method auto with --urdf: hybrid' in out
-    assert isinstance(load_model(model_path), HybridModel)
+    assert f'of the last recording, {recordings[1]}' in out
+    later_scores, blocks = _scores(out)
+    assert set(later_scores) == set(URDF_CANDIDATES)
+    assert blocks['hybrid'][0] < 0.5 * blocks['physical'][0]  # it wins on the blocks
+    model = load_model(model_path)
+    assert [str(v) for v in model.metadata['joint_choice']] == ['physical'] * 4
+    assert isinstance(model, PhysicalModel)
+    assert not model.offsets  # the offset did not hold on the later motion either
 
 
-def test_auto_without_validation_blocks_is_refused(
+def test_auto_without_held_out_samples_is_refused(
         bags: dict[str, Path], tmp_path: Path,  # noqa: F811
         capsys: pytest.CaptureFixture[str]) -> None:
     code, _, err = run_cli(capsys, 'train', bags['train'], '--validation-fraction', '0',
-                           '--out', tmp_path / 'none.npz')
+                           '--later-fraction', '0', '--out', tmp_path / 'none.npz')
     assert code != 0
-    assert 'chooses on validation samples and has 0' in err
+    assert 'chooses on held-out samples and has 0' in err
     assert len(err.strip().splitlines()) == 1
     assert not (tmp_path / 'none.npz').exists()
 
@@ -68,7 +102,7 @@ def test_linear_train_then_evaluate(bags: dict[str, Path], tmp_path: Path,  # no
                                     capsys: pytest.CaptureFixture[str]) -> None:
     model_path = tmp_path / 'linear.npz'
     code, out, err = run_cli(capsys, 'train', bags['train'], '--method', 'linear',
-                             '--out', model_path)
+                             '--later-fraction', '0', '--out', model_path)
     assert code == 0, err
     assert 'LINEAR (least squares on 25 features) fitted in ' in out
     assert 'training on 2500, validating on 500' in out  # every training sample
@@ -95,7 +129,8 @@ def test_auto_goes_on_without_a_candidate_that_refuses_the_data(
                              '--out', model_path)
     assert code == 0, err
     assert 'auto: gp not fitted: too few samples to choose a kernel' in out
-    assert load_model(model_path).method in ('linear', 'ffs')
+    model = load_model(model_path)
+    assert 'gp' not in [str(v) for v in model.metadata['joint_choice']]
 
 
 def test_linear_hybrid_is_no_worse_than_linear_on_its_validation_blocks(
@@ -107,7 +142,8 @@ def test_linear_hybrid_is_no_worse_than_linear_on_its_validation_blocks(
     for method in ('linear', 'linear_hybrid'):
         code, out, err = run_cli(capsys, 'train', bags['train'], '--method', method,
                                  '--iterations', '20', '--validation-block', '0.25',
-                                 '--out', tmp_path / f'{method}.npz')  # 5 blocks to gate on
+                                 '--later-fraction', '0',  # gated on the 5 blocks
+                                 '--out', tmp_path / f'{method}.npz')
         assert code == 0, err
         errors[method] = np.array([float(row[3]) for name, row in table(out, 'joint').items()
                                    if name != 'mean'])

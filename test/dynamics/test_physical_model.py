@@ -9,10 +9,11 @@ import pytest
 
 from scara_ident_ros.dynamics import ScaraParams
 from scara_ident_ros.dynamics.base_reduction import reduce_columns
-from scara_ident_ros.dynamics.coulomb_selection import CANDIDATES, select_coulomb
+from scara_ident_ros.dynamics.physical_options import (CANDIDATES, select_coulomb,
+                                                    select_options)
 from scara_ident_ros.learners.hybrid_model import HybridModel, fit_hybrid
 from scara_ident_ros.dynamics.model import ScaraModel
-from scara_ident_ros.dynamics.physical_model import PhysicalModel
+from scara_ident_ros.dynamics.physical_model import COULOMB_EPS, PhysicalModel
 from scara_ident_ros.dynamics.recursive_least_squares import RecursiveLeastSquares
 from scara_ident_ros.dynamics.urdf_limits import UrdfError
 from scara_ident_ros.identification.rls_trainer import RecursiveLeastSquaresTrainer
@@ -373,3 +374,29 @@ def test_fit_hybrid_gates_on_other_samples_than_it_stopped_on() -> None:
                            gate_validation=(x[500:], tau[500:]), iterations=40,
                            min_iterations=40, max_fail=40)
     assert np.all(hybrid.gate[:3] > 0.9) and hybrid.gate[3] == 0.0
+
+
+def test_options_the_data_need_are_added_and_others_are_not() -> None:
+    """Efforts with a coupled-friction term between joints 3 and 4 and none of the offsets:
+    the coupling is chosen (it explains the later samples), the offsets are not, the Coulomb
+    shape stays the default; imposed options are kept whatever the data say."""
+    def build(**options: object) -> PhysicalModel:
+        return PhysicalModel.from_urdf_file(SCARA_URDF, **options)  # type: ignore[arg-type]
+
+    truth = build(coupled=(('joint3', 'joint4'),))
+    theta = truth.urdf_parameters()
+    theta[truth.n_base:truth.n_base + 8] = [3.0, 1.5, 20.0, 0.05, 6.0, 3.0, 15.0, 0.5]
+    theta[truth.n_base + 8:] = [8.0, 4.0, 5.0, 2.0]  # joint 3 of q'_4 and 4 of q'_3
+    truth.set_theta(theta)
+    q, qd, qdd = states(np.random.default_rng(8), 900, 4)
+    x = np.hstack([q, qd, qdd])
+    y = truth.predict(x)
+    model, choice = select_options(build, (x[:600], y[:600]), (x[600:], y[600:]))
+    assert choice.options['coupled'] == (('joint3', 'joint4'),)
+    assert not choice.options['offsets']
+    assert (choice.options['coulomb'], choice.options['coulomb_eps']) == ('tanh', COULOMB_EPS)
+    assert choice.label == f'tanh {COULOMB_EPS:g}, coupled joint3,joint4'
+    np.testing.assert_allclose(model.predict(x[600:]), y[600:], atol=1e-8)
+    _, imposed = select_options(build, (x[:600], y[:600]), (x[600:], y[600:]),
+                                fixed={'coupled': (), 'offsets': True})
+    assert imposed.options['coupled'] == () and imposed.options['offsets'] is True

@@ -182,3 +182,37 @@ def test_background_and_synchronous_hybrids_reach_the_same_order(seed: int) -> N
     # the same updates on the same samples, only later: the same order (here about 1e-1,
     # the unmodelled effect being half learnt in 6 s; 1e-17 without it)
     assert theirs / 10 <= ours <= theirs * 10, (ours, theirs)
+
+
+def test_the_online_correction_fades_outside_the_states_of_the_stream() -> None:
+    """After an update the correction is weighted by the region of the reservoir's states:
+    on them it is the network's (gated) output, far from them it is 0 and the hybrid is its
+    physical part; the background learner sends the region with its answer."""
+    model = hybrid()
+    lm = ReservoirLM(model.network, reservoir_size=400, lm_interval=10_000)
+    learner = ResidualLearner(model, lm, seed=0)
+    X, Y = motion(2000, seed=2)
+    learner.add_batch(X, Y)
+    learner.step(learner.snapshot(model.physical.urdf_parameters()))
+    assert model.region is not None
+    assert np.all(model.region.weight(learner.reservoir.X) == 1.0)
+    far = X[:20].copy()
+    far[:, 4:8] += 20.0 * np.abs(X[:, 4:8]).max(axis=0)  # speeds never streamed
+    assert np.all(model.correction(far) == 0.0)
+    np.testing.assert_array_equal(model.predict(far), model.physical.predict(far))
+    np.testing.assert_allclose(model.correction(learner.reservoir.X[:20]),
+                               model.network.predict(learner.reservoir.X[:20]).clip(
+                                   *model.bounds) * model.gate)  # type: ignore[misc]
+    # the background learner's answer carries it
+    background_model = hybrid()
+    trainer = background(background_model, reservoir_size=400, lm_interval=500)
+    try:
+        stream(trainer, X, Y, pause_every=250)
+        deadline = time.monotonic() + WAIT
+        while background_model.region is None and time.monotonic() < deadline:
+            time.sleep(0.05)
+            trainer.network.poll()  # type: ignore[attr-defined]
+    finally:
+        trainer.network.close()  # type: ignore[attr-defined]
+    assert background_model.region is not None
+    assert np.all(background_model.correction(far) == 0.0)

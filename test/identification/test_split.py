@@ -5,7 +5,8 @@ import numpy as np
 import pytest
 
 from scara_ident_ros.identification.dataset import Dataset
-from scara_ident_ros.identification.split import alternate_blocks, block_index, block_split
+from scara_ident_ros.identification.split import (SplitError, alternate_blocks, block_index,
+                                                  block_split, later_split)
 
 START_NS = 1_700_000_000_000_000_000
 
@@ -108,3 +109,37 @@ def test_alternate_blocks_deal_the_validation_blocks_in_two() -> None:
     assert len(first) + len(second) == len(validation)
     one, none = alternate_blocks(validation.take(slice(0, 10)), block_s=1.0, start_ns=start)
     assert len(one) == 10 and len(none) == 0
+
+
+def _series(seconds: float, rate_hz: float = 100.0, n: int = 2) -> Dataset:
+    stamps = np.arange(round(seconds * rate_hz), dtype=np.int64) * round(1e9 / rate_hz)
+    rows = stamps.shape[0]
+    return Dataset(stamps, np.arange(rows * 3 * n, dtype=float).reshape(rows, 3 * n),
+                   np.arange(rows * n, dtype=float).reshape(rows, n))
+
+
+def test_later_motion_is_the_end_of_the_recording_and_in_no_other_part() -> None:
+    data = _series(10.0)  # 1000 samples, 0 to 9.99 s
+    earlier, later = later_split(data, 0.3)
+    assert earlier.name == 'earlier' and later.name == 'later'
+    assert len(earlier) + len(later) == len(data)
+    assert not np.intersect1d(earlier.stamp_ns, later.stamp_ns).size
+    assert earlier.stamp_ns.max() < later.stamp_ns.min()  # every later sample comes after
+    assert later.seconds == pytest.approx(0.3 * data.seconds, abs=0.011)
+
+
+def test_with_several_recordings_the_last_is_held_out_whole() -> None:
+    data = _series(6.0)
+    labels = np.repeat([0, 1, 2], 200)
+    earlier, later = later_split(data, 0.3, recording=labels)
+    np.testing.assert_array_equal(later.stamp_ns, data.stamp_ns[400:])
+    np.testing.assert_array_equal(earlier.stamp_ns, data.stamp_ns[:400])
+    with pytest.raises(ValueError, match='label per sample'):
+        later_split(data, 0.3, recording=labels[:10])
+
+
+def test_a_later_split_that_leaves_a_part_empty_is_refused() -> None:
+    with pytest.raises(ValueError, match=r'in \(0, 1\)'):
+        later_split(_series(1.0), 1.0)
+    with pytest.raises(SplitError, match='need at least 2'):
+        later_split(_series(0.03), 0.01)
