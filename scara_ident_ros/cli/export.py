@@ -113,6 +113,11 @@ def _export_urdf(args: argparse.Namespace, loaded: object) -> int:
     from scara_ident_ros.errors import ScaraIdentError
 
     physical = getattr(loaded, 'base', loaded)  # a hybrid's physical (or linear) part
+    if not isinstance(physical, PhysicalModel):  # a joint choice's physical candidate
+        try:
+            physical = getattr(loaded, 'physical', None)
+        except TypeError:
+            physical = None
     if not isinstance(physical, PhysicalModel):
         raise CliError(f'{args.model}: a {type(loaded).__name__} without a physical model of a '
                        'URDF: --urdf writes identified physical parameters')

@@ -43,14 +43,17 @@ from scara_ident_ros.learners.hybrid_model import HybridModel, gate_errors, gate
 from scara_ident_ros.identification.reservoir import Reservoir
 from scara_ident_ros.identification.reservoir_lm import ReservoirLM
 
-__all__ = ['GATE_GROUPS', 'GATE_LEVEL', 'MIN_VALIDATION', 'ResidualLearner', 'Snapshot',
-           'VALIDATION_BLOCK', 'VALIDATION_SHARE']
+__all__ = ['GATE_GROUPS', 'GATE_LEVEL', 'MIN_VALIDATION', 'REGION_POINTS', 'ResidualLearner',
+           'Snapshot', 'VALIDATION_BLOCK', 'VALIDATION_SHARE']
 
 FloatArray = NDArray[np.float64]
 #: Share of a hybrid's samples kept to check its network's updates.
 VALIDATION_SHARE = 0.2
 #: Consecutive samples held out (or not) together (1: each drawn alone; module docstring).
 VALIDATION_BLOCK = 1
+#: Reservoir states the correction's region keeps (it is queried on every sample of the
+#: stream: a k-d tree of 500 points in 3n = 18 dimensions answers in tens of µs).
+REGION_POINTS = 500
 #: Validation samples needed before the network's first update.
 MIN_VALIDATION = 100
 #: Groups the validation samples are dealt into (by reservoir slot) for the gate's paired
@@ -169,7 +172,8 @@ class ResidualLearner:
         residual = self._residual(snap.stored, snap.theta)
         self.model.bounds = (residual.min(axis=0), residual.max(axis=0))
         if snap.X.shape[0] >= 2:  # the correction fades away from the states it learns
-            self.model.region = DataRegion.of(snap.X, held_out=snap.X_val)
+            self.model.region = DataRegion.of(snap.X, held_out=snap.X_val,
+                                              points=REGION_POINTS)
         correction = self.model.raw_correction(snap.X_val)
         error = gate_errors(correction * self.model.gate, r_val)[1] / scale  # as predicted
         if not self.network.step_on(snap.X, residual):
