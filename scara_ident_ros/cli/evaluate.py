@@ -17,7 +17,6 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from scara_ident_ros.cli import CliError
 from scara_ident_ros.cli.recording_options import RECORDING_HELP, recording_note
 
 __all__ = ['add_parser', 'run']
@@ -39,24 +38,18 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
 def run(args: argparse.Namespace) -> int:
     """Evaluate and print the table."""
     from scara_ident_ros.dynamics.physical_model import PhysicalModel
-    from scara_ident_ros.cli.evaluation import errors_markdown, evaluate, load_model
+    from scara_ident_ros.cli.evaluation import errors_markdown, evaluate_recording
     from scara_ident_ros.cli.physical_parameters import parameters_markdown
-    from scara_ident_ros.identification.recording import load_recording, skipped_text
+    from scara_ident_ros.identification.recording import skipped_text
 
-    model = load_model(args.model)
-    names = model.joint_names
-    n = model.n_outputs
-    recording = load_recording(args.bag, topic=args.topic, joints=names)
+    model, recording, stats = evaluate_recording(args.model, args.bag, topic=args.topic)
     samples = recording.samples
-    if len(samples.names) != n:
-        raise CliError(f'{args.model} is a model of {n} joints, but {args.bag} '
-                       f'{recording.topic} has {len(samples.names)}: {list(samples.names)}')
     method = model.method.upper()
-    mapping = 'mapped by name' if names is not None else 'in message order (model has no names)'
+    mapping = ('mapped by name' if model.joint_names is not None
+               else 'in message order (model has no names)')
     print(f'{method} model {args.model} on {args.bag} {recording.topic}: '
           f'{len(samples.data)} samples over {samples.data.seconds:.1f} s, joints {mapping} '
           f'(skipped: {skipped_text(samples)}{recording_note(recording)})\n')
-    stats = evaluate(model, samples.data.X, samples.data.Y)
     print(errors_markdown(samples.names, {args.bag.name or str(args.bag): stats}))
     physical = getattr(model, 'base', model)  # a hybrid's physical (or linear) part
     if isinstance(physical, PhysicalModel):
