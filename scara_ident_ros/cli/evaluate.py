@@ -6,11 +6,12 @@ table, as train reads them: FILE.npz:SPLIT for a published split), maps them to 
 model's joints BY NAME (metadata joint_names; a model without names needs a recording with
 as many joints, taken in message order), builds the network inputs as the identifier
 does (its input stage: q'' from q' by the zero-phase centred estimate, bad samples
-dropped) and prints, as a Markdown table,
-each joint's MSE ((N·m)² or N²) and normalised MSE (MSE / variance of the joint's effort
-over the evaluated samples; 1 = no better than the mean effort). Typical use: a model
-trained on one run evaluated on another (held-out) run. For a physical or hybrid model it
-then prints the identified base parameters (beside the URDF's values) and the friction.
+dropped; a table's q'' as given) and prints, as a Markdown table, each joint's MSE
+((N·m)² or N²) and normalised MSE (MSE / variance of the joint's effort over the evaluated
+samples; 1 = no better than the mean effort), and below it the SMSE of all joints (their
+squared errors over their squared deviations, 1 − R² variance-weighted: the figure
+published for the WAM's split). Typical use: a model trained on one run evaluated on
+another (held-out) run. For a physical or hybrid model it then prints the identified base parameters (beside the URDF's values) and the friction.
 """
 from __future__ import annotations
 
