@@ -49,7 +49,8 @@ the joints, its length and noise chosen on blocks of 50 of its first 3000 sample
 most 12000 samples (a random draw beyond: O(N^3) time, 8 N^2 bytes). The GP has no early
 stop and predicts from the samples it holds, so the validation blocks only score it: the
 validation errors printed are those of the GP fitted on the training blocks, and the model
-saved is the GP fitted again on every sample, the validation blocks too (--validation-
+saved is the GP fitted again, its kernel chosen again, on every sample, the validation
+blocks too: the validation scores the procedure, as cross-validation does (--validation-
 fraction 0: one fit, no validation errors). A published split's training rows
 (barrett_wam.npz:train) are thus all learnt, as the published GP learnt them, whether
 named as FILE.npz:SPLIT or given as a table of those rows. --method kernel: the
