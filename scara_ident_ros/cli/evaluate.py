@@ -11,7 +11,8 @@ dropped; a table's q'' as given) and prints, as a Markdown table, each joint's M
 samples; 1 = no better than the mean effort), and below it the SMSE of all joints (their
 squared errors over their squared deviations, 1 − R² variance-weighted: the figure
 published for the WAM's split). Typical use: a model trained on one run evaluated on
-another (held-out) run. For a physical or hybrid model it then prints the identified base parameters (beside the URDF's values) and the friction.
+another (held-out) run. For a physical or hybrid model it then prints the identified base
+parameters (beside the URDF's values) and the friction.
 """
 from __future__ import annotations
 
