@@ -33,8 +33,13 @@ Learners (``--methods``):
 ``gp``
     the exact GP with the same kernel on every training row.
 ``gpfit``
-    the shipped exact GP (``ExactGP``, kind ``gp``, as ``scara-ident train --method gp``) on
-    every training row, its kernel chosen by itself (validation blocks of its first rows).
+    ``scara-ident train TRAIN --method gp`` then ``scara-ident evaluate MODEL TEST``, run
+    through their Python entry points (``cli.main``, ``cli.evaluation.evaluate_recording``):
+    the documented commands, not a copy of them. TRAIN and TEST are the published split's
+    tables (``barrett_wam.npz:train`` and ``:test``) where there is one, else tables of the
+    data set's training and held-out rows written here (``X``, ``Y``: rows without time).
+    The shipped exact GP (``ExactGP``, kind ``gp``) on every training row, its kernel chosen
+    by itself (validation blocks of its first rows).
 ``gponline``
     ``ExactGP.partial_fit`` one sample at a time in order (``--gp-budget`` points,
     ``--gp-rule`` once full, ``--gp-skip``, ``--gp-min-variance``), then frozen; time per
@@ -64,8 +69,11 @@ rows in time, and the 1,200 hyperparameter rows (every 10th) are too sparse to s
 from __future__ import annotations
 
 import argparse
+import contextlib
+import io
 import os
 import subprocess
+import tempfile
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -76,6 +84,7 @@ from scipy.linalg import cho_factor, cho_solve
 from scipy.signal import butter, filtfilt
 
 from scara_ident_ros.blas_threads import single_blas_thread
+from scara_ident_ros.identification.metrics import effort_errors
 from scara_ident_ros.learners import ExactGP, LinearFeatures, SparseSpectrumGP
 from scara_ident_ros.learners.ard_hyperparameters import ArdHyperparameters
 from scara_ident_ros.learners.exact_gp import BUDGET_RULE, BUDGET_RULES, MIN_VARIANCE
@@ -114,6 +123,8 @@ class Split(NamedTuple):
     Yt: np.ndarray
     val: np.ndarray  # training rows that validate the kernel's choice (mask)
     note: str
+    #: the published split's training and test tables (``FILE.npz:SPLIT``), if it has one
+    tables: tuple[str, str] | None = None
 
 
 def block_mask(t: np.ndarray, block_s: float, fraction: float = 0.2,
@@ -138,7 +149,8 @@ def load_wam() -> Split:
     x = d['X_train']
     return Split('wam', tuple(f'joint {j + 1}' for j in range(7)), x, d['Y_train'],
                  d['X_test'], d['Y_test'], every_tenth(len(x)),
-                 'published split: 12,000 training rows, 3,000 test rows')
+                 'published split: 12,000 training rows, 3,000 test rows',
+                 (f'{REALDATA / "barrett_wam.npz"}:train', f'{REALDATA / "barrett_wam.npz"}:test'))
 
 
 def load_sarcos(fraction: float = 0.75) -> Split:
@@ -292,12 +304,37 @@ def run_gp(s: Split, args: argparse.Namespace) -> tuple[np.ndarray, str]:
     return out * y_scale + y_mean, f'{len(u)} rows; {how}'
 
 
+def train_then_evaluate(train: str, test: str, model: Path, *options: str
+                        ) -> tuple[np.ndarray, np.ndarray, str]:
+    """``scara-ident train TRAIN --method gp *options --out MODEL``, then what ``scara-ident
+    evaluate MODEL TEST`` scores: the rows of TEST it reads (N, 3n), the model's prediction
+    of them (N, n), and train's line on the fit."""
+    from scara_ident_ros.cli import main
+    from scara_ident_ros.cli.evaluation import evaluate_recording
+
+    printed, errors = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(printed), contextlib.redirect_stderr(errors):
+        code = main(['train', train, '--method', 'gp', *options, '--out', str(model)])
+    if code:
+        raise RuntimeError(f'scara-ident train {train} exited {code}: {errors.getvalue()}')
+    fitted, recording, _ = evaluate_recording(model, Path(test))
+    rows = recording.samples.data.X
+    line = ' '.join(text for text in printed.getvalue().splitlines() if text.startswith(
+        ('GP (', 'saved: ')))
+    return rows, fitted.predict(rows), line
+
+
 def run_shipped_gp(s: Split, args: argparse.Namespace) -> tuple[np.ndarray, str]:
-    model = ExactGP().fit(s.X, s.Y)
-    return model.predict(s.Xt), (f'{model.n_points_} points; length {model.length_:g}, '
-                                 f'noise {model.noise_:g} chosen by ExactGP on blocks of '
-                                 f'{model.val_block} rows, 1 in {model.val_every}, of the '
-                                 f'first {model.select_samples} training rows')
+    with tempfile.TemporaryDirectory() as folder:
+        tables = s.tables
+        if tables is None:  # this data set's rows, as tables without time
+            tables = (f'{folder}/train.npz', f'{folder}/test.npz')
+            np.savez(tables[0], X=s.X, Y=s.Y)
+            np.savez(tables[1], X=s.Xt, Y=s.Yt)
+        rows, prediction, line = train_then_evaluate(*tables, Path(folder) / 'gp.npz')
+    if not np.array_equal(rows, s.Xt):
+        raise RuntimeError(f'evaluate read other rows of {tables[1]} than the held-out ones')
+    return prediction, f'scara-ident train {Path(tables[0]).name} --method gp: {line}'
 
 
 def gp_online(s: Split, budget: int, skip: float, variance: float, rule: str = 'thin'
@@ -370,18 +407,18 @@ METHODS: dict[str, tuple[str, Callable[[Split, argparse.Namespace],
     'kernel': ('kernel offline (sparse-spectrum GP, batch)', run_kernel),
     'online': ('kernel online (one pass in order, frozen)', run_online),
     'gp': ('exact GP (same kernel)', run_gp),
-    'gpfit': ('ExactGP fit (shipped, kind gp)', run_shipped_gp),
+    'gpfit': ('scara-ident train --method gp, evaluate (ExactGP)', run_shipped_gp),
     'gponline': ('ExactGP online (partial_fit, one pass in order, frozen)', run_gp_online),
     'gponline_all': ('ExactGP online, budget = every training row', run_gp_online_all),
 }
 
 
 def nmse(y: np.ndarray, p: np.ndarray) -> np.ndarray:
-    return np.asarray(((y - p) ** 2).mean(axis=0) / y.var(axis=0))
+    return effort_errors(y, p).nmse
 
 
 def smse(y: np.ndarray, p: np.ndarray) -> float:
-    return float(((y - p) ** 2).sum() / ((y - y.mean(axis=0)) ** 2).sum())
+    return effort_errors(y, p).smse
 
 
 def main() -> int:

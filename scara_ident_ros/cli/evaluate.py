@@ -6,18 +6,19 @@ table, as train reads them: FILE.npz:SPLIT for a published split), maps them to 
 model's joints BY NAME (metadata joint_names; a model without names needs a recording with
 as many joints, taken in message order), builds the network inputs as the identifier
 does (its input stage: q'' from q' by the zero-phase centred estimate, bad samples
-dropped) and prints, as a Markdown table,
-each joint's MSE ((N·m)² or N²) and normalised MSE (MSE / variance of the joint's effort
-over the evaluated samples; 1 = no better than the mean effort). Typical use: a model
-trained on one run evaluated on another (held-out) run. For a physical or hybrid model it
-then prints the identified base parameters (beside the URDF's values) and the friction.
+dropped; a table's q'' as given) and prints, as a Markdown table, each joint's MSE
+((N·m)² or N²) and normalised MSE (MSE / variance of the joint's effort over the evaluated
+samples; 1 = no better than the mean effort), and below it the SMSE of all joints (their
+squared errors over their squared deviations, 1 − R² variance-weighted: the figure
+published for the WAM's split). Typical use: a model trained on one run evaluated on
+another (held-out) run. For a physical or hybrid model it then prints the identified base
+parameters (beside the URDF's values) and the friction.
 """
 from __future__ import annotations
 
 import argparse
 from pathlib import Path
 
-from scara_ident_ros.cli import CliError
 from scara_ident_ros.cli.recording_options import (RECORDING_HELP, add_span_option,
                                                     cut_span, recording_note)
 
@@ -41,28 +42,20 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
 def run(args: argparse.Namespace) -> int:
     """Evaluate and print the table."""
     from scara_ident_ros.dynamics.physical_model import PhysicalModel
-    from scara_ident_ros.cli.evaluation import errors_markdown, evaluate, load_model
+    from scara_ident_ros.cli.evaluation import errors_markdown, evaluate_recording
     from scara_ident_ros.cli.physical_parameters import parameters_markdown
-    from scara_ident_ros.identification.recording import load_recording, skipped_text
+    from scara_ident_ros.identification.recording import skipped_text
 
-    model = load_model(args.model)
-    names = model.joint_names
-    n = model.n_outputs
-    recording = load_recording(args.bag, topic=args.topic, joints=names)
+    model, recording, stats = evaluate_recording(args.model, args.bag, topic=args.topic,
+                                                 span=args.span)
     samples = recording.samples
-    if len(samples.names) != n:
-        raise CliError(f'{args.model} is a model of {n} joints, but {args.bag} '
-                       f'{recording.topic} has {len(samples.names)}: {list(samples.names)}')
     data = samples.data if args.span is None else cut_span(samples.data, args.span)
-    if len(data) < 2:
-        raise CliError(f'{args.bag}: --span {args.span[0]:g}:{args.span[1]:g} holds '
-                       f'{len(data)} samples')
     method = model.method.upper()
-    mapping = 'mapped by name' if names is not None else 'in message order (model has no names)'
+    mapping = ('mapped by name' if model.joint_names is not None
+               else 'in message order (model has no names)')
     print(f'{method} model {args.model} on {args.bag} {recording.topic}: '
           f'{len(data)} samples over {data.seconds:.1f} s, joints {mapping} '
           f'(skipped: {skipped_text(samples)}{recording_note(recording)})\n')
-    stats = evaluate(model, data.X, data.Y)
     print(errors_markdown(samples.names, {args.bag.name or str(args.bag): stats}))
     physical = getattr(model, 'base', model)  # a hybrid's physical (or linear) part
     if isinstance(physical, PhysicalModel):

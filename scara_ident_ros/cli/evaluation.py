@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
@@ -22,7 +23,10 @@ from scara_ident_ros.nn import ModelFormatError
 from scara_ident_ros.paper.figures import effort_unit
 from scara_ident_ros.paper.tables import format_value
 
-__all__ = ['ModelMismatch', 'errors_markdown', 'evaluate', 'load_model']
+if TYPE_CHECKING:
+    from scara_ident_ros.identification.recording import Recording
+
+__all__ = ['ModelMismatch', 'errors_markdown', 'evaluate', 'evaluate_recording', 'load_model']
 
 
 def load_model(path: Path) -> Estimator:
@@ -60,9 +64,44 @@ def evaluate(model: Estimator, X: npt.ArrayLike, Y: npt.ArrayLike) -> ErrorStats
     return effort_errors(Y, model.predict(np.asarray(X, dtype=np.float64)))
 
 
+def evaluate_recording(model_path: Path, recording_path: Path, *, topic: str | None = None,
+                       span: tuple[float, float] | None = None
+                       ) -> tuple[Estimator, Recording, ErrorStats]:
+    """What ``scara-ident evaluate MODEL RECORDING`` scores: the model file (:func:`load_model`),
+    the recording's samples of its joints (by name; in message order for a model without
+    names), and the model's errors on them (on its ``span``, as fractions of its time, if
+    given: ``recording_options.cut_span``).
+
+    Raises
+    ------
+    ModelMismatch
+        If the file is no model (:func:`load_model`) or the recording has another number
+        of joints.
+    BagError, RecordingError
+        If the recording cannot be read (:func:`~scara_ident_ros.identification.recording.
+        load_recording`).
+    """
+    from scara_ident_ros.cli.recording_options import cut_span
+    from scara_ident_ros.identification.recording import load_recording
+
+    model = load_model(model_path)
+    recording = load_recording(recording_path, topic=topic, joints=model.joint_names)
+    samples = recording.samples
+    if len(samples.names) != model.n_outputs:
+        raise ModelMismatch(f'{model_path} is a model of {model.n_outputs} joints, but '
+                            f'{recording_path} {recording.topic} has {len(samples.names)}: '
+                            f'{list(samples.names)}')
+    data = samples.data if span is None else cut_span(samples.data, span)
+    if len(data) < 2:
+        raise ModelMismatch(f'{recording_path}: its part {span[0]:g}:{span[1]:g} holds '  # type: ignore[index]
+                            f'{len(data)} samples')
+    return model, recording, evaluate(model, data.X, data.Y)
+
+
 def errors_markdown(names: Sequence[str], results: Mapping[str, ErrorStats]) -> str:
     """A Markdown table: one row per joint of ``names`` (and their mean), MSE and NMSE per
-    data set of ``results`` (name → statistics)."""
+    data set of ``results`` (name → statistics); below it each data set's sample count and
+    SMSE (:mod:`~scara_ident_ros.identification.metrics`)."""
     header = ['joint']
     for data, stats in results.items():
         header += [f'{data} MSE', f'{data} NMSE']
@@ -77,9 +116,11 @@ def errors_markdown(names: Sequence[str], results: Mapping[str, ErrorStats]) -> 
     for stats in results.values():
         mean += [format_value(stats.mse_total), format_value(stats.nmse_total)]
     rows.append(mean)
-    counts = ', '.join(f'{data}: {stats.count} samples' for data, stats in results.items())
+    counts = ', '.join(f'{data}: {stats.count} samples (SMSE {format_value(stats.smse)})'
+                       for data, stats in results.items())
     lines = ['| ' + ' | '.join(header) + ' |', '|' + '|'.join('---' for _ in header) + '|']
     lines += ['| ' + ' | '.join(cells) + ' |' for cells in rows]
     units = ('MSE in (N·m)² or N² per joint (the mean mixes units); '
-             'NMSE = MSE / variance of the joint\'s effort.')
+             'NMSE = MSE / variance of the joint\'s effort; SMSE = the squared errors of all '
+             'joints over their squared deviations from the mean (1 − R², variance-weighted).')
     return '\n'.join(lines) + f'\n\n{counts}. {units}\n'

@@ -55,10 +55,17 @@ joint limits (positions, velocities; the accelerations by the training data's la
 |q''|) and a network alone its outputs by the effort limits.
 
 --method gp: exact Gaussian-process regression (learners.exact_gp: one RBF kernel shared by
-the joints, its length and noise chosen on blocks of 50 of the first 3000 training samples)
-on every training sample, at most 12000 (a random draw of them beyond: O(N^3) time, 8 N^2
-bytes); --method kernel: the sparse-spectrum GP (random features) on every training sample;
---method linear: least squares of each effort on [q, q', q'', sin q, cos q, tanh(q'/0.05), 1]
+the joints, its length and noise chosen on blocks of 50 of its first 3000 samples) on at
+most 12000 samples (a random draw beyond: O(N^3) time, 8 N^2 bytes). The GP has no early
+stop and predicts from the samples it holds, so the validation blocks only score it: the
+validation errors printed are those of the GP fitted on the training blocks, and the model
+saved is the GP fitted again, its kernel chosen again, on every sample, the validation
+blocks too: the validation scores the procedure, as cross-validation does (--validation-
+fraction 0: one fit, no validation errors). A published split's training rows
+(barrett_wam.npz:train) are thus all learnt, as the published GP learnt them, whether
+named as FILE.npz:SPLIT or given as a table of those rows. --method kernel: the
+sparse-spectrum GP (random features) on every training sample; --method linear: least
+squares of each effort on [q, q', q'', sin q, cos q, tanh(q'/0.05), 1]
 (learners.linear_features), the baseline every learner must beat; --method linear_hybrid:
 that least squares in place of the physical model of --method hybrid (an FFS network on its
 residual, early-stopped, faded and gated the same way), for an arm without a URDF.
@@ -154,7 +161,8 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
                              'least squares on the URDF\'s base parameters and friction; '
                              'hybrid: physical plus an FFS network on its residual; '
                              'kernel: sparse-spectrum GP regression (random features); '
-                             'gp: exact GP regression (at most 12000 samples); linear: least '
+                             'gp: exact GP regression (at most 12000 samples, saved fitted on '
+                             'the validation blocks too); linear: least '
                              'squares on [q, dq, ddq, sin q, cos q, tanh(dq/0.05), 1]; '
                              'linear_hybrid: that plus an FFS network on its residual')
     parser.add_argument('--urdf', type=Path, default=None, metavar='ROBOT.urdf',

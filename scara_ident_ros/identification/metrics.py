@@ -7,6 +7,11 @@ Definitions used by the online identifier, its hold-out, every table and benchma
                                                           (population, ddof = 0)
     mse_total  = mean of MSE_j over the joints            mixes units, like the paper
     nmse_total = mean of NMSE_j over the joints where NMSE_j is defined
+    smse       = Σ_j MSE_j / Σ_j var(y_j)                 over the same joints: the squared
+                                                          errors of all joints over their
+                                                          squared deviations (1 − R²,
+                                                          variance-weighted; the published
+                                                          figure of the GP benchmarks)
 
 NMSE = 1 is no better than predicting the mean effort; it is comparable across joints,
 robots and data scalings, the raw MSE is not. NMSE_j is defined where the effort's variance
@@ -38,6 +43,8 @@ class ErrorStats:
         Per joint, as defined in the module docstring; NaN where undefined.
     mse_total, nmse_total : float
         Their means over the joints (module docstring).
+    smse : float
+        Standardised MSE of all joints together (module docstring); NaN where no NMSE is.
     count : int
         Number of samples the statistics cover.
     """
@@ -47,6 +54,7 @@ class ErrorStats:
     mse_total: float
     nmse_total: float
     count: int
+    smse: float
 
 
 def normalised_mse(mse: NDArray[np.float64], var: NDArray[np.float64],
@@ -83,8 +91,10 @@ def error_stats(mse: NDArray[np.float64], var: NDArray[np.float64], scale: NDArr
     """:class:`ErrorStats` of ``count`` samples from per-joint arrays of shape (n,)
     (see :func:`normalised_mse`)."""
     nmse, nmse_total = normalised_mse(mse, var, scale)
+    defined = var > VARIANCE_RESOLUTION * scale
+    smse = float(mse[defined].sum() / var[defined].sum()) if defined.any() else np.nan
     return ErrorStats(mse=mse, nmse=nmse, mse_total=float(mse.mean()),
-                      nmse_total=float(nmse_total), count=count)
+                      nmse_total=float(nmse_total), count=count, smse=smse)
 
 
 def no_error_stats(n_joints: int) -> ErrorStats:

@@ -19,7 +19,18 @@ def test_effort_errors_match_a_hand_computation() -> None:
     np.testing.assert_allclose(stats.nmse, [0.5 / 1.25, 1.0 / 25.0])
     assert stats.mse_total == pytest.approx(0.75)
     assert stats.nmse_total == pytest.approx((0.4 + 0.04) / 2)
+    assert stats.smse == pytest.approx((0.5 + 1.0) / (1.25 + 25.0))
     assert stats.count == 4
+
+
+def test_smse_is_one_minus_the_variance_weighted_r2() -> None:
+    from sklearn.metrics import r2_score
+
+    rng = np.random.default_rng(1)
+    Y = rng.normal(size=(200, 3)) * [1.0, 30.0, 0.1]
+    Y_hat = Y + rng.normal(size=Y.shape) * [0.3, 3.0, 0.05]
+    r2 = r2_score(Y, Y_hat, multioutput='variance_weighted')
+    assert effort_errors(Y, Y_hat).smse == pytest.approx(1.0 - r2, rel=1e-12)
 
 
 def test_nmse_is_free_of_units() -> None:
@@ -42,6 +53,7 @@ def test_constant_effort_leaves_nmse_undefined_for_that_joint_only() -> None:
     stats = effort_errors(Y, Y + 1.0)
     assert stats.nmse[0] == pytest.approx(1.5) and np.isnan(stats.nmse[1])
     assert stats.nmse_total == pytest.approx(1.5)
+    assert stats.smse == pytest.approx(1.5)  # the constant joint counts in neither sum
 
 
 def test_recent_errors_are_the_error_windows_over_the_last_k() -> None:
