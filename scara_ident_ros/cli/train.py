@@ -638,6 +638,9 @@ def _save_and_report(args: argparse.Namespace, model: Estimator, names: Sequence
         with single_blas_thread():
             refitted = _refit(model, parts.data, seed=args.seed)
         if refitted:
+            model.metadata['train_samples'] = np.array(
+                min(len(parts.data), GP_SAMPLES) if set(refitted) == {GP_METHOD}
+                else len(parts.data))
             print(f'then refitted on all {len(parts.data)} samples (its {", ".join(refitted)} '
                   'part, options and choices kept): the errors above are of the model '
                   'before, on samples it had not learnt')

@@ -66,7 +66,6 @@ files), the data region (if any) ``region.``-prefixed (none in older files: no f
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from pathlib import Path
 from typing import Any, Protocol, cast
 
 import numpy as np
@@ -74,14 +73,14 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.stats import t as student_t
 
 from scara_ident_ros.dynamics.physical_model import PhysicalModel
-from scara_ident_ros.estimator import Estimator, r2_score, register_kind
+from scara_ident_ros.estimator import Estimator, SavedEstimator, register_kind
 from scara_ident_ros.learners.data_region import DataRegion
 from scara_ident_ros.learners.linear_features import LinearFeatures
 from scara_ident_ros.nn import FeedForwardNet, FitHistory, ModelFormatError, fit
 from scara_ident_ros.nn.fitting import ITERATIONS, MAX_FAIL, MIN_ITERATIONS, SAMPLES
 from scara_ident_ros.nn.validation_blocks import VALIDATION_FRACTION, row_split
 from scara_ident_ros.nn.presets import HIDDEN_UNITS, make_network
-from scara_ident_ros.nn.model_file import NETWORK_PREFIX, read_model_file, write_model
+from scara_ident_ros.nn.model_file import NETWORK_PREFIX
 from scara_ident_ros.nn.training import Callback
 
 __all__ = ['GATE_CHUNKS', 'GATE_LEVEL', 'HybridModel', 'KIND', 'RESIDUAL_SHARE',
@@ -116,7 +115,7 @@ _LINEAR_PARTS: dict[str, Callable[..., LinearPart]] = {
     LinearFeatures.kind: LinearFeatures.from_arrays}
 
 
-class HybridModel:
+class HybridModel(SavedEstimator):
     """Physical model plus a residual network; predicts like a network.
 
     Parameters
@@ -197,11 +196,6 @@ class HybridModel:
             names = tuple(str(name) for name in np.atleast_1d(recorded))
         return names
 
-    @property
-    def method(self) -> str:
-        """The method key: ``metadata['method']`` if recorded, else the kind."""
-        return str(self.metadata.get('method', KIND))
-
     def get_params(self) -> dict[str, Any]:
         """The hyperparameters of both parts, as data: ``{'physical': {...},
         'network': {...}}``."""
@@ -258,11 +252,6 @@ class HybridModel:
         state = {key: value for key, value in vars(fitted).items() if key != 'metadata'}
         vars(self).update(state, history_=history)
         return self
-
-    def score(self, X: ArrayLike, Y: ArrayLike) -> float:
-        """R² of the predictions of Y (N, n) from X (N, 3n)
-        (:func:`scara_ident_ros.estimator.r2_score`)."""
-        return r2_score(Y, self.predict(X))
 
     def predict(self, X: ArrayLike) -> FloatArray:
         """Efforts of X (N, 3n) = [q, q', q''] (or (3n,)): physical plus network, (N, n)."""
@@ -389,24 +378,6 @@ class HybridModel:
                                      f'inputs, not {model.n_inputs}')
         except (KeyError, ValueError) as exc:
             raise ModelFormatError(f'{source}: corrupt hybrid model: {exc}') from None
-        return model
-
-    def save(self, path: str | Path) -> None:
-        """Write both parts (kind ``'hybrid'``) with :attr:`metadata`, atomically."""
-        write_model(path, self.to_arrays(), self.metadata, kind=KIND)
-
-    @classmethod
-    def load(cls, path: str | Path) -> HybridModel:
-        """Read a model written by :meth:`save`.
-
-        Raises
-        ------
-        ModelFormatError
-            If the file is not a hybrid model of ours or is corrupt.
-        """
-        file = read_model_file(path, kind=KIND)
-        model = cls.from_arrays(file.arrays, source=str(path))
-        model.metadata = file.metadata
         return model
 
 

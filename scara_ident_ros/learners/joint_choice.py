@@ -19,20 +19,18 @@ kind in ``<label>.kind``; the labels in ``labels`` and the label of each joint i
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from scara_ident_ros.dynamics.physical_model import PhysicalModel
-from scara_ident_ros.estimator import Estimator, r2_score, register_kind
+from scara_ident_ros.estimator import Estimator, SavedEstimator, register_kind
 from scara_ident_ros.learners.exact_gp import ExactGP
 from scara_ident_ros.learners.hybrid_model import HybridModel
 from scara_ident_ros.learners.linear_features import LinearFeatures
 from scara_ident_ros.learners.sparse_spectrum_gp import SparseSpectrumGP
 from scara_ident_ros.nn import FeedForwardNet, ModelFormatError
-from scara_ident_ros.nn.model_file import read_model_file, write_model
 
 __all__ = ['KIND', 'MARGIN', 'JointChoice', 'choose_joints']
 
@@ -85,7 +83,7 @@ def choose_joints(errors: Mapping[str, ArrayLike], default: str | None = None, *
     return [labels[k] for k in np.argmin(mean, axis=0)]
 
 
-class JointChoice:
+class JointChoice(SavedEstimator):
     """Each joint's effort from its own model.
 
     Parameters
@@ -140,11 +138,6 @@ class JointChoice:
         return next(iter(self.models.values())).joint_names
 
     @property
-    def method(self) -> str:
-        """``metadata['method']`` if recorded, else the kind."""
-        return str(self.metadata.get('method', KIND))
-
-    @property
     def physical(self) -> PhysicalModel:
         """The physical model among the candidates (a hybrid's physical part if no physical
         model is one): what ``export --urdf`` writes.
@@ -184,10 +177,6 @@ class JointChoice:
             out[:, joints] = np.asarray(model.predict(rows))[:, joints]
         return out[0] if x.ndim == 1 else out
 
-    def score(self, X: ArrayLike, Y: ArrayLike) -> float:
-        """R² of the predictions of Y (N, n) from X (N, 3n)."""
-        return r2_score(Y, self.predict(X))
-
     def partial_fit(self, X: FloatArray, Y: FloatArray) -> FloatArray:
         """Not learnt online.
 
@@ -198,41 +187,39 @@ class JointChoice:
         """
         raise NotImplementedError('a JointChoice is chosen offline (scara-ident train)')
 
-    def save(self, path: str | Path) -> None:
-        """Write every kept candidate and the choice (kind ``'joint_choice'``)."""
+    def to_arrays(self) -> dict[str, np.ndarray]:
+        """Every kept candidate's entries prefixed by its label, with its kind; the labels
+        and the choice (module docstring)."""
         arrays: dict[str, np.ndarray] = {'labels': np.array(list(self.models)),
                                          'choice': np.array(self.choice)}
         for label, model in self.models.items():
             arrays[f'{label}.kind'] = np.array(model.kind)
             arrays.update({f'{label}.{k}': v for k, v in
                            model.to_arrays().items()})  # type: ignore[attr-defined]
-        write_model(path, arrays, self.metadata, kind=KIND)
+        return arrays
 
     @classmethod
-    def load(cls, path: str | Path) -> JointChoice:
-        """Read a file written by :meth:`save`.
+    def from_arrays(cls, arrays: dict[str, np.ndarray], *, source: str) -> JointChoice:
+        """Rebuild from :meth:`to_arrays`'s entries; ``source`` names them in errors.
 
         Raises
         ------
         ModelFormatError
-            If it is not a joint choice of ours or is corrupt.
+            If they are not a joint choice of ours or are corrupt.
         """
-        file = read_model_file(path, kind=KIND)
         try:
             models = {}
-            for label in (str(v) for v in np.atleast_1d(file.arrays['labels'])):
-                kind = str(file.arrays[f'{label}.kind'])
+            for label in (str(v) for v in np.atleast_1d(arrays['labels'])):
+                kind = str(arrays[f'{label}.kind'])
                 if kind not in _FROM_ARRAYS:
                     raise ValueError(f'candidate {label} of unknown kind {kind!r}')
                 prefix = f'{label}.'
-                entries = {k[len(prefix):]: v for k, v in file.arrays.items()
+                entries = {k[len(prefix):]: v for k, v in arrays.items()
                            if k.startswith(prefix) and k != f'{label}.kind'}
-                models[label] = _FROM_ARRAYS[kind](entries, str(path))
-            model = cls(models, [str(v) for v in np.atleast_1d(file.arrays['choice'])])
+                models[label] = _FROM_ARRAYS[kind](entries, source)
+            return cls(models, [str(v) for v in np.atleast_1d(arrays['choice'])])
         except (KeyError, ValueError) as exc:
-            raise ModelFormatError(f'{path}: corrupt joint choice: {exc}') from None
-        model.metadata = file.metadata
-        return model
+            raise ModelFormatError(f'{source}: corrupt joint choice: {exc}') from None
 
 
 register_kind(KIND, JointChoice.load)

@@ -80,7 +80,7 @@ def test_train_then_evaluate(fmt: str, n_joints: int, tmp_path: Path,
     code, out, err = run_cli(capsys, 'train', write_bag(fmt, tmp_path / 'run',
                                                         reordered(states, order)),
                              '--method', 'ffmw', '--iterations', '10', '--samples', '400',
-                             '--out', model)
+                             '--later-fraction', '0', '--out', model)
     assert code == 0, err
     assert '/10 mse ' in err and 'stopped:' in err  # the progress bar, on stderr
     # 2 s at 500 Hz, every sample: the centred q'' loses none to a warm-up

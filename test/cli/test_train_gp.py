@@ -30,11 +30,11 @@ def test_gp_train_then_evaluate(bags: dict[str, Path], tmp_path: Path,  # noqa: 
                                 capsys: pytest.CaptureFixture[str]) -> None:
     model_path = tmp_path / 'gp.npz'
     code, out, err = run_cli(capsys, 'train', bags['train'], '--method', 'gp',
-                             '--out', model_path)
+                             '--later-fraction', '0', '--out', model_path)
     assert code == 0, err
     assert 'GP (2500 samples, length ' in out  # every training sample, then every sample
     assert 'training on 2500, validating on 500' in out
-    assert 'saved: GP (3000 samples, length ' in out
+    assert 'then refitted on all 3000 samples (its gp part' in out
     validation = table(out, 'joint')
     assert float(validation['mean'][3]) < 1e-2  # NMSE on the held-out blocks
     model = load_model(model_path)
@@ -67,8 +67,7 @@ def test_wam_documented_commands_score_what_the_api_and_the_benchmark_do(
         code, out, err = run_cli(capsys, 'train', source, '--method', 'gp', '--out',
                                  model_path)
         assert code == 0, err
-        assert 'training on 1000, validating on 1000' in out  # the validation blocks score
-        assert f'saved: GP ({len(X)} samples' in out          # every row is learnt
+        assert f'then refitted on all {len(X)} samples (its gp part' in out  # every row
         code, out, err = run_cli(capsys, 'evaluate', model_path, f'{split}:test')
         assert code == 0, err
         assert f'{len(X_test)} samples (SMSE {expected:.3g})' in out, out

@@ -20,7 +20,7 @@ def test_kernel_train_then_evaluate(bags: dict[str, Path], tmp_path: Path,  # no
                                     capsys: pytest.CaptureFixture[str]) -> None:
     model_path = tmp_path / 'kernel.npz'
     code, out, err = run_cli(capsys, 'train', bags['train'], '--method', 'kernel',
-                             '--out', model_path)
+                             '--later-fraction', '0', '--out', model_path)
     assert code == 0, err
     assert 'KERNEL (500 random features) fitted in ' in out
     assert 'training on 2500, validating on 500' in out  # every training sample

@@ -74,11 +74,15 @@ def test_physical_train_then_evaluate(bags: dict[str, Path], tmp_path: Path,
                              '--urdf', URDF, '--out', model_path)
     assert code == 0, err
     assert 'PHYSICAL fitted by least squares on ' in out
-    # the Coulomb shape of the data (tanh(qd/0.05)) chosen on the validation blocks
-    assert 'Coulomb friction shape: tanh 0.05 (mean validation NMSE of each: sign ' in out
-    # every training sample (--samples is for networks): 5 of the 6 blocks of 1 s
-    assert 'training on 2500, validating on 500' in out
-    assert 'least squares on 2500 samples' in out
+    # the Coulomb shape of the data (tanh(qd/0.05)) kept on the later motion, no offsets
+    # nor coupling added (the data have none)
+    assert ('physical model options: tanh 0.05 (mean NMSE on the later motion: tanh 0.05 '
+            in out)
+    # every training sample (--samples is for networks): 4.2 s before the later motion's
+    # 1.8 s, 4 of its 5 blocks of 1 s; then refitted on all 3000
+    assert 'training on 2000, validating on 100' in out
+    assert 'least squares on 2000 samples' in out
+    assert 'then refitted on all 3000 samples (its physical part' in out
     assert list(table(out, 'joint | viscous')) == list(NAMES)
     model = PhysicalModel.load(model_path)
     assert model.joint_names == NAMES and str(model.metadata['method']) == 'physical'
@@ -109,7 +113,8 @@ def test_hybrid_train_then_evaluate(bags: dict[str, Path], tmp_path: Path,
                              '--urdf', URDF, '--iterations', '8', '--samples', '600',
                              '--min-iterations', '0', '--out', model_path)
     assert code == 0, err
-    assert 'HYBRID: least squares on 2500 samples, then FFS on the residual of 600' in out
+    assert 'HYBRID: least squares on 2000 samples, then FFS on the residual of at most 600' \
+        in out
     assert '/8 mse ' in err  # the network's progress bar
     model = HybridModel.load(model_path)
     assert model.joint_names == NAMES and str(model.metadata['network']) == 'ffs'

@@ -1,4 +1,5 @@
-"""``scara-ident train``'s validation: time blocks spread over the recording, a late stop."""
+"""``scara-ident train``'s validation: time blocks spread over the recording, a late stop;
+later motion held out (the split itself: test/identification/test_split.py)."""
 from __future__ import annotations
 
 import re
@@ -38,7 +39,7 @@ def test_validation_blocks_come_from_the_whole_recording(bag: Path, tmp_path: Pa
                                                          ) -> None:
     model = tmp_path / 'm.npz'
     code, out, err = run_cli(capsys, 'train', bag, '--method', 'ffs', '--iterations', '3',
-                             '--samples', '0', '--out', model)
+                             '--samples', '0', '--later-fraction', '0', '--out', model)
     assert code == 0, err
     found = VALIDATION.search(out)
     assert found, out
@@ -53,12 +54,12 @@ def test_validation_blocks_come_from_the_whole_recording(bag: Path, tmp_path: Pa
     assert int(network.metadata['min_iterations']) == train_cli.MIN_ITERATIONS
     # the same seed, the same blocks; --validation-block sets their length
     code, again, err = run_cli(capsys, 'train', bag, '--method', 'ffs', '--iterations', '1',
-                               '--out', tmp_path / 'again.npz')
+                               '--later-fraction', '0', '--out', tmp_path / 'again.npz')
     assert code == 0, err
     assert VALIDATION.search(again)[0] == found[0]  # type: ignore[index]
     code, out, err = run_cli(capsys, 'train', bag, '--method', 'ffs', '--iterations', '1',
                              '--validation-block', '0.5', '--validation-fraction', '0.1',
-                             '--out', tmp_path / 'half.npz')
+                             '--later-fraction', '0', '--out', tmp_path / 'half.npz')
     assert code == 0, err
     found = VALIDATION.search(out)
     assert found and found.group(3, 4) == ('4', '0.5') and int(found[2]) == 4 * 100
@@ -67,7 +68,8 @@ def test_validation_blocks_come_from_the_whole_recording(bag: Path, tmp_path: Pa
 def test_the_default_sample_count(bag: Path, tmp_path: Path,
                                   capsys: pytest.CaptureFixture[str]) -> None:
     code, out, err = run_cli(capsys, 'train', bag, '--method', 'ffs', '--iterations', '1',
-                             '--validation-fraction', '0', '--out', tmp_path / 'm.npz')
+                             '--validation-fraction', '0', '--later-fraction', '0',
+                             '--out', tmp_path / 'm.npz')
     assert code == 0, err
     expected = min(train_cli.SAMPLES, 4000) if train_cli.SAMPLES else 4000
     assert f'training on {expected}, validating on 0\n' in out
@@ -99,8 +101,10 @@ def test_bad_split_options_give_one_line(bag: Path, tmp_path: Path,
         ((bag, '--validation-block', '0'), r'--validation-block must be positive'),
         ((bag, '--max-fail', '0'), r'--max-fail must be at least 1'),
         ((bag, '--min-iterations', '-1'), r'--min-iterations must not be negative'),
-        ((short,), r'short\.mcap: 0\.795 s of samples fill 1 block of 1 s; .*lower '
-                   r'--validation-block or give --validation-fraction 0'),
+        ((bag, '--later-fraction', '1'), r'--later-fraction must be in \[0, 1\)'),
+        # the earlier 70 % of 0.8 s
+        ((short,), r'short\.mcap: 0\.55\d s of samples fill 1 block of 1 s; .*lower '
+                   r'--validation-block, give --validation-fraction 0'),
     ]
     for argv, pattern in cases:
         assert_one_line_error(*run_cli(capsys, 'train', *argv, '--method', 'ffs',

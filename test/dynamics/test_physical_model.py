@@ -169,8 +169,10 @@ def test_physical_and_hybrid_files_round_trip(tmp_path: Path) -> None:
     again = HybridModel.load(tmp_path / 'hybrid.npz')
     np.testing.assert_array_equal(again.predict(x), hybrid.predict(x))
     np.testing.assert_array_equal(again.gate, hybrid.gate)  # gated on the validation samples
+    assert hybrid.region is not None  # the correction fades away from the training states
     np.testing.assert_allclose(hybrid.predict(x), hybrid.physical.predict(x)
-                               + hybrid.network.predict(x) * hybrid.gate)
+                               + hybrid.network.predict(x) * hybrid.gate
+                               * hybrid.region.weight(x)[:, None])
     hybrid.gate = np.ones(4)
     with pytest.raises(ModelFormatError, match='a hybrid model, not a physical one'):
         PhysicalModel.load(tmp_path / 'hybrid.npz')
