@@ -28,12 +28,12 @@ setup(
     python_requires='>=3.10',
     entry_points={
         'console_scripts': [
-            'scara_sim = scara_ident_ros.nodes.scara_sim:main',
-            'robot_sim = scara_ident_ros.nodes.robot_sim:main',
-            'identifier = scara_ident_ros.nodes.identifier:main',
-            'recorder = scara_ident_ros.nodes.recorder:main',
-            'player = scara_ident_ros.nodes.player:main',
-            'excitation = scara_ident_ros.nodes.excitation:main',
+            'scara_sim = scara_ident_ros.nodes.console_scripts:scara_sim',
+            'robot_sim = scara_ident_ros.nodes.console_scripts:robot_sim',
+            'identifier = scara_ident_ros.nodes.console_scripts:identifier',
+            'recorder = scara_ident_ros.nodes.console_scripts:recorder',
+            'player = scara_ident_ros.nodes.console_scripts:player',
+            'excitation = scara_ident_ros.nodes.console_scripts:excitation',
             'scara-ident = scara_ident_ros.cli:main',
         ],
     },

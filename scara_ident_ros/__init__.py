@@ -19,16 +19,17 @@ An online identifier with the node's settings, without a node::
     identifier = build_identifier(names, IdentifierSettings.defaults(method='linear'))
     results = identifier.process(stamp_ns, names, q, qd, effort)   # one sample at a time
 
-The model classes are imported on first use (the physical models bring Pinocchio).
+Everything is imported on first use: the physical models bring Pinocchio, and every
+interpreter of the venv imports this package at start-up (``nodes/rosenv.py``'s ``.pth``),
+which must not cost it numpy's import.
 """
 from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
-from scara_ident_ros.estimator import (Estimator, OnlineEstimator, load_model, r2_score,
-                                       register_kind)
-
 if TYPE_CHECKING:
+    from scara_ident_ros.estimator import (Estimator, OnlineEstimator, load_model, r2_score,
+                                           register_kind)
     from scara_ident_ros.learners.hybrid_model import HybridModel
     from scara_ident_ros.dynamics.physical_model import PhysicalModel
     from scara_ident_ros.identification.identifier_builder import build_identifier
@@ -43,7 +44,9 @@ __all__ = ['Estimator', 'ExactGP', 'FeedForwardNet', 'HybridModel', 'IdentifierS
            'LinearFeatures', 'OnlineEstimator', 'PhysicalModel', 'SparseSpectrumGP',
            'build_identifier', 'load_model', 'make_network', 'r2_score', 'register_kind']
 
-_LAZY = {'FeedForwardNet': 'scara_ident_ros.nn.network',
+_LAZY = {**dict.fromkeys(['Estimator', 'OnlineEstimator', 'load_model', 'r2_score',
+                          'register_kind'], 'scara_ident_ros.estimator'),
+         'FeedForwardNet': 'scara_ident_ros.nn.network',
          'make_network': 'scara_ident_ros.nn.presets',
          'PhysicalModel': 'scara_ident_ros.dynamics.physical_model',
          'HybridModel': 'scara_ident_ros.learners.hybrid_model',
@@ -55,7 +58,7 @@ _LAZY = {'FeedForwardNet': 'scara_ident_ros.nn.network',
 
 
 def __getattr__(name: str) -> Any:
-    """The model classes, imported when first asked for."""
+    """The estimator contract and the model classes, imported when first asked for."""
     module = _LAZY.get(name)
     if module is None:
         raise AttributeError(f'module {__name__!r} has no attribute {name!r}')

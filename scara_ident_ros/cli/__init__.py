@@ -30,6 +30,7 @@ SUBCOMMANDS: dict[str, str] = {
     'recover': 'recover',
     'export': 'export',
     'excitation': 'excitation',
+    'lag': 'lag',
 }
 
 

@@ -62,7 +62,7 @@ def run(args: argparse.Namespace) -> int:
 
     from rclpy.parameter import Parameter
 
-    from scara_ident_ros.nodes.player import PlayerNode, use_player_profile
+    from scara_ident_ros.nodes.player import PlayerNode
     from scara_ident_ros.nodes.runtime import run_node
 
     overrides = [
@@ -77,5 +77,4 @@ def run(args: argparse.Namespace) -> int:
         overrides.append(Parameter('topics', value=list(args.topics)))
     if args.remap:
         overrides.append(Parameter('remap', value=list(args.remap)))
-    use_player_profile()
     return run_node('scara-ident play', lambda: PlayerNode(parameter_overrides=overrides), [])

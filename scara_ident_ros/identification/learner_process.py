@@ -7,7 +7,11 @@ process and the learning in a learner process; what they share is here:
 
 - :func:`start_learner`: a fresh interpreter (not fork: the caller has DDS threads; not
   multiprocessing's spawn: it re-runs the caller's ``__main__``) with one BLAS thread, two
-  pipes, the program given as ``python -c``; :func:`prestart` starts some ahead of the stream;
+  pipes, the program given as ``python -c``, in a process group of its own: a terminal's
+  Ctrl-C (SIGINT to the foreground group) reaches the caller alone, which stops its
+  learners; a learner also ends when its pipe from the caller closes (the caller gone).
+  :func:`prestart` starts some ahead of the stream; those not taken are ended and reaped
+  when the caller exits;
 - :class:`LearnerClient`: the caller's end. It never blocks on the pipe: a message is written
   only when the pipe has room for it in one atomic write (``select``); otherwise it waits in
   a bounded backlog (:data:`BACKLOG`), beyond which samples are dropped and counted. It keeps
@@ -20,6 +24,7 @@ The messages are those of :mod:`~scara_ident_ros.identification.learner_messages
 """
 from __future__ import annotations
 
+import atexit
 import os
 import select
 import signal
@@ -36,7 +41,8 @@ from typing import Any
 from scara_ident_ros.identification.learner_messages import Ready, Samples, Stop
 
 __all__ = ['BACKLOG', 'BATCH_BYTES', 'Inbox', 'LearnerClient', 'RATE_SPAN',
-           'STOP_TIMEOUT', 'enter_learner', 'prestart', 'run_learner', 'start_learner']
+           'STOP_TIMEOUT', 'end_prestarted', 'enter_learner', 'prestart', 'run_learner',
+           'start_learner']
 
 #: Bytes of one batch message at most: below PIPE_BUF (4096 on Linux), so a write into a
 #: pipe that select() calls writable neither blocks nor interleaves.
@@ -58,7 +64,8 @@ def start_learner(command: str) -> Learner:
                MKL_NUM_THREADS='1')
     process = subprocess.Popen(
         [sys.executable, '-c', command, str(learner_reads), str(learner_writes)],
-        pass_fds=(learner_reads, learner_writes), env=env, stdin=subprocess.DEVNULL)
+        pass_fds=(learner_reads, learner_writes), env=env, stdin=subprocess.DEVNULL,
+        process_group=0)
     os.close(learner_reads)
     os.close(learner_writes)
     return process, Connection(we_write, readable=False), Connection(we_read, writable=False)
@@ -68,9 +75,25 @@ def prestart(command: str, count: int) -> None:
     """Start ``count`` learner processes of ``command`` now, before the stream: the next
     clients of that program take them instead of starting their own, so that the
     interpreters' start (about 0.6 s of CPU each) does not compete with the first samples."""
+    if not _PRESTARTED:
+        atexit.register(end_prestarted)
     waiting = _PRESTARTED.setdefault(command, [])
     while len(waiting) < count:
         waiting.append(start_learner(command))
+
+
+def end_prestarted() -> None:
+    """End the learner processes :func:`prestart` started that no client took, and reap
+    them (they wait for a start message, or are still starting: SIGTERM ends either at
+    once). Called at the caller's exit, so that none outlives it."""
+    for waiting in _PRESTARTED.values():
+        while waiting:
+            process, to_learner, from_learner = waiting.pop()
+            if process.poll() is None:
+                process.terminate()
+            process.wait()
+            to_learner.close()
+            from_learner.close()
 
 
 def run_learner(learn: Callable[[Connection, Connection, Any], None],
@@ -78,6 +101,7 @@ def run_learner(learn: Callable[[Connection, Connection, Any], None],
     """The learner's end: its inbox and outbox from the descriptors of its arguments
     (``READ_FD WRITE_FD``); wait for the start message, then ``learn(inbox, outbox, start)``.
     """
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the caller stops it (enter_learner)
     args = sys.argv[1:] if argv is None else argv
     inbox = Connection(int(args[0]), writable=False)
     outbox = Connection(int(args[1]), readable=False)

@@ -218,11 +218,10 @@ class IdentifierNode(Node):
             for out in self.outputs]
         self.create_service(Trigger, '~/save_model', self.on_save_model)
         self.create_service(Trigger, '~/reset', self.on_reset)
-        # The objects made so far (modules, ROS handles) and once built the cores live as
-        # long as the node: out of the collector's sight (gc.freeze) a full collection
-        # does not walk them all while samples wait (it did, for tens of ms).
+        # Once built, the cores live as long as the node: frozen out of the collector's
+        # sight as the node is (run_node), a full collection does not walk them while
+        # samples wait (it did, for tens of ms).
         self.frozen_with_cores = False
-        gc.freeze()
         if s.wait_for_subscribers > 0:
             self.wait_deadline = time.monotonic() + s.wait_timeout
             self.wait_timer = self.create_timer(WAIT_POLL_PERIOD, self._subscribe_when_heard)

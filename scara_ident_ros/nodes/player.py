@@ -23,8 +23,8 @@
   waits until every subscriber has acknowledged them, so ``rate`` 0 goes as fast as the
   slowest keep-all subscriber reads (a keep-last one drops unread messages itself); the
   timing of rate > 0 slips while it waits and catches up. Its writers send heartbeats
-  every 20 ms (``config/player_fastdds.xml``) instead of Fast DDS's 3 s, so a dropped
-  message is resent at once.
+  every 20 ms (``config/fastdds.xml``, as every node's) instead of Fast DDS's 3 s, so a
+  dropped message is resent at once.
 - Before the first message it waits (at most ``wait_timeout``) until every topic it
   plays has a subscriber.
 - With ``clock`` it publishes ``/clock`` (rosgraph_msgs/Clock) at ``clock_rate`` with the
@@ -35,7 +35,6 @@
 """
 from __future__ import annotations
 
-import os
 import sys
 import threading
 import time
@@ -59,19 +58,15 @@ from scara_ident_ros.bag.topic_filter import TopicFilter
 from scara_ident_ros.errors import ConfigError
 from scara_ident_ros.nodes.parameters import ParamSpec, declare_parameters
 from scara_ident_ros.nodes.runtime import POLL_PERIOD, run_node
-from scara_ident_ros.resources import config_path
 from scara_ident_ros.topics import CLOCK
 
-__all__ = ['PARAMETERS', 'PlayerNode', 'main', 'use_player_profile']
+__all__ = ['PARAMETERS', 'PlayerNode', 'main']
 
 ACK_TIMEOUT = 10.0  # s to wait at the end for subscribers to acknowledge everything
 ACK_POLL = 0.1  # s: one wait for acknowledgements between two looks at the stop flag
 ACK_WARN = 10.0  # s a window may wait for acknowledgements before the player says so
 SPIN_PERIOD_NS = 100_000_000  # ns between two spin_once calls while publishing flat out
 SLEEP_SLACK_NS = 2_000_000  # ns: shorter waits are slept, longer ones spent spinning
-PROFILE_FILE = 'player_fastdds.xml'  # in config/: the writers' 20 ms heartbeat
-PROFILE_VARIABLES = ('FASTRTPS_DEFAULT_PROFILES_FILE', 'FASTDDS_DEFAULT_PROFILES_FILE')
-FAST_DDS = ('', 'rmw_fastrtps_cpp', 'rmw_fastrtps_dynamic_cpp')  # RMW_IMPLEMENTATION values
 
 PARAMETERS = (
     ParamSpec('bag', '', 'Recording to play (required): bag directory, .mcap, .db3 or ROS 1 '
@@ -297,24 +292,8 @@ class PlayerNode(Node):
                                f', {acknowledged}')
 
 
-def use_player_profile() -> None:
-    """Use ``config/player_fastdds.xml`` (20 ms heartbeats); call before ``rclpy.init``.
-
-    Not when the user has set a Fast DDS profile file, or another middleware.
-    """
-    if any(os.environ.get(name) for name in PROFILE_VARIABLES):
-        return
-    if os.environ.get('RMW_IMPLEMENTATION', '') not in FAST_DDS:
-        return
-    try:
-        os.environ[PROFILE_VARIABLES[0]] = str(config_path(PROFILE_FILE))
-    except FileNotFoundError:  # an install without it: Fast DDS's 3 s heartbeat
-        pass
-
-
 def main(args: list[str] | None = None) -> None:
     """Entry point of the ``player`` executable."""
-    use_player_profile()
     sys.exit(run_node('player', PlayerNode, args,
                       description=__doc__ or '', parameters=PARAMETERS))
 

@@ -1,5 +1,8 @@
 """The process environment of the project's ROS processes: its own ROS libraries, local DDS.
 
+:func:`ensure_local_dds` sets what every process of the package joins DDS with: discovery on
+this machine, and Fast DDS's profile ``config/fastdds.xml`` (20 ms heartbeats).
+
 In the project's venv, ROS comes as PyPI wheels whose shared libraries live in the venv
 (``<prefix>/lib`` and ``site-packages/ros_*.libs``). The wheels' bootstrapper
 (``ros_wheels_bootstrapper.pth``) re-executes every interpreter once with those directories
@@ -36,14 +39,31 @@ PTH_LINE = ('import scara_ident_ros.nodes.rosenv as _rosenv; '
             '_rosenv.use_own_ros_libraries()\n')
 PYTHON_PACKAGE_OF_ROS = 'rclpy'  # a PYTHONPATH entry holding it would shadow the venv's
 
+PROFILE_FILE = 'fastdds.xml'  # in config/: the writers' 20 ms heartbeat
+PROFILE_VARIABLES = ('FASTRTPS_DEFAULT_PROFILES_FILE', 'FASTDDS_DEFAULT_PROFILES_FILE')
+FAST_DDS = ('', 'rmw_fastrtps_cpp', 'rmw_fastrtps_dynamic_cpp')  # RMW_IMPLEMENTATION values
+
 
 def ensure_local_dds() -> None:
-    """Set ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`` unless the user chose a range.
+    """Set ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`` unless the user chose a range, and
+    with Fast DDS the profile :data:`PROFILE_FILE` unless the user gave one.
 
     Must run before ``rclpy.init``: without it Fast DDS multicasts discovery
-    traffic off the machine.
+    traffic off the machine, and a reliable writer repairs a sample the transport dropped
+    only at its next heartbeat, 3 s later by default (``config/fastdds.xml``: 20 ms); the
+    reader's later samples wait for it. Set in a process, both hold for its children.
     """
     os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
+    if any(os.environ.get(name) for name in PROFILE_VARIABLES):
+        return
+    if os.environ.get('RMW_IMPLEMENTATION', '') not in FAST_DDS:
+        return
+    from scara_ident_ros.resources import config_path
+
+    try:
+        os.environ[PROFILE_VARIABLES[0]] = str(config_path(PROFILE_FILE))
+    except FileNotFoundError:  # an install without it: Fast DDS's 3 s heartbeat
+        pass
 
 
 def own_library_dirs(prefix: Path, site_packages: Path) -> list[str]:

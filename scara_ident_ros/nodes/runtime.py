@@ -12,12 +12,14 @@ it is then closed (``close()``), destroyed, and the process exits 0. A stop long
 :data:`STOP_TIMEOUT` ends the process with exit 1 and every thread's traceback: a node
 must not outlive its run and publish into the next graph. A
 :class:`~scara_ident_ros.errors.ScaraIdentError` (e.g. ``ConfigError``) raised while the
-node is built ends it with one line and exit 2. The optional hooks are the protocols
-`PacedNode`, `DrainingNode` and `ClosingNode`.
+node is built ends it with one line and exit 2. Once built, the node and everything
+imported are frozen out of the garbage collector's sight (``gc.freeze``). The optional
+hooks are the protocols `PacedNode`, `DrainingNode` and `ClosingNode`.
 """
 from __future__ import annotations
 
 import faulthandler
+import gc
 import signal
 import sys
 import threading
@@ -114,6 +116,11 @@ def run_node(name: str, factory: Callable[[], Node], args: list[str] | None = No
             message = ' '.join(str(exc).split())  # one line, even for a YAML parser's report
             print(f'{name}: error: {message}', file=sys.stderr)
             return 2
+        # What is built so far (modules, ROS handles, the node) lives as long as the
+        # process: out of the collector's sight, a full collection does not walk it all
+        # while samples wait (tens of ms each, in every node).
+        gc.collect()
+        gc.freeze()
         executor = EventsExecutor()
         executor.add_node(node)
         if isinstance(node, PacedNode):

@@ -55,7 +55,7 @@ def test_every_executable_is_installed_where_ros2_run_looks(install: Path) -> No
     share = install / PACKAGE / 'share' / PACKAGE
     assert (share / 'package.xml').is_file()
     assert sorted(p.name for p in (share / 'config').glob('*.yaml'))
-    assert (share / 'config' / 'player_fastdds.xml').is_file()  # the player's heartbeat
+    assert (share / 'config' / 'fastdds.xml').is_file()  # the writers' heartbeat
     assert (share / 'launch' / 'identification.launch.py').is_file()
     assert (share / 'urdf' / 'scara.urdf').is_file()
     marker = install / PACKAGE / 'share' / 'ament_index' / 'resource_index' / 'packages'
