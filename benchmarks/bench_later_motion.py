@@ -64,10 +64,16 @@ def run(*args: str) -> str:
 
 
 def nmse_per_joint(text: str) -> list[float]:
-    """The NMSE column of each joint row of ``evaluate``'s table."""
-    rows = [line for line in text.splitlines()
-            if line.startswith('| ') and not line.startswith(('| joint', '| mean', '|---'))]
-    return [float(row.strip('|').split('|')[-1]) for row in rows]
+    """The NMSE column of each joint row of ``evaluate``'s first table (the errors)."""
+    values, inside = [], False
+    for line in text.splitlines():
+        if line.startswith('| joint'):
+            inside = True
+        elif inside and line.startswith('| mean'):
+            return values
+        elif inside and line.startswith('| ') and not line.startswith('|---'):
+            values.append(float(line.strip('|').split('|')[-1]))
+    raise ValueError(f'no error table in {text[:200]!r}')
 
 
 def main() -> int:
