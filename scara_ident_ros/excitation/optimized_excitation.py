@@ -1,4 +1,4 @@
-"""An excitation designed for identification: the periodic Fourier motion best conditioned.
+"""An excitation designed for identification: the periodic motion of best-conditioned regressor.
 
 Each joint j follows a Fourier series of L harmonics of base frequency f = 1/T about the
 middle c_j of its range (:class:`~scara_ident_ros.sim.trajectory.FourierTrajectory`, with
@@ -10,20 +10,28 @@ Its coefficients minimise the condition number of the physical model's regressor
 URDF's base parameters with the friction and rotor-inertia columns :class:`~scara_ident_ros.
 dynamics.physical_model.PhysicalModel` fits) stacked over a period (Swevers, Ganseman,
 Tükel, De Schutter and Van Brussel, "Optimal robot excitation and identification", IEEE
-T-RA 1997), subject to the limits. q, q', q'' are linear in the coefficients, so the
-limits on a grid of the period are linear inequalities: the position within
-``position_fraction`` of each half-range about c_j, the speed and the acceleration within
-their fractions of the limits (those of :data:`~scara_ident_ros.sim.sequence.
+T-RA 1997), together with its size, subject to the limits. The criterion is
+
+    J = log cond(W) − (1/p) Σ_i log s_i(W),    s_1 >= ... >= s_p its singular values:
+
+the condition number is scale-free, and alone it is lowered by shrinking the motion (the
+accelerations most) until the noise the efforts carry swamps it; the second term, log of the
+geometric mean of the singular values (D-optimality's log det WᵀW / 2p), keeps the motion as
+large as the limits allow (benchmarks/excitation_length.md). q, q', q'' are linear in the
+coefficients, so the limits on a grid of the period are linear inequalities: the position
+within ``position_fraction`` of each half-range about c_j, the speed and the acceleration
+within their fractions of the limits (those of :data:`~scara_ident_ros.sim.sequence.
 SEQUENCE_EXCITATION`, as the random sequence draws them: the approach into it and its stops
-keep to :data:`~scara_ident_ros.sim.sequence.SEQUENCE_LIMITS`). scipy's SLSQP minimises
-log cond(W) from a seeded random start; its gradient is the chain rule
+keep to :data:`~scara_ident_ros.sim.sequence.SEQUENCE_LIMITS`). scipy's SLSQP minimises J
+from a seeded random start; its gradient is the chain rule
 
-    ∂ log cond / ∂x = Σ_ij (G · ∂W/∂q_ij) ∂q_ij/∂x + (the same for q', q''),
-    G = u_1 v_1ᵀ / s_1 − u_p v_pᵀ / s_p    (the extreme singular triplets of W),
+    ∂J/∂x = Σ_ij (G · ∂W/∂q_ij) ∂q_ij/∂x + (the same for q', q''),
+    G = u_1 v_1ᵀ / s_1 − u_p v_pᵀ / s_p − (1/p) Σ_i u_i v_iᵀ / s_i
 
-with ∂W/∂q_j, ∂W/∂q'_j, ∂W/∂q''_j by forward differences (3n + 1 regressors of the grid
-per gradient, not one per coefficient). The result is scaled down per joint, if need be,
-to keep to its fractions on a dense grid (200 points per period of the highest harmonic).
+(u_i, v_i the singular vectors of W), with ∂W/∂q_j, ∂W/∂q'_j, ∂W/∂q''_j by forward
+differences (3n + 1 regressors of the grid per gradient, not one per coefficient). The
+result is scaled down per joint, if need be, to keep to its fractions on a dense grid (1,000
+points per period of the highest harmonic).
 
 :class:`OptimizedExcitation` repeats the motion every period: an
 :class:`~scara_ident_ros.excitation.plan.ExcitationPlan` approaches it from rest as it
@@ -35,6 +43,8 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass
+from typing import Any
+
 import numpy as np
 import scipy.optimize
 from numpy.typing import NDArray
@@ -56,7 +66,7 @@ DEFAULT_HARMONICS = 5
 DEFAULT_PERIOD = 10.0
 _SAMPLES_PER_HARMONIC = 16   # regressor samples per period of the highest harmonic
 _CHECKS_PER_HARMONIC = 20    # limit constraints per period of the highest harmonic
-_DENSE_PER_HARMONIC = 200    # points of the final check
+_DENSE_PER_HARMONIC = 1000   # points of the final check
 _STEP = 1e-6                 # relative step of the forward differences of W
 
 
@@ -100,7 +110,8 @@ def optimize_excitation(model: LinearInParameters, limits: JointLimits, *, seed:
                         n_harmonics: int = DEFAULT_HARMONICS, period: float = DEFAULT_PERIOD,
                         max_seconds: float = 120.0, max_iterations: int = 200
                         ) -> OptimizedExcitation:
-    """The Fourier coefficients of least cond(W) within the limits (module docstring).
+    """The Fourier coefficients of least J (cond(W) and size) within the limits (module
+    docstring).
 
     Parameters
     ----------
@@ -135,7 +146,7 @@ def optimize_excitation(model: LinearInParameters, limits: JointLimits, *, seed:
     problem = _Problem(model, limits, n_harmonics, period)
     x0 = problem.start(seed)
     best_x, best_value = [x0], [problem.objective(x0)]      # the best feasible point
-    start_condition = math.exp(best_value[0])
+    start_condition = problem.condition(problem.trajectory(x0))
     deadline = started + max_seconds
 
     def objective(x: FloatArray) -> float:
@@ -238,16 +249,19 @@ class _Problem:
         return w.reshape(-1, w.shape[-1])
 
     def objective(self, x: FloatArray) -> float:
+        """log cond(W) − mean_i log s_i(W) of the motion of ``x`` (module docstring)."""
         s = np.linalg.svd(self.stacked(*self.motion(x)), compute_uv=False)
-        return float(np.log(s[0] / s[-1])) if s[-1] > 0 else 1e3
+        return _criterion(s)
 
     def gradient(self, x: FloatArray) -> FloatArray:
+        """∂ objective / ∂x (2nL,) by the chain rule (module docstring)."""
         q, qd, qdd = self.motion(x)
         w = self.stacked(q, qd, qdd)
         u, s, vt = np.linalg.svd(w, full_matrices=False)
         if not s[-1] > 0:
             return np.zeros_like(x)
-        g = np.outer(u[:, 0], vt[0]) / s[0] - np.outer(u[:, -1], vt[-1]) / s[-1]
+        g = (np.outer(u[:, 0], vt[0]) / s[0] - np.outer(u[:, -1], vt[-1]) / s[-1]
+             - (u / s) @ vt / s.size)
         count = q.shape[0]
         g = g.reshape(count, self.n, -1)
         per_state = np.zeros((3, count, self.n))       # ∂ log cond / ∂(q, q', q'')_ij
@@ -294,3 +308,11 @@ def plan_condition(plan: ExcitationPlan, model: LinearInParameters, seconds: flo
     excitation after its approach, sampled every ``step`` (s) (∞ if singular)."""
     t = plan.approach_duration + step * np.arange(max(1, round(seconds / step)))
     return condition_number(model, *plan.evaluate(t))
+
+
+def _criterion(s: NDArray[np.floating[Any]]) -> float:
+    """log(s_1 / s_p) − mean_i log s_i of singular values s (p,), descending; large if
+    singular."""
+    if not s[-1] > 0:
+        return 1e3
+    return float(np.log(s[0] / s[-1]) - np.mean(np.log(s)))

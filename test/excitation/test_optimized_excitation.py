@@ -52,11 +52,11 @@ def test_the_optimised_motion_keeps_every_limit(found: OptimizedExcitation,
     q, qd, qdd = trajectory.evaluate(t)
     half = 0.5 * (margined.position_max - margined.position_min)
     fraction = SEQUENCE_EXCITATION['position_fraction']
-    assert np.all(np.abs(q - margined.centre) <= fraction * half * (1 + 1e-6))
+    assert np.all(np.abs(q - margined.centre) <= fraction * half * (1 + 1e-4))
     assert np.all(np.abs(qd) <= SEQUENCE_EXCITATION['velocity_fraction']
-                  * margined.velocity_max * (1 + 1e-6))
+                  * margined.velocity_max * (1 + 1e-4))
     assert np.all(np.abs(qdd) <= SEQUENCE_EXCITATION['acceleration_fraction']
-                  * margined.acceleration_max * (1 + 1e-6))
+                  * margined.acceleration_max * (1 + 1e-4))
 
 
 def test_the_plan_approaches_it_from_rest_and_stops_at_rest(
@@ -82,3 +82,18 @@ def test_bad_settings_are_refused(model: PhysicalModel, margined: JointLimits) -
         optimize_excitation(model, margined, seed=0, n_harmonics=0)
     with pytest.raises(ValueError, match='period'):
         optimize_excitation(model, margined, seed=0, period=-1.0)
+
+
+def test_the_gradient_is_the_criterions_central_difference(model: PhysicalModel,
+                                                           margined: JointLimits) -> None:
+    from scara_ident_ros.excitation.optimized_excitation import _Problem
+
+    problem = _Problem(model, margined, 3, 6.0)
+    x = problem.start(4)
+    gradient = problem.gradient(x)
+    for k in (0, 7, 13, x.size - 1):
+        h = 1e-5 * max(1.0, abs(x[k]))
+        step = np.zeros_like(x)
+        step[k] = h
+        central = (problem.objective(x + step) - problem.objective(x - step)) / (2 * h)
+        assert gradient[k] == pytest.approx(central, rel=1e-3, abs=1e-6)
