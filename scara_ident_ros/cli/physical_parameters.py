@@ -31,10 +31,10 @@ def parameters_markdown(model: PhysicalModel) -> str:
     found = model.uncertainty
     relative = (np.full(model.n_parameters, np.nan) if found is None
                 else found.relative_std)
-    lines = ['| base parameter | identified | %σ | URDF | definition |', '|---|---|---|---|---|']
+    lines = ['| base parameter | identified | URDF | %σ | definition |', '|---|---|---|---|---|']
     for k, (name, definition) in enumerate(zip(model.parameter_names, model.definitions())):
-        lines.append(f'| {name} | {_value(float(model.theta[k]))} | {_percent(relative[k])} | '
-                     f'{_value(float(urdf[k]))} | {definition} |')
+        lines.append(f'| {name} | {_value(float(model.theta[k]))} | {_value(float(urdf[k]))} | '
+                     f'{_percent(relative[k])} | {definition} |')
     lines += ['', f'Units: kg (m), kg·m (m·c), kg·m² (I, Ia: rotor inertia); moments about '
                   f'each joint\'s frame. Coulomb friction shape: {_shape(model)}.', '',
               '| joint | viscous (N·m·s/rad or N·s/m) | %σ | Coulomb (N·m or N) | %σ |',
