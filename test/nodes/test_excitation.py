@@ -159,6 +159,34 @@ def test_the_stop_service_stops_the_arm_smoothly(listener: Listener) -> None:
     assert_smooth_stop(arm.chunks, np.array(start))
 
 
+def test_the_optimized_plan_is_sent_within_the_limits_and_stopped(listener: Listener,
+                                                                  tmp_path: Path) -> None:
+    """``plan:=optimized``: the node optimises first, then sends the approach and the
+    periodic motion in chunks that keep to the limits; SIGINT brings it to rest."""
+    start = [0.5, -0.4, 0.08, 1.0]
+    arm = FakeArm(listener, start)
+    with excitation('-p', 'plan:=optimized', '-p', 'harmonics:=3', '-p', 'base_period:=4.0',
+                    '-p', f'stats_file:={tmp_path / "stats.json"}') as node:
+        arm.spin_until(lambda: len(arm.chunks) >= 12)
+        node.process.send_signal(signal.SIGINT)
+        arm.spin_until(node.exited)
+        output = node.wait(TIMEOUT)
+    listener.spin_until(lambda: False, 0.3)
+    assert output.returncode == 0, output.stderr
+    assert 'optimised in ' in output.stderr and 'then the optimized excitation' in output.stderr
+    for chunk in arm.chunks:
+        assert MARGINED.violations(chunk.q, chunk.qd, chunk.qdd,
+                                   position_hull=np.array(start)) == []
+        assert_consistent(chunk.times, chunk.q, chunk.qd, chunk.qdd, rtol=0.02)
+        assert np.all(chunk.qd[-1] == 0.0) and np.all(np.abs(chunk.qdd[-1]) < 1e-9)
+    np.testing.assert_allclose(arm.chunks[0].q[0], start, atol=1e-12)
+    # not the random sequence's plan
+    random = ExcitationPlan(MARGINED, np.array(start), seed=0)
+    last = arm.chunks[-2]
+    assert np.abs(last.q - random.evaluate(last.times)[0]).max() > 1e-3
+    assert json.loads((tmp_path / 'stats.json').read_text())['plan'] == 'optimized'
+
+
 def test_lost_joint_states_stop_the_arm_and_end_with_an_error(listener: Listener) -> None:
     arm = FakeArm(listener, CENTRE)
     with excitation(state_timeout=0.5) as node:
