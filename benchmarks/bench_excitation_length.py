@@ -8,7 +8,8 @@ their limits as ``robot_sim`` and ``excitation`` take them (the URDF's, accelera
 limits). Per seed s, the plans are those of ``scara-ident excitation --dry-run`` from the
 middle of the ranges, sampled every 0.01 s (its point period): the random sequence (seed s)
 and the optimised plan (``--optimize``: 5 harmonics, 10 s period, seeded start s, its
-2-minute time budget). The efforts are the model's with known parameters: the rigid body
+2-minute time budget, shrunk until the links stay apart for the arms, whose URDFs have
+collision geometry). The efforts are the model's with known parameters: the rigid body
 of the URDF (Pinocchio's regressor, which is RNEA) with ``robot_sim``'s rotor inertia
 (1e-3 s² × the effort limit), viscous friction (2 % of the effort limit per rad/s or m/s)
 and Coulomb friction (3 %, tanh(q'/0.05)), plus normal noise of 0.3 N·m (N) on every joint,
@@ -54,11 +55,13 @@ HELD_OUT_SEED = 1000   # + seed
 GOOD = 0.05            # %σ and relative error called good
 
 
-def robot_setup(name: str) -> tuple[Any, Any, np.ndarray]:
-    """The limits with the node's margins, the physical model and the true θ."""
+def robot_setup(name: str) -> tuple[Any, Any, np.ndarray, Any]:
+    """The limits with the node's margins, the physical model, the true θ and the
+    self-collision check (None for the SCARA: no collision geometry)."""
     from scara_ident_ros.dynamics.joint_limits import JointLimits, load_motion_limits
     from scara_ident_ros.dynamics.physical_model import PhysicalModel
     from scara_ident_ros.excitation import LoopSettings
+    from scara_ident_ros.excitation.self_collision import self_collision
     from scara_ident_ros.sim.example_robots import example_robot
     from scara_ident_ros.sim.pinocchio_robot import (ARMATURE_PER_EFFORT, FRICTION_DEFAULTS,
                                                      PinocchioRobot)
@@ -84,7 +87,7 @@ def robot_setup(name: str) -> tuple[Any, Any, np.ndarray]:
     truth = np.concatenate([model.reduction.base_values(standard),
                             FRICTION_DEFAULTS['viscous'] * effort,
                             FRICTION_DEFAULTS['coulomb'] * effort])
-    return margined, model, truth
+    return margined, model, truth, self_collision(urdf, limits.names, margined.centre)
 
 
 def run_seed(name: str, seed: int, lengths: list[float], max_seconds: float
@@ -96,7 +99,7 @@ def run_seed(name: str, seed: int, lengths: list[float], max_seconds: float
     from scara_ident_ros.identification.metrics import effort_errors
 
     with single_blas_thread():
-        margined, model, truth = robot_setup(name)
+        margined, model, truth, collision = robot_setup(name)
         model.set_theta(truth)
         start = 0.5 * (margined.position_min + margined.position_max)
         held = ExcitationPlan(margined, start, seed=HELD_OUT_SEED + seed)
@@ -105,12 +108,14 @@ def run_seed(name: str, seed: int, lengths: list[float], max_seconds: float
         X_h = np.hstack([q_h, qd_h, qdd_h])
         Y_h = model.predict(X_h)
         started = time.perf_counter()
-        found = optimize_excitation(model, margined, seed=seed, max_seconds=max_seconds)
+        found = optimize_excitation(model, margined, seed=seed, max_seconds=max_seconds,
+                                    collision=collision)
         plans = {'random': ExcitationPlan(margined, start, seed=seed),
                  'optimised': ExcitationPlan(margined, start, seed=seed, excitation=found)}
         out: dict[str, Any] = {'robot': name, 'seed': seed, 'n_base': model.n_base,
                                'optimise_s': time.perf_counter() - started,
-                               'iterations': found.iterations, 'rows': []}
+                               'iterations': found.iterations,
+                               'collision_scale': found.collision_scale, 'rows': []}
         rng = np.random.default_rng(seed)
         longest = max(lengths)
         for kind, plan in plans.items():
@@ -126,7 +131,8 @@ def run_seed(name: str, seed: int, lengths: list[float], max_seconds: float
                 assert found_u is not None
                 nb = model.n_base
                 relative = found_u.relative_std[:nb]
-                error = np.abs(model.theta[:nb] - truth[:nb]) / np.abs(truth[:nb])
+                with np.errstate(divide='ignore'):
+                    error = np.abs(model.theta[:nb] - truth[:nb]) / np.abs(truth[:nb])
                 good = relative <= GOOD
                 out['rows'].append({
                     'plan': kind, 'seconds': length,
@@ -150,7 +156,8 @@ def summary(results: list[dict[str, Any]], lengths: list[float]) -> tuple[str, d
                   f'Optimisation: {np.median([r["optimise_s"] for r in mine]):.0f} s median '
                   f'({min(r["optimise_s"] for r in mine):.0f}–'
                   f'{max(r["optimise_s"] for r in mine):.0f} s), '
-                  f'{np.median([r["iterations"] for r in mine]):.0f} SLSQP iterations.', '',
+                  f'{np.median([r["iterations"] for r in mine]):.0f} SLSQP iterations; '
+                  + _collision_text(mine), '',
                   '| s | plan | NMSE median (range) | cond median | %σ ≤ 5 % | of those '
                   'within 5 % | median parameter error |', '|---|---|---|---|---|---|---|']
         for length in lengths:
@@ -166,6 +173,14 @@ def summary(results: list[dict[str, Any]], lengths: list[float]) -> tuple[str, d
                              f'{100 * m["within"]:.0f} % | {100 * m["median_error"]:.2g} % |')
         lines.append('')
     return '\n'.join(lines), medians
+
+
+def _collision_text(results: list[dict[str, Any]]) -> str:
+    scales = [r['collision_scale'] for r in results]
+    if scales[0] is None:
+        return 'no collision geometry: self-collision not checked.'
+    return ('self-collision checked; amplitudes shrunk to keep the links apart: '
+            + ', '.join(f'{s:.2g}' for s in scales) + ' (per seed).')
 
 
 def targets(medians: dict, lengths: list[float]) -> str:
@@ -237,14 +252,14 @@ def main() -> None:
     args = parser.parse_args()
     started = time.perf_counter()
     load_before = os.getloadavg()
+    commit = subprocess.run(['git', 'rev-parse', '--short', 'HEAD'], cwd=ROOT, text=True,
+                            capture_output=True, check=False).stdout.strip()
     jobs = [(robot, seed) for robot in args.robots for seed in range(args.seeds)]
     with ProcessPoolExecutor(args.workers) as pool:
         results = list(pool.map(run_seed, *zip(*jobs), [args.lengths] * len(jobs),
                                 [args.max_seconds] * len(jobs)))
     tables, medians = summary(results, args.lengths)
     plot(medians, results, args.lengths)
-    commit = subprocess.run(['git', 'rev-parse', '--short', 'HEAD'], cwd=ROOT, text=True,
-                            capture_output=True, check=False).stdout.strip()
     load_after = os.getloadavg()
     text = '\n'.join([
         '# How long to excite: random sequence or optimised plan', '',

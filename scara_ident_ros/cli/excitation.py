@@ -9,7 +9,8 @@ fractions of the robot's limits. With ``--optimize`` the excitation is not the r
 sequence but the periodic Fourier motion (``--harmonics``, ``--period``) whose physical-model
 regressor is best conditioned within the same limits
 (:mod:`~scara_ident_ros.excitation.optimized_excitation`, at most ``--max-seconds`` of
-optimisation); it prints that regressor's condition number over ``--seconds`` of it
+optimisation; shrunk until its links stay apart where the URDF has collision geometry); it
+prints that regressor's condition number over ``--seconds`` of it
 against the random sequence's over the same length. A URDF without limits, a start outside
 the limits or a plan outside the margins ends it with one line and exit status 2. To move
 the arm, run the node:
@@ -145,20 +146,25 @@ def _optimized_plan(args: argparse.Namespace, margined: JointLimits, start: np.n
     from scara_ident_ros.excitation import ExcitationPlan
     from scara_ident_ros.excitation.optimized_excitation import (optimize_excitation,
                                                                  plan_condition)
+    from scara_ident_ros.excitation.self_collision import self_collision
 
     if args.harmonics < 1 or not args.period > 0 or not args.max_seconds > 0:
         raise CliError('--harmonics must be >= 1, --period and --max-seconds > 0')
     try:
         model = PhysicalModel.from_urdf_file(args.urdf, joint_names=list(margined.names))
+        collision = self_collision(args.urdf, margined.names, margined.centre)
         found = optimize_excitation(model, margined, seed=args.seed,
                                     n_harmonics=args.harmonics, period=args.period,
-                                    max_seconds=args.max_seconds)
+                                    max_seconds=args.max_seconds, collision=collision)
         plan = ExcitationPlan(margined, start, seed=args.seed, excitation=found)
     except ScaraIdentError as exc:
         raise CliError(str(exc)) from None
     print(f'optimised {args.harmonics} harmonics of a {args.period:g} s period in '
           f'{found.seconds:.0f} s ({found.iterations} iterations): condition number '
           f'{found.start_condition:.4g} at the seeded start, {found.condition:.4g} at the end')
+    print('self-collision: no collision geometry in the URDF, not checked' if collision is None
+          else f'self-collision: {collision.n_pairs} pairs of links checked along the motion, '
+               f'amplitudes × {found.collision_scale:.2g} to keep them apart')
     ours = plan_condition(plan, model, args.seconds, args.point_period)
     theirs = plan_condition(random, model, args.seconds, args.point_period)
     print(f'condition number of the physical model\'s regressor over {args.seconds:g} s of '

@@ -31,7 +31,11 @@ from a seeded random start; its gradient is the chain rule
 (u_i, v_i the singular vectors of W), with ∂W/∂q_j, ∂W/∂q'_j, ∂W/∂q''_j by forward
 differences (3n + 1 regressors of the grid per gradient, not one per coefficient). The
 result is scaled down per joint, if need be, to keep to its fractions on a dense grid (1,000
-points per period of the highest harmonic).
+points per period of the highest harmonic). Given the arm's collision geometry
+(:mod:`~scara_ident_ros.excitation.self_collision`), the motion is then shrunk towards the
+middle of the ranges until its links stay apart on a grid of the period: a check after the
+optimisation, not a constraint of it (one check costs 0.1-0.3 s for the UR5 and the Panda,
+too much for every step of the optimiser).
 
 :class:`OptimizedExcitation` repeats the motion every period: an
 :class:`~scara_ident_ros.excitation.plan.ExcitationPlan` approaches it from rest as it
@@ -54,11 +58,12 @@ from scara_ident_ros.dynamics.least_squares import LinearInParameters
 from scara_ident_ros.dynamics.parameter_uncertainty import condition_number
 from scara_ident_ros.excitation.joint_sequence import Motion
 from scara_ident_ros.excitation.plan import ExcitationPlan
+from scara_ident_ros.excitation.self_collision import SelfCollision
 from scara_ident_ros.sim.sequence import SEQUENCE_EXCITATION
 from scara_ident_ros.sim.trajectory import FourierTrajectory
 
-__all__ = ['DEFAULT_HARMONICS', 'DEFAULT_PERIOD', 'OptimizedExcitation', 'optimize_excitation',
-           'plan_condition']
+__all__ = ['COLLISION_PER_HARMONIC', 'COLLISION_SHRINK', 'DEFAULT_HARMONICS', 'DEFAULT_PERIOD',
+           'OptimizedExcitation', 'optimize_excitation', 'plan_condition']
 
 FloatArray = NDArray[np.float64]
 #: Harmonics L per joint and base period T (s) of the optimised motion (Swevers et al.).
@@ -67,6 +72,11 @@ DEFAULT_PERIOD = 10.0
 _SAMPLES_PER_HARMONIC = 16   # regressor samples per period of the highest harmonic
 _CHECKS_PER_HARMONIC = 20    # limit constraints per period of the highest harmonic
 _DENSE_PER_HARMONIC = 1000   # points of the final check
+#: Shrink factor of the amplitudes per collision found, and the grid checked (points per
+#: period of the highest harmonic).
+COLLISION_SHRINK = 0.8
+COLLISION_PER_HARMONIC = 20
+_COLLISION_TRIES = 20
 _STEP = 1e-6                 # relative step of the forward differences of W
 
 
@@ -84,6 +94,9 @@ class OptimizedExcitation:
         SLSQP iterations made.
     seconds : float
         Time the optimisation took (s).
+    collision_scale : float or None
+        The factor the motion's amplitudes were shrunk by, towards the middle of the
+        ranges, to keep its links apart (1: not at all); None if not checked.
     """
 
     trajectory: FourierTrajectory
@@ -91,6 +104,7 @@ class OptimizedExcitation:
     condition: float
     iterations: int
     seconds: float
+    collision_scale: float | None = None
 
     def excitation(self, k: int) -> FourierTrajectory:
         """The motion of period k: always the same one."""
@@ -108,8 +122,8 @@ class _OutOfTime(Exception):
 
 def optimize_excitation(model: LinearInParameters, limits: JointLimits, *, seed: int,
                         n_harmonics: int = DEFAULT_HARMONICS, period: float = DEFAULT_PERIOD,
-                        max_seconds: float = 120.0, max_iterations: int = 200
-                        ) -> OptimizedExcitation:
+                        max_seconds: float = 120.0, max_iterations: int = 200,
+                        collision: SelfCollision | None = None) -> OptimizedExcitation:
     """The Fourier coefficients of least J (cond(W) and size) within the limits (module
     docstring).
 
@@ -130,11 +144,16 @@ def optimize_excitation(model: LinearInParameters, limits: JointLimits, *, seed:
         Time budget (s): the best point found by then is the result.
     max_iterations : int
         SLSQP iterations at most.
+    collision : SelfCollision, optional
+        The arm's self-collision check: the result's amplitudes are shrunk towards the
+        middle of the ranges (by :data:`COLLISION_SHRINK` at a time) until no point of a
+        grid of the period (:data:`COLLISION_PER_HARMONIC` per period of the highest
+        harmonic) brings two links together.
 
     Raises
     ------
     LimitsError
-        For settings out of range.
+        For settings out of range, or a motion that collides however much it is shrunk.
     """
     if isinstance(n_harmonics, bool) or not isinstance(n_harmonics, int) or n_harmonics < 1:
         raise LimitsError(f'n_harmonics must be an integer >= 1, got {n_harmonics!r}')
@@ -171,8 +190,26 @@ def optimize_excitation(model: LinearInParameters, limits: JointLimits, *, seed:
     except _OutOfTime:
         pass
     trajectory = problem.within_limits(problem.trajectory(best_x[0]))
+    scale = None if collision is None else _collision_free_scale(trajectory, collision)
+    if scale is not None and scale < 1.0:
+        trajectory = FourierTrajectory(trajectory.q0, trajectory.a * scale,
+                                       trajectory.b * scale, trajectory.base_frequency_hz)
     return OptimizedExcitation(trajectory, start_condition, problem.condition(trajectory),
-                               iterations[0], time.perf_counter() - started)
+                               iterations[0], time.perf_counter() - started, scale)
+
+
+def _collision_free_scale(trajectory: FourierTrajectory, collision: SelfCollision) -> float:
+    """The largest factor COLLISION_SHRINK^k (k = 0, 1, ...) of the amplitudes that keeps
+    the links apart on the grid."""
+    t = trajectory.grid(COLLISION_PER_HARMONIC)
+    q, _, _ = trajectory.evaluate(t)
+    scale = 1.0
+    for _ in range(_COLLISION_TRIES):
+        if not np.any(collision.colliding(trajectory.q0 + scale * (q - trajectory.q0))):
+            return scale
+        scale *= COLLISION_SHRINK
+    raise LimitsError(f'the optimised motion brings links together even shrunk to '
+                      f'{scale / COLLISION_SHRINK:.2g} of its amplitude')
 
 
 class _Problem:

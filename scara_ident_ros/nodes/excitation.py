@@ -10,7 +10,8 @@ seeds and blends), and the sequence. With ``plan: optimized`` the excitation aft
 approach is instead the periodic Fourier motion (``harmonics``, ``base_period``) whose
 physical-model regressor is best conditioned within the same limits
 (:mod:`~scara_ident_ros.excitation.optimized_excitation`), optimised from the URDF before
-the node waits for the arm (up to two minutes). It sends it as ``trajectory_msgs/JointTrajectory``
+the node waits for the arm (up to two minutes) and shrunk until its links stay apart where
+``urdf_file`` has collision geometry. It sends it as ``trajectory_msgs/JointTrajectory``
 chunks on ``/joint_trajectory_controller/joint_trajectory`` (remappable), or as
 ``control_msgs/action/FollowJointTrajectory`` goals with ``use_action``, every
 ``chunk_period``: each chunk reaches ``horizon`` ahead and ends in a stop to rest, so an arm
@@ -261,6 +262,7 @@ class ExcitationNode(Node):
         reported) if the URDF has no model Pinocchio can build."""
         from scara_ident_ros.dynamics.physical_model import PhysicalModel
         from scara_ident_ros.excitation.optimized_excitation import optimize_excitation
+        from scara_ident_ros.excitation.self_collision import self_collision
 
         s = self.settings
         names = list(self.limits.names)
@@ -271,15 +273,20 @@ class ExcitationNode(Node):
             model = (PhysicalModel.from_urdf_file(s['urdf_file'], joint_names=names)
                      if s['urdf_file'] else
                      PhysicalModel(s['robot_description'], joint_names=names))
+            collision = (self_collision(s['urdf_file'], names, self.margined.centre)
+                         if s['urdf_file'] else None)
             found = optimize_excitation(model, self.margined, seed=s['seed'],
                                         n_harmonics=s['harmonics'], period=s['base_period'],
-                                        max_seconds=OPTIMIZE_SECONDS)
+                                        max_seconds=OPTIMIZE_SECONDS, collision=collision)
         except ScaraIdentError as exc:
             self.fail(f'cannot optimise the excitation: {exc}', 2)
             return None
-        self.get_logger().info(f'optimised in {found.seconds:.0f} s: condition number '
-                               f'{found.start_condition:.4g} at the start, '
-                               f'{found.condition:.4g} at the end')
+        self.get_logger().info(
+            f'optimised in {found.seconds:.0f} s: condition number '
+            f'{found.start_condition:.4g} at the start, {found.condition:.4g} at the end; '
+            + ('self-collision not checked (no collision geometry in urdf_file)'
+               if found.collision_scale is None else
+               f'amplitudes × {found.collision_scale:.2g} to keep the links apart'))
         return found
 
     def stop_request(self, stop: threading.Event) -> str:
