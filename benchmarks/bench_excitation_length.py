@@ -113,6 +113,7 @@ def run_seed(name: str, seed: int, lengths: list[float], max_seconds: float
         plans = {'random': ExcitationPlan(margined, start, seed=seed),
                  'optimised': ExcitationPlan(margined, start, seed=seed, excitation=found)}
         out: dict[str, Any] = {'robot': name, 'seed': seed, 'n_base': model.n_base,
+                               'zero': int(np.sum(np.abs(truth[:model.n_base]) < 1e-12)),
                                'optimise_s': time.perf_counter() - started,
                                'iterations': found.iterations,
                                'collision_scale': found.collision_scale, 'rows': []}
@@ -152,7 +153,9 @@ def summary(results: list[dict[str, Any]], lengths: list[float]) -> tuple[str, d
     for robot in robots:
         mine = [r for r in results if r['robot'] == robot]
         seeds = sorted(r['seed'] for r in mine)
-        lines += [f'### {robot}: {mine[0]["n_base"]} base parameters, seeds {seeds}', '',
+        lines += [f'### {robot}: {mine[0]["n_base"]} base parameters ({mine[0]["zero"]} of them 0 '
+                  f'in truth: their %σ is ∞ or large however well they are found), seeds '
+                  f'{seeds}', '',
                   f'Optimisation: {np.median([r["optimise_s"] for r in mine]):.0f} s median '
                   f'({min(r["optimise_s"] for r in mine):.0f}–'
                   f'{max(r["optimise_s"] for r in mine):.0f} s), '
