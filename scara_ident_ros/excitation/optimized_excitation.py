@@ -17,7 +17,8 @@ T-RA 1997), together with its size, subject to the limits. The criterion is
 the condition number is scale-free, and alone it is lowered by shrinking the motion (the
 accelerations most) until the noise the efforts carry swamps it; the second term, log of the
 geometric mean of the singular values (D-optimality's log det WᵀW / 2p), keeps the motion as
-large as the limits allow (benchmarks/excitation_length.md). q, q', q'' are linear in the
+large as the limits allow. How it compares with the random sequence:
+benchmarks/excitation_length.md. q, q', q'' are linear in the
 coefficients, so the limits on a grid of the period are linear inequalities: the position
 within ``position_fraction`` of each half-range about c_j, the speed and the acceleration
 within their fractions of the limits (those of :data:`~scara_ident_ros.sim.sequence.
