@@ -13,7 +13,8 @@ variance of joint j, ||τ_j − W_j θ̂||² / (N − p/n) (p/n degrees of freed
 The relative standard deviation of parameter k is %σ_k = 100 σ_k / |θ_k| (Swevers et al.
 1997, Gautier 1990); above :data:`UNDETERMINED_RELATIVE_STD` the data do not determine it:
 excite the motion it acts in more. A parameter in the null space of W (a joint that does
-not move, so its friction and the inertias only it turns never act) has σ = ∞.
+not move, so its friction and the inertias only it turns never act) has σ = ∞, and so has
+every parameter of a fit with no residual degrees of freedom left (N·n <= p).
 
 The condition number s_max / s_min of W (∞ if singular) is what an excitation minimises
 (:mod:`~scara_ident_ros.excitation.optimized_excitation`): the smaller, the less noise is
@@ -109,7 +110,7 @@ def parameter_uncertainty(model: LinearInParameters, q: ArrayLike, qd: ArrayLike
     Raises
     ------
     ValueError
-        For shapes that differ, or fewer samples per joint than parameters per joint.
+        For shapes that differ.
     """
     q, qd, qdd, tau = (np.atleast_2d(np.asarray(a, dtype=np.float64)) for a in (q, qd, qdd, tau))
     theta = np.asarray(theta, dtype=np.float64).reshape(-1)
@@ -120,10 +121,7 @@ def parameter_uncertainty(model: LinearInParameters, q: ArrayLike, qd: ArrayLike
     if theta.shape != (p,):
         raise ValueError(f'theta must have {p} values, got {theta.shape}')
     count, n = q.shape
-    dof = count - p / n
-    if not dof > 0:
-        raise ValueError(f'{count} samples of {n} joints leave no residual to estimate the '
-                         f'noise of {p} parameters from')
+    dof = count - p / n  # none left: the noise is unknown, so is every σ (∞)
     uppers = [np.zeros((0, p)) for _ in range(n)]
     squares = np.zeros(n)
     for start in range(0, count, _BLOCK):
@@ -131,13 +129,16 @@ def parameter_uncertainty(model: LinearInParameters, q: ArrayLike, qd: ArrayLike
         w = model.regressor(q[part], qd[part], qdd[part])
         squares += np.sum((w @ theta - tau[part]) ** 2, axis=0)
         uppers = [_upper(np.vstack([uppers[j], w[:, j, :]])) for j in range(n)]
-    variance = squares / dof
-    _, s, vt = np.linalg.svd(np.linalg.qr(np.vstack(uppers), mode='r'))
+    stacked = _upper(np.vstack(uppers))
+    _, s, vt = np.linalg.svd(np.vstack([stacked, np.zeros((p - stacked.shape[0], p))]))
     kept = s > RANK_TOLERANCE * s[0] if s[0] > 0 else np.zeros(s.size, dtype=bool)
     v = vt[kept].T
     inverse_gram = (v / s[kept] ** 2) @ v.T                      # (WᵀW)⁺
+    variance = squares / max(dof, 1.0)
     middle = sum(variance[j] * (upper.T @ upper) for j, upper in enumerate(uppers))
     std = np.sqrt(np.maximum(np.diag(inverse_gram @ middle @ inverse_gram), 0.0))
+    if not dof > 0:
+        std[:] = np.inf
     null = vt[~kept].T
     if null.size:
         std[np.linalg.norm(null, axis=1) > 1e-6] = np.inf
