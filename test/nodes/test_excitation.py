@@ -266,6 +266,35 @@ def test_the_loop_excitation_scara_sim_joint_states(listener: Listener,
     assert rest.sum() > 10 and np.abs(qd[rest]).max() < 1e-3
 
 
+def test_the_optimized_plan_moves_scara_sim_and_brings_it_to_rest(listener: Listener,
+                                                                  tmp_path: Path) -> None:
+    """excitation plan:=optimized -> scara_sim (trajectory:=external) -> /joint_states: the
+    simulated arm moves every joint within the limits, then rests; duration ends it."""
+    states: list[JointState] = listener.subscribe(JointState, '/joint_states')
+    stats = tmp_path / 'stats.json'
+    with NodeProcess(SIM, ['-p', 'trajectory:=external']) as sim:
+        assert listener.spin_until(lambda: len(states) > 100, TIMEOUT)
+        with excitation('-p', 'duration:=3.0', '-p', 'plan:=optimized', '-p', 'harmonics:=3',
+                        '-p', 'base_period:=4.0', '-p', f'stats_file:={stats}') as node:
+            assert listener.spin_until(node.exited, 3 * TIMEOUT)
+            output = node.wait(TIMEOUT)
+        listener.spin_until(lambda: False, 0.5)
+        sim.stop()
+    assert output.returncode == 0, output.stderr
+    run = json.loads(stats.read_text())
+    assert run['stop_reason'] == 'duration reached' and run['plan'] == 'optimized'
+    stamps = np.array([m.header.stamp.sec * S + m.header.stamp.nanosec for m in states])
+    q = np.array([m.position for m in states])
+    qd = np.array([m.velocity for m in states])
+    t = (stamps - run['origin_ns']) / S
+    moving = (t >= 0) & (t <= run['stop_time'])
+    assert moving.sum() > 3000
+    assert np.ptp(q[moving], axis=0).min() > 0.01
+    assert LIMITS.violations(q[moving], qd[moving], np.zeros_like(q[moving])) == []
+    rest = t > run['rest_time'] + 0.3
+    assert rest.sum() > 10 and np.abs(qd[rest]).max() < 1e-3
+
+
 def test_robot_sim_follows_a_command_as_a_controller(listener: Listener) -> None:
     """robot_sim (a UR5 on Pinocchio) with trajectory:=external holds mid-range, then
     follows a JointTrajectory on the controller's topic to its last point, at rest."""
