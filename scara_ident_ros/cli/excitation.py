@@ -5,8 +5,15 @@ of each range) to the sequence excitation, ``--seconds`` of it and the stop to r
 joints and limits of a URDF with the node's margins; checks every sample (``--point-period``)
 against the limits with margins; writes the samples to ``OUTPUT/excitation.csv`` (time, then
 q, q', q'' of each joint, SI) and a figure to ``OUTPUT/excitation.png``; prints the peaks as
-fractions of the robot's limits. A URDF without limits, a start outside the limits or a plan
-outside the margins ends it with one line and exit status 2. To move the arm, run the node:
+fractions of the robot's limits. With ``--optimize`` the excitation is not the random
+sequence but the periodic Fourier motion (``--harmonics``, ``--period``) whose physical-model
+regressor is best conditioned within the same limits
+(:mod:`~scara_ident_ros.excitation.optimized_excitation`, at most ``--max-seconds`` of
+optimisation; shrunk until its links stay apart where the URDF has collision geometry); it
+prints that regressor's condition number over ``--seconds`` of it
+against the random sequence's over the same length. A URDF without limits, a start outside
+the limits or a plan outside the margins ends it with one line and exit status 2. To move
+the arm, run the node:
 ``ros2 run scara_ident_ros excitation --ros-args -p urdf_file:=...`` (docs/real_robot.md).
 """
 from __future__ import annotations
@@ -21,6 +28,7 @@ from scara_ident_ros.cli import CliError
 
 if TYPE_CHECKING:
     from scara_ident_ros.dynamics.joint_limits import JointLimits
+    from scara_ident_ros.excitation import ExcitationPlan
 
 __all__ = ['add_parser', 'run']
 
@@ -32,6 +40,8 @@ def _floats(text: str) -> list[float]:
 def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Register ``scara-ident excitation``, with the node's defaults."""
     from scara_ident_ros.excitation import LoopSettings
+    from scara_ident_ros.excitation.optimized_excitation import (DEFAULT_HARMONICS,
+                                                                 DEFAULT_PERIOD)
 
     node = LoopSettings()
     parser = subparsers.add_parser(
@@ -61,6 +71,16 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
                         help='fraction of the acceleration limits (default %(default)s)')
     parser.add_argument('--point-period', type=float, default=node.point_period,
                         help='seconds between two samples (default %(default)s)')
+    parser.add_argument('--optimize', action='store_true',
+                        help='the Fourier motion of best-conditioned regressor instead of the '
+                             'random sequence')
+    parser.add_argument('--harmonics', type=int, default=DEFAULT_HARMONICS,
+                        help='--optimize: harmonics per joint (default %(default)s)')
+    parser.add_argument('--period', type=float, default=DEFAULT_PERIOD,
+                        help='--optimize: base period in seconds (default %(default)s)')
+    parser.add_argument('--max-seconds', type=float, default=120.0,
+                        help='--optimize: time budget of the optimisation (default '
+                             '%(default)s s)')
     parser.add_argument('--output', type=Path, default=Path('excitation'),
                         help='directory for excitation.csv and excitation.png')
     parser.set_defaults(func=run)
@@ -90,6 +110,8 @@ def run(args: argparse.Namespace) -> int:
     if outside:
         raise CliError(f'the start is outside the limits: {", ".join(outside)}')
     plan = ExcitationPlan(margined, start, seed=args.seed)
+    if args.optimize:
+        plan = _optimized_plan(args, margined, start, plan)
     chunk = make_chunk(plan, 0.0, plan.approach_duration + args.seconds, args.point_period,
                        margined)
     broken = margined.violations(chunk.q, chunk.qd, chunk.qdd, position_hull=start)
@@ -104,13 +126,51 @@ def run(args: argparse.Namespace) -> int:
     figure = args.output / 'excitation.png'
     _plot(figure, chunk.times, (chunk.q, chunk.qd, chunk.qdd), limits, margined,
           (plan.approach_duration, chunk.stop_time))
+    what = 'optimised' if args.optimize else 'random sequence'
     print(f'{len(chunk)} samples every {args.point_period:g} s: approach '
-          f'{plan.approach_duration:g} s, excitation {args.seconds:g} s (seed {args.seed}), '
+          f'{plan.approach_duration:g} s, excitation {args.seconds:g} s ({what}, seed '
+          f'{args.seed}), '
           f'stop {chunk.rest_time - chunk.stop_time:g} s; within the limits with margins')
     print('peak |q\'| / velocity limit:     ' + _fractions(chunk.qd, limits.velocity_max))
     print('peak |q\'\'| / acceleration limit: ' + _fractions(chunk.qdd, limits.acceleration_max))
     print(f'wrote {csv} and {figure}')
     return 0
+
+
+def _optimized_plan(args: argparse.Namespace, margined: JointLimits, start: np.ndarray,
+                    random: ExcitationPlan) -> ExcitationPlan:
+    """The plan of the optimised excitation; prints its condition number and the random
+    sequence's (``random``) over ``--seconds``."""
+    from scara_ident_ros.dynamics.physical_model import PhysicalModel
+    from scara_ident_ros.errors import ScaraIdentError
+    from scara_ident_ros.excitation import ExcitationPlan
+    from scara_ident_ros.excitation.optimized_excitation import (optimize_excitation,
+                                                                 plan_condition)
+    from scara_ident_ros.excitation.self_collision import self_collision
+
+    if args.harmonics < 1 or not args.period > 0 or not args.max_seconds > 0:
+        raise CliError('--harmonics must be >= 1, --period and --max-seconds > 0')
+    try:
+        model = PhysicalModel.from_urdf_file(args.urdf, joint_names=list(margined.names))
+        collision = self_collision(args.urdf, margined.names, margined.centre)
+        found = optimize_excitation(model, margined, seed=args.seed,
+                                    n_harmonics=args.harmonics, period=args.period,
+                                    max_seconds=args.max_seconds, collision=collision)
+        plan = ExcitationPlan(margined, start, seed=args.seed, excitation=found)
+    except ScaraIdentError as exc:
+        raise CliError(str(exc)) from None
+    print(f'optimised {args.harmonics} harmonics of a {args.period:g} s period in '
+          f'{found.seconds:.0f} s ({found.iterations} iterations): condition number '
+          f'{found.start_condition:.4g} at the seeded start, {found.condition:.4g} at the end')
+    print('self-collision: no collision geometry in the URDF, not checked' if collision is None
+          else f'self-collision: {collision.n_pairs} pairs of links checked along the motion, '
+               f'amplitudes × {found.collision_scale:.2g} to keep them apart')
+    ours = plan_condition(plan, model, args.seconds, args.point_period)
+    theirs = plan_condition(random, model, args.seconds, args.point_period)
+    print(f'condition number of the physical model\'s regressor over {args.seconds:g} s of '
+          f'excitation: optimised {ours:.4g}, random sequence {theirs:.4g} '
+          f'(ratio {ours / theirs:.2f})')
+    return plan
 
 
 def _fractions(values: np.ndarray, limit: np.ndarray) -> str:
@@ -145,7 +205,8 @@ def _plot(path: Path, t: np.ndarray, motion: tuple[np.ndarray, ...], limits: Joi
             ax.set_ylabel(f'{name} {label}', fontsize=8)
     for ax in axes[-1]:
         ax.set_xlabel('plan time [s]')
-    fig.suptitle('excitation plan: approach | sequence | stop (red: limits, dashed: margins)',
+    fig.suptitle('excitation plan: approach | excitation | stop (red: limits, dashed: '
+                 'margins)',
                  fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=100)

@@ -15,7 +15,10 @@ shows how a ros2_control controller loads it.
 --urdf: the identified parameters of a physical model (or a hybrid's physical part) written
 into its URDF: per link the mass, centre of mass and inertia of physically consistent
 standard parameters, per joint <dynamics damping= friction=> (viscous and Coulomb friction);
-rotor inertias, effort offsets and other friction terms in a comment. Pinocchio, MoveIt and
+rotor inertias, effort offsets and other friction terms in a comment. A parameter the
+training data did not determine (its %σ above the threshold of
+:mod:`~scara_ident_ros.dynamics.parameter_uncertainty`) keeps the URDF's value (friction: 0),
+its prior. Pinocchio, MoveIt and
 robot_sim (-p urdf_file:=ROBOT.urdf) load it. Before writing, Pinocchio's rnea of the
 written URDF is checked against the model's rigid-body efforts on random states (1e-6 of
 the largest effort).
@@ -127,6 +130,7 @@ def _export_urdf(args: argparse.Namespace, loaded: object) -> int:
     problem = unwritable_file(out)
     if problem:
         raise CliError(f'--urdf {out} {problem}')
+    physical, kept = _with_priors(physical)
     try:
         standard = physical.consistent_standard()
     except ScaraIdentError as exc:
@@ -145,7 +149,23 @@ def _export_urdf(args: argparse.Namespace, loaded: object) -> int:
           f'friction ({", ".join(physical.joint_names)}); checked with Pinocchio on '
           f'{CHECK_SAMPLES} random states: largest difference {worst:.1e} of the largest '
           'rigid-body effort')
+    if kept:
+        print(f'not determined by the training data, kept at the URDF\'s values: '
+              f'{", ".join(kept)}')
     return 0
+
+
+def _with_priors(physical: PhysicalModel) -> tuple[PhysicalModel, tuple[str, ...]]:
+    """The model with each parameter its training data did not determine set to its prior
+    (:meth:`PhysicalModel.urdf_parameters`), and those parameters' names."""
+    from scara_ident_ros.dynamics.physical_model import PhysicalModel
+
+    found = physical.uncertainty
+    if found is None or not np.any(found.undetermined):
+        return physical, ()
+    prior = PhysicalModel.from_arrays(physical.to_arrays(), source=physical.source)
+    prior.set_theta(np.where(found.undetermined, physical.urdf_parameters(), physical.theta))
+    return prior, found.undetermined_names
 
 
 def _urdf_difference(text: str, physical: PhysicalModel, standard: np.ndarray) -> float:

@@ -72,6 +72,8 @@ from numpy.typing import ArrayLike, NDArray
 from scara_ident_ros.dynamics.base_reduction import BaseReduction, reduce_columns
 from scara_ident_ros.dynamics.joint_sizes import JointSizes
 from scara_ident_ros.dynamics.least_squares import BlockLeastSquares, fit_least_squares
+from scara_ident_ros.dynamics.parameter_uncertainty import (ParameterUncertainty,
+                                                            parameter_uncertainty)
 from scara_ident_ros.dynamics.urdf_limits import UrdfError
 from scara_ident_ros.errors import ScaraIdentError
 from scara_ident_ros.estimator import r2_score, register_kind
@@ -155,6 +157,10 @@ class PhysicalModel(JointSizes):
         Saved with the model, as a network's (``joint_names``, ``method``, ...).
     residual_rms : ndarray of shape (n,) or None
         RMS effort residual per joint on the data of the last :meth:`fit` (N·m, N).
+    uncertainty : ParameterUncertainty or None
+        Each parameter's standard deviation and the regressor's condition number on the data
+        of the last :meth:`fit` (:mod:`~scara_ident_ros.dynamics.parameter_uncertainty`);
+        saved with the model.
     """
 
     #: The model file's kind (:func:`scara_ident_ros.estimator.load_model`).
@@ -243,6 +249,7 @@ class PhysicalModel(JointSizes):
                                         zip(names, self.offset_joints) if kept))
         self.theta: FloatArray = np.zeros(len(self.parameter_names))
         self.residual_rms: FloatArray | None = None
+        self.uncertainty: ParameterUncertainty | None = None
         self.metadata: dict[str, np.ndarray] = {'joint_names': np.array(names)}
 
     @classmethod
@@ -432,6 +439,7 @@ class PhysicalModel(JointSizes):
                              f'shape {value.shape}')
         self.theta = value.copy()
         self.standard_theta = None
+        self.uncertainty = None
 
     @property
     def base_parameters(self) -> dict[str, float]:
@@ -517,6 +525,7 @@ class PhysicalModel(JointSizes):
             self.theta, self.residual_rms = fit_least_squares(self, q, qd, qdd, tau,
                                                               block=_CHUNK)
             self.standard_theta = None
+            self.uncertainty = parameter_uncertainty(self, q, qd, qdd, tau, self.theta)
             return self
         from scara_ident_ros.dynamics.consistent_parameters import consistent_fit
         solution: list[FloatArray] = []
@@ -529,6 +538,7 @@ class PhysicalModel(JointSizes):
         self.theta, self.residual_rms = fit_least_squares(self, q, qd, qdd, tau, block=_CHUNK,
                                                           solve=solve)
         self.standard_theta = solution[0]
+        self.uncertainty = parameter_uncertainty(self, q, qd, qdd, tau, self.theta)
         return self
 
     def predict(self, X: ArrayLike) -> FloatArray:
@@ -579,7 +589,10 @@ class PhysicalModel(JointSizes):
                 'dependent': r.dependent.astype(np.int64), 'beta': r.beta.copy(),
                 'theta': self.theta.copy(),
                 **({} if self.standard_theta is None else
-                   {'standard_theta': self.standard_theta.copy()})}
+                   {'standard_theta': self.standard_theta.copy()}),
+                **({} if self.uncertainty is None else
+                   {'theta_std': self.uncertainty.std.copy(),
+                    'condition_number': np.array(self.uncertainty.condition_number)})}
 
     @classmethod
     def from_arrays(cls, arrays: dict[str, np.ndarray], *, source: str) -> PhysicalModel:
@@ -614,6 +627,11 @@ class PhysicalModel(JointSizes):
                 if standard.shape != (len(model.standard_names),):
                     raise ValueError(f'standard_theta of shape {standard.shape}')
                 model.standard_theta = standard
+            if 'theta_std' in arrays:
+                model.uncertainty = ParameterUncertainty(
+                    model.parameter_names, model.theta.copy(),
+                    np.asarray(arrays['theta_std'], np.float64).reshape(model.theta.shape),
+                    float(arrays['condition_number']))
         except (KeyError, ValueError, TypeError) as exc:
             raise ModelFormatError(f'{source}: corrupt physical model: '
                                    f'{" ".join(str(exc).split())}') from None

@@ -13,9 +13,14 @@ its t = 0 exactly (s = 1, s' = s'' = 0 at τ = 1): q, q', q'' are continuous eve
 Every position of the approach lies between q_s and F_0, so within the limits if q_s is;
 T_a is the shortest of a geometric series of durations (from 1 s) whose velocity and
 acceleration keep to the same fractions of the limits as the sequence's blends. From
-t = T_a on, the plan is the sequence at t − T_a.
+t = T_a on, the plan is the sequence at t − T_a. The sequence is the random
+:class:`~scara_ident_ros.excitation.joint_sequence.JointSequence` by default, or any
+:class:`Excitation`: the optimised periodic motion of
+:mod:`~scara_ident_ros.excitation.optimized_excitation`.
 """
 from __future__ import annotations
+
+from typing import Protocol
 
 import numpy as np
 import numpy.typing as npt
@@ -25,13 +30,26 @@ from scara_ident_ros.dynamics.joint_limits import JointLimits, LimitsError
 from scara_ident_ros.excitation.duration_search import shortest_duration
 from scara_ident_ros.excitation.joint_sequence import JointSequence, Motion
 from scara_ident_ros.sim.sequence import SEQUENCE_LIMITS, smoothstep
+from scara_ident_ros.sim.trajectory import FourierTrajectory
 
-__all__ = ['ExcitationPlan']
+__all__ = ['Excitation', 'ExcitationPlan']
 
 _APPROACH_MIN = 1.0          # s, shortest approach
 _APPROACH_MAX = 300.0        # s, longest approach tried
 _APPROACH_GROWTH = 1.25      # ratio of two approach durations tried
 _CHECK_STEP = 0.005          # s between the samples an approach is checked on
+
+
+class Excitation(Protocol):
+    """The motion after the approach, as :class:`JointSequence` gives it."""
+
+    def excitation(self, k: int) -> FourierTrajectory:
+        """The Fourier motion F_k at the start of segment k (F_0: what the approach joins)."""
+        ...
+
+    def evaluate(self, t: NDArray[np.float64]) -> Motion:
+        """q, q', q'' at times t (N,) >= 0 (s), each of shape (N, n)."""
+        ...
 
 
 class ExcitationPlan:
@@ -46,24 +64,29 @@ class ExcitationPlan:
         limits (it may lie in the margins: the approach leaves them).
     seed : int
         Seed of the sequence (:class:`JointSequence`).
+    excitation : Excitation, optional
+        The motion after the approach instead of the random sequence (e.g. an
+        :class:`~scara_ident_ros.excitation.optimized_excitation.OptimizedExcitation`
+        within the same limits).
 
     Attributes
     ----------
-    sequence : JointSequence
+    sequence : Excitation
         The excitation after the approach.
     approach_duration : float
         T_a (s).
     """
 
     def __init__(self, limits: JointLimits, start: NDArray[np.float64], *,
-                 seed: int) -> None:
+                 seed: int, excitation: Excitation | None = None) -> None:
         start = np.array(start, dtype=float)
         if start.shape != (limits.n_joints,) or not np.all(np.isfinite(start)):
             raise LimitsError(f'start must be {limits.n_joints} finite positions, '
                                     f'got {start!r}')
         self.limits = limits
         self.start = start
-        self.sequence = JointSequence(limits, seed=seed)
+        self.sequence: Excitation = (JointSequence(limits, seed=seed) if excitation is None
+                                     else excitation)
         self.approach_duration = self._shortest_approach()
 
     def evaluate(self, t: npt.ArrayLike) -> Motion:

@@ -6,7 +6,12 @@ them), keeps ``position_margin`` of each range clear and ``velocity_scale`` and
 ``acceleration_scale`` of the limits, waits for ``/joint_states`` and for the controller,
 then sends ``joint_trajectory_controller`` the plan of :mod:`scara_ident_ros.excitation`: a
 smooth approach from the arm's position at rest to the simulator's sequence excitation (same
-seeds and blends), and the sequence. It sends it as ``trajectory_msgs/JointTrajectory``
+seeds and blends), and the sequence. With ``plan: optimized`` the excitation after the
+approach is instead the periodic Fourier motion (``harmonics``, ``base_period``) whose
+physical-model regressor is best conditioned within the same limits
+(:mod:`~scara_ident_ros.excitation.optimized_excitation`), optimised from the URDF before
+the node waits for the arm (up to two minutes) and shrunk until its links stay apart where
+``urdf_file`` has collision geometry. It sends it as ``trajectory_msgs/JointTrajectory``
 chunks on ``/joint_trajectory_controller/joint_trajectory`` (remappable), or as
 ``control_msgs/action/FollowJointTrajectory`` goals with ``use_action``, every
 ``chunk_period``: each chunk reaches ``horizon`` ahead and ends in a stop to rest, so an arm
@@ -39,9 +44,11 @@ from std_srvs.srv import Trigger
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 from scara_ident_ros.dynamics.joint_limits import LimitsError
-from scara_ident_ros.errors import ConfigError
+from scara_ident_ros.errors import ConfigError, ScaraIdentError
 from scara_ident_ros.excitation import (Chunk, ExcitationPlan, LoopSettings, load_motion_limits,
                                         make_chunk)
+from scara_ident_ros.excitation.optimized_excitation import (DEFAULT_HARMONICS, DEFAULT_PERIOD,
+                                                             OptimizedExcitation)
 from scara_ident_ros.nodes.messages import NS_PER_S, ns_to_stamp
 from scara_ident_ros.nodes.parameters import ParamSpec, declare_parameters
 from scara_ident_ros.nodes.runtime import run_node
@@ -54,6 +61,8 @@ ACTION = '/joint_trajectory_controller/follow_joint_trajectory'
 STOP_LEAD = 0.1  # s from a stop request to the start of the stop: the last chunk's delivery
 SPIN_PERIOD = 0.01  # s, longest wait for a callback in the loop
 MOTION = LoopSettings()  # the defaults of the parameters that shape the motion
+PLANS = ('sequence', 'optimized')
+OPTIMIZE_SECONDS = 120.0  # s, the optimisation's time budget
 
 PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec('urdf_file', '', "The arm's URDF file: its joints and limits (or give "
@@ -71,7 +80,15 @@ PARAMETERS: tuple[ParamSpec, ...] = (
               'motion keeps to', min=0.01, max=1.0),
     ParamSpec('acceleration_scale', MOTION.acceleration_scale, 'Fraction of the acceleration '
               'limits the motion (and every stop) keeps to', min=0.01, max=1.0),
-    ParamSpec('seed', MOTION.seed, 'Seed of the sequence excitation (as scara_sim seed)', min=0),
+    ParamSpec('seed', MOTION.seed, 'Seed of the sequence excitation (as scara_sim seed), or '
+              "of the optimised plan's start", min=0),
+    ParamSpec('plan', 'sequence', 'The excitation after the approach: the random sequence, or '
+              'the Fourier motion optimised for identification (best-conditioned regressor '
+              'of the physical model of the URDF)', choices=PLANS),
+    ParamSpec('harmonics', DEFAULT_HARMONICS, 'plan optimized: harmonics per joint', min=1,
+              max=20),
+    ParamSpec('base_period', DEFAULT_PERIOD, 'plan optimized: period of the motion', 's',
+              min=1.0, max=120.0),
     ParamSpec('duration', 0.0, 'Seconds of excitation after the approach, then a stop; '
               '0: until stopped', 's', min=0.0),
     ParamSpec('point_period', MOTION.point_period, 'Time between two trajectory points', 's',
@@ -203,16 +220,19 @@ class ExcitationNode(Node):
 
     def loop(self, executor: Executor, stop: threading.Event) -> None:
         """Wait for the arm and its controller, send the chunks, stop smoothly."""
+        s = self.settings
+        optimized = self.optimize() if s['plan'] == 'optimized' else None
+        if s['plan'] == 'optimized' and optimized is None:
+            return
         start = self.wait_for_start(executor, stop)
         if start is None:
             return
-        s = self.settings
-        self.plan = ExcitationPlan(self.margined, start, seed=s['seed'])
+        self.plan = ExcitationPlan(self.margined, start, seed=s['seed'], excitation=optimized)
         self.origin_ns = self.now_ns() + round(s['start_delay'] * NS_PER_S)
         end = self.plan.approach_duration + s['duration'] if s['duration'] > 0 else None
         self.get_logger().info(
             f'from {np.round(start, 4).tolist()}: approach of {self.plan.approach_duration:g} s, '
-            f'then the sequence (seed {s["seed"]}) '
+            f'then the {s["plan"]} excitation (seed {s["seed"]}) '
             + (f'for {s["duration"]:g} s' if end is not None else 'until stopped')
             + f', sent to {self.controller_name}')
         next_send = time.monotonic()
@@ -236,6 +256,38 @@ class ExcitationNode(Node):
                 if not self.send_chunk(t, stop_time if end is None else min(stop_time, end)):
                     return
         self.wait_for_rest(executor)
+
+    def optimize(self) -> OptimizedExcitation | None:
+        """The optimised excitation for the URDF's physical model; None (and the error
+        reported) if the URDF has no model Pinocchio can build."""
+        from scara_ident_ros.dynamics.physical_model import PhysicalModel
+        from scara_ident_ros.excitation.optimized_excitation import optimize_excitation
+        from scara_ident_ros.excitation.self_collision import self_collision
+
+        s = self.settings
+        names = list(self.limits.names)
+        self.get_logger().info(f'optimising the excitation ({s["harmonics"]} harmonics, '
+                               f'{s["base_period"]:g} s period, at most '
+                               f'{OPTIMIZE_SECONDS:g} s)')
+        try:
+            model = (PhysicalModel.from_urdf_file(s['urdf_file'], joint_names=names)
+                     if s['urdf_file'] else
+                     PhysicalModel(s['robot_description'], joint_names=names))
+            collision = (self_collision(s['urdf_file'], names, self.margined.centre)
+                         if s['urdf_file'] else None)
+            found = optimize_excitation(model, self.margined, seed=s['seed'],
+                                        n_harmonics=s['harmonics'], period=s['base_period'],
+                                        max_seconds=OPTIMIZE_SECONDS, collision=collision)
+        except ScaraIdentError as exc:
+            self.fail(f'cannot optimise the excitation: {exc}', 2)
+            return None
+        self.get_logger().info(
+            f'optimised in {found.seconds:.0f} s: condition number '
+            f'{found.start_condition:.4g} at the start, {found.condition:.4g} at the end; '
+            + ('self-collision not checked (no collision geometry in urdf_file)'
+               if found.collision_scale is None else
+               f'amplitudes × {found.collision_scale:.2g} to keep the links apart'))
+        return found
 
     def stop_request(self, stop: threading.Event) -> str:
         """Why the arm must stop now ('' if it need not)."""
@@ -316,7 +368,7 @@ class ExcitationNode(Node):
             return
         s = self.settings
         stats = {
-            'joint_names': list(self.limits.names), 'seed': s['seed'],
+            'joint_names': list(self.limits.names), 'seed': s['seed'], 'plan': s['plan'],
             'position_margin': s['position_margin'], 'velocity_scale': s['velocity_scale'],
             'acceleration_scale': s['acceleration_scale'],
             'start': None if self.plan is None else self.plan.start.tolist(),

@@ -39,10 +39,30 @@ def test_dry_run_writes_a_trajectory_within_the_limits_and_a_figure(
     assert png[:8] == b'\x89PNG\r\n\x1a\n' and len(png) > 20_000
 
 
+def test_dry_run_optimize_plans_the_better_conditioned_motion(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / 'plan'
+    assert main(['excitation', '--dry-run', '--urdf', str(URDF), '--seconds', '10',
+                 '--optimize', '--harmonics', '3', '--period', '5', '--max-seconds', '5',
+                 '--output', str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert 'optimised 3 harmonics of a 5 s period' in printed
+    line = next(row for row in printed.splitlines() if 'over 10 s of excitation' in row)
+    ours, theirs = (float(line.split(name)[1].split()[0].rstrip(','))
+                    for name in ('optimised', 'random sequence'))
+    assert ours < theirs
+    table = np.loadtxt(out / 'excitation.csv', delimiter=',', skiprows=1)
+    q, qd, qdd = table[:, 1:5], table[:, 5:9], table[:, 9:13]
+    margined = load_motion_limits(urdf_file=str(URDF)).with_margins(0.1, 0.5, 0.5)
+    assert margined.violations(q, qd, qdd, position_hull=q[0]) == []
+    assert np.all(qd[0] == 0) and np.all(qd[-1] == 0)
+
+
 @pytest.mark.parametrize('args, message', [
     (['--start', '0,0,0.3,0'], 'the start is outside the limits: joint3 = 0.3'),
     (['--joint-names', 'joint1,wrist'], 'no joint limits for wrist'),
     (['--start', '0,0'], '--start needs 4 positions'),
+    (['--optimize', '--harmonics', '0'], '--harmonics must be >= 1'),
 ])
 def test_refusals_are_one_line_and_exit_2(args: list[str], message: str,
                                           tmp_path: Path) -> None:

@@ -132,6 +132,8 @@ def test_urdf_export_of_a_physical_model_reproduces_its_rigid_body_efforts(
         q, qd, qdd = states(rng, 200, n)
         tau = rnea(urdf, joints, q, qd, qdd) * 1.1 + 0.4 * qd + 0.9 * np.tanh(qd / 0.05)
         model.fit_states(q, qd, qdd, tau)
+        # noise-free efforts: the %σ of parameters near 0 means nothing (priors: below)
+        model.uncertainty = None
         model.save(tmp_path / 'physical.npz')
         out = tmp_path / f'{urdf.stem}_identified.urdf'
         code, stdout, err = run_cli(capsys, 'export', tmp_path / 'physical.npz', '--urdf', out)
@@ -163,3 +165,33 @@ def test_urdf_export_of_a_physical_model_reproduces_its_rigid_body_efforts(
     code, _, err = run_cli(capsys, 'export', tmp_path / 'ffs.npz', '--urdf', tmp_path / 'x')
     assert code == 2 and 'without a physical model of a URDF' in err
     assert not (tmp_path / 'x').exists()
+
+
+def test_urdf_export_keeps_the_urdfs_values_where_the_data_do_not_determine_them(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """The wrist (joint4) held still: its friction and rotor inertia keep their priors (the
+    URDF's: no friction), the other joints' identified friction is written."""
+    import xml.etree.ElementTree as ET
+
+    from scara_ident_ros.dynamics.physical_model import PhysicalModel
+    from physical_robots import SCARA_URDF, rnea, states
+
+    model = PhysicalModel.from_urdf_file(SCARA_URDF)
+    q, qd, qdd = states(np.random.default_rng(3), 300, 4)
+    q[:, 3], qd[:, 3], qdd[:, 3] = 0.5, 0.0, 0.0
+    tau = rnea(SCARA_URDF, None, q, qd, qdd) + 0.4 * qd + 0.9 * np.tanh(qd / 0.05)
+    tau += np.random.default_rng(4).normal(0.0, 0.05, tau.shape)
+    model.fit_states(q, qd, qdd, tau)
+    assert model.uncertainty is not None
+    assert {'joint4.fv', 'joint4.fc'} <= set(model.uncertainty.undetermined_names)
+    model.save(tmp_path / 'physical.npz')
+    out = tmp_path / 'identified.urdf'
+    code, stdout, err = run_cli(capsys, 'export', tmp_path / 'physical.npz', '--urdf', out)
+    assert code == 0, err
+    kept = stdout.split("kept at the URDF's values: ")[1].split(', ')
+    assert 'joint4.fv' in kept and 'joint1.fv' not in kept
+    joints = {joint.get('name'): joint.find('dynamics')
+              for joint in ET.parse(out).getroot().iter('joint')}
+    assert float(joints['joint4'].get('damping')) == 0.0
+    assert float(joints['joint4'].get('friction')) == 0.0
+    assert float(joints['joint1'].get('damping')) == pytest.approx(0.4, rel=0.05)

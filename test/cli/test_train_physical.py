@@ -92,6 +92,12 @@ def test_physical_train_then_evaluate(bags: dict[str, Path], tmp_path: Path,
     np.testing.assert_allclose(model.coulomb_friction, COULOMB, rtol=0.02, atol=0.01)
     parameters = table(out, 'base parameter')
     assert set(parameters) == set(model.parameter_names[:model.n_base])
+    # each with its %σ, as the model file holds it, and the condition number
+    assert model.uncertainty is not None
+    relative = dict(zip(model.parameter_names, model.uncertainty.relative_std))
+    assert float(parameters['quill.m'][2]) == pytest.approx(100 * relative['quill.m'],
+                                                            rel=0.05)
+    assert f'Condition number of the regressor: {model.uncertainty.condition_number:.4g}' in out
 
     code, out, err = run_cli(capsys, 'evaluate', model_path, bags['other'])
     assert code == 0, err

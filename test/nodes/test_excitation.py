@@ -159,6 +159,34 @@ def test_the_stop_service_stops_the_arm_smoothly(listener: Listener) -> None:
     assert_smooth_stop(arm.chunks, np.array(start))
 
 
+def test_the_optimized_plan_is_sent_within_the_limits_and_stopped(listener: Listener,
+                                                                  tmp_path: Path) -> None:
+    """``plan:=optimized``: the node optimises first, then sends the approach and the
+    periodic motion in chunks that keep to the limits; SIGINT brings it to rest."""
+    start = [0.5, -0.4, 0.08, 1.0]
+    arm = FakeArm(listener, start)
+    with excitation('-p', 'plan:=optimized', '-p', 'harmonics:=3', '-p', 'base_period:=4.0',
+                    '-p', f'stats_file:={tmp_path / "stats.json"}') as node:
+        arm.spin_until(lambda: len(arm.chunks) >= 12)
+        node.process.send_signal(signal.SIGINT)
+        arm.spin_until(node.exited)
+        output = node.wait(TIMEOUT)
+    listener.spin_until(lambda: False, 0.3)
+    assert output.returncode == 0, output.stderr
+    assert 'optimised in ' in output.stderr and 'then the optimized excitation' in output.stderr
+    for chunk in arm.chunks:
+        assert MARGINED.violations(chunk.q, chunk.qd, chunk.qdd,
+                                   position_hull=np.array(start)) == []
+        assert_consistent(chunk.times, chunk.q, chunk.qd, chunk.qdd, rtol=0.02)
+        assert np.all(chunk.qd[-1] == 0.0) and np.all(np.abs(chunk.qdd[-1]) < 1e-9)
+    np.testing.assert_allclose(arm.chunks[0].q[0], start, atol=1e-12)
+    # not the random sequence's plan
+    random = ExcitationPlan(MARGINED, np.array(start), seed=0)
+    last = arm.chunks[-2]
+    assert np.abs(last.q - random.evaluate(last.times)[0]).max() > 1e-3
+    assert json.loads((tmp_path / 'stats.json').read_text())['plan'] == 'optimized'
+
+
 def test_lost_joint_states_stop_the_arm_and_end_with_an_error(listener: Listener) -> None:
     arm = FakeArm(listener, CENTRE)
     with excitation(state_timeout=0.5) as node:
@@ -234,6 +262,35 @@ def test_the_loop_excitation_scara_sim_joint_states(listener: Listener,
     error = np.abs(q[moving] - plan.evaluate(t[moving])[0]).max(axis=0)
     assert np.all(error < 0.02), error
     assert np.ptp(q[moving], axis=0).min() > 0.02
+    rest = t > run['rest_time'] + 0.3
+    assert rest.sum() > 10 and np.abs(qd[rest]).max() < 1e-3
+
+
+def test_the_optimized_plan_moves_scara_sim_and_brings_it_to_rest(listener: Listener,
+                                                                  tmp_path: Path) -> None:
+    """excitation plan:=optimized -> scara_sim (trajectory:=external) -> /joint_states: the
+    simulated arm moves every joint within the limits, then rests; duration ends it."""
+    states: list[JointState] = listener.subscribe(JointState, '/joint_states')
+    stats = tmp_path / 'stats.json'
+    with NodeProcess(SIM, ['-p', 'trajectory:=external']) as sim:
+        assert listener.spin_until(lambda: len(states) > 100, TIMEOUT)
+        with excitation('-p', 'duration:=3.0', '-p', 'plan:=optimized', '-p', 'harmonics:=3',
+                        '-p', 'base_period:=4.0', '-p', f'stats_file:={stats}') as node:
+            assert listener.spin_until(node.exited, 3 * TIMEOUT)
+            output = node.wait(TIMEOUT)
+        listener.spin_until(lambda: False, 0.5)
+        sim.stop()
+    assert output.returncode == 0, output.stderr
+    run = json.loads(stats.read_text())
+    assert run['stop_reason'] == 'duration reached' and run['plan'] == 'optimized'
+    stamps = np.array([m.header.stamp.sec * S + m.header.stamp.nanosec for m in states])
+    q = np.array([m.position for m in states])
+    qd = np.array([m.velocity for m in states])
+    t = (stamps - run['origin_ns']) / S
+    moving = (t >= 0) & (t <= run['stop_time'])
+    assert moving.sum() > 3000
+    assert np.ptp(q[moving], axis=0).min() > 0.01
+    assert LIMITS.violations(q[moving], qd[moving], np.zeros_like(q[moving])) == []
     rest = t > run['rest_time'] + 0.3
     assert rest.sum() > 10 and np.abs(qd[rest]).max() < 1e-3
 

@@ -1,0 +1,99 @@
+"""The optimised excitation: it lowers the regressor's condition number from its seeded
+start, keeps every limit, and the plan approaches it from rest and stops it to rest."""
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from scara_ident_ros.dynamics.joint_limits import JointLimits
+from scara_ident_ros.dynamics.parameter_uncertainty import condition_number
+from scara_ident_ros.dynamics.physical_model import PhysicalModel
+from scara_ident_ros.excitation import ExcitationPlan, make_chunk
+from scara_ident_ros.excitation.optimized_excitation import (OptimizedExcitation,
+                                                             optimize_excitation,
+                                                             plan_condition)
+from scara_ident_ros.sim.sequence import SEQUENCE_EXCITATION
+
+sys.path.insert(0, str(Path(__file__).parent))  # --import-mode=importlib
+from conftest import URDF  # noqa: E402
+from smoothness import assert_consistent  # noqa: E402
+
+
+@pytest.fixture(scope='module')
+def model(margined: JointLimits) -> PhysicalModel:
+    return PhysicalModel.from_urdf_file(URDF, joint_names=list(margined.names))
+
+
+@pytest.fixture(scope='module')
+def found(model: PhysicalModel, margined: JointLimits) -> OptimizedExcitation:
+    return optimize_excitation(model, margined, seed=1, n_harmonics=4, period=8.0,
+                               max_iterations=12)
+
+
+def test_the_optimiser_lowers_the_condition_number_from_its_start(
+        found: OptimizedExcitation, model: PhysicalModel) -> None:
+    assert found.iterations >= 1
+    assert found.condition < 0.7 * found.start_condition
+    # the figure is cond(W) of the model's regressor over the period
+    t = np.linspace(0.0, 8.0, 320, endpoint=False)
+    assert condition_number(model, *found.trajectory.evaluate(t)) == pytest.approx(
+        found.condition, rel=0.1)
+
+
+def test_the_optimised_motion_keeps_every_limit(found: OptimizedExcitation,
+                                                margined: JointLimits) -> None:
+    trajectory = found.trajectory
+    assert trajectory.n_harmonics == 4 and trajectory.period == pytest.approx(8.0)
+    np.testing.assert_allclose(trajectory.q0, margined.centre)
+    t = np.arange(0.0, 8.0, 1e-3)
+    q, qd, qdd = trajectory.evaluate(t)
+    half = 0.5 * (margined.position_max - margined.position_min)
+    fraction = SEQUENCE_EXCITATION['position_fraction']
+    assert np.all(np.abs(q - margined.centre) <= fraction * half * (1 + 1e-4))
+    assert np.all(np.abs(qd) <= SEQUENCE_EXCITATION['velocity_fraction']
+                  * margined.velocity_max * (1 + 1e-4))
+    assert np.all(np.abs(qdd) <= SEQUENCE_EXCITATION['acceleration_fraction']
+                  * margined.acceleration_max * (1 + 1e-4))
+
+
+def test_the_plan_approaches_it_from_rest_and_stops_at_rest(
+        found: OptimizedExcitation, margined: JointLimits, model: PhysicalModel) -> None:
+    start = np.array([-2.2, 2.4, 0.195, 6.0])        # in the margins, near the limits
+    plan = ExcitationPlan(margined, start, seed=1, excitation=found)
+    chunk = make_chunk(plan, 0.0, plan.approach_duration + 20.0, 0.001, margined)
+    np.testing.assert_allclose(chunk.q[0], start, atol=1e-15)
+    assert np.all(chunk.qd[0] == 0.0) and np.all(chunk.qd[-1] == 0.0)
+    assert np.all(chunk.qdd[-1] == 0.0)
+    assert margined.violations(chunk.q, chunk.qd, chunk.qdd, position_hull=start) == []
+    assert_consistent(chunk.times, chunk.q, chunk.qd, chunk.qdd)
+    # periodic after the approach
+    t = plan.approach_duration + np.array([0.3, 2.1])
+    for now, later in zip(plan.evaluate(t), plan.evaluate(t + 8.0)):
+        np.testing.assert_allclose(now, later, atol=1e-9)
+    random = ExcitationPlan(margined, start, seed=1)
+    assert plan_condition(plan, model, 16.0, 0.02) < plan_condition(random, model, 16.0, 0.02)
+
+
+def test_bad_settings_are_refused(model: PhysicalModel, margined: JointLimits) -> None:
+    with pytest.raises(ValueError, match='n_harmonics'):
+        optimize_excitation(model, margined, seed=0, n_harmonics=0)
+    with pytest.raises(ValueError, match='period'):
+        optimize_excitation(model, margined, seed=0, period=-1.0)
+
+
+def test_the_gradient_is_the_criterions_central_difference(model: PhysicalModel,
+                                                           margined: JointLimits) -> None:
+    from scara_ident_ros.excitation.optimized_excitation import _Problem
+
+    problem = _Problem(model, margined, 3, 6.0)
+    x = problem.start(4)
+    gradient = problem.gradient(x)
+    for k in (0, 7, 13, x.size - 1):
+        h = 1e-5 * max(1.0, abs(x[k]))
+        step = np.zeros_like(x)
+        step[k] = h
+        central = (problem.objective(x + step) - problem.objective(x - step)) / (2 * h)
+        assert gradient[k] == pytest.approx(central, rel=1e-3, abs=1e-6)
