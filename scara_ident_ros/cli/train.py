@@ -86,7 +86,7 @@ from __future__ import annotations
 
 import argparse
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NamedTuple
 
@@ -618,10 +618,11 @@ def _refit(model: Estimator, data: Dataset, *, seed: int) -> list[str]:
 
 
 def _save_and_report(args: argparse.Namespace, model: Estimator, names: Sequence[str],
-                     parts: Parts, summary: str, *extra: str) -> int:
+                     parts: Parts, summary: str, *extra: Callable[[], str]) -> int:
     """Print ``summary`` and the model's errors on the training, validation-block and later
     samples (a Markdown table), refit it on every sample if --refit (:func:`_refit`), write
-    it to ``--out``, print the ``extra`` sections; exit status 0."""
+    it to ``--out``, print the ``extra`` sections (made after the refit: the parameters
+    saved); exit status 0."""
     from scara_ident_ros.blas_threads import single_blas_thread
     from scara_ident_ros.cli.evaluation import errors_markdown, evaluate
 
@@ -647,7 +648,7 @@ def _save_and_report(args: argparse.Namespace, model: Estimator, names: Sequence
     args.out.parent.mkdir(parents=True, exist_ok=True)
     model.save(args.out)
     for section in extra:
-        print(section)
+        print(section())
     print(f'model written to {args.out}')
     return 0
 
@@ -708,7 +709,7 @@ def _train_physical(args: argparse.Namespace, names: Sequence[str], parts: Parts
     model.metadata.update({k: v for k, v in physical.metadata.items()
                            if k.startswith('coulomb')})
     return _save_and_report(args, model, names, parts, summary,
-                            parameters_markdown(physical))
+                            lambda: parameters_markdown(physical))
 
 
 def _fit_physical(args: argparse.Namespace, method: str, names: Sequence[str], parts: Parts,
