@@ -597,24 +597,29 @@ def _train_auto(args: argparse.Namespace, names: Sequence[str], parts: Parts,
     return _save_and_report(args, model, names, parts, '\n'.join(lines))
 
 
-def _refit(model: Estimator, data: Dataset, *, seed: int) -> list[str]:
-    """Refit ``model``'s least-squares and GP parts (physical, linear, gp; a joint choice's
-    of them) on ``data``, every sample the recording gave, their options and choices kept:
-    return the kinds refitted. Networks and hybrids keep the fit their early stop and gate
-    chose."""
+def _refit(model: Estimator, data: Dataset, *, seed: int) -> tuple[Estimator, list[str]]:
+    """``model`` with its least-squares and GP parts (physical, linear, gp; a joint
+    choice's of them) fitted again on ``data``, every sample the recording gave, their
+    options and choices kept (a GP chooses its kernel again, as ``ExactGP().fit`` on those
+    samples would), and the kinds refitted. Networks and hybrids keep the fit their early
+    stop and gate chose."""
+    from scara_ident_ros.learners import ExactGP
     from scara_ident_ros.learners.joint_choice import JointChoice
 
     if isinstance(model, JointChoice):
-        return [kind for part in model.models.values()
-                for kind in _refit(part, data, seed=seed)]
+        kinds = []
+        for label, part in list(model.models.items()):
+            model.models[label], refitted = _refit(part, data, seed=seed)
+            kinds += refitted
+        return model, kinds
     if model.kind in ('physical', 'linear'):
-        model.fit(data.X, data.Y)
-        return [model.kind]
-    if model.kind == 'gp':
+        return model.fit(data.X, data.Y), [model.kind]
+    if isinstance(model, ExactGP):
         rows = data.subsample(GP_SAMPLES, seed=seed)
-        model.fit(rows.X, rows.Y)
-        return [model.kind]
-    return []
+        fresh = ExactGP(**model.get_params()).fit(rows.X, rows.Y)
+        fresh.metadata.update(model.metadata)
+        return fresh, [model.kind]
+    return model, []
 
 
 def _save_and_report(args: argparse.Namespace, model: Estimator, names: Sequence[str],
@@ -637,7 +642,7 @@ def _save_and_report(args: argparse.Namespace, model: Estimator, names: Sequence
           'the motion after it (what a model predicts in use).')
     if args.refit:
         with single_blas_thread():
-            refitted = _refit(model, parts.data, seed=args.seed)
+            model, refitted = _refit(model, parts.data, seed=args.seed)
         if refitted:
             model.metadata['train_samples'] = np.array(
                 min(len(parts.data), GP_SAMPLES) if set(refitted) == {GP_METHOD}

@@ -36,8 +36,8 @@ from numpy.typing import ArrayLike
 from scara_ident_ros.dynamics.least_squares import BlockLeastSquares
 from scara_ident_ros.dynamics.physical_model import COULOMB_EPS, PhysicalModel
 
-__all__ = ['CANDIDATES', 'CoulombChoice', 'MIN_GAIN', 'OptionChoice', 'select_coulomb',
-           'select_options']
+__all__ = ['CANDIDATES', 'CoulombChoice', 'MIN_GAIN', 'MIN_NMSE_GAIN', 'OptionChoice',
+           'select_coulomb', 'select_options']
 
 #: Shapes tried: sign, and tanh(q'/ε) for ε in rad/s (m/s for a prismatic joint).
 CANDIDATES: tuple[tuple[str, float], ...] = (('sign', 1.0), ('tanh', 0.005), ('tanh', 0.01),
@@ -45,6 +45,10 @@ CANDIDATES: tuple[tuple[str, float], ...] = (('sign', 1.0), ('tanh', 0.005), ('t
                                              ('tanh', 0.2))
 #: An option is kept if it lowers the mean validation NMSE by more than this share of it.
 MIN_GAIN = 0.15
+#: ... and by at least this much of the efforts' variance: on a model that already explains
+#: all but 1e-5 of it (a simulated arm, the q'' estimate's error left), a coupling that
+#: fits part of that error is not a property of the robot.
+MIN_NMSE_GAIN = 1e-3
 #: Samples of each set the options are scored on (a seeded draw of larger sets): some 60
 #: parameters need far fewer, and a 5 kHz recording's neighbours are nearly equal.
 SCORE_SAMPLES = 8000
@@ -263,9 +267,9 @@ def select_options(build: Callable[..., PhysicalModel],
 
 
 def _gains(value: float, best: float) -> bool:
-    """Whether a score ``value`` beats ``best`` by more than :data:`MIN_GAIN` of it (and by
-    more than 1e-9: below that, what is left is rounding)."""
-    return best - value > max(MIN_GAIN * best, 1e-9)
+    """Whether a score ``value`` beats ``best`` by more than :data:`MIN_GAIN` of it and by
+    more than :data:`MIN_NMSE_GAIN`."""
+    return best - value > max(MIN_GAIN * best, MIN_NMSE_GAIN)
 
 
 def _draw(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

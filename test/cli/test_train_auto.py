@@ -48,14 +48,15 @@ def test_auto_keeps_per_joint_the_candidate_of_the_lowest_error_on_later_motion(
     assert 'later motion, held out to choose and stop on: ' in out
     later, blocks = _scores(out)
     assert set(later) == set(AUTO_CANDIDATES) and set(blocks) == set(AUTO_CANDIDATES)
-    labels = list(later)
-    expected = [labels[k] for k in np.argmin([later[m] for m in labels], axis=0)]
     model = load_model(model_path)
-    assert [str(v) for v in model.metadata['joint_choice']] == expected
+    chosen = [str(v) for v in model.metadata['joint_choice']]
+    best = np.min([later[m] for m in later], axis=0)
+    for j, method in enumerate(chosen):  # the lowest (printed to 3 digits: ties are equal)
+        assert later[method][j] <= best[j] * 1.01 + 1e-12, (j, method, later)
     assert str(model.metadata['chosen_by']) == 'auto'
-    assert model.method == (expected[0] if len(set(expected)) == 1 else 'joint_choice')
+    assert model.method == (chosen[0] if len(set(chosen)) == 1 else 'joint_choice')
     # on this smooth motion a learner beats the linear baseline somewhere
-    assert set(expected) != {'linear'}
+    assert set(chosen) != {'linear'}
     assert '| later MSE | later NMSE |' in out  # the later motion's errors are reported
     code, out, err = run_cli(capsys, 'evaluate', model_path, bags['other'])
     assert code == 0, err
@@ -94,7 +95,7 @@ def test_auto_with_a_urdf_keeps_the_physical_model_where_a_hybrid_wins_only_on_b
     for path in (on_blocks, model_path):
         code, out, err = run_cli(capsys, 'evaluate', path, recordings[1])
         assert code == 0, err
-        errors[path] = float(table(out, 'joint')['joint1 (N·m or N)'][1])
+        errors[path] = float(next(iter(table(out, 'joint').values()))[1])  # joint 1
     assert errors[model_path] < 0.5 * errors[on_blocks]
 
 

@@ -120,7 +120,8 @@ def test_help_states_the_defaults(capsys: pytest.CaptureFixture[str]) -> None:
     with pytest.raises(SystemExit):
         main(['train', '--help'])
     text = ' '.join(capsys.readouterr().out.split())
-    assert 'blocks' in text and 'spread over' in text
+    assert 'blocks' in text and 'interleaved' in text and 'later motion' in text
+    assert f'(default: {train_cli.LATER_FRACTION:g}; 0: on the validation blocks)' in text
     assert f'(default: {train_cli.MAX_FAIL})' in text
     assert f'(default: {train_cli.MIN_ITERATIONS})' in text
     assert f'(default: {train_cli.SAMPLES}; 0: all)' in text

@@ -181,7 +181,8 @@ def test_physical_and_hybrid_files_round_trip(tmp_path: Path) -> None:
     low, high = np.quantile(correction, 0.25, axis=0), np.quantile(correction, 0.75, axis=0)
     hybrid.bounds = (low, high)
     np.testing.assert_allclose(hybrid.predict(x) - hybrid.physical.predict(x),
-                               np.clip(correction, low, high), atol=1e-9)
+                               np.clip(correction, low, high)
+                               * hybrid.region.weight(x)[:, None], atol=1e-9)
     hybrid.save(tmp_path / 'bounded.npz')
     bounded = HybridModel.load(tmp_path / 'bounded.npz')
     assert bounded.bounds is not None
