@@ -67,7 +67,7 @@ def nmse_per_joint(text: str) -> list[float]:
     """The NMSE column of each joint row of ``evaluate``'s first table (the errors)."""
     values, inside = [], False
     for line in text.splitlines():
-        if line.startswith('| joint'):
+        if line.startswith('| joint |'):
             inside = True
         elif inside and line.startswith('| mean'):
             return values
