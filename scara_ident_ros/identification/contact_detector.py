@@ -44,6 +44,8 @@ posterior-predictive probability that a new draw of joint j exceeds ``T_j`` is a
 ``p_j``, so the expected false-alarm rate on free motion like the calibration's is at most
 ``λ`` per hour, whatever the number of draws: few draws give higher thresholds, not a
 weaker bound. A heavier tail is caught only as far as the moment estimate of ξ sees it.
+Nor does it cover a shift: held-out blocks lie between learnt motion, and a model still
+learning errs more on new motion than on them (``benchmarks/contact.md``).
 
 **Armed** only when all hold: the validation NMSE is below ``arm_nmse`` (the model
 identifies); at least :data:`MIN_DRAWS` independent draws on every joint (the predictive
