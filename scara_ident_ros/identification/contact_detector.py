@@ -67,7 +67,7 @@ excitation loop it delayed the detection of 10 % pulses from 10 to 37 ms,
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import NamedTuple
 
 import numpy as np
@@ -414,6 +414,18 @@ class ContactDetector:
         return Calibration(segments=count, independent=independent, correlation_samples=tau,
                            centre=centre, thresholds=thresholds, false_alarms_per_hour=per_hour,
                            over=over, why_not=why, lo=lo, hi=hi)
+
+    def update_nmse(self, validation_nmse: float) -> None:
+        """Take a fresh validation NMSE of the same model between calibrations: at or above
+        ``arm_nmse`` (a model that got worse since) detection is disarmed until the next
+        :meth:`calibrate` arms it again, so that the rule holds while armed, not only at
+        the calibrations."""
+        self.validation_nmse = float(validation_nmse)
+        if self._active is not None and not validation_nmse < self.arm_nmse:
+            self._active = None
+            self.calibration = replace(
+                self.calibration,
+                why_not=f'validation NMSE {validation_nmse:.3g} >= {self.arm_nmse:g}')
 
     def inside(self, x: NDArray[np.float64]) -> bool:
         """Whether an input [q, q', q''] (3n,) is within the calibrated envelope (True

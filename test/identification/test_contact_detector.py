@@ -99,6 +99,15 @@ def test_armed_only_when_identified_with_enough_independent_segments() -> None:
     assert calibration.false_alarms_per_hour <= detector.false_alarms_per_hour * (1 + 1e-9)
     assert detector.check(np.array([100.0, 0.1])).tolist() == [True, False]
     assert detector.check(np.array([-100.0, np.nan])).tolist() == [True, False]
+    detector.update_nmse(0.005)  # still identifies: armed
+    assert detector.armed
+    detector.update_nmse(0.05)  # the model got worse since: disarmed until recalibrated
+    assert not detector.armed and 'NMSE' in detector.calibration.why_not
+    assert not detector.check(big).any()
+    detector.update_nmse(0.001)
+    assert not detector.armed
+    detector.calibrate(residuals, 0.001)
+    assert detector.armed
     detector.reset()
     assert not detector.armed and not detector.check(big).any()
 
