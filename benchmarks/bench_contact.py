@@ -13,6 +13,10 @@ first flagged sample's stamp plus the q'' estimate's lag, the machine's own dela
 node reports it, ``bench_graph.py``). One row per ``--bounds`` value, one with the envelope
 bounding q'' too, and the detector before (12 robust sigmas of the held-out residuals).
 
+While it learns, a detector of the node's defaults is calibrated every
+``contact_calibration_period`` s of stream, as the node calibrates it on the model of that
+moment: the stream time it is first armed, and whether it stays armed.
+
 ``--stream loop`` (default): the issue's loop, ``excitation`` -> ``scara_sim
 trajectory:=external`` (:func:`~scara_ident_ros.paper.contact.loop_record`), without sensor
 noise as ``scara_sim`` by default (``--noise``: the noisy learning curves' sensor noise);
@@ -36,16 +40,19 @@ import numpy as np
 from scara_ident_ros.blas_threads import single_blas_thread
 from scara_ident_ros.dynamics import ScaraParams
 from scara_ident_ros.identification import InputStage, JointMap
-from scara_ident_ros.paper.contact import (Pulse, detect, evaluate, pulse_record, residuals_of,
-                                           train_model)
+from scara_ident_ros.paper.contact import (Pulse, Trained, detect, evaluate, pulse_record,
+                                           residuals_of, train_model)
 from scara_ident_ros.sim import SimConfig, SimRecord
 from scara_ident_ros.paper.learning_curves import noisy_config
-from scara_ident_ros.identification.contact_detector import ContactDetector, robust_spread
+from scara_ident_ros.identification.contact_detector import (Calibration, ContactDetector,
+                                                             robust_spread)
 from scara_ident_ros.nodes.identifier import PARAMETERS
 from scara_ident_ros.resources import config_path
 
 CLEAN_SEED, PULSE_SEED = 100, 200  # offsets of the unseen runs' seeds from the stream's
 ARM_NMSE = next(spec.default for spec in PARAMETERS if spec.name == 'contact_arm_nmse')
+CALIBRATION_PERIOD = next(spec.default for spec in PARAMETERS
+                          if spec.name == 'contact_calibration_period')
 
 
 def _ms(values: np.ndarray, q: float) -> str:
@@ -79,8 +86,16 @@ def main() -> int:
     def config(s: int) -> SimConfig:
         return noisy_config(params, s) if args.noise else SimConfig(seed=s, n_joints=4)
 
+    timeline: list[tuple[float, Calibration]] = []
+
+    def calibrate(t: float, now: Trained) -> None:
+        detector = ContactDetector(4, min_samples=args.min_samples,
+                                   false_alarms_per_hour=args.bounds[0])
+        timeline.append((t, detector.calibrate(now.residuals, now.nmse, inputs=now.inputs,
+                                               sample_period_s=1e-3, blocks=now.blocks)))
+
     trained = train_model(params, seconds=args.seconds, seed=seed, config=config(seed),
-                          stream=args.stream)
+                          stream=args.stream, every_s=CALIBRATION_PERIOD, on_every=calibrate)
     net, nmse, lag = trained.net, trained.nmse, trained.lag
     clean, _ = pulse_record(params, seconds=args.clean_seconds, seed=seed + CLEAN_SEED,
                             config=config(seed + CLEAN_SEED), stream=args.stream)
@@ -110,6 +125,7 @@ def main() -> int:
           f'{args.min_samples}; a decision is made {lag} samples ({lag * dt * 1e3:g} ms) '
           'after its sample (the zero-phase q\'\'), plus the machine\'s delay (the node\'s '
           'diagnostics).\n')
+    print(_arming(timeline) + '\n')
     print('| detector | armed (why not) | thresholds | est. false alarms/h | detected | '
           'per joint | decision delay from the pulse start p50 / p99 (ms, stamp + lag) | '
           'false alarms / 10 min | samples held (envelope), clean / pulses |')
@@ -149,6 +165,22 @@ def main() -> int:
           f'{run.false_alarms_per_10_min:.2f} | |')
     print(f'\n{time.monotonic() - started:.0f} s wall')
     return 0
+
+
+def _arming(timeline: list[tuple[float, Calibration]]) -> str:
+    """When the detector of the node's defaults was first armed, and what each calibration
+    said."""
+    armed = [t for t, c in timeline if not c.why_not]
+    steps = '; '.join(f'{t:g} s: ' + (c.why_not or f'armed ({c.independent:.0f} draws)')
+                      for t, c in timeline)
+    if not armed:
+        return f'**Not armed** in {timeline[-1][0] if timeline else 0:g} s ({steps}).'
+    since = [t for t, c in timeline if t >= armed[0] and c.why_not]
+    return (f'**Armed at {armed[0]:g} s** of stream (a calibration every '
+            f'{CALIBRATION_PERIOD:g} s, node defaults), '
+            + ('armed at every calibration since' if not since
+               else f'disarmed again at {", ".join(f"{t:g}" for t in since)} s')
+            + f' ({steps}).')
 
 
 def _inputs(record: SimRecord, names: tuple[str, ...]) -> np.ndarray:

@@ -17,7 +17,9 @@ c. ``--identify``: the issue's target. An identifier (its defaults: FFS, ``lm``)
    saved models are then scored frozen on the held-out motions of
    ``bench_learning_curves.py`` (5 ``standard`` excitations and 30 s of another ``sequence``,
    never streamed): the loop should reach the held-out NMSE of the simulator's sequence.
-   Two minutes of graph each (``--seconds 120``): run it on a quiet machine.
+   Two minutes of graph each (``--seconds 120``): run it on a quiet machine. Also when
+   the loop's identifier first armed contact detection (``contact_armed``), from the
+   excitation's first chunk.
 d. ``--in-process``: the same target measured on the motion, not on the machine (no ROS,
    instead of a-c). The loop is simulated in one process, synchronously
    (:func:`~scara_ident_ros.excitation.simulated_loop.simulate_loop`: the node's plan, same
@@ -117,8 +119,9 @@ class Graph:
         import rclpy
         from rclpy.context import Context
         from rclpy.experimental import EventsExecutor
-        from rclpy.qos import QoSProfile, ReliabilityPolicy
+        from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
         from sensor_msgs.msg import JointState
+        from std_msgs.msg import Bool
         from trajectory_msgs.msg import JointTrajectory
 
         os.environ.update({k: env[k] for k in ('ROS_DOMAIN_ID',
@@ -136,9 +139,23 @@ class Graph:
             lambda m: self.states.append((m.header.stamp.sec * S + m.header.stamp.nanosec,
                                           list(m.position), list(m.velocity))),
             QoSProfile(depth=5000, reliability=ReliabilityPolicy.RELIABLE))
+        self.first_command: float | None = None  # monotonic s
+
+        def command(message: JointTrajectory) -> None:
+            if self.first_command is None:
+                self.first_command = time.monotonic()
+            self.commands.append(message)
         self.node.create_subscription(JointTrajectory,
                                       '/joint_trajectory_controller/joint_trajectory',
-                                      self.commands.append, 10)
+                                      command, 10)
+        self.armed: list[tuple[float, bool]] = []  # (monotonic s, contact_armed)
+
+        def armed(message: Bool) -> None:
+            self.armed.append((time.monotonic(), bool(message.data)))
+        self.node.create_subscription(
+            Bool, '/contact_armed', armed,
+            QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE,
+                       durability=DurabilityPolicy.TRANSIENT_LOCAL))
         self.torques = 0  # identified_torque messages: the identifier is up
 
         def count(_: Any) -> None:
@@ -245,12 +262,26 @@ def loop(seconds: float, position_margin: float, velocity_scale: float,
               f'{measured[j] / limits.acceleration_max[j]:.3f} |')
     print('\n(e in rad, joint3 in m; limits: the URDF\'s, acceleration from config/scara.yaml; '
           f'the stop keeps to {run["acceleration_scale"]:g} of them.)\n')
+    if identify:
+        print(armed_line(graph.armed, graph.first_command) + '\n')
     if run['stop_reason'] != '~/stop called':
         print(f'**The excitation stopped early ({run["stop_reason"]}, exit status '
               f'{run["exit_status"]}) at plan time {run["stop_time"]:.2f} s of '
               f'{run["approach_duration"] + seconds:.2f}: the arm then rested; an identifier '
               'learnt rest until the end. Not a measurement of the target.**\n')
     return model if identify else None
+
+
+def armed_line(changes: list[tuple[float, bool]], start: float | None) -> str:
+    """When the identifier armed contact detection, from the excitation's first chunk."""
+    since = [(t - (start or t), armed) for t, armed in changes]
+    first = next((t for t, armed in since if armed), None)
+    if first is None:
+        return '**Contact detection not armed** during the loop.'
+    later = [f'{t:.1f}' for t, armed in since if not armed and t > first]
+    return (f'**Contact detection armed {first:.1f} s** after the excitation\'s first chunk'
+            + (f', disarmed again at {", ".join(later)} s.' if later
+               else ', armed until the end.'))
 
 
 def sequence_model(seconds: float, env: dict[str, str], logs: Path) -> Path:

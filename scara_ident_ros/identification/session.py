@@ -166,11 +166,14 @@ class MethodRun:
         there is one (scoring the whole held-out set at the error topic's rate would load
         the message path); until then, while there are few held-out samples, each time;
         ``refresh`` False: the score as it is (a caller spreading the methods' scoring over
-        its calls). It changes nothing else (the contact thresholds:
-        :meth:`calibrate_contacts`)."""
+        its calls). A fresh score at or over ``contact_arm_nmse`` disarms contact detection
+        (a model that got worse since its calibration); the thresholds change only in
+        :meth:`calibrate_contacts`."""
         if self.core is not None and (fresh or (refresh and self.validation_stale)):
             self._validation = self.core.validation_stats()
             self._validated_at = time.monotonic()
+            if self._validation is not None and self.detector is not None:
+                self.detector.update_nmse(float(self._validation.nmse_total))
         return self._validation
 
     def calibrate_contacts(self, sample_period_s: float, *, budget: int | None = None

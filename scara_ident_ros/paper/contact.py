@@ -30,7 +30,7 @@ import numpy.typing as npt
 from scara_ident_ros.dynamics import ScaraParams
 from scara_ident_ros.dynamics.joint_limits import LIMIT_NAMES, JointLimits
 from scara_ident_ros.estimator import Estimator
-from scara_ident_ros.identification import InputStage, JointMap
+from scara_ident_ros.identification import InputStage, JointMap, OnlineIdentifier
 from scara_ident_ros.identification.contact_detector import ContactDetector
 from scara_ident_ros.identification.identifier_settings import IdentifierSettings
 from scara_ident_ros.identification.identifier_builder import build_identifier
@@ -120,9 +120,15 @@ def loop_record(params: ScaraParams, *, seconds: float, seed: int, config: SimCo
 
 
 def train_model(params: ScaraParams, *, seconds: float, seed: int, config: SimConfig,
-                hidden: int = 40, stream: str = 'sequence') -> Trained:
+                hidden: int = 40, stream: str = 'sequence', every_s: float = 0.0,
+                on_every: Callable[[float, Trained], None] | None = None) -> Trained:
     """An FFS network trained online on ``seconds`` of ``stream`` (``sequence``: scara_sim's
-    own; ``loop``: the excitation loop's) as the node does, then frozen."""
+    own; ``loop``: the excitation loop's) as the node does, then frozen.
+
+    ``on_every(t, trained)``: called after every ``every_s`` s of stream (t in s) with the
+    model as it is then (not a copy: read it at once), as the node's contact calibration
+    sees it; not before the held-out samples can be scored.
+    """
     n = round(seconds / config.dt)
     record = (loop_record(params, seconds=seconds, seed=seed, config=config)
               if stream == 'loop' else
@@ -133,13 +139,27 @@ def train_model(params: ScaraParams, *, seconds: float, seed: int, config: SimCo
         method='ffs', trainer='lm', hidden_units=hidden, seed=seed), limits)
     net = cast(FeedForwardNet, ident.model)
     names = params.joint_names
+    every = round(every_s / config.dt) if on_every is not None and every_s > 0 else 0
     for i in range(len(record)):
         ident.process(int(record.stamp_ns[i]), names, record.q[i], record.qd[i],
                       record.effort[i])
+        if every and (i + 1) % every == 0 and on_every is not None:
+            now = _frozen(ident, net)
+            if now is not None:
+                on_every((i + 1) * config.dt, now)
+    trained = _frozen(ident, net)
+    if trained is None:
+        raise ValueError(f'{seconds} s of stream held out too few samples to score')
+    return trained
+
+
+def _frozen(ident: OnlineIdentifier, net: FeedForwardNet) -> Trained | None:
+    """The model as it is, with its residuals on the held-out segments; None before they
+    can be scored."""
     stats = ident.validation_stats()
     segments = ident.holdout.segments if ident.holdout is not None else None
     if stats is None or segments is None or len(segments) == 0:
-        raise ValueError(f'{seconds} s of stream held out too few samples to score')
+        return None
     X = segments.X.copy()
     residuals = segments.Y - net.predict(X.reshape(-1, 12)).reshape(segments.Y.shape)
     return Trained(net, residuals, X, segments.blocks.copy(), float(stats.nmse_total),

@@ -28,5 +28,8 @@ def test_bench_contact_runs_at_ci_size() -> None:
     assert row is not None, out.stdout
     why, detected, pulses = row.group(1), int(row.group(2)), int(row.group(3))
     assert 'independent' in why and detected == 0 and pulses >= 2
+    # the node's calibrations while it learns (every 10 s of stream): none armed
+    assert re.search(r'^\*\*Not armed\*\* in 20 s \(10 s: .*; 20 s: .*\)\.$', out.stdout,
+                     re.MULTILINE), out.stdout
     before = re.search(r'^\| before: 12 x .*\| (\d+)/(\d+) \|', out.stdout, re.MULTILINE)
     assert before is not None and int(before.group(2)) == pulses

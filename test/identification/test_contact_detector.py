@@ -8,7 +8,7 @@ from scara_ident_ros.dynamics import ScaraModel, ScaraParams
 from scara_ident_ros.paper.contact import detect, evaluate, pulse_record, residuals_of
 from scara_ident_ros.paper.learning_curves import noisy_config
 from scara_ident_ros.identification import Holdout, InputStage, JointMap, OnlineIdentifier
-from scara_ident_ros.identification.contact_detector import (MIN_SEGMENTS, ContactDetector,
+from scara_ident_ros.identification.contact_detector import (MIN_DRAWS, ContactDetector,
                                                              correlation_time, robust_spread)
 from scara_ident_ros.resources import config_path
 from scara_ident_ros.sim import SimConfig, Simulator, make_trajectory
@@ -79,15 +79,18 @@ def test_armed_only_when_identified_with_enough_independent_segments() -> None:
     assert detector.thresholds is not None and not detector.armed
     assert 'NMSE' in detector.calibration.why_not
     assert not detector.check(big).any()
-    detector.calibrate(residuals[:20], 0.001)  # too few segments
+    detector.calibrate(residuals[:MIN_DRAWS - 1], 0.001)  # too few segments
     assert not detector.armed and 'segments' in detector.calibration.why_not
     assert not detector.check(big).any()
-    # residuals correlated beyond a segment, 10 segments from each of 15 blocks: one draw a
-    # block, too few
-    correlated = ar1_segments(rng, 150, 100, 0.99, (1.0, 1.0))
-    detector.calibrate(correlated, 0.001, blocks=np.repeat(np.arange(15), 10))
-    assert not detector.armed and detector.calibration.independent == 15 < MIN_SEGMENTS
+    # joint 0 correlated beyond a segment, 10 segments from each of 7 blocks: one draw a
+    # block, too few, though joint 1 (white) has a draw per segment
+    correlated = residuals[:70].copy()
+    correlated[..., 0] = ar1_segments(rng, 70, 100, 0.99, (1.0,))[..., 0]
+    detector.calibrate(correlated, 0.001, blocks=np.repeat(np.arange(7), 10))
+    assert not detector.armed and detector.calibration.independent == 7 < MIN_DRAWS
     assert 'draws' in detector.calibration.why_not
+    detector.calibrate(correlated, 0.001, blocks=np.arange(70) // 8)
+    assert detector.armed and detector.calibration.independent == 9  # 9 blocks
     detector.calibrate(residuals, None)  # no validation score
     assert not detector.armed
     calibration = detector.calibrate(residuals, 0.001)
@@ -96,6 +99,15 @@ def test_armed_only_when_identified_with_enough_independent_segments() -> None:
     assert calibration.false_alarms_per_hour <= detector.false_alarms_per_hour * (1 + 1e-9)
     assert detector.check(np.array([100.0, 0.1])).tolist() == [True, False]
     assert detector.check(np.array([-100.0, np.nan])).tolist() == [True, False]
+    detector.update_nmse(0.005)  # still identifies: armed
+    assert detector.armed
+    detector.update_nmse(0.05)  # the model got worse since: disarmed until recalibrated
+    assert not detector.armed and 'NMSE' in detector.calibration.why_not
+    assert not detector.check(big).any()
+    detector.update_nmse(0.001)
+    assert not detector.armed
+    detector.calibrate(residuals, 0.001)
+    assert detector.armed
     detector.reset()
     assert not detector.armed and not detector.check(big).any()
 

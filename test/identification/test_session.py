@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from scara_ident_ros.dynamics import ScaraParams
+from scara_ident_ros.dynamics import ScaraModel, ScaraParams
 from scara_ident_ros.dynamics.joint_limits import LimitsError
 from scara_ident_ros.errors import ConfigError
 from scara_ident_ros.identification.identifier_settings import IdentifierSettings
@@ -25,11 +25,13 @@ from scara_ident_ros.resources import config_path
 from scara_ident_ros.sim import SimConfig, SimRecord, Simulator, make_trajectory
 
 SCARA = ScaraParams.from_yaml(config_path('scara.yaml'))
+SCARA_MODEL = ScaraModel(SCARA)
 NAMES = list(SCARA.joint_names)
 DEFAULTS = IdentifierSettings.from_yaml(config_path('identifier.yaml'))
 MS = 1_000_000  # ns
 T0 = 1_000 * 1_000_000_000  # ns
 LAG = DEFAULTS.window // 2  # samples the centred q'' estimate holds back
+URDF = Path(__file__).resolve().parents[2] / 'urdf' / 'scara.urdf'
 WAIT = 30.0  # s: the longest a test waits for a learner process (a loaded CI machine)
 
 
@@ -309,6 +311,75 @@ def test_contact_calibration_is_an_explicit_step_and_arms_on_the_rate_bound() ->
     session.apply(session.settings, {'contact_false_alarms_per_hour'})
     assert not run.detector.armed
     assert run.calibrate_contacts(1e-3) is not None and run.detector.armed
+
+
+RATE = 200.0  # Hz: a real arm's rate, few enough samples for a minute of stream
+
+
+def sines(seconds: float, seed: int) -> tuple[np.ndarray, ...]:
+    """A minute-scale SCARA stream at :data:`RATE`: stamps (ns), q, q' of three sines per
+    joint within its limits, and the effort of the SCARA's inverse dynamics plus a model
+    error the physical model cannot fit (an AR(1) of 0.2 s, 2 % of each joint's effort
+    spread: it outlasts a held-out segment, so each held-out block is one draw)."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(round(seconds * RATE)) / RATE
+    lo, hi = SCARA.array('position_min'), SCARA.array('position_max')
+    w = 2.0 * np.pi * rng.uniform(0.05, 0.4, size=(3, 4))
+    a = rng.uniform(0.05, 0.1, size=(3, 4)) * (hi - lo)
+    phase = rng.uniform(0.0, 2.0 * np.pi, size=(3, 4))
+    arg = w * t[:, None, None] + phase
+    q = 0.5 * (lo + hi) + (a * np.sin(arg)).sum(axis=1)
+    qd = (a * w * np.cos(arg)).sum(axis=1)
+    qdd = -(a * w * w * np.sin(arg)).sum(axis=1)
+    rho = np.exp(-1.0 / (0.2 * RATE))
+    error = np.empty_like(q)
+    error[0] = rng.normal(size=4)
+    for k in range(1, len(t)):
+        error[k] = rho * error[k - 1] + np.sqrt(1.0 - rho * rho) * rng.normal(size=4)
+    effort = np.asarray(SCARA_MODEL.inverse_dynamics(q, qd, qdd))
+    return (T0 + np.round(t * 1e9).astype(np.int64), q, qd,
+            effort + 0.02 * effort.std(axis=0) * error)
+
+
+@pytest.mark.slow
+def test_a_minute_of_stream_arms_contacts_with_no_false_one_and_a_push_is_found() -> None:
+    """The node's defaults (10 % held out in 0.5 s blocks, a calibration every 10 s of
+    stream): armed once 8 held-out blocks are in, within the first minute; then 30 s
+    (6,000 samples) of quiet unseen motion without a contact, and a push of 10 % of joint
+    2's effort limit found on joint 2 alone."""
+    session = IdentificationSession(settings(method='physical', urdf_file=str(URDF),
+                                             joint_names=NAMES))
+    run = session.first
+    stamps, q, qd, effort = sines(90.0, 0)
+    minute, every = round(60 * RATE), round(10 * RATE)
+    armed_at = None
+    for i in range(minute):
+        session.process(int(stamps[i]), NAMES, q[i], qd[i], effort[i])
+        if (i + 1) % every == 0:
+            run.calibrate_contacts(1.0 / RATE)
+            assert run.detector is not None
+            if run.detector.armed and armed_at is None:
+                armed_at = (i + 1) / RATE
+    assert run.detector is not None and run.detector.armed, run.detector.calibration.why_not
+    assert armed_at is not None and armed_at <= 60.0
+    assert run.detector.calibration.independent >= 8
+    held, contacts = run.detector.held, run.contacts
+    predictions = []
+    push, pushed_from = np.zeros(4), int(stamps[-100])  # the last 0.5 s: pushed on joint 2
+    for i in range(minute, len(stamps)):
+        if stamps[i] == pushed_from:
+            push[1] = 0.1 * SCARA.array('effort_max')[1]
+        predictions += session.process(int(stamps[i]), NAMES, q[i], qd[i],
+                                       effort[i] + push).predictions[0]
+        if (i + 1) % every == 0:
+            run.calibrate_contacts(1.0 / RATE)
+    quiet = [p.contact for p in predictions if p.stamp_ns < pushed_from]
+    pushed = [p.contact for p in predictions if p.stamp_ns >= pushed_from]
+    assert len(quiet) > 5500 and not any(c is None or c.any() for c in quiet)
+    assert run.detector.held - held < 0.1 * len(quiet)  # checked, not held off the envelope
+    assert any(c is not None and c[1] for c in pushed)
+    assert not any(c is not None and c[[0, 2, 3]].any() for c in pushed)
+    assert run.contacts > contacts
 
 
 def test_each_prediction_comes_with_its_external_torque_contact_flags_and_lag() -> None:

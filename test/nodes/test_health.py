@@ -50,15 +50,15 @@ def test_identifier_says_whether_contact_detection_is_armed() -> None:
 def test_identifier_diagnostics_say_why_not_armed_the_rate_and_the_delay() -> None:
     health = identifier_health(**healthy_identifier(), contact_armed=False,
                                contact_thresholds=[1.0, 2.0], contact_arm_nmse=0.01,
-                               contact_why_not='12 independent held-out draws, need 30',
-                               contact_false_alarms_per_hour=0.5, contact_segments=12.0,
+                               contact_why_not='5 independent held-out draws, need 8',
+                               contact_false_alarms_per_hour=0.5, contact_segments=5.0,
                                contact_held=7, contact_delay_p50_ms=11.0,
                                contact_delay_p99_ms=23.0)
     values = health.values
     assert values['contact detection'].startswith(
-        'not armed (12 independent held-out draws, need 30); 7 samples held')
+        'not armed (5 independent held-out draws, need 8); 7 samples held')
     assert values['contact false alarms/h (estimated)'] == '0.5'
-    assert values['contact independent segments'] == '12'
+    assert values['contact independent segments'] == '5'
     assert values['contact held (outside envelope)'] == '7'
     assert values['contact delay p50 / p99 [ms]'] == '11 / 23'
     quiet = identifier_health(**healthy_identifier(), contact_armed=True,

@@ -5,7 +5,7 @@ output layer is fitted by least squares to the test's stream, so that it identif
 (validation NMSE below 1e-3) and every external torque can be computed here exactly. The
 measured effort carries white noise (5 % of the limits) larger than the model's error, so
 that the held-out residuals are independent from sample to sample and 2,500 held-out samples
-give the 100 independent segments arming needs. The test publishes the stream with a pulse
+give far more independent segments than arming needs. The test publishes the stream with a pulse
 added to joint1's measured effort on two samples: the first while detection is not armed
 (``contact_arm_nmse`` below the model's NMSE), the second once the parameter is raised
 above it and a calibration has armed it.
