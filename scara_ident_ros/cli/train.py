@@ -47,7 +47,7 @@ export --urdf writes back as a URDF.
 the residual's range) with Levenberg-Marquardt on --samples of the training samples, early-
 stopped on every other block of the later motion; its correction fades to 0 away from the
 training states (learners.data_region: 1 within the distance of the validation blocks'
-states, 0 beyond twice it), then is scaled per joint by a factor in [0, 1] fitted on the
+states, 0 beyond three times it), then is scaled per joint by a factor in [0, 1] fitted on the
 later motion and kept only on the joints where its gain, block by block, is significant
 (learners.hybrid_model.gate_scales), so that on motion it has not seen the hybrid is its
 physical part. With --urdf, networks (the hybrid's too) scale their inputs by the URDF's

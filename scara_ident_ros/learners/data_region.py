@@ -37,9 +37,9 @@ FloatArray = NDArray[np.float64]
 REFERENCE_POINTS = 2000
 #: The radius of full weight: this quantile of the training inputs' distance to the
 #: reference.
-RADIUS_QUANTILE = 0.95
+RADIUS_QUANTILE = 0.99
 #: The weight reaches 0 at this multiple of the radius.
-FADE_END = 2.0
+FADE_END = 3.0
 
 
 class DataRegion:

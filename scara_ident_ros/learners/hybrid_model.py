@@ -49,8 +49,8 @@ held-out samples (:mod:`~scara_ident_ros.identification.residual_learner`).
 
 And the correction fades where the input leaves the states it was learnt on
 (:attr:`HybridModel.region`, :class:`~scara_ident_ros.learners.data_region.DataRegion`: 1
-near the network's training inputs, 0 beyond twice the distance typical of them), so that on
-motion it has not seen the hybrid returns to its physical part instead of extrapolating
+near the network's training inputs, 0 beyond three times the distance of held-out states),
+so that on motion it has not seen the hybrid returns to its physical part instead of extrapolating
 (:func:`fit_hybrid` sets it; online the residual learner sets it to its reservoir's inputs
 after every update).
 
