@@ -168,7 +168,9 @@ def test_an_npz_without_velocity_gets_it_from_its_positions(tmp_path: Path) -> N
     np.savez(tmp_path / 'arm.npz', t=stamps, q=q, tau=effort, names=np.array(NAMES))
     series = read_recording(tmp_path / 'arm.npz')
     assert series.velocity_derived == NAMES and series.names == NAMES
-    np.testing.assert_allclose(series.velocity, qd, atol=1e-6 * np.abs(qd).max())
+    # a cubic over 20 ms (101 samples at 5 kHz: recording_window): exact but for its bias
+    # on this smooth motion, 1e-5 of the largest speed
+    np.testing.assert_allclose(series.velocity, qd, atol=3e-5 * np.abs(qd).max())
     recording = load_recording(tmp_path / 'arm.npz', joints=['elbow'])
     assert recording.samples.names == ('elbow',)
     assert len(recording.samples.data) == 3000

@@ -27,8 +27,10 @@ def test_the_weight_is_1_on_the_data_and_0_beyond_twice_the_radius() -> None:
 
 def test_the_weight_falls_linearly_between_the_radius_and_its_end() -> None:
     region = DataRegion(np.zeros((1, 2)), np.array([1.0, 4.0]), radius=1.0)
-    points = np.array([[0.5, 0.0], [0.0, 4.0], [1.5, 0.0], [0.0, 6.0], [FADE_END, 0.0]])
-    np.testing.assert_allclose(region.weight(points), [1.0, 1.0, 0.5, 0.5, 0.0])
+    middle = (1.0 + FADE_END) / 2.0
+    points = np.array([[0.5, 0.0], [0.0, 4.0], [middle, 0.0], [0.0, 4.0 * middle],
+                       [FADE_END, 0.0], [2.0 * FADE_END, 0.0]])
+    np.testing.assert_allclose(region.weight(points), [1.0, 1.0, 0.5, 0.5, 0.0, 0.0])
 
 
 def test_a_region_needs_data_and_a_positive_scale() -> None:
