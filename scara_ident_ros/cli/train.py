@@ -272,8 +272,10 @@ def run(args: argparse.Namespace) -> int:
     start_ns = int(data.stamp_ns[0])
     earlier, later = data, data.take(slice(0, 0), 'later')
     try:
-        if args.later_fraction > 0.0 or labels is not None:
-            earlier, later = later_split(data, args.later_fraction or 0.5, recording=labels)
+        if labels is not None:  # several recordings: the last, whole
+            earlier, later = later_split(data, recording=labels)
+        elif args.later_fraction > 0.0:
+            earlier, later = later_split(data, args.later_fraction)
         train, validation = block_split(earlier, args.validation_fraction,
                                         block_s=args.validation_block, seed=args.seed)
     except SplitError as exc:
