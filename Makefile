@@ -58,13 +58,8 @@ test: $(ROS_ENV)
 # The pure-numpy tests: every test not marked ros (a module that imports rclpy, joins DDS or
 # starts ROS processes says so with pytestmark = pytest.mark.ros; test/test_core_selection.py
 # checks that no other module brings rclpy in) and not slow (make test runs everything).
-# One BLAS thread by default: on a busy 2-core machine OpenBLAS's thread pool made the LM
-# tests 5-10 times slower (46 s instead of 18 s).
-CORE_BLAS_THREADS ?= 1
-
+# test/conftest.py holds BLAS to one thread in every test run, whichever command starts it.
 test-core: $(ROS_ENV)
-	OPENBLAS_NUM_THREADS=$(CORE_BLAS_THREADS) OMP_NUM_THREADS=$(CORE_BLAS_THREADS) \
-	MKL_NUM_THREADS=$(CORE_BLAS_THREADS) \
 	$(PY) -m pytest -m 'not ros and not slow' test
 
 # ruff (ruff.toml) and mypy (mypy.ini), as .ci/run runs them before the tests.
