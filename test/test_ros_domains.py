@@ -61,7 +61,8 @@ def test_each_xdist_worker_claims_a_domain_of_its_own(tmp_path: Path) -> None:
     suite_conftest = Path(__file__).resolve().parent / 'conftest.py'
     (tmp_path / 'conftest.py').write_text(
         'import importlib.util\n'
-        f'spec = importlib.util.spec_from_file_location("suite_conftest", {str(suite_conftest)!r})\n'
+        'spec = importlib.util.spec_from_file_location(\n'
+        f'    "suite_conftest", {str(suite_conftest)!r})\n'
         'suite = importlib.util.module_from_spec(spec)  # holds its domain lock\n'
         'spec.loader.exec_module(suite)\n')
     (tmp_path / 'test_domain.py').write_text(
@@ -69,7 +70,8 @@ def test_each_xdist_worker_claims_a_domain_of_its_own(tmp_path: Path) -> None:
         'from pathlib import Path\n\n\n'
         'def test_domain() -> None:\n'
         '    worker = os.environ["PYTEST_XDIST_WORKER"]\n'
-        f'    Path({str(tmp_path)!r}, worker + ".domain").write_text(os.environ["ROS_DOMAIN_ID"])\n')
+        f'    domain_file = Path({str(tmp_path)!r}, worker + ".domain")\n'
+        '    domain_file.write_text(os.environ["ROS_DOMAIN_ID"])\n')
     env = {k: v for k, v in os.environ.items()
            if k not in ('ROS_DOMAIN_ID', 'SCARA_IDENT_TEST_CLAIMED_DOMAIN')
            and not k.startswith('PYTEST_XDIST')}
