@@ -1,6 +1,6 @@
 # Two commands on a fresh machine (Python 3.11 and make):
 #   make demo   runs the whole identification graph and writes a bag and a report
-#   make test   runs the test suite
+#   make test   runs the test suite (make test-all: with the long tests)
 # Both create or reuse the virtual environment .venv and install everything into it.
 # While working on the maths, make test-core runs the pure-numpy tests alone, in seconds.
 # make lint runs ruff and mypy on the package, as CI (.ci/run) does before make test.
@@ -24,7 +24,7 @@ export ROS_AUTOMATIC_DISCOVERY_RANGE ?= LOCALHOST
 DEMO_DURATION ?= 60
 DEMO_OUT ?= out/demo
 
-.PHONY: demo test test-core lint docs bench venv clean
+.PHONY: demo test test-all test-core lint docs bench venv clean
 
 venv: $(ROS_ENV)
 
@@ -45,27 +45,34 @@ demo: $(ROS_ENV)
 	  echo "previous demo kept as $$kept"; fi
 	$(VENV)/bin/scara-ident run --duration $(DEMO_DURATION) --out $(DEMO_OUT)
 
+# make test runs the suite on TEST_WORKERS xdist processes (each claims a ROS domain of its
+# own: test/conftest.py), a module's tests on one worker so that its fixtures are built once;
+# in a random order (pytest-randomly; the header prints the seed, --randomly-seed=N repeats
+# it). Tests marked long (measurements, and runs that repeat what faster tests check) are
+# left to make test-all.
+TEST_WORKERS ?= 2
+PARALLEL := -n $(TEST_WORKERS) --dist loadscope
+
 # A crash of the test process itself (a signal: once, a segmentation fault in an in-process
 # rclpy listener, not reproduced since) runs the suite once more and says so; a test that
-# fails (exit 1) is never run again.
+# fails (exit 1) is never run again. A worker that crashes fails the test it was running.
 test: $(ROS_ENV)
-	@$(PY) -m pytest test; status=$$?; \
+	@$(PY) -m pytest $(PARALLEL) -m 'not long' test; status=$$?; \
 	if [ $$status -gt 128 ]; then \
 	  echo "make test: pytest was killed by signal $$((status - 128)); running the suite again"; \
-	  $(PY) -m pytest test; status=$$?; fi; \
+	  $(PY) -m pytest $(PARALLEL) -m 'not long' test; status=$$?; fi; \
 	exit $$status
+
+# Everything, the long tests included.
+test-all: $(ROS_ENV)
+	$(PY) -m pytest $(PARALLEL) test
 
 # The pure-numpy tests: every test not marked ros (a module that imports rclpy, joins DDS or
 # starts ROS processes says so with pytestmark = pytest.mark.ros; test/test_core_selection.py
-# checks that no other module brings rclpy in) and not slow (make test runs everything).
-# One BLAS thread by default: on a busy 2-core machine OpenBLAS's thread pool made the LM
-# tests 5-10 times slower (46 s instead of 18 s).
-CORE_BLAS_THREADS ?= 1
-
+# checks that no other module brings rclpy in) and not slow (make test runs those too).
+# test/conftest.py holds BLAS to one thread in every test run, whichever command starts it.
 test-core: $(ROS_ENV)
-	OPENBLAS_NUM_THREADS=$(CORE_BLAS_THREADS) OMP_NUM_THREADS=$(CORE_BLAS_THREADS) \
-	MKL_NUM_THREADS=$(CORE_BLAS_THREADS) \
-	$(PY) -m pytest -m 'not ros and not slow' test
+	$(PY) -m pytest $(PARALLEL) -m 'not ros and not slow and not long' test
 
 # ruff (ruff.toml) and mypy (mypy.ini), as .ci/run runs them before the tests.
 lint: $(ROS_ENV)

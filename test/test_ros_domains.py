@@ -53,3 +53,32 @@ def test_this_run_holds_its_domain() -> None:
                          text=True, capture_output=True, check=False,
                          env={k: v for k, v in os.environ.items() if k != 'ROS_DOMAIN_ID'})
     assert out.returncode != 0 and f'every ROS domain {domain}-{domain} is held' in out.stderr
+
+
+def test_each_xdist_worker_claims_a_domain_of_its_own(tmp_path: Path) -> None:
+    """make test runs the suite on two xdist workers; each inherits its controller's
+    environment, claimed domain included, and must claim one of its own (test/conftest.py)."""
+    suite_conftest = Path(__file__).resolve().parent / 'conftest.py'
+    (tmp_path / 'conftest.py').write_text(
+        'import importlib.util\n'
+        'spec = importlib.util.spec_from_file_location(\n'
+        f'    "suite_conftest", {str(suite_conftest)!r})\n'
+        'suite = importlib.util.module_from_spec(spec)  # holds its domain lock\n'
+        'spec.loader.exec_module(suite)\n')
+    (tmp_path / 'test_domain.py').write_text(
+        'import os\n'
+        'from pathlib import Path\n\n\n'
+        'def test_domain() -> None:\n'
+        '    worker = os.environ["PYTEST_XDIST_WORKER"]\n'
+        f'    domain_file = Path({str(tmp_path)!r}, worker + ".domain")\n'
+        '    domain_file.write_text(os.environ["ROS_DOMAIN_ID"])\n')
+    env = {k: v for k, v in os.environ.items()
+           if k not in ('ROS_DOMAIN_ID', 'SCARA_IDENT_TEST_CLAIMED_DOMAIN')
+           and not k.startswith('PYTEST_XDIST')}
+    run = subprocess.run([sys.executable, '-m', 'pytest', '-q', '-n', '2', '--dist', 'each',
+                          '-p', 'no:randomly', '-p', 'no:cacheprovider', '--rootdir',
+                          str(tmp_path), str(tmp_path / 'test_domain.py')],
+                         cwd=tmp_path, env=env, text=True, capture_output=True, check=False)
+    assert run.returncode == 0, run.stdout + run.stderr
+    domains = {int(p.read_text()) for p in tmp_path.glob('gw*.domain')}
+    assert len(domains) == 2 and os.environ['ROS_DOMAIN_ID'] not in map(str, domains)

@@ -384,16 +384,22 @@ def test_a_minute_of_stream_arms_contacts_with_no_false_one_and_a_push_is_found(
 
 def test_each_prediction_comes_with_its_external_torque_contact_flags_and_lag() -> None:
     """The session decides all the node publishes: external torque = measured − predicted,
-    the armed detector's flags (a push on joint 2 only), and the lag, recorded per method."""
+    the armed detector's flags (a push on one joint only), and the lag, recorded per method.
+
+    The thresholds follow the network 4,000 samples taught (joint 2's was 20 N·m with two
+    BLAS threads, 79 with one): the push goes to the joint with the most room for it under
+    its effort limit, which a push beyond would make a sample the session refuses."""
     session, record = noisy_session(4000, 4000, noise=0.01)
     run = session.first
     assert run.calibrate_contacts(1e-3) is not None and run.detector is not None
     assert run.detector.armed and run.detector.thresholds is not None
-    push = np.zeros(4)
-    push[1] = 2.5 * run.detector.thresholds[1]  # N·m, over joint 2's threshold
     # motion seen before (inside the calibrated envelope), after a pause of 1 s
     again, pushed_from = range(2000, 2300), T0 + 7150 * MS
-    assert np.all(np.abs(record.effort[again]) + push < SCARA.array('effort_max'))
+    room = SCARA.array('effort_max') - np.abs(record.effort[again]).max(axis=0)  # N·m
+    joint = int(np.argmax(room / run.detector.thresholds))
+    push = np.zeros(4)
+    push[joint] = 2.5 * run.detector.thresholds[joint]  # N·m, over that joint's threshold
+    assert push[joint] < room[joint]
     lags_before = run.lags.count
     predictions = []
     for i in again:
@@ -408,6 +414,7 @@ def test_each_prediction_comes_with_its_external_torque_contact_flags_and_lag() 
         assert p.lag_ns is not None and p.lag_ns >= 0
     pushed = [p.contact for p in predictions if p.stamp_ns >= pushed_from]
     quiet = [p.contact for p in predictions if p.stamp_ns < pushed_from]
-    assert len(pushed) > 100 and all(c[1] and not c[[0, 2, 3]].any() for c in pushed)
+    others = [j for j in range(4) if j != joint]
+    assert len(pushed) > 100 and all(c[joint] and not c[others].any() for c in pushed)
     assert len(quiet) > 100 and not any(c.any() for c in quiet)
     assert session.summary(run).contacts == len(pushed)

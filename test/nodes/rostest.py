@@ -35,8 +35,8 @@ from rclpy.qos import QoSProfile, ReliabilityPolicy
 
 __all__ = ['NodeOutput', 'NodeProcess', 'Listener', 'reliable']
 
-STOP_TIMEOUT = 20.0  # seconds a node gets to exit after a signal (the machine is shared)
-SERVICE_TIMEOUT = 20.0  # seconds for a service to appear, and then to answer
+STOP_TIMEOUT = 60.0  # seconds a node gets to exit after a signal (the machine is shared)
+SERVICE_TIMEOUT = 60.0  # seconds for a service to appear, and then to answer
 
 
 def reliable(depth: int = 1000) -> QoSProfile:

@@ -30,7 +30,8 @@ NODE = '/recorder'
 JOINT_STATES = '/joint_states'
 STATUS_NAME = '/recorder: recording'
 BATCH = 300  # messages published between two service calls
-DISCOVERY_TIMEOUT = 20.0  # s, the machine is shared
+DISCOVERY_TIMEOUT = 60.0  # s, the machine is shared (a node took 19 s to refuse a bad
+# parameter and exit at load 22)
 COUNT_TIMEOUT = 30.0  # s for the recorder to report a count
 OK, WARN = b'\x00', b'\x01'  # DiagnosticStatus levels
 

@@ -90,7 +90,7 @@ def test_node_starts_from_the_install_and_stops_on_sigint(
         time.sleep(3.0)
         assert proc.poll() is None, f'{name} exited early: {proc.communicate()}'
         proc.send_signal(signal.SIGINT)
-        out, err = proc.communicate(timeout=20)
+        out, err = proc.communicate(timeout=60)  # s: the hang guard of rostest.STOP_TIMEOUT
     finally:
         if proc.poll() is None:
             proc.kill()
