@@ -112,6 +112,7 @@ from scara_ident_ros.paths import unwritable_file
 
 if TYPE_CHECKING:
     from scara_ident_ros.dynamics.physical_model import PhysicalModel
+    from scara_ident_ros.learners.hybrid_model import HybridModel
     from scara_ident_ros.identification.recording import Recording
     from scara_ident_ros.estimator import Estimator
     from scara_ident_ros.nn import FitHistory
@@ -506,14 +507,24 @@ def _fit_linear_hybrid(args: argparse.Namespace, names: Sequence[str], train: Da
             min_iterations=args.min_iterations, callback=progress,
             region_inputs=inside.X if inside is not None and len(inside) else None)
     progress.close()
+    return hybrid, _hybrid_summary(args, 'LINEAR_HYBRID', hybrid, history, names,
+                                   samples=len(train), started=started)
+
+
+def _hybrid_summary(args: argparse.Namespace, label: str, hybrid: HybridModel,
+                    history: FitHistory, names: Sequence[str], *, samples: int,
+                    started: float) -> str:
+    """Record the network's training in ``hybrid``'s metadata; return the line saying how
+    it was fitted: least squares on ``samples``, the network's iterations since ``started``
+    (``time.perf_counter``) and the joints its correction is kept on."""
     hybrid.metadata.update(_network_metadata(args, history))
     hybrid.metadata['network'] = np.array(HYBRID_NETWORK)
     kept = ', '.join(f'{n} (×{g:.2f})' for n, g in zip(names, hybrid.gate) if g)
-    return hybrid, (f'LINEAR_HYBRID: least squares on {len(train)} samples, then '
-                    f'{HYBRID_NETWORK.upper()} on its residual: {history.iterations} '
-                    f'iterations in {time.perf_counter() - started:.1f} s (stopped: '
-                    f'{history.stop_reason}; weights of iteration {history.best_iteration}); '
-                    f'correction kept on {kept or "no joint"}')
+    return (f'{label}: least squares on {samples} samples, then {HYBRID_NETWORK.upper()} on '
+            f'its residual: {history.iterations} iterations in '
+            f'{time.perf_counter() - started:.1f} s (stopped: {history.stop_reason}; weights '
+            f'of iteration {history.best_iteration}); correction kept on '
+            f'{kept or "no joint"}, fading away from the training states')
 
 
 def _train_auto(args: argparse.Namespace, names: Sequence[str], parts: Parts,
@@ -821,12 +832,5 @@ def _fit_physical(args: argparse.Namespace, method: str, names: Sequence[str], p
     progress.close()
     history = hybrid.history_
     assert history is not None
-    hybrid.metadata.update(_network_metadata(args, history))
-    hybrid.metadata['network'] = np.array(HYBRID_NETWORK)
-    kept = ', '.join(f'{n} (×{g:.2f})' for n, g in zip(names, hybrid.gate) if g)
-    return hybrid, (f'HYBRID: least squares on {len(every_train)} samples, then '
-                    f'{HYBRID_NETWORK.upper()} on the residual of at most {args.samples}: '
-                    f'{history.iterations} iterations in {time.perf_counter() - started:.1f} s '
-                    f'(stopped: {history.stop_reason}; weights of iteration '
-                    f'{history.best_iteration}); correction kept on {kept or "no joint"}, '
-                    'fading away from the training states'), hybrid.physical
+    return hybrid, _hybrid_summary(args, 'HYBRID', hybrid, history, names,
+                                   samples=len(every_train), started=started), hybrid.physical
