@@ -793,7 +793,12 @@ def _fit_physical(args: argparse.Namespace, method: str, names: Sequence[str], p
                        f'joints cannot determine the physical model\'s '
                        f'{probe.n_parameters} parameters; record more motion')
     with single_blas_thread():
-        if len(decide) >= 2:
+        if chosen is not None:  # nothing to choose; a hybrid fits its physical part itself
+            options = fixed
+            physical = build(**options)
+            if method == 'physical':
+                physical.fit(every_train.X, every_train.Y)
+        elif len(decide) >= 2:
             physical, choice = select_options(build, (every_train.X, every_train.Y),
                                               (decide.X, decide.Y), fixed=fixed)
             options = choice.options
@@ -818,7 +823,7 @@ def _fit_physical(args: argparse.Namespace, method: str, names: Sequence[str], p
                            friction_steps=args.friction_steps)
     x_min, x_max, _, _ = _limit_ranges(args.urdf, names, every_train.X, every_train.Y)
     progress = TrainingProgress(args.iterations, label=f'HYBRID {HYBRID_NETWORK} lm')
-    hybrid = HybridModel(build(**options), network)
+    hybrid = HybridModel(physical, network)  # fit_hybrid fits it on every_train
     with single_blas_thread():  # the validation blocks are drawn above
         hybrid.fit(every_train.X, every_train.Y, validation_fraction=0.0,
                    validation=(stop.X, stop.Y) if len(stop) else None,

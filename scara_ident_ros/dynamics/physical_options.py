@@ -109,34 +109,51 @@ def select_coulomb(build: Callable[[str, float], PhysicalModel],
     if xv.shape[0] < 2:
         raise ValueError('choosing the Coulomb shape needs validation samples')
     models = [build(coulomb, eps) for coulomb, eps in candidates]
-    first, n = models[0], models[0].n_joints
-    if any(m.standard_names != first.standard_names
-           or not np.array_equal(m.reduction.independent, first.reduction.independent)
-           for m in models):
-        raise ValueError('the candidates must be models of one URDF and joints')
-    systems = [BlockLeastSquares(m.n_parameters) for m in models]
-    for start in range(0, x.shape[0], block):
-        part = x[start:start + block]
-        base = first.base_regressor(part[:, :n], part[:, n:2 * n], part[:, 2 * n:])
-        for model, system in zip(models, systems):
-            system.add(model.regressor_from_base(base, part[:, n:2 * n]),
-                       y[start:start + block])
-    for model, system in zip(models, systems):
-        model.set_theta(system.solve())
-    squares = np.zeros((len(models), n))
-    for start in range(0, xv.shape[0], block):
-        part = xv[start:start + block]
-        base = first.base_regressor(part[:, :n], part[:, n:2 * n], part[:, 2 * n:])
-        for k, model in enumerate(models):
-            error = model.regressor_from_base(base, part[:, n:2 * n]) @ model.theta
-            squares[k] += np.sum((error - yv[start:start + block]) ** 2, axis=0)
-    variance = np.where(yv.var(axis=0) > 0.0, yv.var(axis=0), 1.0)
-    score = np.mean(squares / xv.shape[0] / variance, axis=1)
-    scores = {_label(c, e): float(v) for (c, e), v in zip(candidates, score)}
+    scorer = _Scorer(models[0], (x, y), (xv, yv), block=block)
+    score = [scorer.score(model) for model in models]
+    scores = {_label(c, e): v for (c, e), v in zip(candidates, score)}
     best = int(np.argmin(score))
     coulomb, eps = candidates[best]
-    return (models[best].fit(x, y),  # the same θ, and its residual_rms
-            CoulombChoice(coulomb, eps, scores))
+    return models[best].fit(x, y), CoulombChoice(coulomb, eps, scores)
+
+
+class _Scorer:
+    """The mean validation NMSE of a model's least-squares fit, for models of one URDF and
+    joints that differ in their friction and offset columns: the rigid-body regressor (one
+    Pinocchio call per sample, the costly part) is computed once per block of the training
+    and validation samples and shared by every model scored."""
+
+    def __init__(self, first: PhysicalModel, train: tuple[np.ndarray, np.ndarray],
+                 validation: tuple[np.ndarray, np.ndarray], *, block: int) -> None:
+        (x, self._y), (xv, self._yv) = train, validation
+        self._first, n = first, first.n_joints
+
+        def blocks(data: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
+            return [(first.base_regressor(p[:, :n], p[:, n:2 * n], p[:, 2 * n:]),
+                     p[:, n:2 * n]) for p in (data[i:i + block]
+                                              for i in range(0, data.shape[0], block))]
+
+        self._block, self._train, self._validation = block, blocks(x), blocks(xv)
+        variance = self._yv.var(axis=0)
+        self._variance = np.where(variance > 0.0, variance, 1.0)
+
+    def score(self, model: PhysicalModel) -> float:
+        """Fit ``model``'s θ by least squares on the training samples (the model itself is
+        left as it is); return its mean NMSE over the joints on the validation samples."""
+        if (model.standard_names != self._first.standard_names or not np.array_equal(
+                model.reduction.independent, self._first.reduction.independent)):
+            raise ValueError('the candidates must be models of one URDF and joints')
+        system = BlockLeastSquares(model.n_parameters)
+        for k, (base, qd) in enumerate(self._train):
+            system.add(model.regressor_from_base(base, qd),
+                       self._y[k * self._block:(k + 1) * self._block])
+        theta = system.solve()
+        squares = np.zeros(model.n_joints)
+        for k, (base, qd) in enumerate(self._validation):
+            error = (model.regressor_from_base(base, qd) @ theta
+                     - self._yv[k * self._block:(k + 1) * self._block])
+            squares += np.sum(error ** 2, axis=0)
+        return float(np.mean(squares / self._yv.shape[0] / self._variance))
 
 
 def _label(coulomb: str, eps: float) -> str:
@@ -206,28 +223,11 @@ def select_options(build: Callable[..., PhysicalModel],
     if xv.shape[0] < 2:
         raise ValueError('choosing the physical model\'s options needs validation samples')
     first = build(coulomb='tanh', coulomb_eps=COULOMB_EPS, offsets=False, coupled=())
-    n = first.n_joints
-    # the rigid-body regressor (one Pinocchio call per sample) once, shared by every try
-    bases = [(first.base_regressor(p[:, :n], p[:, n:2 * n], p[:, 2 * n:]), p[:, n:2 * n])
-             for p in (x[i:i + block] for i in range(0, x.shape[0], block))]
-    bases_v = [(first.base_regressor(p[:, :n], p[:, n:2 * n], p[:, 2 * n:]), p[:, n:2 * n])
-               for p in (xv[i:i + block] for i in range(0, xv.shape[0], block))]
-    variance = np.where(yv.var(axis=0) > 0.0, yv.var(axis=0), 1.0)
+    scorer = _Scorer(first, (x, y), (xv, yv), block=block)
     scores: dict[str, float] = {}
 
     def score(options: dict[str, object]) -> float:
-        model = build(**options)
-        if not np.array_equal(model.reduction.independent, first.reduction.independent):
-            raise ValueError('the candidates must be models of one URDF and joints')
-        system = BlockLeastSquares(model.n_parameters)
-        for (base, qd), start in zip(bases, range(0, x.shape[0], block)):
-            system.add(model.regressor_from_base(base, qd), y[start:start + block])
-        theta = system.solve()
-        squares = np.zeros(n)
-        for (base, qd), start in zip(bases_v, range(0, xv.shape[0], block)):
-            error = model.regressor_from_base(base, qd) @ theta - yv[start:start + block]
-            squares += np.sum(error ** 2, axis=0)
-        value = float(np.mean(squares / xv.shape[0] / variance))
+        value = scorer.score(build(**options))
         scores[OptionChoice(options, {}).label] = value
         return value
 
