@@ -260,7 +260,11 @@ class HybridModel(SavedEstimator):
 
     def correction(self, X: ArrayLike) -> FloatArray:
         """The network's part of :meth:`predict`, within :attr:`bounds`, times :attr:`gate`:
-        (N, n) or (n,)."""
+        (N, n) or (n,). With every joint gated off it is 0 without asking the network or the
+        region (the online hybrid calls this on every sample)."""
+        if not np.any(self.gate):
+            x = np.asarray(X, dtype=np.float64)
+            return np.zeros(x.shape[:-1] + (self.n_outputs,))
         return self.raw_correction(X) * self.gate
 
     def raw_correction(self, X: ArrayLike) -> FloatArray:
