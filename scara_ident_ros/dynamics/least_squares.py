@@ -13,15 +13,21 @@ conditioning is the square of the regressor's) are never formed.
 """
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import NamedTuple, Protocol, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ['BlockLeastSquares', 'LeastSquaresFit', 'LinearInParameters', 'fit_least_squares']
+__all__ = ['BlockLeastSquares', 'LeastSquaresFit', 'LinearInParameters', 'RESIDUAL_WEIGHTS',
+           'WEIGHT_FLOOR', 'fit_least_squares', 'residual_weights']
 
 FloatArray = NDArray[np.float64]
+#: ``fit_least_squares(weights=...)``: each joint weighted by 1/its residual RMS.
+RESIDUAL_WEIGHTS = 'residual'
+#: A joint's residual RMS counts as at least this share of the largest joint's when it is
+#: weighted by it: one joint fitted almost exactly must not take every other's weight.
+WEIGHT_FLOOR = 1e-3
 
 
 class LinearInParameters(Protocol):
@@ -38,7 +44,7 @@ class LinearInParameters(Protocol):
 
 
 class LeastSquaresFit(NamedTuple):
-    """θ minimising Σ ||Y θ − τ||², and how well it fits.
+    """θ minimising Σ_j w_j² ||Y_j θ − τ_j||², and how well it fits.
 
     Attributes
     ----------
@@ -46,10 +52,13 @@ class LeastSquaresFit(NamedTuple):
         The parameters.
     residual_rms : ndarray of shape (n,)
         Root-mean-square residual τ − Y θ per joint on the fitted samples (N·m, N).
+    weights : ndarray of shape (n,)
+        The weight of each joint's rows in the fit (all 1: unweighted).
     """
 
     theta: FloatArray
     residual_rms: FloatArray
+    weights: FloatArray
 
 
 class BlockLeastSquares:
@@ -81,6 +90,29 @@ class BlockLeastSquares:
         """[R | Qᵀy] (k, p + 1), k ≤ p + 1: ||H θ − y||² = ||R θ − Qᵀy||² + a constant."""
         return self._upper.copy()
 
+    @classmethod
+    def stack(cls, systems: Sequence[BlockLeastSquares], weights: ArrayLike
+              ) -> BlockLeastSquares:
+        """The system of every row of ``systems``, those of system j times ``weights[j]``."""
+        if not systems:
+            raise ValueError('nothing to stack')
+        scale = np.asarray(weights, dtype=np.float64).reshape(-1)
+        stacked = cls(systems[0]._p)
+        stacked.add_reduced(np.vstack([w * s._upper for w, s in zip(scale, systems)]),
+                            sum(s.rows for s in systems))
+        return stacked
+
+    def add_reduced(self, upper: ArrayLike, rows: int) -> None:
+        """Take [R | Qᵀy] of other rows (k, p + 1) that stand for ``rows`` rows."""
+        stacked = np.vstack([self._upper, np.asarray(upper, dtype=np.float64)])
+        self._upper = cast(FloatArray, np.linalg.qr(stacked, mode='r'))
+        self.rows += rows
+
+    def residual_norm(self, theta: ArrayLike) -> float:
+        """||H θ − y|| over every row taken (the factor keeps the norm of [H | y] v)."""
+        v = np.append(np.asarray(theta, dtype=np.float64).reshape(-1), -1.0)
+        return float(np.linalg.norm(self._upper @ v))
+
     def solve(self) -> FloatArray:
         """θ of shape (p,) (minimum norm if the rows do not determine it).
 
@@ -99,7 +131,7 @@ class BlockLeastSquares:
 def fit_least_squares(model: LinearInParameters, q: ArrayLike, qd: ArrayLike, qdd: ArrayLike,
                       tau: ArrayLike, *, block: int = 2048,
                       solve: Callable[[BlockLeastSquares], FloatArray] | None = None,
-                      ) -> LeastSquaresFit:
+                      weights: ArrayLike | str | None = None) -> LeastSquaresFit:
     """Fit θ to every sample (module docstring).
 
     Parameters
@@ -113,6 +145,13 @@ def fit_least_squares(model: LinearInParameters, q: ArrayLike, qd: ArrayLike, qd
     solve : callable, optional
         θ of the reduced system (default :meth:`BlockLeastSquares.solve`): e.g. a fit under
         constraints (:mod:`~scara_ident_ros.dynamics.consistent_parameters`).
+    weights : array_like of shape (n,) or 'residual', optional
+        A weight w_j per joint: min Σ_j w_j² ||Y_j θ − τ_j||² (weighted least squares).
+        ``'residual'`` (:data:`RESIDUAL_WEIGHTS`): w_j = 1/σ_j, σ_j joint j's residual RMS
+        after an unweighted fit (at least :data:`WEIGHT_FLOOR` of the largest), so that each
+        joint counts by its noise and not by the size of its efforts (Gautier & Poignet
+        2001). Default: 1 for every joint. Each joint's rows are reduced apart once, so a
+        weighting costs no second pass over the samples.
 
     Raises
     ------
@@ -129,14 +168,37 @@ def fit_least_squares(model: LinearInParameters, q: ArrayLike, qd: ArrayLike, qd
     if tau.size < p:
         raise ValueError(f'{q.shape[0]} samples of {q.shape[1]} joints cannot determine '
                          f'{p} parameters')
-    system = BlockLeastSquares(p)
+    n = q.shape[1]
+    if isinstance(weights, str):
+        if weights != RESIDUAL_WEIGHTS:
+            raise ValueError(f'weights must be values or {RESIDUAL_WEIGHTS!r}, got {weights!r}')
+    elif weights is not None:
+        scale = np.asarray(weights, dtype=np.float64).reshape(-1)
+        if scale.shape != (n,) or not np.all(np.isfinite(scale) & (scale > 0.0)):
+            raise ValueError(f'weights must be {n} positive finite values, got {weights}')
+    joints = [BlockLeastSquares(p) for _ in range(n)]  # each joint's rows reduced apart
     for start in range(0, q.shape[0], block):
         part = slice(start, start + block)
-        system.add(model.regressor(q[part], qd[part], qdd[part]), tau[part])
-    theta = system.solve() if solve is None else solve(system)
-    squares = np.zeros(q.shape[1])
-    for start in range(0, q.shape[0], block):
-        part = slice(start, start + block)
-        error = model.regressor(q[part], qd[part], qdd[part]) @ theta - tau[part]
-        squares += np.sum(error ** 2, axis=0)
-    return LeastSquaresFit(theta, np.asarray(np.sqrt(squares / q.shape[0]), dtype=np.float64))
+        rows = model.regressor(q[part], qd[part], qdd[part])
+        for j, system in enumerate(joints):
+            system.add(rows[:, j, :], tau[part, j])
+
+    if weights == RESIDUAL_WEIGHTS:
+        scale = residual_weights(joints, q.shape[0])
+    elif weights is None:
+        scale = np.ones(n)
+    stacked = BlockLeastSquares.stack(joints, scale)
+    theta = stacked.solve() if solve is None else solve(stacked)
+    residual = np.array([system.residual_norm(theta) for system in joints])
+    return LeastSquaresFit(theta, np.asarray(residual / np.sqrt(q.shape[0]), dtype=np.float64),
+                           scale)
+
+
+def residual_weights(joints: Sequence[BlockLeastSquares], samples: int) -> FloatArray:
+    """1/σ_j per joint, σ_j joint j's residual RMS after an unweighted fit of every joint's
+    rows together (``joints[j]``: joint j's system of ``samples`` rows), at least
+    :data:`WEIGHT_FLOOR` of the largest σ; shape (n,)."""
+    theta = BlockLeastSquares.stack(joints, np.ones(len(joints))).solve()
+    rms = np.array([system.residual_norm(theta) for system in joints]) / np.sqrt(samples)
+    return np.asarray(1.0 / np.maximum(rms, WEIGHT_FLOOR * max(rms.max(), 1e-300)),
+                      dtype=np.float64)

@@ -91,7 +91,8 @@ class ParameterUncertainty:
 
 def parameter_uncertainty(model: LinearInParameters, q: ArrayLike, qd: ArrayLike,
                           qdd: ArrayLike, tau: ArrayLike, theta: ArrayLike, *,
-                          names: Sequence[str] = ()) -> ParameterUncertainty:
+                          names: Sequence[str] = (), weights: ArrayLike | None = None
+                          ) -> ParameterUncertainty:
     """The covariance of a least-squares θ fitted to these samples (module docstring).
 
     Parameters
@@ -106,6 +107,10 @@ def parameter_uncertainty(model: LinearInParameters, q: ArrayLike, qd: ArrayLike
         The fitted parameters.
     names : sequence of str
         The parameters' names (default ``model.parameter_names`` if it has them).
+    weights : array_like of shape (n,), optional
+        The weight w_j of each joint's rows in the fit (``fit_least_squares``); default 1:
+        cov = (WᵀΛW)⁻¹ (Σ_j σ_j² w_j⁴ W_jᵀ W_j) (WᵀΛW)⁻¹, Λ the weights squared per row;
+        (WᵀΛW)⁻¹ for w_j = 1/σ_j.
 
     Raises
     ------
@@ -129,13 +134,16 @@ def parameter_uncertainty(model: LinearInParameters, q: ArrayLike, qd: ArrayLike
         w = model.regressor(q[part], qd[part], qdd[part])
         squares += np.sum((w @ theta - tau[part]) ** 2, axis=0)
         uppers = [_upper(np.vstack([uppers[j], w[:, j, :]])) for j in range(n)]
+    scale = np.ones(n) if weights is None else np.asarray(weights, np.float64).reshape(n)
+    uppers = [w * upper for w, upper in zip(scale, uppers)]
     stacked = _upper(np.vstack(uppers))
     _, s, vt = np.linalg.svd(np.vstack([stacked, np.zeros((p - stacked.shape[0], p))]))
     kept = s > RANK_TOLERANCE * s[0] if s[0] > 0 else np.zeros(s.size, dtype=bool)
     v = vt[kept].T
     inverse_gram = (v / s[kept] ** 2) @ v.T                      # (WᵀW)⁺
     variance = squares / max(dof, 1.0)
-    middle = sum(variance[j] * (upper.T @ upper) for j, upper in enumerate(uppers))
+    middle = sum(variance[j] * scale[j] ** 2 * (upper.T @ upper)  # the uppers hold w_j²
+                 for j, upper in enumerate(uppers))
     std = np.sqrt(np.maximum(np.diag(inverse_gram @ middle @ inverse_gram), 0.0))
     if not dof > 0:
         std[:] = np.inf

@@ -71,7 +71,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from scara_ident_ros.dynamics.base_reduction import BaseReduction, reduce_columns
 from scara_ident_ros.dynamics.joint_sizes import JointSizes
-from scara_ident_ros.dynamics.least_squares import BlockLeastSquares, fit_least_squares
+from scara_ident_ros.dynamics.least_squares import (RESIDUAL_WEIGHTS, BlockLeastSquares,
+                                                    fit_least_squares)
 from scara_ident_ros.dynamics.parameter_uncertainty import (ParameterUncertainty,
                                                             parameter_uncertainty)
 from scara_ident_ros.dynamics.urdf_limits import UrdfError
@@ -140,6 +141,10 @@ class PhysicalModel(JointSizes):
     consistent : bool
         :meth:`fit` physically consistent parameters (module docstring), not plain least
         squares.
+    weighted : bool
+        :meth:`fit` by least squares weighted per joint by 1/its residual RMS after an
+        unweighted fit (``fit_least_squares(weights='residual')``): a torso's or shoulder's
+        large efforts no longer outweigh a wrist's, and each joint counts by its noise.
 
     Attributes
     ----------
@@ -173,12 +178,12 @@ class PhysicalModel(JointSizes):
                  stribeck_velocity: float = 0.0, asymmetric: bool = False,
                  offsets: bool = False,
                  coupled: Sequence[tuple[str, str]] = (),
-                 consistent: bool = False) -> None:
+                 consistent: bool = False, weighted: bool = False) -> None:
         if not stribeck_velocity >= 0.0:
             raise ValueError(f'stribeck_velocity must be >= 0, got {stribeck_velocity!r}')
         self.stribeck_velocity = float(stribeck_velocity)
         self.asymmetric, self.offsets = bool(asymmetric), bool(offsets)
-        self.consistent = bool(consistent)
+        self.consistent, self.weighted = bool(consistent), bool(weighted)
         self.standard_theta: FloatArray | None = None
         if coulomb not in COULOMB_MODES:
             raise ValueError(f'coulomb must be one of {COULOMB_MODES}, got {coulomb!r}')
@@ -295,7 +300,7 @@ class PhysicalModel(JointSizes):
                 'armature': self.armature, 'source': self.source,
                 'stribeck_velocity': self.stribeck_velocity, 'asymmetric': self.asymmetric,
                 'offsets': self.offsets, 'coupled': [list(pair) for pair in self.coupled],
-                'consistent': self.consistent}
+                'consistent': self.consistent, 'weighted': self.weighted}
 
     # ------------------------------------------------------------------------- regressors
     def standard_regressor(self, q: ArrayLike, qd: ArrayLike, qdd: ArrayLike) -> FloatArray:
@@ -509,7 +514,8 @@ class PhysicalModel(JointSizes):
 
     def fit_states(self, q: ArrayLike, qd: ArrayLike, qdd: ArrayLike,
                    tau: ArrayLike) -> PhysicalModel:
-        """θ by linear least squares, min Σ ||Y θ − τ||², over all samples.
+        """θ by linear least squares, min Σ ||Y θ − τ||² (weighted per joint if
+        :attr:`weighted`), over all samples.
 
         :func:`~scara_ident_ros.dynamics.least_squares.fit_least_squares` of the states and
         efforts (its parameters): the stacked system is reduced block by block, so memory
@@ -521,11 +527,12 @@ class PhysicalModel(JointSizes):
             ``self``, with :attr:`theta` and :attr:`residual_rms` set.
         """
         (q, qd, qdd), _ = self._states(q, qd, qdd)
+        weights = RESIDUAL_WEIGHTS if self.weighted else None
         if not self.consistent:
-            self.theta, self.residual_rms = fit_least_squares(self, q, qd, qdd, tau,
-                                                              block=_CHUNK)
-            self.standard_theta = None
-            self.uncertainty = parameter_uncertainty(self, q, qd, qdd, tau, self.theta)
+            fit = fit_least_squares(self, q, qd, qdd, tau, block=_CHUNK, weights=weights)
+            self.theta, self.residual_rms, self.standard_theta = fit.theta, fit.residual_rms, None
+            self.uncertainty = parameter_uncertainty(self, q, qd, qdd, tau, self.theta,
+                                                     weights=fit.weights)
             return self
         from scara_ident_ros.dynamics.consistent_parameters import consistent_fit
         solution: list[FloatArray] = []
@@ -535,10 +542,12 @@ class PhysicalModel(JointSizes):
             solution.append(found.standard)
             return found.theta
 
-        self.theta, self.residual_rms = fit_least_squares(self, q, qd, qdd, tau, block=_CHUNK,
-                                                          solve=solve)
+        fit = fit_least_squares(self, q, qd, qdd, tau, block=_CHUNK, solve=solve,
+                                weights=weights)
+        self.theta, self.residual_rms = fit.theta, fit.residual_rms
         self.standard_theta = solution[0]
-        self.uncertainty = parameter_uncertainty(self, q, qd, qdd, tau, self.theta)
+        self.uncertainty = parameter_uncertainty(self, q, qd, qdd, tau, self.theta,
+                                                 weights=fit.weights)
         return self
 
     def predict(self, X: ArrayLike) -> FloatArray:
@@ -585,6 +594,7 @@ class PhysicalModel(JointSizes):
                 'asymmetric': np.array(self.asymmetric), 'offsets': np.array(self.offsets),
                 'coupled': np.array(self.coupled, dtype=str).reshape(-1, 2),
                 'consistent': np.array(self.consistent),
+                'weighted': np.array(self.weighted),
                 'independent': r.independent.astype(np.int64),
                 'dependent': r.dependent.astype(np.int64), 'beta': r.beta.copy(),
                 'theta': self.theta.copy(),
@@ -620,7 +630,8 @@ class PhysicalModel(JointSizes):
                         coupled=[(str(a), str(b)) for a, b in
                                  np.asarray(arrays.get('coupled', np.zeros((0, 2), str)))
                                  .reshape(-1, 2)],
-                        consistent=bool(arrays.get('consistent', False)))
+                        consistent=bool(arrays.get('consistent', False)),
+                        weighted=bool(arrays.get('weighted', False)))
             model.set_theta(arrays['theta'])
             if 'standard_theta' in arrays:
                 standard = np.asarray(arrays['standard_theta'], np.float64)

@@ -143,7 +143,7 @@ class LeastSquaresIdentifier:
         """Estimate θ minimising Σ ||Y θ − τ||² over the samples: q, qd, qdd (N, 4) in SI
         and measured efforts ``tau`` (N, 4) (N·m, N); return ``self``."""
         fit = fit_least_squares(ScaraRegressor(coulomb_eps=self.coulomb_eps), q, qd, qdd, tau)
-        self.theta_, self.residual_rms_ = fit
+        self.theta_, self.residual_rms_ = fit.theta, fit.residual_rms
         return self
 
     def predict(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
