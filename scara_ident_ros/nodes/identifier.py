@@ -62,6 +62,7 @@ from scara_ident_ros.nodes.health import Deltas, Health, LossCounter, identifier
 from scara_ident_ros.nodes.joint_state_cdr import (JointStateReader, JointStateTemplate,
                                                    RawJointState)
 from scara_ident_ros.nodes.messages import joint_state
+from scara_ident_ros.nodes.realtime import REALTIME_PRIORITY
 from scara_ident_ros.nodes.parameters import declare_parameters
 from scara_ident_ros.nodes.publisher_watch import PublisherWatch
 from scara_ident_ros.nodes.runtime import run_node
@@ -88,8 +89,9 @@ CALIBRATION_TICK = 0.05  # s between two steps of the contact calibration
 CALIBRATION_SLICE = 2000  # held-out samples a calibration step predicts
 FLUSH_TIMEOUT = 2.0  # s on shutdown for the subscribers to acknowledge the last predictions
 SETTLE_LOSS_S = 0.2  # s without a sample after which a long stamp step's losses are counted
-#: The node's parameters (:mod:`scara_ident_ros.identification.parameters`)
-PARAMETERS = IDENTIFIER_PARAMETERS
+#: The node's parameters: the identifier's (:mod:`scara_ident_ros.identification.parameters`),
+#: then the scheduling of its threads (read by ``run_node``)
+PARAMETERS = (*IDENTIFIER_PARAMETERS, REALTIME_PRIORITY)
 #: contact messages are rare: a few seconds of them at 1 kHz
 CONTACT_QOS = QoSProfile(depth=1000, history=HistoryPolicy.KEEP_LAST,
                          reliability=ReliabilityPolicy.RELIABLE)
@@ -177,9 +179,10 @@ class IdentifierNode(Node):
 
     def __init__(self) -> None:
         super().__init__('identifier')
+        declare_parameters(self, (REALTIME_PRIORITY,))
         # the parameters, converted once: replaced by the new settings when some are set
         self.settings = s = IdentifierSettings.of(
-            declare_parameters(self, PARAMETERS, on_change=self._apply))
+            declare_parameters(self, IDENTIFIER_PARAMETERS, on_change=self._apply))
         self.session = session = IdentificationSession(s, log=self.get_logger().info)
         for key in ('save_path', 'stats_file'):
             for path in session.paths[key].values():
