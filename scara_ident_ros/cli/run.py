@@ -57,6 +57,7 @@ IDENTIFIER = 'identifier'  # the identifier's process, logs and node name
 #: SCHED_FIFO priorities (nodes/realtime.py): the simulator's stream first, then the
 #: predictions, then the recorder; the learners and everything else after them
 REALTIME = {'simulator': 30, IDENTIFIER: 20, 'recorder': 10}
+END_HISTORY_AFTER = 0.1  # s after the last sample: its predictions (the identifier's)
 
 
 def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -162,6 +163,8 @@ def run(args: argparse.Namespace) -> int:
         # the simulator's wait below then covers the predictions too
         '-p', 'wait_for_subscribers:=1', '-p', f'wait_timeout:={STARTUP_TIMEOUT}',
         '-p', f'stats_file:={stats}/{{method}}.json',
+        # the last samples' predictions when the simulator ends, not when the identifier stops
+        '-p', f'end_history_after:={END_HISTORY_AFTER}',
         '-p', f'realtime_priority:={REALTIME[IDENTIFIER]}', *robot_args]))
     sim = graph.start(NodeProcess(sim_name, f'scara_ident_ros.nodes.{sim_name}', [
         '-p', f'duration:={args.duration}', '-p', f'trajectory:={args.trajectory}',

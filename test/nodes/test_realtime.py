@@ -12,7 +12,7 @@ from scara_ident_ros.nodes.realtime import use_realtime_priority
 
 # In a child: a second thread, the priority asked for, then each thread's policy and
 # priority and those of a process started afterwards (this test's process stays as it is).
-CHILD = r'''
+CHILD = r"""
 import json, os, subprocess, sys, threading
 from scara_ident_ros.nodes.realtime import use_realtime_priority
 ready, done = threading.Event(), threading.Event()
@@ -28,7 +28,7 @@ child = subprocess.run([sys.executable, '-c', 'import os; print(os.sched_getsche
                        capture_output=True, text=True, check=True).stdout
 done.set()
 print(json.dumps({'problem': problem, 'threads': threads, 'child': int(child)}))
-'''
+"""
 
 
 def test_every_thread_runs_fifo_and_a_process_started_later_normally() -> None:
