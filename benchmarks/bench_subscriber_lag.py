@@ -89,7 +89,9 @@ def one_run(seconds: float, env: dict[str, str], code: Path | None = None
     short = js['published'] - (js['recorded'] or 0)  # as bench_graph.py counts them
     for row in summary['methods'].values():
         short += (row['shortfall'] or 0) + js['published'] - (row['recorded'] or 0)
+    updates = sum(row['updates'] or 0 for row in summary['methods'].values())
     return {'figures': figures, 'lost': short, 'load': os.getloadavg()[0], 'cpu': lag_cpu,
+            'updates': updates,
             'code': 'before' if code is not None else 'this commit'}
 
 
@@ -139,12 +141,12 @@ def main() -> int:
              'prediction (/ffs/identified_torque) after its sample p50 / p99 / p99.9 / max '
              '(ms) | samples not predicted or not recorded | worst 5 s windows (samples '
              'above p99, max): /joint_states; prediction | subscriber CPU (% of a core, '
-             'start-up included) |',
-             '|---|---|---:|---:|---:|---|---:|']
+             'start-up included) | learners\' updates (3 methods) |',
+             '|---|---|---:|---:|---:|---|---:|---:|']
     for i, r in enumerate(runs, 1):
         js, ffs = (r['figures'][topic] for topic in TOPICS)
         lines.append(f'| {i} | {r["code"]} | {_ms(js)} | {_ms(ffs)} | {r["lost"]} | {_worst(js)}; '
-                     f'{_worst(ffs)} | {r["cpu"]:.0f} |')
+                     f'{_worst(ffs)} | {r["cpu"]:.0f} | {r["updates"]} |')
     text = '\n'.join(lines) + '\n'
     print(text)
     if not args.no_write:

@@ -2,12 +2,13 @@
 
 Starts, as separate processes, the MCAP recorder, one identifier serving FFMW, FFW and FFS
 (under ``/ffmw``, ``/ffw``, ``/ffs``, one subscription to ``/joint_states``) and the
-simulated SCARA. Each waits for its subscribers; the simulator publishes ``--duration``
-seconds at 1 kHz and stops; then the identifier (it publishes its last, pending
-predictions and saves the models) and the recorder are stopped with SIGINT, in that
-order. A summary accounts for every published sample per method (predicted, skipped,
-lost, not drained) and gives each method's errors; unless ``--no-report`` the tables and
-figures follow (``scara-ident tables``).
+simulated SCARA, their threads under ``SCHED_FIFO`` where the user may (simulator first,
+then identifier, then recorder: :data:`REALTIME`; the learners at normal priority). Each
+waits for its subscribers; the simulator publishes ``--duration`` seconds at 1 kHz and
+stops; then the identifier (it publishes its last, pending predictions and saves the models)
+and the recorder are stopped with SIGINT, in that order. A summary accounts for every
+published sample per method (predicted, skipped, lost, not drained) and gives each method's
+errors; unless ``--no-report`` the tables and figures follow (``scara-ident tables``).
 
 It refuses to start (exit 2) if another graph already publishes ``/joint_states`` or the
 identifiers' topics, unless ``--allow-other-graph``. Ctrl-C or SIGTERM stops the graph
@@ -53,6 +54,10 @@ POLL_PERIOD = 0.1  # s between two looks at the processes and the stop signals
 INTERRUPTED = 130  # exit status after a Ctrl-C (128 + SIGINT), as a shell reports it
 JOINT_STATES_TOPIC = in_namespace(JOINT_STATES)  # the robot's: the identifier takes it
 IDENTIFIER = 'identifier'  # the identifier's process, logs and node name
+#: SCHED_FIFO priorities (nodes/realtime.py): the simulator's stream first, then the
+#: predictions, then the recorder; the learners and everything else after them
+REALTIME = {'simulator': 30, IDENTIFIER: 20, 'recorder': 10}
+END_HISTORY_AFTER = 0.1  # s after the last sample: its predictions (the identifier's)
 
 
 def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -144,7 +149,8 @@ def run(args: argparse.Namespace) -> int:
     graph = ProcessGraph(out / 'logs')
     graph.start(NodeProcess('recorder', 'scara_ident_ros.nodes.recorder', [
         '-p', f'output:={bag}', '-p', f'compression:={args.compression}',
-        '-p', f'stats_file:={stats / "recorder.json"}']))
+        '-p', f'stats_file:={stats / "recorder.json"}',
+        '-p', f'realtime_priority:={REALTIME["recorder"]}']))
     graph.start(NodeProcess(IDENTIFIER, 'scara_ident_ros.nodes.identifier', [
         '-r', f'{JOINT_STATES}:={JOINT_STATES_TOPIC}',
         '-p', f'methods:=[{",".join(args.methods)}]',
@@ -156,12 +162,16 @@ def run(args: argparse.Namespace) -> int:
         # subscribe /joint_states only once the recorder records every method's outputs:
         # the simulator's wait below then covers the predictions too
         '-p', 'wait_for_subscribers:=1', '-p', f'wait_timeout:={STARTUP_TIMEOUT}',
-        '-p', f'stats_file:={stats}/{{method}}.json', *robot_args]))
+        '-p', f'stats_file:={stats}/{{method}}.json',
+        # the last samples' predictions when the simulator ends, not when the identifier stops
+        '-p', f'end_history_after:={END_HISTORY_AFTER}',
+        '-p', f'realtime_priority:={REALTIME[IDENTIFIER]}', *robot_args]))
     sim = graph.start(NodeProcess(sim_name, f'scara_ident_ros.nodes.{sim_name}', [
         '-p', f'duration:={args.duration}', '-p', f'trajectory:={args.trajectory}',
         '-p', f'seed:={args.seed}', '-p', 'wait_for_subscribers:=2',
         '-p', f'wait_timeout:={STARTUP_TIMEOUT}',
-        '-p', f'stats_file:={stats / "scara_sim.json"}', *sim_args]))
+        '-p', f'stats_file:={stats / "scara_sim.json"}',
+        '-p', f'realtime_priority:={REALTIME["simulator"]}', *sim_args]))
     print(f'scara-ident run: {args.duration:g} s at 1 kHz, identifying with '
           f'{", ".join(m.upper() for m in args.methods)}, recording {bag}', flush=True)
     with StopSignals() as signals:

@@ -30,8 +30,9 @@ __all__ = ['OLD_NAMES', 'IdentifierSettings', 'SettingsError']
 #: parameter's name now.
 OLD_NAMES = {'capacity': 'reservoir_size', 'steps': 'lm_steps',
              'steps_per_update': 'lm_steps'}
-#: Parameters of every ROS node, accepted in a parameters file and not settings
-ROS_PARAMETERS = ('use_sim_time',)
+#: Parameters accepted in a parameters file and not settings: every ROS node's, and the
+#: identifier node's own (nodes/identifier.py: its stream's end, its threads' scheduling)
+ROS_PARAMETERS = ('use_sim_time', 'end_history_after', 'realtime_priority')
 _SPECS: dict[str, ParamSpec] = {spec.name: spec for spec in IDENTIFIER_PARAMETERS}
 
 

@@ -3,8 +3,9 @@
 For every ``sensor_msgs/JointState`` it predicts the joint efforts from (q, q', q'')
 *before* learning from the sample, publishes the prediction on ``identified_torque``
 (stamped with the sample it predicts, ``window // 2`` samples late with the zero-phase q''
-estimate), then learns from it (``trainer``). Blocks of samples are never learnt: the
-model's error on them is the validation NMSE. The per-sample logic is
+estimate; the last ones of a stream that ends come on stop, or ``end_history_after`` s
+later), then learns from it (``trainer``). Blocks of samples are never learnt: the model's
+error on them is the validation NMSE. The per-sample logic is
 :class:`~scara_ident_ros.identification.OnlineIdentifier` under an
 :class:`~scara_ident_ros.identification.session.IdentificationSession`; this node converts
 messages, publishes, checkpoints and logs.
@@ -62,7 +63,8 @@ from scara_ident_ros.nodes.health import Deltas, Health, LossCounter, identifier
 from scara_ident_ros.nodes.joint_state_cdr import (JointStateReader, JointStateTemplate,
                                                    RawJointState)
 from scara_ident_ros.nodes.messages import joint_state
-from scara_ident_ros.nodes.parameters import declare_parameters
+from scara_ident_ros.nodes.realtime import REALTIME_PRIORITY
+from scara_ident_ros.nodes.parameters import ParamSpec, declare_parameters
 from scara_ident_ros.nodes.publisher_watch import PublisherWatch
 from scara_ident_ros.nodes.runtime import run_node
 from scara_ident_ros.paths import unwritable_file
@@ -88,8 +90,18 @@ CALIBRATION_TICK = 0.05  # s between two steps of the contact calibration
 CALIBRATION_SLICE = 2000  # held-out samples a calibration step predicts
 FLUSH_TIMEOUT = 2.0  # s on shutdown for the subscribers to acknowledge the last predictions
 SETTLE_LOSS_S = 0.2  # s without a sample after which a long stamp step's losses are counted
-#: The node's parameters (:mod:`scara_ident_ros.identification.parameters`)
-PARAMETERS = IDENTIFIER_PARAMETERS
+QUIET_TICK = 0.02  # s between two looks for a quiet stream (end_history_after)
+#: Predict the pending samples once the stream has been quiet this long: the centred q''
+#: waits for window // 2 later samples, which a stream that ended or paused does not send
+END_HISTORY_AFTER = ParamSpec(
+    'end_history_after', 0.0, 'Once no sample has come for this long (and for more than '
+    'max_gap and 5 sample periods), predict and learn the pending samples as on stop and '
+    'start a new history with the next sample: a subscriber then gets the last samples of '
+    'a stream that ended or paused this much later, not when the node stops; 0: only on stop',
+    's', min=0.0, fixed='a timer made at start')
+#: The node's parameters: the identifier's (:mod:`scara_ident_ros.identification.parameters`),
+#: then the node's own: the end of a quiet stream's history, the scheduling of its threads
+PARAMETERS = (*IDENTIFIER_PARAMETERS, END_HISTORY_AFTER, REALTIME_PRIORITY)
 #: contact messages are rare: a few seconds of them at 1 kHz
 CONTACT_QOS = QoSProfile(depth=1000, history=HistoryPolicy.KEEP_LAST,
                          reliability=ReliabilityPolicy.RELIABLE)
@@ -177,9 +189,10 @@ class IdentifierNode(Node):
 
     def __init__(self) -> None:
         super().__init__('identifier')
+        own = declare_parameters(self, (END_HISTORY_AFTER, REALTIME_PRIORITY))
         # the parameters, converted once: replaced by the new settings when some are set
         self.settings = s = IdentifierSettings.of(
-            declare_parameters(self, PARAMETERS, on_change=self._apply))
+            declare_parameters(self, IDENTIFIER_PARAMETERS, on_change=self._apply))
         self.session = session = IdentificationSession(s, log=self.get_logger().info)
         for key in ('save_path', 'stats_file'):
             for path in session.paths[key].values():
@@ -212,6 +225,10 @@ class IdentifierNode(Node):
         self.loss = LossCounter(span_s=s.max_gap, pause_periods=GAP_PERIODS)
         self.path = PathDelays()  # arrival to publication of each sample's predictions
         self.last_sample: float | None = None  # monotonic s of the latest sample
+        self.ended_history = True  # the pending samples are out since the latest sample
+        self.end_history_after: float = own[END_HISTORY_AFTER.name]
+        if self.end_history_after > 0:
+            self.create_timer(QUIET_TICK, self._end_quiet_history)
         self.diagnostics = [
             Diagnostics(self, f'{out.run.method} identification' if session.several
                         else 'identification', partial(self.health, out))
@@ -331,6 +348,7 @@ class IdentifierNode(Node):
     def on_sample(self, msg: RawJointState) -> None:
         """Check and differentiate once; predict, publish, learn for each method."""
         self.last_sample = time.monotonic()
+        self.ended_history = False
         stamp_ns, now_ns = msg.stamp_ns, time.time_ns()
         self.path.arrived(stamp_ns, now_ns)
         assert self.publisher_watch is not None  # subscribed
@@ -388,6 +406,23 @@ class IdentifierNode(Node):
     def handled(self) -> int:
         """Samples taken from ``joint_states`` so far (a stop drains until it stays put)."""
         return self.session.processed()
+
+    def _end_quiet_history(self) -> None:
+        """Once no sample has come for ``end_history_after`` s (and more than ``max_gap``
+        and GAP_PERIODS sample periods: a stream whose stamps follow the clock would restart
+        its history at the next sample anyway), predict (and learn) the pending samples as
+        on stop and publish their predictions; the next sample starts a new history."""
+        if self.ended_history or self.last_sample is None:
+            return
+        period_ns = self.loss.period_ns
+        quiet = max(self.end_history_after, self.settings.max_gap,
+                    GAP_PERIODS * (period_ns / 1e9 if period_ns else DEFAULT_PERIOD))
+        if time.monotonic() - self.last_sample <= quiet:
+            return
+        self.ended_history = True
+        outcome = self.session.flush()
+        for out, predictions in zip(self.outputs, outcome.predictions):
+            out.publish(predictions, self.frame_id)
 
     def _settle_loss(self) -> None:
         """Count the samples a long stamp step may have lost once the stream has paused (no

@@ -58,6 +58,7 @@ from scara_ident_ros.nodes.health import (Deltas, Health, LossCounter,
 from scara_ident_ros.nodes.diagnostics import Diagnostics
 from scara_ident_ros.nodes.parameters import ParamSpec, declare_parameters
 from scara_ident_ros.nodes.publisher_watch import PublisherWatch
+from scara_ident_ros.nodes.realtime import REALTIME_PRIORITY
 from scara_ident_ros.nodes.runtime import POLL_PERIOD, run_node
 from scara_ident_ros.topics import IDENTIFIER_OUTPUTS, JOINT_STATES, in_namespace
 
@@ -102,6 +103,7 @@ PARAMETERS = (
               min=0.0, fixed='a timer made at start'),
     ParamSpec('stats_file', '', "Write the final counters here as JSON; '' = no file",
               fixed='used at shutdown as given at start'),
+    REALTIME_PRIORITY,
 )
 
 

@@ -13,7 +13,9 @@ it is then closed (``close()``), destroyed, and the process exits 0. A stop long
 must not outlive its run and publish into the next graph. A
 :class:`~scara_ident_ros.errors.ScaraIdentError` (e.g. ``ConfigError``) raised while the
 node is built ends it with one line and exit 2. Once built, the node and everything
-imported are frozen out of the garbage collector's sight (``gc.freeze``). The optional
+imported are frozen out of the garbage collector's sight (``gc.freeze``), and its threads
+run under ``SCHED_FIFO`` if its ``realtime_priority`` parameter asks
+(:mod:`~scara_ident_ros.nodes.realtime`). The optional
 hooks are the protocols `PacedNode`, `DrainingNode` and `ClosingNode`.
 """
 from __future__ import annotations
@@ -37,6 +39,7 @@ from rclpy.signals import SignalHandlerOptions
 
 from scara_ident_ros.errors import ScaraIdentError
 from scara_ident_ros.nodes.parameters import ParamSpec
+from scara_ident_ros.nodes.realtime import REALTIME_PRIORITY, use_realtime_priority
 from scara_ident_ros.nodes.rosenv import ensure_local_dds
 
 __all__ = ['ClosingNode', 'DrainingNode', 'PacedNode', 'drain', 'help_text', 'run_node',
@@ -118,11 +121,13 @@ def run_node(name: str, factory: Callable[[], Node], args: list[str] | None = No
             return 2
         # What is built so far (modules, ROS handles, the node) lives as long as the
         # process: out of the collector's sight, a full collection does not walk it all
-        # while samples wait (tens of ms each, in every node).
+        # while samples wait (tens of ms each, in every node). Then its threads become
+        # real-time if it asks (scara_ident_ros.nodes.realtime).
         gc.collect()
         gc.freeze()
         executor = EventsExecutor()
         executor.add_node(node)
+        _schedule(node)  # after the executor: its timers' thread too
         if isinstance(node, PacedNode):
             node.loop(executor, stop)
         else:
@@ -141,6 +146,18 @@ def run_node(name: str, factory: Callable[[], Node], args: list[str] | None = No
             node.destroy_node()
         rclpy.try_shutdown()
     return 0
+
+
+def _schedule(node: Node) -> None:
+    """Run the node's threads under SCHED_FIFO if it has a ``realtime_priority`` > 0."""
+    name = REALTIME_PRIORITY.name
+    priority = node.get_parameter(name).value if node.has_parameter(name) else 0
+    if priority:
+        problem = use_realtime_priority(priority)
+        if problem:
+            node.get_logger().warning(problem)
+        else:
+            node.get_logger().info(f'threads under SCHED_FIFO, priority {priority}')
 
 
 class Spinner(Protocol):

@@ -47,6 +47,7 @@ from scara_ident_ros.nodes.messages import NS_PER_S, joint_state, ns_to_stamp
 from scara_ident_ros.nodes.parameters import ParamSpec, declare_parameters
 from scara_ident_ros.nodes.runtime import POLL_PERIOD
 from scara_ident_ros.nodes.pacer import DeadlinePacer
+from scara_ident_ros.nodes.realtime import REALTIME_PRIORITY
 from scara_ident_ros.sim import (SEQUENCE, TRAJECTORIES, FourierTrajectory, SequenceTrajectory,
                                  SimConfig, Simulator, make_trajectory)
 from scara_ident_ros.sim.trajectory_follower import TrajectoryFollower
@@ -103,6 +104,7 @@ SIM_PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec('stats_file', '', 'Write the final counters here as JSON on shutdown; empty: '
               'never'),
     ParamSpec('frame_id', '', 'header.frame_id of the published JointState'),
+    REALTIME_PRIORITY,
 )
 
 

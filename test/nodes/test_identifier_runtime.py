@@ -27,7 +27,7 @@ from scara_ident_ros.sim.simulator import SimRecord
 import rostest  # test/nodes/rostest.py
 from test_identifier import (DEPTH, DISCOVERY_TIMEOUT, IDENTIFIER,
                              JOINT_STATES_TOPIC, LAG, MSE_TOPIC, PERIOD_NS, SETTLE, T0_NS,
-                             TORQUE_TOPIC, held_out_indices, sample_msg, simulated)
+                             TORQUE_TOPIC, held_out_indices, sample_msg, simulated, stamps)
 
 pytestmark = pytest.mark.ros
 
@@ -246,3 +246,22 @@ def test_diagnostics_follow_the_stream(tmp_path: Path, listener: rostest.Listene
         stale = session.status(lambda s: s.level == WARN)
         assert 'no sample for' in stale.message and '(> 1 s)' in stale.message
         session.stop(tmp_path)
+
+
+def test_end_history_after_predicts_the_last_samples_of_a_quiet_stream(
+        tmp_path: Path, listener: rostest.Listener) -> None:
+    """With end_history_after, the LAG samples pending when the stream goes quiet are
+    predicted then, not on stop; the next sample starts a new history, and every sample of
+    the two parts is predicted."""
+    record = simulated(600)
+    with start(tmp_path, 'end_history_after:=0.1', 'trainer:=bp') as node:
+        session = Session(listener, node)
+        session.send(record, 300)
+        assert listener.spin_until(lambda: len(session.torques) == 300, 5.0), \
+            f'{len(session.torques)} of 300 predictions before the stop'
+        session.send(record, 300)
+        assert listener.spin_until(lambda: len(session.torques) == 600, 5.0)
+        stats = session.stop(tmp_path)
+    assert stamps(session.torques) == [
+        T0_NS + i * PERIOD_NS for i in range(600)]
+    assert stats['predicted'] == 600 and stats['pending'] == 0
