@@ -72,8 +72,9 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     parser.add_argument('--point-period', type=float, default=node.point_period,
                         help='seconds between two samples (default %(default)s)')
     parser.add_argument('--optimize', action='store_true',
-                        help='the Fourier motion of best-conditioned regressor instead of the '
-                             'random sequence')
+                        help='the Fourier motion optimised to predict other motion (least '
+                             'variance of the physical model\'s efforts, well-conditioned '
+                             'regressor) instead of the random sequence')
     parser.add_argument('--harmonics', type=int, default=DEFAULT_HARMONICS,
                         help='--optimize: harmonics per joint (default %(default)s)')
     parser.add_argument('--period', type=float, default=DEFAULT_PERIOD,
@@ -163,8 +164,8 @@ def _optimized_plan(args: argparse.Namespace, margined: JointLimits, start: np.n
           f'{found.seconds:.0f} s ({found.iterations} iterations): condition number '
           f'{found.start_condition:.4g} at the seeded start, {found.condition:.4g} at the end')
     print('self-collision: no collision geometry in the URDF, not checked' if collision is None
-          else f'self-collision: {collision.n_pairs} pairs of links checked along the motion, '
-               f'amplitudes × {found.collision_scale:.2g} to keep them apart')
+          else f'self-collision: {collision.n_pairs} pairs of links checked along the motion; '
+               + found.collision_summary())
     ours = plan_condition(plan, model, args.seconds, args.point_period)
     theirs = plan_condition(random, model, args.seconds, args.point_period)
     print(f'condition number of the physical model\'s regressor over {args.seconds:g} s of '

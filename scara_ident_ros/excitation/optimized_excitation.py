@@ -14,10 +14,13 @@ stacked over a period (Swevers, Ganseman, Tükel, De Schutter and Van Brussel, "
 excitation and identification", IEEE T-RA 1997, for the condition number; I-optimality,
 Atkinson, Donev and Tobias, "Optimum experimental designs", 2007, for the variance):
 
-    J = log tr(A (WᵀW)⁻¹) + log cond(W),    A = (1/N_r) Σ_j W_r,jᵀ W_r,j / var(τ_r,j).
+    J = log tr(A (WᵀW)⁻¹) + λ log cond(W),    A = (1/N_r) Σ_j W_r,jᵀ W_r,j / var(τ_r,j),
+
+λ = :data:`CONDITION_WEIGHT` (0.5).
 
 With efforts of noise σ² on every joint, the least-squares θ̂ has covariance σ² (WᵀW)⁻¹, so
-the first term is the log of the held-out NMSE the noise gives on average along a reference
+tr(A (WᵀW)⁻¹) is, up to the factor σ² n, the held-out NMSE (mean over the n joints) the
+noise gives on average along a reference
 motion W_r (N_r samples; W_r,j its rows of joint j, τ_r,j = W_r,j θ_URDF the efforts the
 URDF's own parameters give, which scale each joint as the NMSE does): 60 s of the random
 sequence of seed :data:`REFERENCE_SEED`, spread over the ranges as any other motion of the
@@ -33,7 +36,7 @@ keep to :data:`~scara_ident_ros.sim.sequence.SEQUENCE_LIMITS`). scipy's SLSQP mi
 from a seeded random start; its gradient is the chain rule
 
     ∂J/∂x = Σ_ij (G · ∂W/∂q_ij) ∂q_ij/∂x + (the same for q', q''),
-    G = −2 W M A M / tr(A M) + u_1 v_1ᵀ / s_1 − u_p v_pᵀ / s_p,    M = (WᵀW)⁻¹
+    G = −2 W M A M / tr(A M) + λ (u_1 v_1ᵀ / s_1 − u_p v_pᵀ / s_p),    M = (WᵀW)⁻¹
 
 (s_i, u_i, v_i the singular values and vectors of W), with ∂W/∂q_j, ∂W/∂q'_j, ∂W/∂q''_j by
 forward differences (3n + 1 regressors of the grid per gradient, not one per coefficient).
@@ -72,13 +75,15 @@ from scara_ident_ros.excitation.self_collision import SelfCollision
 from scara_ident_ros.sim.sequence import SEQUENCE_EXCITATION
 from scara_ident_ros.sim.trajectory import FourierTrajectory
 
-__all__ = ['COLLISION_PER_HARMONIC', 'COLLISION_SHRINK', 'DEFAULT_HARMONICS', 'DEFAULT_PERIOD',
+__all__ = ['COLLISION_PER_HARMONIC', 'COLLISION_SHRINK', 'CONDITION_WEIGHT', 'DEFAULT_HARMONICS',
+           'DEFAULT_PERIOD',
            'NARROWING_ROUNDS', 'REFERENCE_SEED', 'OptimizedExcitation', 'optimize_excitation',
            'plan_condition']
 
 FloatArray = NDArray[np.float64]
-#: Harmonics L per joint and base period T (s) of the optimised motion (Swevers et al.).
-DEFAULT_HARMONICS = 5
+#: Harmonics L per joint and base period T (s) of the optimised motion: up to 1 Hz, as the
+#: random sequence's (benchmarks/excitation_length.md).
+DEFAULT_HARMONICS = 10
 DEFAULT_PERIOD = 10.0
 _SAMPLES_PER_HARMONIC = 16   # regressor samples per period of the highest harmonic
 _CHECKS_PER_HARMONIC = 10    # limit constraints per period of the highest harmonic
@@ -91,6 +96,10 @@ _COLLISION_TRIES = 20
 #: Optimisations again within position bounds narrowed to keep the links apart, at most.
 NARROWING_ROUNDS = 3
 _STEP = 1e-6                 # relative step of the forward differences of W
+#: λ, the weight of log cond(W) in the criterion: on the SCARA 0 left cond(W) at 0.4-0.65
+#: of the random sequence's, 1 lost all the variance gained, 0.5 kept 0.77-0.83 of it and
+#: cond(W) at 0.19-0.24 (seeds 1, 2; 16 s, 10 harmonics of 10 s; 2026-12-07).
+CONDITION_WEIGHT = 0.5
 _SINGULAR = 1e-12            # s_p / s_1 below which W counts as singular
 _SINGULAR_VALUE = 1e3        # J of a singular W
 #: Seed of the random sequence whose motion the criterion's prediction variance is taken
@@ -130,6 +139,14 @@ class OptimizedExcitation:
     seconds: float
     collision_scale: float | None = None
     narrowed: FloatArray | None = None
+
+    def collision_summary(self) -> str:
+        """What keeping the links apart changed, in one line."""
+        if self.narrowed is None or self.collision_scale is None:
+            return 'self-collision not checked (no collision geometry)'
+        return ('to keep the links apart: position bounds × '
+                + ', '.join(f'{f:.2g}' for f in self.narrowed)
+                + f' (per joint), amplitudes × {self.collision_scale:.2g}')
 
     def excitation(self, k: int) -> FourierTrajectory:
         """The motion of period k: always the same one."""
@@ -192,21 +209,22 @@ def optimize_excitation(model: LinearInParameters, limits: JointLimits, *, seed:
     x = problem.start(seed)
     start_condition = problem.condition(problem.trajectory(x))
     rounds = 0 if collision is None else NARROWING_ROUNDS
-    x, iterations = _minimise(problem, x, deadline - (max_seconds / 2 if rounds else 0.0),
-                              max_iterations)
+    x, iterations, finished = _minimise(
+        problem, x, deadline - (max_seconds / 2 if rounds else 0.0), max_iterations)
     trajectory = problem.within_limits(problem.trajectory(x))
     narrowed = np.ones(problem.n)
     for round_ in range(rounds):
         assert collision is not None
         factors = _narrowing(trajectory, collision)
-        if factors is None:
+        if factors is None and finished:
             break
-        narrowed *= factors
-        problem.narrow(factors)
-        left = deadline - time.perf_counter()
-        x, more = _minimise(problem, problem.trajectory_x(trajectory) * np.tile(
-            np.repeat(factors, n_harmonics), 2),
-            deadline - (left / 2 if round_ < rounds - 1 else 0.0), max_iterations)
+        if factors is not None:         # narrow, and start from the motion narrowed
+            narrowed *= factors
+            problem.narrow(factors)
+            x = problem.trajectory_x(trajectory) * np.tile(np.repeat(factors, n_harmonics), 2)
+        left = deadline - time.perf_counter()   # else: go on where the time ran out
+        x, more, finished = _minimise(problem, x, deadline - (
+            left / 2 if round_ < rounds - 1 else 0.0), max_iterations)
         iterations += more
         trajectory = problem.within_limits(problem.trajectory(x))
     scale = None if collision is None else _collision_free_scale(trajectory, collision)
@@ -219,9 +237,9 @@ def optimize_excitation(model: LinearInParameters, limits: JointLimits, *, seed:
 
 
 def _minimise(problem: _Problem, x0: FloatArray, deadline: float, max_iterations: int
-              ) -> tuple[FloatArray, int]:
+              ) -> tuple[FloatArray, int, bool]:
     """SLSQP from the feasible x0 until ``deadline`` (perf_counter s): the best feasible
-    point and the iterations made."""
+    point, the iterations made, and whether it stopped before the deadline."""
     best_x, best_value = [x0], [problem.objective(x0)]      # the best feasible point
 
     def objective(x: FloatArray) -> float:
@@ -244,8 +262,8 @@ def _minimise(problem: _Problem, x0: FloatArray, deadline: float, max_iterations
                           'jac': lambda x: problem.constraint_matrix}],
             options={'maxiter': max_iterations, 'ftol': 1e-6})
     except _OutOfTime:
-        pass
-    return best_x[0], iterations[0]
+        return best_x[0], iterations[0], False
+    return best_x[0], iterations[0], True
 
 
 def _narrowing(trajectory: FourierTrajectory, collision: SelfCollision
@@ -397,9 +415,9 @@ class _Problem:
         m = (vt.T / s ** 2) @ vt                                   # (WᵀW)⁻¹
         ma = m @ self.reference
         trace = float(np.trace(ma))
-        value = math.log(trace) + math.log(s[0] / s[-1])
-        g = (-2.0 * w @ (ma @ m) / trace + np.outer(u[:, 0], vt[0]) / s[0]
-             - np.outer(u[:, -1], vt[-1]) / s[-1])
+        value = math.log(trace) + CONDITION_WEIGHT * math.log(s[0] / s[-1])
+        g = -2.0 * w @ (ma @ m) / trace + CONDITION_WEIGHT * (
+            np.outer(u[:, 0], vt[0]) / s[0] - np.outer(u[:, -1], vt[-1]) / s[-1])
         return value, g
 
     def gradient(self, x: FloatArray) -> FloatArray:
