@@ -166,14 +166,14 @@ def optimize_excitation(model: LinearInParameters, limits: JointLimits, *, seed:
                         n_harmonics: int = DEFAULT_HARMONICS, period: float = DEFAULT_PERIOD,
                         max_seconds: float = 120.0, max_iterations: int = 200,
                         collision: SelfCollision | None = None) -> OptimizedExcitation:
-    """The Fourier coefficients of least J (cond(W) and size) within the limits (module
-    docstring).
+    """The Fourier coefficients of least J (prediction variance along the reference and
+    cond(W)) within the limits (module docstring).
 
     Parameters
     ----------
     model : LinearInParameters
-        The model whose regressor is conditioned (a ``PhysicalModel`` of the arm), for the
-        joints of ``limits`` in their order.
+        The model to identify (a ``PhysicalModel`` of the arm, whose ``urdf_parameters``
+        weight the joints), for the joints of ``limits`` in their order.
     limits : JointLimits
         The limits with the safety margins taken off (what the motion keeps to).
     seed : int
@@ -183,14 +183,17 @@ def optimize_excitation(model: LinearInParameters, limits: JointLimits, *, seed:
     period : float
         T (s), > 0.
     max_seconds : float
-        Time budget (s): the best point found by then is the result.
+        Time budget (s) of the optimisations: the best point found by then is the result
+        (given ``collision``, the first gets half, each next one half of what is left).
     max_iterations : int
         SLSQP iterations at most.
     collision : SelfCollision, optional
-        The arm's self-collision check: the result's amplitudes are shrunk towards the
-        middle of the ranges (by :data:`COLLISION_SHRINK` at a time) until no point of a
-        grid of the period (:data:`COLLISION_PER_HARMONIC` per period of the highest
-        harmonic) brings two links together.
+        The arm's self-collision check on a grid of the period
+        (:data:`COLLISION_PER_HARMONIC` points per period of the highest harmonic): where
+        links meet, joints' position bounds are narrowed and the motion optimised again (up
+        to :data:`NARROWING_ROUNDS` times); what still collides is shrunk towards the middle
+        of the ranges (by :data:`COLLISION_SHRINK` at a time) until no point of the grid
+        brings two links together.
 
     Raises
     ------
