@@ -6,12 +6,12 @@ joints and limits of a URDF with the node's margins; checks every sample (``--po
 against the limits with margins; writes the samples to ``OUTPUT/excitation.csv`` (time, then
 q, q', q'' of each joint, SI) and a figure to ``OUTPUT/excitation.png``; prints the peaks as
 fractions of the robot's limits. With ``--optimize`` the excitation is not the random
-sequence but the periodic Fourier motion (``--harmonics``, ``--period``) whose physical-model
-regressor is best conditioned within the same limits
+sequence but the periodic Fourier motion (``--harmonics``, ``--period``) optimised within
+the same limits for the physical model to predict other motion
 (:mod:`~scara_ident_ros.excitation.optimized_excitation`, at most ``--max-seconds`` of
-optimisation; shrunk until its links stay apart where the URDF has collision geometry); it
-prints that regressor's condition number over ``--seconds`` of it
-against the random sequence's over the same length. A URDF without limits, a start outside
+optimisation; its links kept apart where the URDF has collision geometry); it prints the
+regressor's condition number over ``--seconds`` of it against the random sequence's over
+the same length. A URDF without limits, a start outside
 the limits or a plan outside the margins ends it with one line and exit status 2. To move
 the arm, run the node:
 ``ros2 run scara_ident_ros excitation --ros-args -p urdf_file:=...`` (docs/real_robot.md).
