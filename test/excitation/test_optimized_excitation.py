@@ -122,3 +122,29 @@ def test_the_gradient_is_the_criterions_central_difference(model: PhysicalModel,
         step[k] = h
         central = (problem.objective(x + step) - problem.objective(x - step)) / (2 * h)
         assert gradient[k] == pytest.approx(central, rel=1e-3, abs=1e-6)
+
+
+class _ElbowStop:
+    """A stand-in collision check: the links 'meet' where joint 1 leaves ±``reach`` of the
+    middle of its range."""
+
+    def __init__(self, centre: np.ndarray, reach: float) -> None:
+        self.centre, self.reach = centre, reach
+
+    def colliding(self, q: np.ndarray) -> np.ndarray:
+        return np.asarray(np.abs(np.atleast_2d(q)[:, 1] - self.centre[1]) > self.reach)
+
+
+def test_where_links_meet_only_that_joints_range_is_narrowed(
+        model: PhysicalModel, margined: JointLimits) -> None:
+    half = 0.5 * (margined.position_max - margined.position_min)
+    stop = _ElbowStop(margined.centre, 0.3 * half[1])
+    found = optimize_excitation(model, margined, seed=1, n_harmonics=4, period=8.0,
+                                max_iterations=10, collision=stop)  # type: ignore[arg-type]
+    assert found.narrowed is not None and found.narrowed[1] < 0.5
+    np.testing.assert_array_equal(np.delete(found.narrowed, 1), 1.0)
+    assert found.collision_scale == 1.0          # the narrowing sufficed: nothing shrunk
+    q, qd, _ = found.trajectory.evaluate(np.arange(0.0, 8.0, 1e-3))
+    assert not np.any(stop.colliding(q))
+    fraction = SEQUENCE_EXCITATION['velocity_fraction']
+    assert np.abs(qd[:, 0]).max() > 0.9 * fraction * margined.velocity_max[0]
