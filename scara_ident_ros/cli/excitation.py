@@ -6,12 +6,12 @@ joints and limits of a URDF with the node's margins; checks every sample (``--po
 against the limits with margins; writes the samples to ``OUTPUT/excitation.csv`` (time, then
 q, q', q'' of each joint, SI) and a figure to ``OUTPUT/excitation.png``; prints the peaks as
 fractions of the robot's limits. With ``--optimize`` the excitation is not the random
-sequence but the periodic Fourier motion (``--harmonics``, ``--period``) whose physical-model
-regressor is best conditioned within the same limits
+sequence but the periodic Fourier motion (``--harmonics``, ``--period``) optimised within
+the same limits for the physical model to predict other motion
 (:mod:`~scara_ident_ros.excitation.optimized_excitation`, at most ``--max-seconds`` of
-optimisation; shrunk until its links stay apart where the URDF has collision geometry); it
-prints that regressor's condition number over ``--seconds`` of it
-against the random sequence's over the same length. A URDF without limits, a start outside
+optimisation; its links kept apart where the URDF has collision geometry); it prints the
+regressor's condition number over ``--seconds`` of it against the random sequence's over
+the same length. A URDF without limits, a start outside
 the limits or a plan outside the margins ends it with one line and exit status 2. To move
 the arm, run the node:
 ``ros2 run scara_ident_ros excitation --ros-args -p urdf_file:=...`` (docs/real_robot.md).
@@ -72,8 +72,9 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     parser.add_argument('--point-period', type=float, default=node.point_period,
                         help='seconds between two samples (default %(default)s)')
     parser.add_argument('--optimize', action='store_true',
-                        help='the Fourier motion of best-conditioned regressor instead of the '
-                             'random sequence')
+                        help='the Fourier motion optimised to predict other motion (least '
+                             'variance of the physical model\'s efforts, well-conditioned '
+                             'regressor) instead of the random sequence')
     parser.add_argument('--harmonics', type=int, default=DEFAULT_HARMONICS,
                         help='--optimize: harmonics per joint (default %(default)s)')
     parser.add_argument('--period', type=float, default=DEFAULT_PERIOD,
@@ -163,8 +164,8 @@ def _optimized_plan(args: argparse.Namespace, margined: JointLimits, start: np.n
           f'{found.seconds:.0f} s ({found.iterations} iterations): condition number '
           f'{found.start_condition:.4g} at the seeded start, {found.condition:.4g} at the end')
     print('self-collision: no collision geometry in the URDF, not checked' if collision is None
-          else f'self-collision: {collision.n_pairs} pairs of links checked along the motion, '
-               f'amplitudes × {found.collision_scale:.2g} to keep them apart')
+          else f'self-collision: {collision.n_pairs} pairs of links checked along the motion; '
+               + found.collision_summary())
     ours = plan_condition(plan, model, args.seconds, args.point_period)
     theirs = plan_condition(random, model, args.seconds, args.point_period)
     print(f'condition number of the physical model\'s regressor over {args.seconds:g} s of '

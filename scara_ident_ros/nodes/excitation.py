@@ -7,12 +7,12 @@ them), keeps ``position_margin`` of each range clear and ``velocity_scale`` and
 then sends ``joint_trajectory_controller`` the plan of :mod:`scara_ident_ros.excitation`: a
 smooth approach from the arm's position at rest to the simulator's sequence excitation (same
 seeds and blends), and the sequence. With ``plan: optimized`` the excitation after the
-approach is instead the periodic Fourier motion (``harmonics``, ``base_period``) whose
-physical-model regressor is best conditioned within the same limits
-(:mod:`~scara_ident_ros.excitation.optimized_excitation`), optimised from the URDF before
-the node waits for the arm (up to two minutes) and shrunk until its links stay apart where
-``urdf_file`` has collision geometry. It sends it as ``trajectory_msgs/JointTrajectory``
-chunks on ``/joint_trajectory_controller/joint_trajectory`` (remappable), or as
+approach is instead the periodic Fourier motion (``harmonics``, ``base_period``) optimised
+within the same limits for the physical model of the URDF to predict other motion
+(:mod:`~scara_ident_ros.excitation.optimized_excitation`), before the node waits for the
+arm (up to two minutes), its links kept apart where ``urdf_file`` has collision geometry.
+It sends it as ``trajectory_msgs/JointTrajectory`` chunks on
+``/joint_trajectory_controller/joint_trajectory`` (remappable), or as
 ``control_msgs/action/FollowJointTrajectory`` goals with ``use_action``, every
 ``chunk_period``: each chunk reaches ``horizon`` ahead and ends in a stop to rest, so an arm
 whose chunks stop coming comes to rest by itself.
@@ -83,8 +83,9 @@ PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec('seed', MOTION.seed, 'Seed of the sequence excitation (as scara_sim seed), or '
               "of the optimised plan's start", min=0),
     ParamSpec('plan', 'sequence', 'The excitation after the approach: the random sequence, or '
-              'the Fourier motion optimised for identification (best-conditioned regressor '
-              'of the physical model of the URDF)', choices=PLANS),
+              'the Fourier motion optimised for identification (least variance of the '
+              "efforts the URDF's physical model predicts, well-conditioned regressor)",
+              choices=PLANS),
     ParamSpec('harmonics', DEFAULT_HARMONICS, 'plan optimized: harmonics per joint', min=1,
               max=20),
     ParamSpec('base_period', DEFAULT_PERIOD, 'plan optimized: period of the motion', 's',
@@ -284,9 +285,7 @@ class ExcitationNode(Node):
         self.get_logger().info(
             f'optimised in {found.seconds:.0f} s: condition number '
             f'{found.start_condition:.4g} at the start, {found.condition:.4g} at the end; '
-            + ('self-collision not checked (no collision geometry in urdf_file)'
-               if found.collision_scale is None else
-               f'amplitudes × {found.collision_scale:.2g} to keep the links apart'))
+            + found.collision_summary())
         return found
 
     def stop_request(self, stop: threading.Event) -> str:
