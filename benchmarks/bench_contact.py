@@ -34,6 +34,7 @@ import argparse
 import os
 import sys
 import time
+from collections.abc import Callable
 
 import numpy as np
 
@@ -77,6 +78,10 @@ def main() -> int:
                         help='contact_false_alarms_per_hour values, one row each')
     parser.add_argument('--min-samples', type=int, default=1)
     parser.add_argument('--seed', type=int, default=0)
+    parser.add_argument('--cache', default='',
+                        help='.npz of the runs (residuals, inputs, pulses): written if '
+                        'missing, else read instead of simulating again (the same seed and '
+                        'options give the same runs)')
     args = parser.parse_args()
     params = ScaraParams.from_yaml(config_path('scara.yaml'))
     names = params.joint_names
@@ -86,27 +91,18 @@ def main() -> int:
     def config(s: int) -> SimConfig:
         return noisy_config(params, s) if args.noise else SimConfig(seed=s, n_joints=4)
 
-    timeline: list[tuple[float, Calibration]] = []
-
-    def calibrate(t: float, now: Trained) -> None:
-        detector = ContactDetector(4, min_samples=args.min_samples,
-                                   false_alarms_per_hour=args.bounds[0])
-        timeline.append((t, detector.calibrate(now.residuals, now.nmse, inputs=now.inputs,
-                                               sample_period_s=1e-3, blocks=now.blocks)))
-
-    trained = train_model(params, seconds=args.seconds, seed=seed, config=config(seed),
-                          stream=args.stream, every_s=CALIBRATION_PERIOD, on_every=calibrate)
-    net, nmse, lag = trained.net, trained.nmse, trained.lag
-    clean, _ = pulse_record(params, seconds=args.clean_seconds, seed=seed + CLEAN_SEED,
-                            config=config(seed + CLEAN_SEED), stream=args.stream)
-    pulsed, pulses = pulse_record(params, seconds=args.pulse_seconds, seed=seed + PULSE_SEED,
-                                  config=config(seed + PULSE_SEED), amplitude=args.amplitude,
-                                  pulse_s=args.pulse_ms / 1e3, spacing_s=1.0,
-                                  stream=args.stream)
-    clean_index, clean_ext, _ = residuals_of(net, clean, names)
-    pulse_index, pulse_ext, _ = residuals_of(net, pulsed, names)
-    clean_x = _inputs(clean, names)
-    pulse_x = _inputs(pulsed, names)
+    data = _load(args.cache) if args.cache and os.path.exists(args.cache) else None
+    if data is None:
+        data = _simulate(args, params, config)
+        if args.cache:
+            np.savez_compressed(args.cache, **data)
+    pulses = [Pulse(int(a), int(b), int(c), float(d)) for a, b, c, d in data['pulses']]
+    clean_ext, clean_x = data['clean_ext'], data['clean_x']
+    pulse_index, pulse_ext, pulse_x = data['pulse_index'], data['pulse_ext'], data['pulse_x']
+    nmse, lag = float(data['nmse']), int(data['lag'])
+    trained = _trained(data, '')
+    timeline = [(float(t), _calibrate(_node_detector(args), _trained(data, f'at{i}_')))
+                for i, t in enumerate(data['times'])]
     dt = 1e-3
     clean_s = len(clean_ext) * dt
     segments = trained.residuals
@@ -165,6 +161,71 @@ def main() -> int:
           f'{run.false_alarms_per_10_min:.2f} | |')
     print(f'\n{time.monotonic() - started:.0f} s wall')
     return 0
+
+
+Data = dict[str, np.ndarray]
+TRAINED_FIELDS = ('residuals', 'inputs', 'blocks', 'nmse', 'prior', 'prior_inputs')
+
+
+def _simulate(args: argparse.Namespace, params: ScaraParams,
+              config: Callable[[int], SimConfig]) -> Data:
+    """Learn the stream (a calibration's data every ``contact_calibration_period`` s), run
+    the unseen motions, and keep what the detectors are evaluated on."""
+    names, seed = params.joint_names, args.seed
+    data: Data = {}
+    times: list[float] = []
+
+    def keep(t: float, now: Trained) -> None:
+        data.update(_fields(now, f'at{len(times)}_'))
+        times.append(t)
+
+    trained = train_model(params, seconds=args.seconds, seed=seed, config=config(seed),
+                          stream=args.stream, every_s=CALIBRATION_PERIOD, on_every=keep)
+    data.update(_fields(trained, ''))
+    clean, _ = pulse_record(params, seconds=args.clean_seconds, seed=seed + CLEAN_SEED,
+                            config=config(seed + CLEAN_SEED), stream=args.stream)
+    pulsed, pulses = pulse_record(params, seconds=args.pulse_seconds, seed=seed + PULSE_SEED,
+                                  config=config(seed + PULSE_SEED), amplitude=args.amplitude,
+                                  pulse_s=args.pulse_ms / 1e3, spacing_s=1.0,
+                                  stream=args.stream)
+    _, data['clean_ext'], _ = residuals_of(trained.net, clean, names)
+    data['pulse_index'], data['pulse_ext'], _ = residuals_of(trained.net, pulsed, names)
+    data['clean_x'], data['pulse_x'] = _inputs(clean, names), _inputs(pulsed, names)
+    data['pulses'] = np.array([(p.start, p.length, p.joint, p.effort) for p in pulses],
+                              dtype=float).reshape(-1, 4)
+    data['times'], data['lag'] = np.array(times), np.array(trained.lag)
+    return data
+
+
+def _fields(trained: Trained, prefix: str) -> Data:
+    return {prefix + name: np.asarray(getattr(trained, name)) for name in TRAINED_FIELDS}
+
+
+def _trained(data: Data, prefix: str) -> Trained:
+    """A calibration's data back from :func:`_fields` (without the network)."""
+    values = {name: data[prefix + name] for name in TRAINED_FIELDS}
+    return Trained(None, values['residuals'], values['inputs'],  # type: ignore[arg-type]
+                   values['blocks'].astype(np.int64), float(values['nmse']), int(data['lag']),
+                   values['prior'], values['prior_inputs'])
+
+
+def _load(path: str) -> Data:
+    with np.load(path) as archive:
+        return {name: archive[name] for name in archive.files}
+
+
+def _node_detector(args: argparse.Namespace) -> ContactDetector:
+    """A detector of the node's defaults (the first ``--bounds``)."""
+    return ContactDetector(4, min_samples=args.min_samples,
+                           false_alarms_per_hour=args.bounds[0])
+
+
+def _calibrate(detector: ContactDetector, trained: Trained) -> Calibration:
+    """Calibrate ``detector`` as the node does on ``trained``: the stream's a-priori
+    residuals it has checked, the held-out segments."""
+    detector.observe(trained.prior, trained.prior_inputs)
+    return detector.calibrate(trained.residuals, trained.nmse, inputs=trained.inputs,
+                              sample_period_s=1e-3, blocks=trained.blocks)
 
 
 def _arming(timeline: list[tuple[float, Calibration]]) -> str:
