@@ -45,8 +45,9 @@ from scara_ident_ros.paper.contact import (Pulse, Trained, detect, evaluate, pul
                                            residuals_of, train_model)
 from scara_ident_ros.sim import SimConfig, SimRecord
 from scara_ident_ros.paper.learning_curves import noisy_config
-from scara_ident_ros.identification.contact_detector import (Calibration, ContactDetector,
-                                                             robust_spread)
+from scara_ident_ros.identification.contact_detector import (A_PRIORI, HELD_OUT,
+                                                             RECENT_S, Calibration,
+                                                             ContactDetector, robust_spread)
 from scara_ident_ros.nodes.identifier import PARAMETERS
 from scara_ident_ros.resources import config_path
 
@@ -78,13 +79,14 @@ def main() -> int:
                         help='contact_false_alarms_per_hour values, one row each')
     parser.add_argument('--min-samples', type=int, default=1)
     parser.add_argument('--seed', type=int, default=0)
+    parser.add_argument('--recent-seconds', type=float, default=RECENT_S,
+                        help='s of a-priori residuals the thresholds are calibrated on')
     parser.add_argument('--cache', default='',
                         help='.npz of the runs (residuals, inputs, pulses): written if '
                         'missing, else read instead of simulating again (the same seed and '
                         'options give the same runs)')
     args = parser.parse_args()
     params = ScaraParams.from_yaml(config_path('scara.yaml'))
-    names = params.joint_names
     started = time.monotonic()
     seed = args.seed
 
@@ -101,8 +103,8 @@ def main() -> int:
     pulse_index, pulse_ext, pulse_x = data['pulse_index'], data['pulse_ext'], data['pulse_x']
     nmse, lag = float(data['nmse']), int(data['lag'])
     trained = _trained(data, '')
-    timeline = [(float(t), _calibrate(_node_detector(args), _trained(data, f'at{i}_')))
-                for i, t in enumerate(data['times'])]
+    timelines = {on: [(float(t), _calibrate(_node_detector(args, on), _trained(data, f'at{i}_')))
+                      for i, t in enumerate(data['times'])] for on in (A_PRIORI, HELD_OUT)}
     dt = 1e-3
     clean_s = len(clean_ext) * dt
     segments = trained.residuals
@@ -121,21 +123,25 @@ def main() -> int:
           f'{args.min_samples}; a decision is made {lag} samples ({lag * dt * 1e3:g} ms) '
           'after its sample (the zero-phase q\'\'), plus the machine\'s delay (the node\'s '
           'diagnostics).\n')
-    print(_arming(timeline) + '\n')
+    for on, timeline in timelines.items():
+        print(f'Calibrated on the {on} residuals: {_arming(timeline)}\n')
     print('| detector | armed (why not) | thresholds | est. false alarms/h | detected | '
           'per joint | decision delay from the pulse start p50 / p99 (ms, stamp + lag) | '
           'false alarms / 10 min | samples held (envelope), clean / pulses |')
     print('|---|---|---|---|---|---|---|---|---|')
-    rows = [(f'bound {b:g}/h', ContactDetector(4, min_samples=args.min_samples,
-                                                false_alarms_per_hour=b,
-                                                arm_nmse=max(2.0 * nmse, ARM_NMSE)))
-            for b in args.bounds]
-    rows.append((f"bound {args.bounds[0]:g}/h, envelope with q''", ContactDetector(
-        4, min_samples=args.min_samples, false_alarms_per_hour=args.bounds[0],
-        arm_nmse=max(2.0 * nmse, ARM_NMSE), envelope_acceleration=True)))
+    rows = [(f'{on}, bound {b:g}/h', ContactDetector(
+        4, min_samples=args.min_samples, false_alarms_per_hour=b,
+        arm_nmse=max(2.0 * nmse, ARM_NMSE), calibrate_on=on,
+        recent_s=args.recent_seconds)) for on in (A_PRIORI, HELD_OUT)
+        for b in args.bounds]
+    rows.append((f"{A_PRIORI}, bound {args.bounds[0]:g}/h, envelope with q''",
+                 ContactDetector(4, min_samples=args.min_samples,
+                                 false_alarms_per_hour=args.bounds[0],
+                                 arm_nmse=max(2.0 * nmse, ARM_NMSE),
+                                 envelope_acceleration=True,
+                                 recent_s=args.recent_seconds)))
     for name, detector in rows:
-        calibration = detector.calibrate(segments, nmse, inputs=trained.inputs,
-                                         sample_period_s=dt, blocks=trained.blocks)
+        calibration = _calibrate(detector, trained)
         clean_flags = detect(detector, clean_ext, clean_x)
         held_clean, detector.held = detector.held, 0
         pulse_flags = detect(detector, pulse_ext, pulse_x)
@@ -214,10 +220,12 @@ def _load(path: str) -> Data:
         return {name: archive[name] for name in archive.files}
 
 
-def _node_detector(args: argparse.Namespace) -> ContactDetector:
-    """A detector of the node's defaults (the first ``--bounds``)."""
+def _node_detector(args: argparse.Namespace, calibrate_on: str) -> ContactDetector:
+    """A detector of the node's defaults (the first ``--bounds``) calibrated on
+    ``calibrate_on``."""
     return ContactDetector(4, min_samples=args.min_samples,
-                           false_alarms_per_hour=args.bounds[0])
+                           false_alarms_per_hour=args.bounds[0], calibrate_on=calibrate_on,
+                           recent_s=args.recent_seconds)
 
 
 def _calibrate(detector: ContactDetector, trained: Trained) -> Calibration:

@@ -66,7 +66,8 @@ PATH_PARAMETERS = ('save_path', 'stats_file', 'model_path')
 VALIDATION_PERIOD = 1.0  # s: the held-out score is recomputed at most this often per method
 CONTACT_PARAMETERS = {'contact_sigma', 'contact_arm_nmse', 'contact_min_samples',
                       'contact_false_alarms_per_hour', 'contact_envelope_margin',
-                      'contact_envelope_acceleration'}
+                      'contact_envelope_acceleration', 'contact_calibration',
+                      'contact_calibration_window'}
 #: Rejections that mean the message's joints are not the identifier's
 JOINT_SET_REASONS = (SkipReason.UNKNOWN_JOINT, SkipReason.MISSING_JOINT,
                      SkipReason.DUPLICATE_JOINT, SkipReason.JOINT_COUNT)
@@ -93,7 +94,9 @@ def contact_detector(n_joints: int, settings: IdentifierSettings) -> ContactDete
         min_samples=settings.contact_min_samples,
         false_alarms_per_hour=settings.contact_false_alarms_per_hour,
         envelope_margin=settings.contact_envelope_margin,
-        envelope_acceleration=settings.contact_envelope_acceleration)
+        envelope_acceleration=settings.contact_envelope_acceleration,
+        calibrate_on=settings.contact_calibration,
+        recent_s=settings.contact_calibration_window)
 
 
 class _Round:
@@ -317,7 +320,8 @@ class MethodRun:
                       ((s.momentum if s.momentum >= 0 else preset.momentum)
                        if 'momentum' in changed else None))
         if CONTACT_PARAMETERS & set(changed) and self.detector is not None:
-            self.detector = contact_detector(self.detector.n_joints, s)
+            previous, self.detector = self.detector, contact_detector(self.detector.n_joints, s)
+            self.detector.keep_recent(previous)  # the same model's residuals
         if core is None:
             return
         core.learn = s.learn
