@@ -2,20 +2,27 @@
 
 An FFS network learns ``--seconds`` of a stream online as the identifier does (synchronous
 ``lm``, 10 % held-out blocks), then is frozen; the contact detector is calibrated as the node
-calibrates it (:class:`~scara_ident_ros.identification.contact_detector.ContactDetector` on
-the held-out segments: thresholds from the tail of the residuals for
-``contact_false_alarms_per_hour``, the arming rule, the q, q' envelope). On motion never
+calibrates it (:class:`~scara_ident_ros.identification.contact_detector.ContactDetector`:
+thresholds from the tail of the residuals for ``contact_false_alarms_per_hour``, the arming
+rule, the q, q' envelope), on the a-priori residuals of the last ``--recent-seconds`` of
+stream (each sample predicted before it was learnt: the node's default) and, beside it, on
+the held-out segments (the node's calibration before). On motion never
 learnt: ``--clean-seconds`` without contact (false alarms: rising edges of "some joint
 flagged") and ``--pulse-seconds`` with external effort pulses (``--amplitude`` of the effort
 limit of each joint in turn, random sign, ``--pulse-ms`` long, about every 1.5 s) applied to
 the simulated dynamics (detected per joint; the decision's delay from the pulse's start: the
 first flagged sample's stamp plus the q'' estimate's lag, the machine's own delay apart: the
-node reports it, ``bench_graph.py``). One row per ``--bounds`` value, one with the envelope
-bounding q'' too, and the detector before (12 robust sigmas of the held-out residuals).
+node reports it, ``bench_graph.py``). One row per calibration and ``--bounds`` value, and
+the detector before those (12 robust sigmas of the held-out residuals).
 
 While it learns, a detector of the node's defaults is calibrated every
 ``contact_calibration_period`` s of stream, as the node calibrates it on the model of that
-moment: the stream time it is first armed, and whether it stays armed.
+moment: the stream time it is first armed, whether it stays armed, and when every threshold
+is first under its joint's pulse.
+
+The runs are deterministic given the options and the seed: ``--cache runs.npz`` keeps what
+the detectors are evaluated on (residuals, inputs, pulses; written if missing, else read),
+so that calibrations can be compared without simulating again.
 
 ``--stream loop`` (default): the issue's loop, ``excitation`` -> ``scara_sim
 trajectory:=external`` (:func:`~scara_ident_ros.paper.contact.loop_record`), without sensor
@@ -24,9 +31,10 @@ noise as ``scara_sim`` by default (``--noise``: the noisy learning curves' senso
 
     .venv/bin/python benchmarks/bench_contact.py [--seconds 120] [--clean-seconds 600]
         [--pulse-seconds 300] [--bounds 1] [--seed 0] [--stream loop|sequence] [--noise]
+        [--recent-seconds 30] [--cache runs.npz]
 
 CI-sized: ``--seconds 20 --clean-seconds 5 --pulse-seconds 5`` (too few held-out blocks to
-arm: the row says so).
+arm the calibration before: the row says so).
 """
 from __future__ import annotations
 
@@ -124,22 +132,18 @@ def main() -> int:
           'after its sample (the zero-phase q\'\'), plus the machine\'s delay (the node\'s '
           'diagnostics).\n')
     for on, timeline in timelines.items():
-        print(f'Calibrated on the {on} residuals: {_arming(timeline)}\n')
+        print(f'Calibrated on the {on} residuals: '
+              f"{_arming(timeline, args.amplitude * params.array('effort_max'))}\n")
     print('| detector | armed (why not) | thresholds | est. false alarms/h | detected | '
           'per joint | decision delay from the pulse start p50 / p99 (ms, stamp + lag) | '
           'false alarms / 10 min | samples held (envelope), clean / pulses |')
     print('|---|---|---|---|---|---|---|---|---|')
-    rows = [(f'{on}, bound {b:g}/h', ContactDetector(
+    rows = [(f'{on}' + (f' {args.recent_seconds:g} s' if on == A_PRIORI else ' (before)')
+             + f', bound {b:g}/h', ContactDetector(
         4, min_samples=args.min_samples, false_alarms_per_hour=b,
         arm_nmse=max(2.0 * nmse, ARM_NMSE), calibrate_on=on,
         recent_s=args.recent_seconds)) for on in (A_PRIORI, HELD_OUT)
         for b in args.bounds]
-    rows.append((f"{A_PRIORI}, bound {args.bounds[0]:g}/h, envelope with q''",
-                 ContactDetector(4, min_samples=args.min_samples,
-                                 false_alarms_per_hour=args.bounds[0],
-                                 arm_nmse=max(2.0 * nmse, ARM_NMSE),
-                                 envelope_acceleration=True,
-                                 recent_s=args.recent_seconds)))
     for name, detector in rows:
         calibration = _calibrate(detector, trained)
         clean_flags = detect(detector, clean_ext, clean_x)
@@ -236,19 +240,27 @@ def _calibrate(detector: ContactDetector, trained: Trained) -> Calibration:
                               sample_period_s=1e-3, blocks=trained.blocks)
 
 
-def _arming(timeline: list[tuple[float, Calibration]]) -> str:
-    """When the detector of the node's defaults was first armed, and what each calibration
-    said."""
+def _arming(timeline: list[tuple[float, Calibration]], pulses: np.ndarray) -> str:
+    """When the detector of the node's defaults was first armed, when its thresholds were
+    first all under the pulses (N·m or N per joint), and what each calibration said."""
     armed = [t for t, c in timeline if not c.why_not]
-    steps = '; '.join(f'{t:g} s: ' + (c.why_not or f'armed ({c.independent:.0f} draws)')
+
+    def ratio(c: Calibration) -> float:
+        return float(np.max(c.thresholds / pulses)) if c.thresholds is not None else np.inf
+
+    steps = '; '.join(f'{t:g} s: ' + (c.why_not or f'armed ({c.independent:.0f} draws, '
+                                      f'thresholds up to {ratio(c):.2g} x the pulse)')
                       for t, c in timeline)
     if not armed:
         return f'**Not armed** in {timeline[-1][0] if timeline else 0:g} s ({steps}).'
     since = [t for t, c in timeline if t >= armed[0] and c.why_not]
+    under = [t for t, c in timeline if not c.why_not and ratio(c) < 1.0]
     return (f'**Armed at {armed[0]:g} s** of stream (a calibration every '
             f'{CALIBRATION_PERIOD:g} s, node defaults), '
             + ('armed at every calibration since' if not since
                else f'disarmed again at {", ".join(f"{t:g}" for t in since)} s')
+            + (f', every threshold under its pulse first at **{under[0]:g} s**' if under
+               else ', a threshold over its pulse at every calibration')
             + f' ({steps}).')
 
 
