@@ -301,9 +301,16 @@ class _Recent:
         sample had one), N at most ``last``, oldest first (copies)."""
         capacity = len(self.residuals)
         count = min(last, capacity, self.written)
-        order = np.arange(self.written - count, self.written) % capacity
-        return (self.residuals[order],
-                self.inputs[order] if self.has_inputs else None)
+        start, end = (self.written - count) % capacity, self.written % capacity
+
+        def latest(a: NDArray[np.float64]) -> NDArray[np.float64]:
+            if count == 0:
+                return a[:0].copy()
+            if start < end or end == 0:
+                return a[start:end or capacity].copy()
+            return np.concatenate([a[start:], a[:end]])
+
+        return latest(self.residuals), latest(self.inputs) if self.has_inputs else None
 
     def clear(self) -> None:
         """Forget every sample."""
@@ -477,15 +484,16 @@ class ContactDetector:
             per_hour += tail.exceedance(thresholds[j]) / duration * SECONDS_PER_HOUR
             over += int(np.count_nonzero(values > thresholds[j]))
         lo = hi = None
-        x = drawn.inputs
+        parts = [] if drawn.inputs is None else [drawn.inputs]
         if self.calibrate_on == A_PRIORI and inputs is not None:  # the held-out motion too
-            held = np.asarray(inputs, dtype=float).reshape(-1, x.shape[-1] if x is not None
-                                                           else np.shape(inputs)[-1])
-            x = held if x is None else np.concatenate([x, held])
-        if x is not None and len(x):
-            x = x[np.all(np.isfinite(x), axis=1)]
-        if x is not None and len(x):
-            low, high = x.min(axis=0), x.max(axis=0)
+            held = np.asarray(inputs, dtype=float)
+            parts.append(held.reshape(-1, held.shape[-1]))
+        parts = [part for part in parts if len(part)]
+        if parts:  # the range of the finite values per input
+            with np.errstate(invalid='ignore'):
+                low = np.fmin.reduce([np.fmin.reduce(part, axis=0) for part in parts])
+                high = np.fmax.reduce([np.fmax.reduce(part, axis=0) for part in parts])
+        if parts and np.all(np.isfinite(low) & np.isfinite(high)):
             widen = self.envelope_margin * (high - low)
             lo, hi = low - widen, high + widen
             if not self.envelope_acceleration:  # q'', the last n inputs: not bounded
@@ -555,7 +563,7 @@ class ContactDetector:
     def _recent_draws(self, last: int) -> _Draws | Calibration:
         """The draws of the ``last`` a-priori residuals checked (module docstring), or why
         there are too few: joint j's maxima over consecutive runs of ``max(2τ_j,
-        RECENT_DRAW)`` samples, τ_j measured over runs of :data:`RECENT_CHUNK`."""
+        RECENT_DRAW)`` samples, τ_j measured within runs of :data:`RECENT_CHUNK`."""
         r, x = self._recent.window(last)
         count = len(r)
         if count < 2 * RECENT_CHUNK:
@@ -563,13 +571,14 @@ class ContactDetector:
                                why_not=f'{count} a-priori residuals, need {2 * RECENT_CHUNK}')
         finite = np.all(np.isfinite(r), axis=1)
         centre = np.nanmedian(np.ascontiguousarray(r.T), axis=1)
+        spread = robust_spread(r[finite])
         chunks = count // RECENT_CHUNK
         r = np.where(np.isfinite(r), r, centre)  # no residual (or a contact's): no draw
         tau = correlation_time(r[count - chunks * RECENT_CHUNK:].reshape(
             chunks, RECENT_CHUNK, self.n_joints))
         deviation = self._deviation(r, centre)
         draws = _Draws.of_runs(deviation, np.maximum(2 * tau, RECENT_DRAW), tau, centre,
-                               robust_spread(r[finite]), x)
+                               spread, x)
         if draws.fewest < MIN_DRAWS:
             return Calibration(segments=count // RECENT_DRAW, independent=draws.fewest,
                                correlation_samples=tau,
