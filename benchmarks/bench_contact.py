@@ -31,7 +31,7 @@ noise as ``scara_sim`` by default (``--noise``: the noisy learning curves' senso
 
     .venv/bin/python benchmarks/bench_contact.py [--seconds 120] [--clean-seconds 600]
         [--pulse-seconds 300] [--bounds 1] [--seed 0] [--stream loop|sequence] [--noise]
-        [--recent-seconds 30] [--cache runs.npz]
+        [--recent-seconds 25] [--cache runs.npz]
 
 CI-sized: ``--seconds 20 --clean-seconds 5 --pulse-seconds 5`` (too few held-out blocks to
 arm the calibration before: the row says so).
