@@ -2,20 +2,27 @@
 
 An FFS network learns ``--seconds`` of a stream online as the identifier does (synchronous
 ``lm``, 10 % held-out blocks), then is frozen; the contact detector is calibrated as the node
-calibrates it (:class:`~scara_ident_ros.identification.contact_detector.ContactDetector` on
-the held-out segments: thresholds from the tail of the residuals for
-``contact_false_alarms_per_hour``, the arming rule, the q, q' envelope). On motion never
+calibrates it (:class:`~scara_ident_ros.identification.contact_detector.ContactDetector`:
+thresholds from the tail of the residuals for ``contact_false_alarms_per_hour``, the arming
+rule, the q, q' envelope), on the a-priori residuals of the last ``--recent-seconds`` of
+stream (each sample predicted before it was learnt: the node's default) and, beside it, on
+the held-out segments (the node's calibration before). On motion never
 learnt: ``--clean-seconds`` without contact (false alarms: rising edges of "some joint
 flagged") and ``--pulse-seconds`` with external effort pulses (``--amplitude`` of the effort
 limit of each joint in turn, random sign, ``--pulse-ms`` long, about every 1.5 s) applied to
 the simulated dynamics (detected per joint; the decision's delay from the pulse's start: the
 first flagged sample's stamp plus the q'' estimate's lag, the machine's own delay apart: the
-node reports it, ``bench_graph.py``). One row per ``--bounds`` value, one with the envelope
-bounding q'' too, and the detector before (12 robust sigmas of the held-out residuals).
+node reports it, ``bench_graph.py``). One row per calibration and ``--bounds`` value, and
+the detector before those (12 robust sigmas of the held-out residuals).
 
 While it learns, a detector of the node's defaults is calibrated every
 ``contact_calibration_period`` s of stream, as the node calibrates it on the model of that
-moment: the stream time it is first armed, and whether it stays armed.
+moment: the stream time it is first armed, whether it stays armed, and when every threshold
+is first under its joint's pulse.
+
+The runs are deterministic given the options and the seed: ``--cache runs.npz`` keeps what
+the detectors are evaluated on (residuals, inputs, pulses; written if missing, else read),
+so that calibrations can be compared without simulating again.
 
 ``--stream loop`` (default): the issue's loop, ``excitation`` -> ``scara_sim
 trajectory:=external`` (:func:`~scara_ident_ros.paper.contact.loop_record`), without sensor
@@ -24,9 +31,10 @@ noise as ``scara_sim`` by default (``--noise``: the noisy learning curves' senso
 
     .venv/bin/python benchmarks/bench_contact.py [--seconds 120] [--clean-seconds 600]
         [--pulse-seconds 300] [--bounds 1] [--seed 0] [--stream loop|sequence] [--noise]
+        [--recent-seconds 25] [--cache runs.npz]
 
 CI-sized: ``--seconds 20 --clean-seconds 5 --pulse-seconds 5`` (too few held-out blocks to
-arm: the row says so).
+arm the calibration before: the row says so).
 """
 from __future__ import annotations
 
@@ -34,6 +42,7 @@ import argparse
 import os
 import sys
 import time
+from collections.abc import Callable
 
 import numpy as np
 
@@ -44,8 +53,9 @@ from scara_ident_ros.paper.contact import (Pulse, Trained, detect, evaluate, pul
                                            residuals_of, train_model)
 from scara_ident_ros.sim import SimConfig, SimRecord
 from scara_ident_ros.paper.learning_curves import noisy_config
-from scara_ident_ros.identification.contact_detector import (Calibration, ContactDetector,
-                                                             robust_spread)
+from scara_ident_ros.identification.contact_detector import (A_PRIORI, HELD_OUT,
+                                                             RECENT_S, Calibration,
+                                                             ContactDetector, robust_spread)
 from scara_ident_ros.nodes.identifier import PARAMETERS
 from scara_ident_ros.resources import config_path
 
@@ -77,36 +87,32 @@ def main() -> int:
                         help='contact_false_alarms_per_hour values, one row each')
     parser.add_argument('--min-samples', type=int, default=1)
     parser.add_argument('--seed', type=int, default=0)
+    parser.add_argument('--recent-seconds', type=float, default=RECENT_S,
+                        help='s of a-priori residuals the thresholds are calibrated on')
+    parser.add_argument('--cache', default='',
+                        help='.npz of the runs (residuals, inputs, pulses): written if '
+                        'missing, else read instead of simulating again (the same seed and '
+                        'options give the same runs)')
     args = parser.parse_args()
     params = ScaraParams.from_yaml(config_path('scara.yaml'))
-    names = params.joint_names
     started = time.monotonic()
     seed = args.seed
 
     def config(s: int) -> SimConfig:
         return noisy_config(params, s) if args.noise else SimConfig(seed=s, n_joints=4)
 
-    timeline: list[tuple[float, Calibration]] = []
-
-    def calibrate(t: float, now: Trained) -> None:
-        detector = ContactDetector(4, min_samples=args.min_samples,
-                                   false_alarms_per_hour=args.bounds[0])
-        timeline.append((t, detector.calibrate(now.residuals, now.nmse, inputs=now.inputs,
-                                               sample_period_s=1e-3, blocks=now.blocks)))
-
-    trained = train_model(params, seconds=args.seconds, seed=seed, config=config(seed),
-                          stream=args.stream, every_s=CALIBRATION_PERIOD, on_every=calibrate)
-    net, nmse, lag = trained.net, trained.nmse, trained.lag
-    clean, _ = pulse_record(params, seconds=args.clean_seconds, seed=seed + CLEAN_SEED,
-                            config=config(seed + CLEAN_SEED), stream=args.stream)
-    pulsed, pulses = pulse_record(params, seconds=args.pulse_seconds, seed=seed + PULSE_SEED,
-                                  config=config(seed + PULSE_SEED), amplitude=args.amplitude,
-                                  pulse_s=args.pulse_ms / 1e3, spacing_s=1.0,
-                                  stream=args.stream)
-    clean_index, clean_ext, _ = residuals_of(net, clean, names)
-    pulse_index, pulse_ext, _ = residuals_of(net, pulsed, names)
-    clean_x = _inputs(clean, names)
-    pulse_x = _inputs(pulsed, names)
+    data = _load(args.cache) if args.cache and os.path.exists(args.cache) else None
+    if data is None:
+        data = _simulate(args, params, config)
+        if args.cache:
+            np.savez_compressed(args.cache, **data)
+    pulses = [Pulse(int(a), int(b), int(c), float(d)) for a, b, c, d in data['pulses']]
+    clean_ext, clean_x = data['clean_ext'], data['clean_x']
+    pulse_index, pulse_ext, pulse_x = data['pulse_index'], data['pulse_ext'], data['pulse_x']
+    nmse, lag = float(data['nmse']), int(data['lag'])
+    trained = _trained(data, '')
+    timelines = {on: [(float(t), _calibrate(_node_detector(args, on), _trained(data, f'at{i}_')))
+                      for i, t in enumerate(data['times'])] for on in (A_PRIORI, HELD_OUT)}
     dt = 1e-3
     clean_s = len(clean_ext) * dt
     segments = trained.residuals
@@ -125,21 +131,21 @@ def main() -> int:
           f'{args.min_samples}; a decision is made {lag} samples ({lag * dt * 1e3:g} ms) '
           'after its sample (the zero-phase q\'\'), plus the machine\'s delay (the node\'s '
           'diagnostics).\n')
-    print(_arming(timeline) + '\n')
+    for on, timeline in timelines.items():
+        print(f'Calibrated on the {on} residuals: '
+              f"{_arming(timeline, args.amplitude * params.array('effort_max'))}\n")
     print('| detector | armed (why not) | thresholds | est. false alarms/h | detected | '
           'per joint | decision delay from the pulse start p50 / p99 (ms, stamp + lag) | '
           'false alarms / 10 min | samples held (envelope), clean / pulses |')
     print('|---|---|---|---|---|---|---|---|---|')
-    rows = [(f'bound {b:g}/h', ContactDetector(4, min_samples=args.min_samples,
-                                                false_alarms_per_hour=b,
-                                                arm_nmse=max(2.0 * nmse, ARM_NMSE)))
-            for b in args.bounds]
-    rows.append((f"bound {args.bounds[0]:g}/h, envelope with q''", ContactDetector(
-        4, min_samples=args.min_samples, false_alarms_per_hour=args.bounds[0],
-        arm_nmse=max(2.0 * nmse, ARM_NMSE), envelope_acceleration=True)))
+    rows = [(f'{on}' + (f' {args.recent_seconds:g} s' if on == A_PRIORI else ' (before)')
+             + f', bound {b:g}/h', ContactDetector(
+        4, min_samples=args.min_samples, false_alarms_per_hour=b,
+        arm_nmse=max(2.0 * nmse, ARM_NMSE), calibrate_on=on,
+        recent_s=args.recent_seconds)) for on in (A_PRIORI, HELD_OUT)
+        for b in args.bounds]
     for name, detector in rows:
-        calibration = detector.calibrate(segments, nmse, inputs=trained.inputs,
-                                         sample_period_s=dt, blocks=trained.blocks)
+        calibration = _calibrate(detector, trained)
         clean_flags = detect(detector, clean_ext, clean_x)
         held_clean, detector.held = detector.held, 0
         pulse_flags = detect(detector, pulse_ext, pulse_x)
@@ -167,19 +173,94 @@ def main() -> int:
     return 0
 
 
-def _arming(timeline: list[tuple[float, Calibration]]) -> str:
-    """When the detector of the node's defaults was first armed, and what each calibration
-    said."""
+Data = dict[str, np.ndarray]
+TRAINED_FIELDS = ('residuals', 'inputs', 'blocks', 'nmse', 'prior', 'prior_inputs')
+
+
+def _simulate(args: argparse.Namespace, params: ScaraParams,
+              config: Callable[[int], SimConfig]) -> Data:
+    """Learn the stream (a calibration's data every ``contact_calibration_period`` s), run
+    the unseen motions, and keep what the detectors are evaluated on."""
+    names, seed = params.joint_names, args.seed
+    data: Data = {}
+    times: list[float] = []
+
+    def keep(t: float, now: Trained) -> None:
+        data.update(_fields(now, f'at{len(times)}_'))
+        times.append(t)
+
+    trained = train_model(params, seconds=args.seconds, seed=seed, config=config(seed),
+                          stream=args.stream, every_s=CALIBRATION_PERIOD, on_every=keep)
+    data.update(_fields(trained, ''))
+    clean, _ = pulse_record(params, seconds=args.clean_seconds, seed=seed + CLEAN_SEED,
+                            config=config(seed + CLEAN_SEED), stream=args.stream)
+    pulsed, pulses = pulse_record(params, seconds=args.pulse_seconds, seed=seed + PULSE_SEED,
+                                  config=config(seed + PULSE_SEED), amplitude=args.amplitude,
+                                  pulse_s=args.pulse_ms / 1e3, spacing_s=1.0,
+                                  stream=args.stream)
+    _, data['clean_ext'], _ = residuals_of(trained.net, clean, names)
+    data['pulse_index'], data['pulse_ext'], _ = residuals_of(trained.net, pulsed, names)
+    data['clean_x'], data['pulse_x'] = _inputs(clean, names), _inputs(pulsed, names)
+    data['pulses'] = np.array([(p.start, p.length, p.joint, p.effort) for p in pulses],
+                              dtype=float).reshape(-1, 4)
+    data['times'], data['lag'] = np.array(times), np.array(trained.lag)
+    return data
+
+
+def _fields(trained: Trained, prefix: str) -> Data:
+    return {prefix + name: np.asarray(getattr(trained, name)) for name in TRAINED_FIELDS}
+
+
+def _trained(data: Data, prefix: str) -> Trained:
+    """A calibration's data back from :func:`_fields` (without the network)."""
+    values = {name: data[prefix + name] for name in TRAINED_FIELDS}
+    return Trained(None, values['residuals'], values['inputs'],  # type: ignore[arg-type]
+                   values['blocks'].astype(np.int64), float(values['nmse']), int(data['lag']),
+                   values['prior'], values['prior_inputs'])
+
+
+def _load(path: str) -> Data:
+    with np.load(path) as archive:
+        return {name: archive[name] for name in archive.files}
+
+
+def _node_detector(args: argparse.Namespace, calibrate_on: str) -> ContactDetector:
+    """A detector of the node's defaults (the first ``--bounds``) calibrated on
+    ``calibrate_on``."""
+    return ContactDetector(4, min_samples=args.min_samples,
+                           false_alarms_per_hour=args.bounds[0], calibrate_on=calibrate_on,
+                           recent_s=args.recent_seconds)
+
+
+def _calibrate(detector: ContactDetector, trained: Trained) -> Calibration:
+    """Calibrate ``detector`` as the node does on ``trained``: the stream's a-priori
+    residuals it has checked, the held-out segments."""
+    detector.observe(trained.prior, trained.prior_inputs)
+    return detector.calibrate(trained.residuals, trained.nmse, inputs=trained.inputs,
+                              sample_period_s=1e-3, blocks=trained.blocks)
+
+
+def _arming(timeline: list[tuple[float, Calibration]], pulses: np.ndarray) -> str:
+    """When the detector of the node's defaults was first armed, when its thresholds were
+    first all under the pulses (N·m or N per joint), and what each calibration said."""
     armed = [t for t, c in timeline if not c.why_not]
-    steps = '; '.join(f'{t:g} s: ' + (c.why_not or f'armed ({c.independent:.0f} draws)')
+
+    def ratio(c: Calibration) -> float:
+        return float(np.max(c.thresholds / pulses)) if c.thresholds is not None else np.inf
+
+    steps = '; '.join(f'{t:g} s: ' + (c.why_not or f'armed ({c.independent:.0f} draws, '
+                                      f'thresholds up to {ratio(c):.2g} x the pulse)')
                       for t, c in timeline)
     if not armed:
         return f'**Not armed** in {timeline[-1][0] if timeline else 0:g} s ({steps}).'
     since = [t for t, c in timeline if t >= armed[0] and c.why_not]
+    under = [t for t, c in timeline if not c.why_not and ratio(c) < 1.0]
     return (f'**Armed at {armed[0]:g} s** of stream (a calibration every '
             f'{CALIBRATION_PERIOD:g} s, node defaults), '
             + ('armed at every calibration since' if not since
                else f'disarmed again at {", ".join(f"{t:g}" for t in since)} s')
+            + (f', every threshold under its pulse first at **{under[0]:g} s**' if under
+               else ', a threshold over its pulse at every calibration')
             + f' ({steps}).')
 
 

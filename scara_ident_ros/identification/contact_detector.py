@@ -4,9 +4,20 @@ A model of the free robot's inverse dynamics predicts the effort the joints need
 motion measured; an external effort (a contact, a collision) shows as the part of the
 measured effort it does not explain, the *external torque* ``τ_ext = measured − predicted``.
 That residual is also the model's error, so the thresholds come from the model's residuals
-on free motion it never learnt: the held-out segments of
-:class:`~scara_ident_ros.identification.holdout.Holdout` (contiguous runs of samples, so
-that the residuals keep their course in time).
+on free motion it had not learnt when it predicted it, kept in the order of the stream so
+that they keep their course in time:
+
+- ``calibrate_on='a-priori'`` (default): the *a-priori* (prequential) residuals, every
+  sample's τ_ext as :meth:`ContactDetector.check` saw it, predicted before the sample was
+  learnt, over the last ``recent_s`` seconds of stream (at most ``recent_s`` thousand
+  samples are kept; a sample flagged as a contact is not kept). That is what the check meets:
+  motion the model has not learnt yet, predicted by a model that goes on learning.
+- ``calibrate_on='held-out'``: the current model's residuals on the held-out segments of
+  :class:`~scara_ident_ros.identification.holdout.Holdout`. A held-out block lies between
+  learnt motion and is scored by a model that learnt what came before and after it:
+  interpolation. On new motion the model errs more, and thresholds from held-out blocks
+  gave 4, 2 and 0 false alarms in 10 minutes where the bound allows 1 per hour
+  (``benchmarks/contact.md``).
 
 **Thresholds from the tail, not the spread.** A joint is in contact when ``|τ_ext_j − c_j|``
 (``c_j`` the residuals' median) exceeds ``T_j`` for ``min_samples`` consecutive samples. What
@@ -16,7 +27,9 @@ friction step, a turn of the motion). Residuals are autocorrelated, so single sa
 not independent draws. The draws are maxima ``M_kj`` of ``|τ_ext_j − c_j|`` (of its running
 minimum over ``min_samples``, the statistic an alarm needs) over units of samples long
 against joint j's correlation time τ_j (the first lag where its residual's autocorrelation
-falls below 0.1, measured within the segments): a segment of L samples when
+falls below 0.1, measured within the segments). A-priori residuals: joint j's maxima over
+consecutive runs of ``max(2τ_j, 100)`` samples of the window, τ_j measured within runs of
+1000 samples (at most 1000), each run a draw. Held-out segments: a segment of L samples when
 ``2τ_j <= L``, counted as ``K · min(1, L / (2τ_j))`` independent ones; else (the model's
 error outlasts a segment, as on a noise-free stream) all the kept segments of one held-out
 block together, one draw per block. Each joint has its own draws: a joint whose residual
@@ -44,19 +57,22 @@ posterior-predictive probability that a new draw of joint j exceeds ``T_j`` is a
 ``p_j``, so the expected false-alarm rate on free motion like the calibration's is at most
 ``λ`` per hour, whatever the number of draws: few draws give higher thresholds, not a
 weaker bound. A heavier tail is caught only as far as the moment estimate of ξ sees it.
-Nor does it cover a shift: held-out blocks lie between learnt motion, and a model still
-learning errs more on new motion than on them (``benchmarks/contact.md``).
+Nor does it cover a shift of the residual's distribution between the calibration and the
+motion checked: the reason the a-priori residuals, the motion the check meets, are the
+default (held-out blocks understate the error on new motion).
 
 **Armed** only when all hold: the validation NMSE is below ``arm_nmse`` (the model
 identifies); at least :data:`MIN_DRAWS` independent draws on every joint (the predictive
-margin covers the scale's uncertainty; below that the tail's shape is a guess: on a
-noise-free stream 8 held-out blocks, about 40 s at the default 10 % held out); the
+margin covers the scale's uncertainty; below that the tail's shape is a guess: a-priori,
+a few seconds of stream; held out, on a noise-free stream 8 held-out blocks, about 40 s at
+the default 10 % held out); the
 false-alarm rate the tail model gives at the thresholds (with the margin) is at most
 ``false_alarms_per_hour``; and no calibration draw is over its thresholds. An unarmed
 detector never flags.
 
 **Envelope.** The thresholds hold for the motion they were calibrated on: q and q' (and q''
-with ``envelope_acceleration``) within the held-out segments' range per input, widened by
+with ``envelope_acceleration``) within the range per input of the calibration's samples
+(a-priori: the window's and the held-out segments'), widened by
 ``envelope_margin`` of that range. A sample outside it is not checked (no flag; counted in
 ``held``, the diagnostics say so): the model's error there is not what the thresholds
 measured. q'' is left out by default because a contact is itself an acceleration the free
@@ -74,9 +90,10 @@ import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 from numpy.typing import NDArray
 
-__all__ = ['ARM_NMSE', 'Calibration', 'ContactDetector', 'ENVELOPE_MARGIN',
-           'FALSE_ALARMS_PER_HOUR', 'MAD_TO_SIGMA', 'MIN_DRAWS', 'MIN_SAMPLES', 'SIGMA',
-           'Tail', 'correlation_time', 'robust_spread']
+__all__ = ['A_PRIORI', 'ARM_NMSE', 'Calibration', 'ContactDetector', 'ENVELOPE_MARGIN',
+           'FALSE_ALARMS_PER_HOUR', 'HELD_OUT', 'MAD_TO_SIGMA', 'MIN_DRAWS', 'MIN_SAMPLES',
+           'RECENT_CHUNK', 'RECENT_DRAW', 'RECENT_S', 'SIGMA', 'Tail', 'correlation_time',
+           'robust_spread']
 
 MAD_TO_SIGMA = 1.4826  # a Gaussian's standard deviation over its median absolute deviation
 #: Defaults of the node's parameters contact_<name in lower case>
@@ -87,6 +104,11 @@ FALSE_ALARMS_PER_HOUR = 1.0  # the false-alarm rate the thresholds are set to me
 ENVELOPE_MARGIN = 0.25  # fraction of the calibrated range the envelope is widened by
 MIN_DRAWS = 8  # independent draws (segments or blocks) per joint before detection is armed
 ACF_LEVEL = 0.1  # autocorrelation below which residuals count as decorrelated
+A_PRIORI, HELD_OUT = 'a-priori', 'held-out'  # what the thresholds are calibrated on
+RECENT_S = 25.0  # s of the latest a-priori residuals the thresholds are calibrated on
+RECENT_RATE_HZ = 1000.0  # the highest stream rate whose whole RECENT_S is kept
+RECENT_CHUNK = 1000  # samples per run the a-priori residuals' correlation time is taken on
+RECENT_DRAW = 100  # samples of the shortest a-priori draw
 SECONDS_PER_HOUR = 3600.0
 
 
@@ -191,31 +213,116 @@ class Tail(NamedTuple):
 
 
 class _Draws:
-    """Each joint's independent draws (module docstring) from the segments' maxima (K, n),
-    the joints' correlation times τ (n,) (samples), the segments' length L and blocks (K,):
-    the segments for a joint with ``2τ_j <= L`` (all joints without blocks), else the
-    maximum over each block's segments."""
+    """Each joint's independent draws (module docstring) and what else a calibration takes
+    from its residuals: their ``centre`` and robust ``spread`` (n,), correlation times
+    ``tau`` (n,) (samples), the ``inputs`` (M, 3n) they were predicted from (None: not
+    known), and ``segments``, the units counted."""
 
-    def __init__(self, maxima: NDArray[np.float64], tau: NDArray[np.int64], length: int,
-                 blocks: NDArray[np.int64] | None) -> None:
+    def __init__(self, values: list[NDArray[np.float64]], durations: list[float],
+                 independent: NDArray[np.float64], segments: int, tau: NDArray[np.int64],
+                 centre: NDArray[np.float64], spread: NDArray[np.float64],
+                 inputs: NDArray[np.float64] | None) -> None:
+        self.values, self.durations, self.independent = values, durations, independent
+        self.segments, self.tau, self.centre, self.spread = segments, tau, centre, spread
+        self.inputs = inputs
+
+    @classmethod
+    def of_segments(cls, maxima: NDArray[np.float64], tau: NDArray[np.int64], length: int,
+                    blocks: NDArray[np.int64] | None, centre: NDArray[np.float64],
+                    spread: NDArray[np.float64], inputs: NDArray[np.float64] | None
+                    ) -> _Draws:
+        """Held-out segments' maxima (K, n) of ``length`` samples and their ``blocks``
+        (K,): the segments for a joint with ``2τ_j <= L`` (all joints without blocks),
+        else the maximum over each block's segments."""
         count = len(maxima)
-        self.maxima, self.length = maxima, length
-        self.by_segment = (2 * tau <= length) | (blocks is None)
-        #: independent draws per joint (n,)
-        self.independent = count * np.minimum(1.0, length / (2.0 * tau))
-        self.grouped = maxima  # (B, n): one row a block
-        if not self.by_segment.all() and blocks is not None:
+        by_segment = (2 * tau <= length) | (blocks is None)
+        independent = count * np.minimum(1.0, length / (2.0 * tau))
+        grouped = maxima  # (B, n): one row a block
+        if not by_segment.all() and blocks is not None:
             _, group = np.unique(blocks, return_inverse=True)
-            self.grouped = np.zeros((int(group.max()) + 1, maxima.shape[1]))
-            np.maximum.at(self.grouped, group, maxima)
-            self.independent[~self.by_segment] = len(self.grouped)
+            grouped = np.zeros((int(group.max()) + 1, maxima.shape[1]))
+            np.maximum.at(grouped, group, maxima)
+            independent[~by_segment] = len(grouped)
+        values = [maxima[:, j] if by_segment[j] else grouped[:, j]
+                  for j in range(maxima.shape[1])]
+        durations = [float(length) if by_segment[j] else length * count / len(grouped)
+                     for j in range(maxima.shape[1])]
+        return cls(values, durations, independent, count, tau, centre, spread, inputs)
 
-    def of(self, joint: int) -> tuple[NDArray[np.float64], float]:
-        """Joint ``joint``'s draws and the mean samples a draw spans."""
-        if self.by_segment[joint]:
-            return self.maxima[:, joint], float(self.length)
-        return (self.grouped[:, joint],
-                self.length * len(self.maxima) / len(self.grouped))
+    @classmethod
+    def of_runs(cls, deviation: NDArray[np.float64], runs: NDArray[np.int64],
+                tau: NDArray[np.int64], centre: NDArray[np.float64],
+                spread: NDArray[np.float64], inputs: NDArray[np.float64] | None
+                ) -> _Draws:
+        """A contiguous stretch's |τ_ext − centre| (N, n): joint j's maxima over its
+        consecutive runs of ``runs[j]`` samples (the latest ones; a partial oldest run
+        left out), each an independent draw."""
+        count, n = deviation.shape
+        values, durations = [], []
+        for j in range(n):
+            k = count // int(runs[j])
+            values.append(deviation[count - k * int(runs[j]):, j].reshape(k, -1).max(axis=1))
+            durations.append(float(runs[j]))
+        independent = np.array([float(len(v)) for v in values])
+        return cls(values, durations, independent, count // RECENT_DRAW, tau, centre,
+                   spread, inputs)
+
+    @property
+    def fewest(self) -> float:
+        """Independent draws, the fewest over the joints."""
+        return float(self.independent.min())
+
+    def of(self, joint: int) -> tuple[NDArray[np.float64], float, float]:
+        """Joint ``joint``'s draws, the mean samples a draw spans, the independent ones."""
+        return self.values[joint], self.durations[joint], float(self.independent[joint])
+
+
+class _Recent:
+    """The last ``capacity`` a-priori residuals (n,) and inputs (3n,) checked, a ring."""
+
+    def __init__(self, capacity: int, n: int) -> None:
+        self.residuals = np.full((capacity, n), np.nan)
+        self.inputs = np.full((capacity, 3 * n), np.nan)
+        self.written = 0
+        self.has_inputs = True  # every sample came with its input
+
+    def add(self, residual: NDArray[np.float64], x: NDArray[np.float64] | None) -> None:
+        """Keep one sample's residual (n,) and input (3n,) or None."""
+        i = self.written % len(self.residuals)
+        self.residuals[i] = residual
+        if x is None:
+            self.has_inputs = False
+        else:
+            self.inputs[i] = x
+        self.written += 1
+
+    def window(self, last: int) -> tuple[NDArray[np.float64], NDArray[np.float64] | None]:
+        """The ``last`` kept residuals (N, n) and inputs (N, 3n) (None unless every
+        sample had one), N at most ``last``, oldest first (copies)."""
+        capacity = len(self.residuals)
+        count = min(last, capacity, self.written)
+        start, end = (self.written - count) % capacity, self.written % capacity
+
+        def latest(a: NDArray[np.float64]) -> NDArray[np.float64]:
+            if count == 0:
+                return a[:0].copy()
+            if start < end or end == 0:
+                return a[start:end or capacity].copy()
+            return np.concatenate([a[start:], a[:end]])
+
+        return latest(self.residuals), latest(self.inputs) if self.has_inputs else None
+
+    def clear(self) -> None:
+        """Forget every sample."""
+        self.written = 0
+        self.has_inputs = True
+
+    def copy(self) -> _Recent:
+        """An independent copy."""
+        other = _Recent(1, self.residuals.shape[1])
+        other.residuals, other.inputs = self.residuals.copy(), self.inputs.copy()
+        other.written, other.has_inputs = self.written, self.has_inputs
+        return other
 
 
 @dataclass(frozen=True)
@@ -255,10 +362,11 @@ class Calibration:
 
 
 class ContactDetector:
-    """Per-joint thresholds from held-out residual segments, the arming rule, the check.
+    """Per-joint thresholds from a-priori or held-out residuals, the arming rule, the check.
 
     ``sigma``, ``arm_nmse``, ``min_samples``, ``false_alarms_per_hour``,
-    ``envelope_margin`` and ``envelope_acceleration`` are as in the module docstring.
+    ``envelope_margin``, ``envelope_acceleration``, ``calibrate_on`` and ``recent_s`` (s) are
+    as in the module docstring.
 
     Attributes
     ----------
@@ -274,8 +382,8 @@ class ContactDetector:
     def __init__(self, n_joints: int, *, sigma: float = SIGMA, arm_nmse: float = ARM_NMSE,
                  min_samples: int = MIN_SAMPLES,
                  false_alarms_per_hour: float = FALSE_ALARMS_PER_HOUR,
-                 envelope_margin: float = ENVELOPE_MARGIN, envelope_acceleration: bool = False
-                 ) -> None:
+                 envelope_margin: float = ENVELOPE_MARGIN, envelope_acceleration: bool = False,
+                 calibrate_on: str = A_PRIORI, recent_s: float = RECENT_S) -> None:
         if n_joints < 1:
             raise ValueError(f'n_joints must be at least 1, got {n_joints}')
         if not (math.isfinite(sigma) and sigma > 0):
@@ -289,6 +397,11 @@ class ContactDetector:
                              f'{false_alarms_per_hour}')
         if not (math.isfinite(envelope_margin) and envelope_margin >= 0):
             raise ValueError(f'contact envelope margin must be >= 0, got {envelope_margin}')
+        if calibrate_on not in (A_PRIORI, HELD_OUT):
+            raise ValueError(f'contact calibration on {calibrate_on!r}: choose {A_PRIORI!r} '
+                             f'or {HELD_OUT!r}')
+        if not (math.isfinite(recent_s) and recent_s > 0):
+            raise ValueError(f'contact recent seconds must be > 0, got {recent_s}')
         self.n_joints = n_joints
         self.sigma = float(sigma)
         self.arm_nmse = float(arm_nmse)
@@ -296,6 +409,9 @@ class ContactDetector:
         self.false_alarms_per_hour = float(false_alarms_per_hour)
         self.envelope_margin = float(envelope_margin)
         self.envelope_acceleration = bool(envelope_acceleration)
+        self.calibrate_on = calibrate_on
+        self.recent_s = float(recent_s)
+        self._recent = _Recent(max(round(recent_s * RECENT_RATE_HZ), 1), n_joints)
         self.calibration = Calibration()
         self.validation_nmse: float | None = None
         self.held = 0
@@ -319,13 +435,15 @@ class ContactDetector:
                   inputs: NDArray[np.float64] | None = None,
                   sample_period_s: float = 1e-3,
                   blocks: NDArray[np.int64] | None = None) -> Calibration:
-        """Take the current model's held-out residuals and validation NMSE; arm or disarm.
+        """Take the current model's held-out residuals and validation NMSE, and (a-priori)
+        the residuals :meth:`check` and :meth:`observe` kept; arm or disarm.
 
         Parameters
         ----------
         residuals : ndarray of shape (K, L, n) or (K, n), or None
             Measured − predicted effort (N·m or N) on K held-out segments of L contiguous
-            samples; (K, n): K independent single samples.
+            samples; (K, n): K independent single samples. Not used a-priori (their
+            inputs are).
         validation_nmse : float or None
             The model's validation NMSE (mean over the joints).
         inputs : ndarray of shape (K, L, 3n) or (K, 3n), optional
@@ -349,6 +467,67 @@ class ContactDetector:
     def _calibrate(self, residuals: NDArray[np.float64] | None, nmse: float | None,
                    inputs: NDArray[np.float64] | None, period: float,
                    blocks: NDArray[np.int64] | None) -> Calibration:
+        drawn = (self._recent_draws(max(round(self.recent_s / period), 1))
+                 if self.calibrate_on == A_PRIORI
+                 else self._held_out_draws(residuals, inputs, blocks))
+        if isinstance(drawn, Calibration):
+            return drawn
+        thresholds = np.empty(self.n_joints)
+        per_hour = 0.0
+        over = 0
+        for j in range(self.n_joints):
+            values, duration, independent = drawn.of(j)
+            duration *= period  # s per draw
+            p = self.false_alarms_per_hour / SECONDS_PER_HOUR * duration / self.n_joints
+            tail = Tail.fit(values, independent)
+            thresholds[j] = max(tail.level(p), self.sigma * drawn.spread[j])
+            per_hour += tail.exceedance(thresholds[j]) / duration * SECONDS_PER_HOUR
+            over += int(np.count_nonzero(values > thresholds[j]))
+        lo = hi = None
+        parts = [] if drawn.inputs is None else [drawn.inputs]
+        if self.calibrate_on == A_PRIORI and inputs is not None:  # the held-out motion too
+            held = np.asarray(inputs, dtype=float)
+            parts.append(held.reshape(-1, held.shape[-1]))
+        parts = [part for part in parts if len(part)]
+        if parts:  # the range of the finite values per input
+            with np.errstate(invalid='ignore'):
+                low = np.fmin.reduce([np.fmin.reduce(part, axis=0) for part in parts])
+                high = np.fmax.reduce([np.fmax.reduce(part, axis=0) for part in parts])
+        if parts and np.all(np.isfinite(low) & np.isfinite(high)):
+            widen = self.envelope_margin * (high - low)
+            lo, hi = low - widen, high + widen
+            if not self.envelope_acceleration:  # q'', the last n inputs: not bounded
+                lo[-self.n_joints:], hi[-self.n_joints:] = -np.inf, np.inf
+        why = ''
+        if nmse is None:
+            why = 'no validation NMSE yet'
+        elif nmse >= self.arm_nmse:
+            why = f'validation NMSE {nmse:.3g} >= {self.arm_nmse:g}'
+        elif not np.all(np.isfinite(thresholds) & (thresholds > 0)):
+            why = 'a threshold is not positive and finite'
+        elif per_hour > self.false_alarms_per_hour * (1.0 + 1e-9):  # rounding
+            why = (f'estimated {per_hour:.3g} false alarms/h > '
+                   f'{self.false_alarms_per_hour:g}')
+        elif over:
+            why = f'{over} calibration draws over their thresholds'
+        return Calibration(segments=drawn.segments, independent=drawn.fewest,
+                           correlation_samples=drawn.tau, centre=drawn.centre,
+                           thresholds=thresholds, false_alarms_per_hour=per_hour, over=over,
+                           why_not=why, lo=lo, hi=hi)
+
+    def _deviation(self, r: NDArray[np.float64], centre: NDArray[np.float64]
+                   ) -> NDArray[np.float64]:
+        """|r − centre| of residuals (..., L, n), as its running minimum over
+        ``min_samples`` samples along L when an alarm needs more than one in a row."""
+        deviation = np.abs(r - centre)
+        if self.min_samples > 1:
+            deviation = sliding_window_view(deviation, self.min_samples, axis=-2).min(axis=-1)
+        return deviation
+
+    def _held_out_draws(self, residuals: NDArray[np.float64] | None,
+                        inputs: NDArray[np.float64] | None,
+                        blocks: NDArray[np.int64] | None) -> _Draws | Calibration:
+        """The held-out segments' draws (module docstring), or why there are too few."""
         if residuals is None:
             return Calibration(why_not='no held-out residuals yet')
         r = np.asarray(residuals, dtype=float)
@@ -365,55 +544,47 @@ class ContactDetector:
                                f'{MIN_DRAWS} independent ones')
         flat = r.reshape(-1, self.n_joints)
         centre = np.median(np.ascontiguousarray(flat.T), axis=1)
-        spread = robust_spread(flat)
         tau = correlation_time(r)
-        deviation = np.abs(r - centre)
-        if self.min_samples > 1:  # an alarm needs min_samples in a row: the run's minimum
-            deviation = sliding_window_view(deviation, self.min_samples, axis=1).min(axis=3)
-        maxima = deviation.max(axis=1)  # (K, n)
-        draws = _Draws(maxima, tau, length, None if blocks is None
-                       else np.asarray(blocks)[finite])
-        independent = float(draws.independent.min())
-        if independent < MIN_DRAWS:
-            return Calibration(segments=count, independent=independent,
-                               correlation_samples=tau,
-                               why_not=f'{independent:.0f} independent held-out draws, need '
-                               f'{MIN_DRAWS}')
-        thresholds = np.empty(self.n_joints)
-        per_hour = 0.0
-        over = 0
-        for j in range(self.n_joints):
-            values, duration = draws.of(j)
-            duration *= period  # s per draw
-            p = self.false_alarms_per_hour / SECONDS_PER_HOUR * duration / self.n_joints
-            tail = Tail.fit(values, float(draws.independent[j]))
-            thresholds[j] = max(tail.level(p), self.sigma * spread[j])
-            per_hour += tail.exceedance(thresholds[j]) / duration * SECONDS_PER_HOUR
-            over += int(np.count_nonzero(values > thresholds[j]))
-        lo = hi = None
+        maxima = self._deviation(r, centre).max(axis=1)  # (K, n)
+        x = None
         if inputs is not None:
             x = np.asarray(inputs, dtype=float)
             x = (x[:, None, :] if x.ndim == 2 else x)[finite].reshape(-1, x.shape[-1])
-            low, high = x.min(axis=0), x.max(axis=0)
-            widen = self.envelope_margin * (high - low)
-            lo, hi = low - widen, high + widen
-            if not self.envelope_acceleration:  # q'', the last n inputs: not bounded
-                lo[-self.n_joints:], hi[-self.n_joints:] = -np.inf, np.inf
-        why = ''
-        if nmse is None:
-            why = 'no validation NMSE yet'
-        elif nmse >= self.arm_nmse:
-            why = f'validation NMSE {nmse:.3g} >= {self.arm_nmse:g}'
-        elif not np.all(np.isfinite(thresholds) & (thresholds > 0)):
-            why = 'a threshold is not positive and finite'
-        elif per_hour > self.false_alarms_per_hour * (1.0 + 1e-9):  # rounding
-            why = (f'estimated {per_hour:.3g} false alarms/h > '
-                   f'{self.false_alarms_per_hour:g}')
-        elif over:
-            why = f'{over} held-out draws over their thresholds'
-        return Calibration(segments=count, independent=independent, correlation_samples=tau,
-                           centre=centre, thresholds=thresholds, false_alarms_per_hour=per_hour,
-                           over=over, why_not=why, lo=lo, hi=hi)
+        draws = _Draws.of_segments(maxima, tau, length, None if blocks is None
+                                   else np.asarray(blocks)[finite], centre,
+                                   robust_spread(flat), x)
+        if draws.fewest < MIN_DRAWS:
+            return Calibration(segments=count, independent=draws.fewest,
+                               correlation_samples=tau,
+                               why_not=f'{draws.fewest:.0f} independent held-out draws, '
+                               f'need {MIN_DRAWS}')
+        return draws
+
+    def _recent_draws(self, last: int) -> _Draws | Calibration:
+        """The draws of the ``last`` a-priori residuals checked (module docstring), or why
+        there are too few: joint j's maxima over consecutive runs of ``max(2τ_j,
+        RECENT_DRAW)`` samples, τ_j measured within runs of :data:`RECENT_CHUNK`."""
+        r, x = self._recent.window(last)
+        count = len(r)
+        if count < 2 * RECENT_CHUNK:
+            return Calibration(segments=count // RECENT_DRAW,
+                               why_not=f'{count} a-priori residuals, need {2 * RECENT_CHUNK}')
+        finite = np.all(np.isfinite(r), axis=1)
+        centre = np.nanmedian(np.ascontiguousarray(r.T), axis=1)
+        spread = robust_spread(r[finite])
+        chunks = count // RECENT_CHUNK
+        r = np.where(np.isfinite(r), r, centre)  # no residual (or a contact's): no draw
+        tau = correlation_time(r[count - chunks * RECENT_CHUNK:].reshape(
+            chunks, RECENT_CHUNK, self.n_joints))
+        deviation = self._deviation(r, centre)
+        draws = _Draws.of_runs(deviation, np.maximum(2 * tau, RECENT_DRAW), tau, centre,
+                               spread, x)
+        if draws.fewest < MIN_DRAWS:
+            return Calibration(segments=count // RECENT_DRAW, independent=draws.fewest,
+                               correlation_samples=tau,
+                               why_not=f'{draws.fewest:.0f} independent a-priori draws, '
+                               f'need {MIN_DRAWS}')
+        return draws
 
     def update_nmse(self, validation_nmse: float) -> None:
         """Take a fresh validation NMSE of the same model between calibrations: at or above
@@ -426,6 +597,28 @@ class ContactDetector:
             self.calibration = replace(
                 self.calibration,
                 why_not=f'validation NMSE {validation_nmse:.3g} >= {self.arm_nmse:g}')
+
+    def observe(self, external: NDArray[np.float64],
+                x: NDArray[np.float64] | None = None) -> None:
+        """Keep a-priori residuals (K, n) (N·m or N) and their inputs (K, 3n) for the next
+        :meth:`calibrate`, as :meth:`check` keeps each sample it checks (an offline
+        stream, unchecked)."""
+        r = np.atleast_2d(np.asarray(external, dtype=float))
+        inputs = None if x is None else np.atleast_2d(np.asarray(x, dtype=float))
+        if r.shape[1] != self.n_joints or (inputs is not None and len(inputs) != len(r)):
+            raise ValueError(f'residuals of shape {r.shape} and inputs of shape '
+                             f'{None if inputs is None else inputs.shape} for '
+                             f'{self.n_joints} joints')
+        for k in range(max(0, len(r) - len(self._recent.residuals)), len(r)):
+            self._recent.add(r[k], None if inputs is None else inputs[k])
+
+    def keep_recent(self, other: ContactDetector) -> None:
+        """Take the a-priori residuals ``other`` has kept (a detector of new settings for
+        the same model: its next calibration need not wait for a window of its own)."""
+        if other.n_joints != self.n_joints:
+            raise ValueError(f'a detector of {other.n_joints} joints, this one has '
+                             f'{self.n_joints}')
+        self._recent = other._recent.copy()
 
     def inside(self, x: NDArray[np.float64]) -> bool:
         """Whether an input [q, q', q''] (3n,) is within the calibrated envelope (True
@@ -445,20 +638,21 @@ class ContactDetector:
         ``held``; the run counts start again); a non-finite τ_ext is not over.
         """
         active = self._active
-        if active is None:
+        if active is None or (x is not None and not self.inside(x)):
+            if active is not None:
+                self.held += 1
             self._over[:] = 0
-            return np.zeros(self.n_joints, dtype=bool)
-        if x is not None and not self.inside(x):
-            self.held += 1
-            self._over[:] = 0
+            self._recent.add(external, x)
             return np.zeros(self.n_joints, dtype=bool)
         centre, thresholds = active
         over: NDArray[np.bool_] = np.abs(external - centre) > thresholds  # NaN: False
-        if self.min_samples == 1:
-            return over
-        self._over += 1
-        self._over[~over] = 0
-        return np.asarray(self._over >= self.min_samples)
+        if self.min_samples > 1:
+            self._over += 1
+            self._over[~over] = 0
+            over = np.asarray(self._over >= self.min_samples)
+        # a contact's residual is not the free motion's: not kept for calibration
+        self._recent.add(np.where(over, np.nan, external) if over.any() else external, x)
+        return over
 
     def reset(self) -> None:
         """Forget the calibration, the NMSE and the runs (a new model)."""
@@ -468,3 +662,4 @@ class ContactDetector:
         self._envelope = None
         self.held = 0
         self._over[:] = 0
+        self._recent.clear()

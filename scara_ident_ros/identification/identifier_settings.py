@@ -103,6 +103,8 @@ class IdentifierSettings:
     stats_file: str
     # contact detection
     contact_false_alarms_per_hour: float
+    contact_calibration: str
+    contact_calibration_window: float
     contact_sigma: float
     contact_arm_nmse: float
     contact_envelope_margin: float

@@ -9,9 +9,10 @@ here.
 """
 from __future__ import annotations
 
-from scara_ident_ros.identification.contact_detector import (ARM_NMSE, ENVELOPE_MARGIN,
-                                                             FALSE_ALARMS_PER_HOUR, MIN_SAMPLES,
-                                                             SIGMA)
+from scara_ident_ros.identification.contact_detector import (A_PRIORI, ARM_NMSE,
+                                                             ENVELOPE_MARGIN,
+                                                             FALSE_ALARMS_PER_HOUR, HELD_OUT,
+                                                             MIN_SAMPLES, RECENT_S, SIGMA)
 from scara_ident_ros.identification.differentiator import (CUTOFF_HZ, DIFFERENTIATOR_WINDOW,
                                                            DIFFERENTIATORS)
 from scara_ident_ros.identification.error_window import MSE_WINDOW
@@ -199,19 +200,29 @@ IDENTIFIER_PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec('contact_false_alarms_per_hour', FALSE_ALARMS_PER_HOUR,
               'Contact detection is armed only when '
               'the false-alarm rate on free motion, estimated from the tail of the model\'s '
-              'residuals on the held-out segments (their size counted), is at most this; the '
+              'residuals (contact_calibration; their size counted), is at most this; the '
               'thresholds are set to meet it', min=1e-6, max=1e6, read_only=False),
+    ParamSpec('contact_calibration', A_PRIORI, 'The residuals the contact thresholds come '
+              'from: a-priori = every sample\'s, predicted before it was learnt, over the last '
+              'contact_calibration_window (what the check meets: motion not learnt yet); '
+              'held-out = the current model\'s on the held-out segments (motion between learnt '
+              'motion: its error on new motion is larger)', choices=(A_PRIORI, HELD_OUT),
+              read_only=False),
+    ParamSpec('contact_calibration_window', RECENT_S, 'Stream time of a-priori residuals the '
+              'contact thresholds are calibrated on (at most this many thousand samples are '
+              'kept)', 's', min=2.0, max=600.0, read_only=False),
     ParamSpec('contact_sigma', SIGMA, 'Lowest contact threshold of each joint, in robust '
-              "standard deviations (1.4826 x MAD) of the model's residuals on the held-out "
-              'samples (the false-alarm bound usually sets a higher one)',
+              "standard deviations (1.4826 x MAD) of the model's residuals the thresholds come "
+              'from (the false-alarm bound usually sets a higher one)',
               min=0.1, max=1000.0, read_only=False),
     ParamSpec('contact_arm_nmse', ARM_NMSE, 'Contact detection is armed only while the '
               'validation NMSE (mean over the joints) is below this', min=1e-12, max=10.0,
               read_only=False),
-    ParamSpec('contact_envelope_margin', ENVELOPE_MARGIN, 'Samples whose q or q\' (and q\'\' with '
-              'contact_envelope_acceleration) leave the range of the held-out segments the '
-              'thresholds come from, widened by this fraction of it, are not checked for '
-              'contact (diagnostics count them)', min=0.0, max=10.0, read_only=False),
+    ParamSpec('contact_envelope_margin', ENVELOPE_MARGIN, 'Samples whose q or q\' (and q\'\' '
+              'with contact_envelope_acceleration) leave the range of the samples the '
+              'thresholds come from (a-priori: with the held-out segments\'), widened by this '
+              'fraction of it, are not checked for contact (diagnostics count them)', min=0.0,
+              max=10.0, read_only=False),
     ParamSpec('contact_envelope_acceleration', False, "Bound q'' too by the calibrated "
               "envelope; false: q and q' only (a contact is itself an acceleration the free "
               'motion does not have: bounding q\'\' holds the samples a collision makes)',

@@ -35,7 +35,8 @@ from scara_ident_ros.dynamics.urdf_limits import UrdfError, parse_urdf
 from scara_ident_ros.errors import ConfigError
 from scara_ident_ros.estimator import Estimator, load_model
 from scara_ident_ros.identification.background_lm import BackgroundLM
-from scara_ident_ros.identification.contact_detector import Calibration, ContactDetector
+from scara_ident_ros.identification.contact_detector import (A_PRIORI, Calibration,
+                                                             ContactDetector)
 from scara_ident_ros.identification.differentiator import (AccelerationEstimate,
                                                            make_differentiator)
 from scara_ident_ros.identification.error_window import ErrorWindow
@@ -66,7 +67,8 @@ PATH_PARAMETERS = ('save_path', 'stats_file', 'model_path')
 VALIDATION_PERIOD = 1.0  # s: the held-out score is recomputed at most this often per method
 CONTACT_PARAMETERS = {'contact_sigma', 'contact_arm_nmse', 'contact_min_samples',
                       'contact_false_alarms_per_hour', 'contact_envelope_margin',
-                      'contact_envelope_acceleration'}
+                      'contact_envelope_acceleration', 'contact_calibration',
+                      'contact_calibration_window'}
 #: Rejections that mean the message's joints are not the identifier's
 JOINT_SET_REASONS = (SkipReason.UNKNOWN_JOINT, SkipReason.MISSING_JOINT,
                      SkipReason.DUPLICATE_JOINT, SkipReason.JOINT_COUNT)
@@ -93,7 +95,9 @@ def contact_detector(n_joints: int, settings: IdentifierSettings) -> ContactDete
         min_samples=settings.contact_min_samples,
         false_alarms_per_hour=settings.contact_false_alarms_per_hour,
         envelope_margin=settings.contact_envelope_margin,
-        envelope_acceleration=settings.contact_envelope_acceleration)
+        envelope_acceleration=settings.contact_envelope_acceleration,
+        calibrate_on=settings.contact_calibration,
+        recent_s=settings.contact_calibration_window)
 
 
 class _Round:
@@ -178,11 +182,12 @@ class MethodRun:
 
     def calibrate_contacts(self, sample_period_s: float, *, budget: int | None = None
                            ) -> Calibration | None:
-        """The explicit calibration step: the current model's residuals on the held-out
-        segments and a fresh validation score set the contact thresholds and arm or disarm
-        detection; ``sample_period_s`` is the stream's (s).
+        """The explicit calibration step: the residuals the checks kept (a-priori, at once)
+        or the current model's on the held-out segments, and a fresh validation score, set
+        the contact thresholds and arm or disarm detection; ``sample_period_s`` is the
+        stream's (s).
 
-        ``budget``: held-out samples to predict in this call (a round's segments are copied
+        ``budget``, held out: samples to predict in this call (a round's segments are copied
         at its start, predicted over several calls, then the detector calibrated in a call
         of its own), so that no call holds the message path long; None: all at once.
         Returns the :class:`Calibration` when a round ends, else None (also before the
@@ -192,6 +197,14 @@ class MethodRun:
         if core is None or detector is None:
             return None
         segments = core.holdout.segments if core.holdout is not None else None
+        if self._round is None and detector.calibrate_on == A_PRIORI:
+            # the residuals are those the checks kept; the held-out segments give only
+            # their inputs (the envelope): nothing to predict
+            validation = self.validation(fresh=True)
+            return detector.calibrate(
+                None, None if validation is None else float(validation.nmse_total),
+                inputs=None if segments is None or len(segments) == 0 else segments.X,
+                sample_period_s=sample_period_s)
         if self._round is None:
             if segments is None or len(segments) == 0:
                 validation = self.validation(fresh=True)
@@ -317,7 +330,8 @@ class MethodRun:
                       ((s.momentum if s.momentum >= 0 else preset.momentum)
                        if 'momentum' in changed else None))
         if CONTACT_PARAMETERS & set(changed) and self.detector is not None:
-            self.detector = contact_detector(self.detector.n_joints, s)
+            previous, self.detector = self.detector, contact_detector(self.detector.n_joints, s)
+            self.detector.keep_recent(previous)  # the same model's residuals
         if core is None:
             return
         core.learn = s.learn

@@ -99,6 +99,11 @@ class Trained:
         Its validation NMSE (mean over the joints).
     lag : int
         Samples by which its predictions follow their samples.
+    prior : ndarray of shape (N, 4)
+        The a-priori residual of every sample of the stream so far, measured − predicted
+        before it was learnt (N·m or N): what the node's contact check sees.
+    prior_inputs : ndarray of shape (N, 12)
+        Their inputs [q, q', q''].
     """
 
     net: FeedForwardNet
@@ -107,6 +112,8 @@ class Trained:
     blocks: npt.NDArray[np.int64]
     nmse: float
     lag: int
+    prior: FloatArray
+    prior_inputs: FloatArray
 
 
 def loop_record(params: ScaraParams, *, seconds: float, seed: int, config: SimConfig,
@@ -139,23 +146,33 @@ def train_model(params: ScaraParams, *, seconds: float, seed: int, config: SimCo
         method='ffs', trainer='lm', hidden_units=hidden, seed=seed), limits)
     net = cast(FeedForwardNet, ident.model)
     names = params.joint_names
+    stage = InputStage(JointMap(names, n_joints=4))
+    stamps, inputs, _ = stage.batch(record.stamp_ns, names, record.q, record.qd,
+                                    record.effort)
+    prior = np.empty((len(stamps), 4))
+    count = 0
     every = round(every_s / config.dt) if on_every is not None and every_s > 0 else 0
     for i in range(len(record)):
-        ident.process(int(record.stamp_ns[i]), names, record.q[i], record.qd[i],
-                      record.effort[i])
+        for result in ident.process(int(record.stamp_ns[i]), names, record.q[i],
+                                    record.qd[i], record.effort[i]):
+            if result.effort is not None and result.measured is not None:
+                assert result.stamp_ns == stamps[count]  # the same stage, the same samples
+                prior[count] = result.measured - result.effort
+                count += 1
         if every and (i + 1) % every == 0 and on_every is not None:
-            now = _frozen(ident, net)
+            now = _frozen(ident, net, prior[:count], inputs[:count])
             if now is not None:
                 on_every((i + 1) * config.dt, now)
-    trained = _frozen(ident, net)
+    trained = _frozen(ident, net, prior[:count], inputs[:count])
     if trained is None:
         raise ValueError(f'{seconds} s of stream held out too few samples to score')
     return trained
 
 
-def _frozen(ident: OnlineIdentifier, net: FeedForwardNet) -> Trained | None:
-    """The model as it is, with its residuals on the held-out segments; None before they
-    can be scored."""
+def _frozen(ident: OnlineIdentifier, net: FeedForwardNet, prior: FloatArray,
+            prior_inputs: FloatArray) -> Trained | None:
+    """The model as it is, with its residuals on the held-out segments and the stream's
+    a-priori residuals so far (copied); None before the held-out ones can be scored."""
     stats = ident.validation_stats()
     segments = ident.holdout.segments if ident.holdout is not None else None
     if stats is None or segments is None or len(segments) == 0:
@@ -163,7 +180,7 @@ def _frozen(ident: OnlineIdentifier, net: FeedForwardNet) -> Trained | None:
     X = segments.X.copy()
     residuals = segments.Y - net.predict(X.reshape(-1, 12)).reshape(segments.Y.shape)
     return Trained(net, residuals, X, segments.blocks.copy(), float(stats.nmse_total),
-                   ident.lag)
+                   ident.lag, prior.copy(), prior_inputs.copy())
 
 
 def pulse_record(params: ScaraParams, *, seconds: float, seed: int, config: SimConfig,

@@ -22,14 +22,22 @@ def test_bench_contact_runs_at_ci_size() -> None:
          '--clean-seconds', '5', '--pulse-seconds', '5', '--bounds', '1'],
         capture_output=True, text=True, env=env, timeout=600, check=False)
     assert out.returncode == 0, out.stderr
-    # 20 s of stream hold out too few blocks to arm: the row says why, and flags nothing
-    row = re.search(r'^\| bound 1/h \| no \((.*)\) \|.*\| (\d+)/(\d+) \|', out.stdout,
-                    re.MULTILINE)
+    # 20 s of stream hold out too few blocks to arm on them: the row says why, and flags
+    # nothing
+    row = re.search(r'^\| held-out \(before\), bound 1/h \| no \((.*)\) \|.*\| (\d+)/(\d+) \|',
+                    out.stdout, re.MULTILINE)
     assert row is not None, out.stdout
     why, detected, pulses = row.group(1), int(row.group(2)), int(row.group(3))
     assert 'independent' in why and detected == 0 and pulses >= 2
-    # the node's calibrations while it learns (every 10 s of stream): none armed
-    assert re.search(r'^\*\*Not armed\*\* in 20 s \(10 s: .*; 20 s: .*\)\.$', out.stdout,
-                     re.MULTILINE), out.stdout
+    # the a-priori residuals, the default, give a row of the same pulses, armed or not
+    row = re.search(r'^\| a-priori [0-9.]+ s, bound 1/h \| (yes|no \(.*\)) \|.*\| (\d+)/(\d+) \|',
+                    out.stdout, re.MULTILINE)
+    assert row is not None and int(row.group(3)) == pulses, out.stdout
+    # the node's calibrations while it learns (every 10 s of stream): none armed on the
+    # held-out segments; each a-priori calibration says what it found
+    assert re.search(r'^Calibrated on the held-out residuals: \*\*Not armed\*\* in 20 s '
+                     r'\(10 s: .*; 20 s: .*\)\.$', out.stdout, re.MULTILINE), out.stdout
+    assert re.search(r'^Calibrated on the a-priori residuals: \*\*(Armed at|Not armed).*'
+                     r'\(10 s: .*; 20 s: .*\)\.$', out.stdout, re.MULTILINE), out.stdout
     before = re.search(r'^\| before: 12 x .*\| (\d+)/(\d+) \|', out.stdout, re.MULTILINE)
     assert before is not None and int(before.group(2)) == pulses

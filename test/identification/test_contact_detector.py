@@ -1,4 +1,4 @@
-"""Contact detection: thresholds from held-out residuals, arming, the check."""
+"""Contact detection: thresholds from a-priori or held-out residuals, arming, the check."""
 from __future__ import annotations
 
 import numpy as np
@@ -8,7 +8,8 @@ from scara_ident_ros.dynamics import ScaraModel, ScaraParams
 from scara_ident_ros.paper.contact import detect, evaluate, pulse_record, residuals_of
 from scara_ident_ros.paper.learning_curves import noisy_config
 from scara_ident_ros.identification import Holdout, InputStage, JointMap, OnlineIdentifier
-from scara_ident_ros.identification.contact_detector import (MIN_DRAWS, ContactDetector,
+from scara_ident_ros.identification.contact_detector import (HELD_OUT, MIN_DRAWS,
+                                                             RECENT_CHUNK, ContactDetector,
                                                              correlation_time, robust_spread)
 from scara_ident_ros.resources import config_path
 from scara_ident_ros.sim import SimConfig, Simulator, make_trajectory
@@ -54,7 +55,7 @@ def test_the_false_alarm_rate_on_fresh_free_motion_stays_under_the_bound() -> No
         base[..., 0] *= np.sqrt(3.0 / rng.chisquare(3.0, size=(count, 1)))  # heavy tail
         return base
 
-    detector = ContactDetector(2, false_alarms_per_hour=bound, arm_nmse=0.1)
+    detector = ContactDetector(2, false_alarms_per_hour=bound, arm_nmse=0.1, calibrate_on=HELD_OUT)
     calibration = detector.calibrate(residuals(200), 0.001, sample_period_s=1e-3)
     assert detector.armed, calibration.why_not
     assert calibration.false_alarms_per_hour is not None
@@ -72,7 +73,7 @@ def test_the_false_alarm_rate_on_fresh_free_motion_stays_under_the_bound() -> No
 def test_armed_only_when_identified_with_enough_independent_segments() -> None:
     rng = np.random.default_rng(2)
     residuals = rng.normal(size=(150, 100, 2))
-    detector = ContactDetector(2, arm_nmse=0.01)
+    detector = ContactDetector(2, arm_nmse=0.01, calibrate_on=HELD_OUT)
     big = np.array([100.0, 100.0])
     assert not detector.armed and not detector.check(big).any()  # not calibrated
     detector.calibrate(residuals, 0.5)  # NMSE above arm_nmse: not identified
@@ -114,8 +115,8 @@ def test_armed_only_when_identified_with_enough_independent_segments() -> None:
 
 def test_a_tighter_bound_gives_higher_thresholds() -> None:
     residuals = np.random.default_rng(3).normal(size=(300, 100, 1))
-    loose = ContactDetector(1, false_alarms_per_hour=100.0, sigma=0.1)
-    tight = ContactDetector(1, false_alarms_per_hour=0.01, sigma=0.1)
+    loose = ContactDetector(1, false_alarms_per_hour=100.0, sigma=0.1, calibrate_on=HELD_OUT)
+    tight = ContactDetector(1, false_alarms_per_hour=0.01, sigma=0.1, calibrate_on=HELD_OUT)
     loose.calibrate(residuals, 0.001)
     tight.calibrate(residuals, 0.001)
     assert loose.thresholds is not None and tight.thresholds is not None
@@ -126,7 +127,8 @@ def test_outside_the_calibrated_envelope_nothing_fires() -> None:
     rng = np.random.default_rng(4)
     residuals = rng.normal(size=(200, 100, 1))
     inputs = rng.uniform(-1.0, 1.0, size=(200, 100, 3))  # q, q', q'' within [-1, 1]
-    detector = ContactDetector(1, envelope_margin=0.1, envelope_acceleration=True)
+    detector = ContactDetector(1, envelope_margin=0.1, envelope_acceleration=True,
+                               calibrate_on=HELD_OUT)
     detector.calibrate(residuals, 0.001, inputs=inputs)
     assert detector.armed
     big = np.array([100.0])
@@ -137,7 +139,7 @@ def test_outside_the_calibrated_envelope_nothing_fires() -> None:
     assert detector.held == 3
     assert detector.check(big).tolist() == [True]  # no input given: checked
     # by default q'' is not bounded (a contact is an acceleration), q and q' are
-    default = ContactDetector(1, envelope_margin=0.1)
+    default = ContactDetector(1, envelope_margin=0.1, calibrate_on=HELD_OUT)
     default.calibrate(residuals, 0.001, inputs=inputs)
     assert default.check(big, np.array([0.0, 0.5, 5.0])).tolist() == [True]
     assert default.check(big, np.array([0.0, 1.3, 0.0])).tolist() == [False]
@@ -145,7 +147,7 @@ def test_outside_the_calibrated_envelope_nothing_fires() -> None:
 
 
 def test_min_samples_needs_a_run_over_the_threshold() -> None:
-    detector = ContactDetector(1, arm_nmse=1.0, min_samples=3)
+    detector = ContactDetector(1, arm_nmse=1.0, min_samples=3, calibrate_on=HELD_OUT)
     detector.calibrate(np.random.default_rng(5).normal(size=(200, 100, 1)), 0.001)
     assert detector.armed
     over, under = np.array([50.0]), np.array([0.0])
@@ -153,9 +155,75 @@ def test_min_samples_needs_a_run_over_the_threshold() -> None:
     assert flags == [False, False, False, False, False, True, True]
 
 
+def test_a_priori_thresholds_bound_alarms_on_new_motion_where_held_out_ones_do_not() -> None:
+    """The shift of ``benchmarks/contact.md``: a model errs less on held-out blocks (between
+    learnt motion) than on new motion. Held-out residuals of scale 1, a-priori residuals
+    (each sample predicted before it is learnt) and new motion of scale 2: thresholds from
+    the a-priori ones keep the bound on 400 s of new motion, the held-out ones do not."""
+    rng = np.random.default_rng(6)
+    bound = 100.0  # per hour: 11 alarms allowed in 400 s, so the check can fail
+    held_out = ar1_segments(rng, 200, 100, 0.8, (1.0, 0.1))
+    a_priori = ar1_segments(rng, 1, 30_000, 0.8, (2.0, 0.2))[0]  # the last 30 s
+    fresh = ar1_segments(rng, 4000, 100, 0.8, (2.0, 0.2))  # 400 s of new motion
+    allowed = bound * 4000 * 0.1 / 3600.0
+
+    def alarms(detector: ContactDetector) -> int:
+        c = detector.calibration
+        assert detector.armed, c.why_not
+        assert c.false_alarms_per_hour is not None and c.false_alarms_per_hour <= bound
+        return int((np.abs(fresh - c.centre) > c.thresholds).any(axis=(1, 2)).sum())
+
+    before = ContactDetector(2, false_alarms_per_hour=bound, calibrate_on=HELD_OUT)
+    before.calibrate(held_out, 0.001)
+    after = ContactDetector(2, false_alarms_per_hour=bound)  # a-priori: the default
+    after.observe(a_priori)
+    after.calibrate(held_out, 0.001)
+    assert alarms(before) > allowed
+    assert alarms(after) <= allowed
+
+
+def test_a_priori_draws_arm_from_the_residuals_checked() -> None:
+    """Every residual :meth:`check` sees is kept; the window's independent draws (runs of
+    at least twice the correlation time) arm it; a reset forgets them; only the last
+    ``recent_s`` count; a detector of new settings takes them over."""
+    rng = np.random.default_rng(7)
+    detector = ContactDetector(2, recent_s=20.0)
+    for row in rng.normal(size=(2 * RECENT_CHUNK - 1, 2)):
+        detector.check(row)
+    detector.calibrate(None, 0.001)
+    assert not detector.armed and 'a-priori residuals' in detector.calibration.why_not
+    detector.check(rng.normal(size=2))
+    detector.calibrate(None, 0.001)  # 2,000 white samples: 20 draws of 100
+    assert detector.armed and detector.calibration.independent == 20
+    detector.reset()  # a new model: its residuals are to come
+    detector.calibrate(None, 0.001)
+    assert not detector.armed and 'a-priori residuals' in detector.calibration.why_not
+    # joint 1 correlated past a run of 1,000: one draw per 2,000 samples
+    slow = ar1_segments(rng, 1, 8 * 2 * RECENT_CHUNK, 0.9999, (1.0, 1.0))[0]
+    slow[:, 0] = rng.normal(size=len(slow))
+    detector.observe(slow[:7 * 2 * RECENT_CHUNK])
+    detector.calibrate(None, 0.001)
+    assert not detector.armed and detector.calibration.independent == 7 < MIN_DRAWS
+    assert 'draws' in detector.calibration.why_not
+    detector.observe(slow[7 * 2 * RECENT_CHUNK:])
+    detector.calibrate(None, 0.001)
+    assert detector.armed and detector.calibration.independent == MIN_DRAWS
+    # a spike older than the window (20 s at 1 kHz) does not count
+    detector.observe(np.array([1e3, 0.0]))
+    detector.observe(rng.normal(size=(20_000, 2)))
+    detector.calibrate(None, 0.001, sample_period_s=1e-3)
+    assert detector.thresholds is not None and detector.thresholds[0] < 10.0
+    kept = ContactDetector(2, recent_s=20.0, false_alarms_per_hour=0.5)
+    kept.keep_recent(detector)
+    kept.calibrate(None, 0.001)
+    assert kept.armed and kept.thresholds is not None
+    assert np.all(kept.thresholds >= detector.thresholds)  # the same draws, a tighter bound
+
+
 def test_bad_settings_are_refused() -> None:
     for kwargs in ({'sigma': 0.0}, {'arm_nmse': -1.0}, {'min_samples': 0},
-                   {'false_alarms_per_hour': 0.0}, {'envelope_margin': -0.1}):
+                   {'false_alarms_per_hour': 0.0}, {'envelope_margin': -0.1},
+                   {'calibrate_on': 'validation'}, {'recent_s': 0.0}):
         with pytest.raises(ValueError):
             ContactDetector(2, **kwargs)
 
@@ -241,7 +309,7 @@ def test_an_identified_model_detects_a_pulse_and_nothing_on_clean_unseen_motion(
     assert segments is not None
     residuals = segments.Y - model.predict(segments.X.reshape(-1, 12)).reshape(
         segments.Y.shape)
-    detector = ContactDetector(4, arm_nmse=0.01)
+    detector = ContactDetector(4, arm_nmse=0.01, calibrate_on=HELD_OUT)
     calibration = detector.calibrate(residuals, stats.nmse_total, inputs=segments.X)
     assert detector.armed, calibration.why_not
 

@@ -272,15 +272,15 @@ def test_a_stream_without_velocities_is_predicted_with_derived_velocities(derive
 def noisy_session(n: int, length: int, noise: float = 0.05
                   ) -> tuple[IdentificationSession, SimRecord]:
     """A session fed the first ``n`` samples of a ``length``-sample record with sensor
-    noise (σ a fraction ``noise`` of the effort limits), its contact detector not
-    calibrated yet, and the record."""
+    noise (σ a fraction ``noise`` of the effort limits), its contact detector (on the
+    held-out segments) not calibrated yet, and the record."""
     record = simulated(length)
     rng = np.random.default_rng(0)
     record.effort[:] += rng.normal(size=record.effort.shape) * noise * SCARA.array(
         'effort_max')  # 40 held-out blocks: enough draws either way
-    session = IdentificationSession(settings(
-        joint_names=NAMES, validation_fraction=0.5, validation_block=50,
-        contact_arm_nmse=10.0))
+    session = IdentificationSession(settings(  # 4,000 samples of a model still learning:
+        joint_names=NAMES, validation_fraction=0.5, validation_block=50,  # few a-priori
+        contact_arm_nmse=10.0, contact_calibration='held-out'))  # draws, many held-out
     feed(session, record, n)
     return session, record
 

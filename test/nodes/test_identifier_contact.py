@@ -8,7 +8,9 @@ that the held-out residuals are independent from sample to sample and 2,500 held
 give far more independent segments than arming needs. The test publishes the stream with a pulse
 added to joint1's measured effort on two samples: the first while detection is not armed
 (``contact_arm_nmse`` below the model's NMSE), the second once the parameter is raised
-above it and a calibration has armed it.
+above it and a calibration has armed it. The thresholds come from the held-out segments
+(``contact_calibration:=held-out``), computed here too; the a-priori residuals, the default,
+would hold the first pulse (``test_contact_detector.py`` checks that calibration).
 """
 from __future__ import annotations
 
@@ -24,7 +26,7 @@ from std_msgs.msg import Bool
 
 from scara_ident_ros.dynamics import ScaraParams
 from scara_ident_ros.identification import Holdout, InputStage, JointMap
-from scara_ident_ros.identification.contact_detector import ContactDetector
+from scara_ident_ros.identification.contact_detector import HELD_OUT, ContactDetector
 from scara_ident_ros.nn.presets import make_network
 from scara_ident_ros.nn import FeedForwardNet
 from scara_ident_ros.nn.network import forward_scaled
@@ -130,7 +132,7 @@ def test_contact_only_once_armed_with_the_samples_stamp(tmp_path: Path,
             rule.add(X[i], measured[i])
     assert rule.segments is not None
     segments = rule.segments
-    expected = ContactDetector(4, arm_nmse=0.01)
+    expected = ContactDetector(4, arm_nmse=0.01, calibrate_on=HELD_OUT)
     calibration = expected.calibrate(
         segments.Y - net.predict(segments.X.reshape(-1, 12)).reshape(segments.Y.shape),
         1e-4, inputs=segments.X)
@@ -152,6 +154,7 @@ def test_contact_only_once_armed_with_the_samples_stamp(tmp_path: Path,
     args = ['-p', f'model_path:={tmp_path / "model.npz"}', '-p', 'learn:=false',
             '-p', f'validation_block:={BLOCK}', '-p', f'validation_fraction:={FRACTION}',
             '-p', 'contact_calibration_period:=0.3', '-p', 'contact_arm_nmse:=1e-9',
+            '-p', 'contact_calibration:=held-out',
             '-p', f'stats_file:={tmp_path / "stats.json"}']
     with rostest.NodeProcess(IDENTIFIER, args) as node:
         assert listener.spin_until(lambda: publisher.get_subscription_count() >= 1
