@@ -11,6 +11,8 @@ node stopped while running: :func:`~scara_ident_ros.nodes.runtime.run_node`).
 from __future__ import annotations
 
 import importlib
+import os
+import signal
 import sys
 from collections.abc import Callable
 from functools import partial
@@ -23,12 +25,28 @@ NODES = ('scara_sim', 'robot_sim', 'identifier', 'recorder', 'player', 'excitati
 
 def run(name: str) -> None:
     """Import node ``name``'s module and run its ``main``; a Ctrl-C before the node handles
-    it ends the process with one line on stderr."""
+    it ends the process with one line on stderr.
+
+    During the imports SIGINT ends the process at once rather than raising
+    ``KeyboardInterrupt``: raised inside a C extension's import (numpy's, importing
+    ``datetime``), it would come out as an ``ImportError`` with its traceback. Nothing is
+    running yet that an immediate exit could lose.
+    """
+    line = f'{name}: stopped while starting'
+
+    def stopped(*_: object) -> None:
+        print(line, file=sys.stderr, flush=True)
+        os._exit(0)
+
+    handler = signal.getsignal(signal.SIGINT)
+    if handler is signal.default_int_handler:  # not where SIGINT is ignored
+        signal.signal(signal.SIGINT, stopped)
+    module = importlib.import_module(f'scara_ident_ros.nodes.{name}')
+    signal.signal(signal.SIGINT, handler)
     try:
-        main = importlib.import_module(f'scara_ident_ros.nodes.{name}').main
-        main()
-    except KeyboardInterrupt:
-        print(f'{name}: stopped while starting', file=sys.stderr)
+        module.main()
+    except KeyboardInterrupt:  # before the node handles it; learners may have started
+        print(line, file=sys.stderr)
         sys.exit(0)
 
 
