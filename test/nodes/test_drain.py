@@ -44,6 +44,34 @@ def test_drain_waits_for_messages_in_flight_for_the_quiet_time() -> None:
     assert drain(executor, lambda: executor.taken, quiet=0.1) == 17
 
 
+def test_a_publisher_that_goes_on_does_not_hold_the_stop_up() -> None:
+    """A backlog, with a timer's event after every second message, then a live stream of
+    one message per 0.5 ms: the backlog is taken whole, the live stream for ``quiet``."""
+    class Live(QueueExecutor):
+        def __init__(self) -> None:
+            super().__init__(3000)
+            self.spins = 0
+            self.next_live = None
+
+        def spin_once(self, timeout_sec: float) -> None:
+            self.spins += 1
+            if self.queued and self.spins % 3 == 0:
+                return  # a timer's callback: no message taken
+            now = time.monotonic()
+            if not self.queued and self.next_live is None:
+                self.next_live = now
+            if self.next_live is not None and now >= self.next_live:
+                self.queued += 1
+                self.next_live += 0.0005
+            super().spin_once(timeout_sec)
+
+    executor = Live()
+    started = time.monotonic()
+    taken = drain(executor, lambda: executor.taken, timeout=5.0, quiet=0.05)
+    assert time.monotonic() - started < 1.0
+    assert taken >= 3000
+
+
 def test_drain_is_bounded_in_time() -> None:
     class Endless(QueueExecutor):
         def spin_once(self, timeout_sec: float) -> None:

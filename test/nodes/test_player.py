@@ -174,8 +174,12 @@ def test_topics_and_remap(tmp_path: Path, listener: Any) -> None:
 def test_clock_publishes_the_recorded_time(tmp_path: Path, listener: Any) -> None:
     from rosgraph_msgs.msg import Clock
 
+    from sensor_msgs.msg import JointState
+
     make_bag(tmp_path / 'bag', 11, 100_000_000)  # 1.0 s
     clocks = listener.subscribe(Clock, '/clock')
+    # the bag's topic too: the player waits (wait_timeout, 15 s) for a subscriber on each
+    listener.subscribe(JointState, JOINT_STATES)
     with play('-p', f'bag:={tmp_path / "bag"}', '-p', 'clock:=true',
               '-p', 'clock_rate:=50.0') as player:
         output = spin_until_exit(listener, player)
