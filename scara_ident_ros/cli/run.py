@@ -54,6 +54,7 @@ POLL_PERIOD = 0.1  # s between two looks at the processes and the stop signals
 INTERRUPTED = 130  # exit status after a Ctrl-C (128 + SIGINT), as a shell reports it
 JOINT_STATES_TOPIC = in_namespace(JOINT_STATES)  # the robot's: the identifier takes it
 IDENTIFIER = 'identifier'  # the identifier's process, logs and node name
+RECORDER = '/recorder'  # the recorder's node, fully qualified
 #: SCHED_FIFO priorities (nodes/realtime.py): the simulator's stream first, then the
 #: predictions, then the recorder; the learners and everything else after them
 REALTIME = {'simulator': 30, IDENTIFIER: 20, 'recorder': 10}
@@ -161,7 +162,8 @@ def run(args: argparse.Namespace) -> int:
         *(['-p', f'lm_interval:={args.lm_interval}'] if args.lm_interval else []),
         # subscribe /joint_states only once the recorder records every method's outputs:
         # the simulator's wait below then covers the predictions too
-        '-p', 'wait_for_subscribers:=1', '-p', f'wait_timeout:={STARTUP_TIMEOUT}',
+        '-p', 'wait_for_subscribers:=1', '-p', f'wait_for_nodes:=[{RECORDER}]',
+        '-p', f'wait_timeout:={STARTUP_TIMEOUT}',
         '-p', f'stats_file:={stats}/{{method}}.json',
         # the last samples' predictions when the simulator ends, not when the identifier stops
         '-p', f'end_history_after:={END_HISTORY_AFTER}',
@@ -169,6 +171,8 @@ def run(args: argparse.Namespace) -> int:
     sim = graph.start(NodeProcess(sim_name, f'scara_ident_ros.nodes.{sim_name}', [
         '-p', f'duration:={args.duration}', '-p', f'trajectory:={args.trajectory}',
         '-p', f'seed:={args.seed}', '-p', 'wait_for_subscribers:=2',
+        # this run's two, not any two: a user's recorder or `scara-ident lag` may be there
+        '-p', f'wait_for_nodes:=[{RECORDER},/{IDENTIFIER}]',
         '-p', f'wait_timeout:={STARTUP_TIMEOUT}',
         '-p', f'stats_file:={stats / "scara_sim.json"}',
         '-p', f'realtime_priority:={REALTIME["simulator"]}', *sim_args]))

@@ -64,6 +64,7 @@ from scara_ident_ros.nodes.joint_state_cdr import (JointStateReader, JointStateT
                                                    RawJointState)
 from scara_ident_ros.nodes.messages import joint_state
 from scara_ident_ros.nodes.realtime import REALTIME_PRIORITY
+from scara_ident_ros.nodes.subscribers import WAIT_FOR_NODES, subscribers_heard
 from scara_ident_ros.nodes.parameters import ParamSpec, declare_parameters
 from scara_ident_ros.nodes.publisher_watch import PublisherWatch
 from scara_ident_ros.nodes.runtime import run_node
@@ -101,7 +102,7 @@ END_HISTORY_AFTER = ParamSpec(
     's', min=0.0, fixed='a timer made at start')
 #: The node's parameters: the identifier's (:mod:`scara_ident_ros.identification.parameters`),
 #: then the node's own: the end of a quiet stream's history, the scheduling of its threads
-PARAMETERS = (*IDENTIFIER_PARAMETERS, END_HISTORY_AFTER, REALTIME_PRIORITY)
+PARAMETERS = (*IDENTIFIER_PARAMETERS, END_HISTORY_AFTER, REALTIME_PRIORITY, WAIT_FOR_NODES)
 #: contact messages are rare: a few seconds of them at 1 kHz
 CONTACT_QOS = QoSProfile(depth=1000, history=HistoryPolicy.KEEP_LAST,
                          reliability=ReliabilityPolicy.RELIABLE)
@@ -189,7 +190,7 @@ class IdentifierNode(Node):
 
     def __init__(self) -> None:
         super().__init__('identifier')
-        own = declare_parameters(self, (END_HISTORY_AFTER, REALTIME_PRIORITY))
+        own = declare_parameters(self, (END_HISTORY_AFTER, REALTIME_PRIORITY, WAIT_FOR_NODES))
         # the parameters, converted once: replaced by the new settings when some are set
         self.settings = s = IdentifierSettings.of(
             declare_parameters(self, IDENTIFIER_PARAMETERS, on_change=self._apply))
@@ -227,6 +228,7 @@ class IdentifierNode(Node):
         self.last_sample: float | None = None  # monotonic s of the latest sample
         self.ended_history = True  # the pending samples are out since the latest sample
         self.end_history_after: float = own[END_HISTORY_AFTER.name]
+        self.wait_for_nodes: list[str] = list(own[WAIT_FOR_NODES.name])
         if self.end_history_after > 0:
             self.create_timer(QUIET_TICK, self._end_quiet_history)
         self.diagnostics = [
@@ -243,7 +245,9 @@ class IdentifierNode(Node):
             self.wait_deadline = time.monotonic() + s.wait_timeout
             self.wait_timer = self.create_timer(WAIT_POLL_PERIOD, self._subscribe_when_heard)
             self.get_logger().info(
-                f'waiting for {s.wait_for_subscribers} subscriber(s) on ' + ', '.join(
+                f'waiting for {s.wait_for_subscribers} subscriber(s)'
+                + (f" ({', '.join(self.wait_for_nodes)})" if self.wait_for_nodes else '')
+                + ' on ' + ', '.join(
                     f'{o.torque_publisher.topic_name} and {o.mse_publisher.topic_name}'
                     for o in self.outputs))
         else:
@@ -262,14 +266,17 @@ class IdentifierNode(Node):
             f"learning {'on' if self.settings.learn else 'off'}")
 
     def _subscribe_when_heard(self) -> None:
-        """Timer: subscribe once every output has ``wait_for_subscribers`` subscribers."""
+        """Timer: subscribe once every output has ``wait_for_subscribers`` subscribers, those
+        of ``wait_for_nodes`` among them."""
         wanted = self.settings.wait_for_subscribers
-        heard = min(min(o.torque_publisher.get_subscription_count(),
-                        o.mse_publisher.get_subscription_count())
-                    for o in self.outputs)
-        if heard < wanted and time.monotonic() < self.wait_deadline:
+        ready = all(subscribers_heard(self, publisher, wanted, self.wait_for_nodes)
+                    for o in self.outputs for publisher in (o.torque_publisher, o.mse_publisher))
+        if not ready and time.monotonic() < self.wait_deadline:
             return
-        if heard < wanted:
+        if not ready:
+            heard = min(min(o.torque_publisher.get_subscription_count(),
+                            o.mse_publisher.get_subscription_count())
+                        for o in self.outputs)
             self.get_logger().warning(
                 f'only {heard} of {wanted} subscribers on the outputs after '
                 f'{self.settings.wait_timeout:g} s; subscribing anyway')

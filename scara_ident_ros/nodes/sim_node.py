@@ -48,6 +48,7 @@ from scara_ident_ros.nodes.parameters import ParamSpec, declare_parameters
 from scara_ident_ros.nodes.runtime import POLL_PERIOD
 from scara_ident_ros.nodes.pacer import DeadlinePacer
 from scara_ident_ros.nodes.realtime import REALTIME_PRIORITY
+from scara_ident_ros.nodes.subscribers import WAIT_FOR_NODES, subscribers_heard
 from scara_ident_ros.sim import (SEQUENCE, TRAJECTORIES, FourierTrajectory, SequenceTrajectory,
                                  SimConfig, Simulator, make_trajectory)
 from scara_ident_ros.sim.trajectory_follower import TrajectoryFollower
@@ -100,6 +101,7 @@ SIM_PARAMETERS: tuple[ParamSpec, ...] = (
               's', min=0.01, max=60.0),
     ParamSpec('wait_for_subscribers', 0, 'Before the first sample, wait until this many '
               'subscribers are matched on joint_states (0: start at once)', min=0),
+    WAIT_FOR_NODES,
     ParamSpec('wait_timeout', 30.0, 'Longest wait for those subscribers', 's', min=0.0),
     ParamSpec('stats_file', '', 'Write the final counters here as JSON on shutdown; empty: '
               'never'),
@@ -273,15 +275,17 @@ class SimulatorNode(Node):
                 self.log_stats()
 
     def wait_for_subscribers(self, executor: Executor, stop: threading.Event) -> bool:
-        """Wait for ``wait_for_subscribers`` matched subscribers; False if stopped meanwhile."""
-        wanted = self.settings['wait_for_subscribers']
+        """Wait for ``wait_for_subscribers`` matched subscribers, those of ``wait_for_nodes``
+        among them; False if stopped meanwhile."""
+        wanted, names = self.settings['wait_for_subscribers'], self.settings['wait_for_nodes']
         deadline = time.monotonic() + self.settings['wait_timeout']
-        while self.publisher.get_subscription_count() < wanted:
+        while not subscribers_heard(self, self.publisher, wanted, names):
             if stop.is_set():
                 return False
             if time.monotonic() > deadline:
                 self.get_logger().warning(
                     f'only {self.publisher.get_subscription_count()} of {wanted} subscribers '
+                    f'{"(" + ", ".join(names) + ") " if names else ""}'
                     f'after {self.settings["wait_timeout"]:g} s; starting anyway')
                 break
             executor.spin_once(timeout_sec=0.05)
