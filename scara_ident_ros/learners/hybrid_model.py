@@ -70,7 +70,7 @@ from typing import Any, Protocol, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.stats import t as student_t
+from scipy.special import stdtrit
 
 from scara_ident_ros.dynamics.physical_model import PhysicalModel
 from scara_ident_ros.estimator import Estimator, SavedEstimator, register_kind
@@ -467,7 +467,7 @@ def gate_scales(correction: ArrayLike, residual: ArrayLike,
     gain = (2.0 * others * rc - others ** 2 * cc) / counts  # MSE without minus with
     mean = gain.mean(axis=0)
     error = gain.std(axis=0, ddof=1) / np.sqrt(n_blocks)
-    margin = float(student_t.ppf(1.0 - level, n_blocks - 1))
+    margin = float(stdtrit(n_blocks - 1, 1.0 - level))  # Student t quantile
     keep = (mean > 0.0) & (mean > margin * error)
     return np.where(keep, every, 0.0)
 
