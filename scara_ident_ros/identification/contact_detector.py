@@ -78,7 +78,9 @@ with ``envelope_acceleration``) within the range per input of the calibration's 
 measured. q'' is left out by default because a contact is itself an acceleration the free
 motion does not have: holding on q'' holds the very samples a collision makes (on the
 excitation loop it delayed the detection of 10 % pulses from 10 to 37 ms,
-``benchmarks/contact.md``).
+``benchmarks/contact.md``). The default margin is half the range: unseen motion of the kind
+calibrated on leaves the window's range by more than a quarter of it, and a margin of a
+quarter held whole pulses there (``benchmarks/contact.md``).
 """
 from __future__ import annotations
 
@@ -101,7 +103,7 @@ SIGMA = 5.0  # robust standard deviations: the lowest threshold
 ARM_NMSE = 0.01  # validation NMSE below which detection may be armed
 MIN_SAMPLES = 1  # consecutive samples over a threshold before a contact
 FALSE_ALARMS_PER_HOUR = 1.0  # the false-alarm rate the thresholds are set to meet
-ENVELOPE_MARGIN = 0.25  # fraction of the calibrated range the envelope is widened by
+ENVELOPE_MARGIN = 0.5  # fraction of the calibrated range the envelope is widened by
 MIN_DRAWS = 8  # independent draws (segments or blocks) per joint before detection is armed
 ACF_LEVEL = 0.1  # autocorrelation below which residuals count as decorrelated
 A_PRIORI, HELD_OUT = 'a-priori', 'held-out'  # what the thresholds are calibrated on

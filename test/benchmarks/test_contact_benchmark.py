@@ -41,3 +41,7 @@ def test_bench_contact_runs_at_ci_size() -> None:
                      r'\(10 s: .*; 20 s: .*\)\.$', out.stdout, re.MULTILINE), out.stdout
     before = re.search(r'^\| before: 12 x .*\| (\d+)/(\d+) \|', out.stdout, re.MULTILINE)
     assert before is not None and int(before.group(2)) == pulses
+    # each calibration's room per joint: four 'clean < pulse' pairs, or why there are none
+    rooms = re.findall(r'^- (a-priori|held-out) .*: (not calibrated|(?:[0-9.e+-]+ < [0-9.e+inf-]+'
+                       r'(?: \(threshold [0-9.e+-]+\))?(?:; |$)){4})$', out.stdout, re.MULTILINE)
+    assert [on for on, _ in rooms] == ['a-priori', 'held-out'], out.stdout

@@ -146,6 +146,26 @@ def test_outside_the_calibrated_envelope_nothing_fires() -> None:
     assert default.held == 1
 
 
+def test_the_default_envelope_widens_the_a_priori_range_by_half() -> None:
+    """A-priori, the envelope is the window's q, q' range (with the held-out segments'),
+    widened by ``contact_envelope_margin``, by default half of it: a sample 0.4 of the range
+    past it is checked, one 0.6 past it held (a quarter held whole pulses on unseen motion
+    of the excitation loop, ``benchmarks/contact.md``)."""
+    rng = np.random.default_rng(8)
+    detector = ContactDetector(1)
+    detector.observe(rng.normal(size=(4 * RECENT_CHUNK, 1)),
+                     rng.uniform(-1.0, 1.0, size=(4 * RECENT_CHUNK, 3)))
+    held_out = rng.uniform(0.0, 2.0, size=(10, 100, 3))  # widens the range to [-1, 2]
+    detector.calibrate(None, 0.001, inputs=held_out)
+    assert detector.armed
+    big = np.array([100.0])
+    assert detector.check(big, np.array([-2.1, 0.0, 0.0])).tolist() == [True]  # 0.37 past
+    assert detector.check(big, np.array([0.0, 3.4, 0.0])).tolist() == [True]
+    assert detector.check(big, np.array([-2.8, 0.0, 0.0])).tolist() == [False]  # 0.6 past
+    assert detector.check(big, np.array([0.0, 3.8, 0.0])).tolist() == [False]
+    assert detector.held == 2
+
+
 def test_min_samples_needs_a_run_over_the_threshold() -> None:
     detector = ContactDetector(1, arm_nmse=1.0, min_samples=3, calibrate_on=HELD_OUT)
     detector.calibrate(np.random.default_rng(5).normal(size=(200, 100, 1)), 0.001)
