@@ -31,8 +31,9 @@ __all__ = ['OLD_NAMES', 'IdentifierSettings', 'SettingsError']
 OLD_NAMES = {'capacity': 'reservoir_size', 'steps': 'lm_steps',
              'steps_per_update': 'lm_steps'}
 #: Parameters accepted in a parameters file and not settings: every ROS node's, and the
-#: identifier node's own (nodes/identifier.py: its stream's end, its threads' scheduling)
-ROS_PARAMETERS = ('use_sim_time', 'end_history_after', 'realtime_priority')
+#: identifier node's own (nodes/identifier.py: its stream's end, its threads' scheduling,
+#: the nodes it waits for)
+ROS_PARAMETERS = ('use_sim_time', 'end_history_after', 'realtime_priority', 'wait_for_nodes')
 _SPECS: dict[str, ParamSpec] = {spec.name: spec for spec in IDENTIFIER_PARAMETERS}
 
 

@@ -15,11 +15,13 @@ the first sample.
 from __future__ import annotations
 
 from collections.abc import Sequence
-
-from rclpy.node import Node
-from rclpy.publisher import Publisher
+from typing import TYPE_CHECKING
 
 from scara_ident_ros.parameter_spec import ParamSpec
+
+if TYPE_CHECKING:
+    from rclpy.node import Node
+    from rclpy.publisher import Publisher
 
 __all__ = ['WAIT_FOR_NODES', 'subscribers_heard']
 
