@@ -32,9 +32,13 @@ import numpy as np
 from processes import kill, stop  # benchmarks/: the script's own folder
 from ros_env import ros_env
 
+from scara_ident_ros.nodes.realtime import GRAPH_PRIORITIES
+
 HERE = Path(__file__).resolve().parent
 OUTPUT = HERE / 'sim_wait.md'
-PRIORITIES = {'scara_sim': 30, 'identifier': 20, 'recorder': 10}  # as cli/run.py's REALTIME
+PRIORITIES = {'scara_sim': GRAPH_PRIORITIES['simulator'],  # as scara-ident run's
+              'identifier': GRAPH_PRIORITIES['identifier'],
+              'recorder': GRAPH_PRIORITIES['recorder']}
 SKIP_NS = 1_000_000_000  # the first second (start-up) is left out
 
 # scara_sim with each sample's stamp, wall clock around publish() and its thread's

@@ -5,7 +5,9 @@ starts what ``scara-ident run`` starts: the simulated SCARA (unless ``sim:=false
 e.g. with a real robot or ``scara-ident play``), one identifier serving three networks
 side by side (FFMW, FFW, FFS publishing under /ffmw, /ffw, /ffs, fed by /joint_states) and
 the MCAP recorder. The simulator waits (at most WAIT_TIMEOUT s) until the identifier and
-the recorder have subscribed to /joint_states before its first sample.
+the recorder have subscribed to /joint_states before its first sample (those two by name:
+other subscribers on the domain do not count). The nodes run under ``SCHED_FIFO`` at the
+priorities ``scara-ident run`` gives them (``GRAPH_PRIORITIES``), where the user may.
 
 On Ctrl-C every node stops through its own stop (drain, save, statistics), which takes at
 most ``STOP_TIMEOUT`` s (``scara_ident_ros.nodes.runtime``): launch's default grace (5 s
@@ -23,6 +25,7 @@ handler raises (:func:`end_on_failure`).
 ``launch`` and ``launch_ros`` are imported when the description is generated, not when
 the file is imported, so that the file can be read and checked without them.
 """
+from scara_ident_ros.nodes.realtime import GRAPH_PRIORITIES
 from scara_ident_ros.nodes.runtime import STOP_TIMEOUT
 from scara_ident_ros.topics import JOINT_STATES, in_namespace
 
@@ -63,16 +66,21 @@ def generate_launch_description():
     grace = {'sigterm_timeout': str(STOP_GRACE), 'sigkill_timeout': str(STOP_GRACE)}
     recorder = Node(package='scara_ident_ros', executable='recorder', name='recorder',
                     parameters=[PathJoinSubstitution([config, 'recorder.yaml']),
-                                {'output': LaunchConfiguration('bag')}], **grace)
+                                {'output': LaunchConfiguration('bag'),
+                                 'realtime_priority': GRAPH_PRIORITIES['recorder']}], **grace)
     simulator = Node(package='scara_ident_ros', executable='scara_sim', name='scara_sim',
                      parameters=[PathJoinSubstitution([config, 'scara_sim.yaml']),
-                                 {'wait_for_subscribers': 2, 'wait_timeout': WAIT_TIMEOUT}],
+                                 {'wait_for_subscribers': 2,
+                                  'wait_for_nodes': ['/recorder', '/identifier'],
+                                  'wait_timeout': WAIT_TIMEOUT,
+                                  'realtime_priority': GRAPH_PRIORITIES['simulator']}],
                      condition=IfCondition(LaunchConfiguration('sim')), **grace)
     identifier = Node(
         package='scara_ident_ros', executable='identifier', name='identifier',
         parameters=[PathJoinSubstitution([config, 'identifier.yaml']),
                     {'methods': list(METHODS), 'wait_for_subscribers': 1,
-                     'wait_timeout': WAIT_TIMEOUT}],
+                     'wait_for_nodes': ['/recorder'], 'wait_timeout': WAIT_TIMEOUT,
+                     'realtime_priority': GRAPH_PRIORITIES['identifier']}],
         remappings=[(JOINT_STATES, in_namespace(JOINT_STATES))], **grace)
     actions = [
         DeclareLaunchArgument('bag', default_value='scara_ident_run',

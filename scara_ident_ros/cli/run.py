@@ -3,10 +3,11 @@
 Starts, as separate processes, the MCAP recorder, one identifier serving FFMW, FFW and FFS
 (under ``/ffmw``, ``/ffw``, ``/ffs``, one subscription to ``/joint_states``) and the
 simulated SCARA, their threads under ``SCHED_FIFO`` where the user may (simulator first,
-then identifier, then recorder: :data:`REALTIME`; the learners at normal priority). Each
-waits for its subscribers; the simulator publishes ``--duration`` seconds at 1 kHz and
-stops; then the identifier (it publishes its last, pending predictions and saves the models)
-and the recorder are stopped with SIGINT, in that order. A summary accounts for every
+then identifier, then recorder: :data:`~scara_ident_ros.nodes.realtime.GRAPH_PRIORITIES`;
+the learners at normal priority). Each waits for its own subscribers; the simulator
+publishes ``--duration`` seconds at 1 kHz and stops; then the identifier (it publishes its
+last, pending predictions and saves the models) and the recorder are stopped with SIGINT,
+in that order. A summary accounts for every
 published sample per method (predicted, skipped, lost, not drained) and gives each method's
 errors; unless ``--no-report`` the tables and figures follow (``scara-ident tables``).
 
@@ -40,6 +41,7 @@ from scara_ident_ros.cli.run_summary import JointStatesUse, MethodRow, RunSummar
 from scara_ident_ros.identification.trainer import TRAINERS
 from scara_ident_ros.identification.learner_methods import LEARNER_METHODS
 from scara_ident_ros.nn.presets import METHODS
+from scara_ident_ros.nodes.realtime import GRAPH_PRIORITIES
 from scara_ident_ros.paths import unwritable_dir
 from scara_ident_ros.cli.process_graph import (NodeProcess, ProcessGraph, StopSignals,
                                            publishers_on)
@@ -55,9 +57,6 @@ INTERRUPTED = 130  # exit status after a Ctrl-C (128 + SIGINT), as a shell repor
 JOINT_STATES_TOPIC = in_namespace(JOINT_STATES)  # the robot's: the identifier takes it
 IDENTIFIER = 'identifier'  # the identifier's process, logs and node name
 RECORDER = '/recorder'  # the recorder's node, fully qualified
-#: SCHED_FIFO priorities (nodes/realtime.py): the simulator's stream first, then the
-#: predictions, then the recorder; the learners and everything else after them
-REALTIME = {'simulator': 30, IDENTIFIER: 20, 'recorder': 10}
 END_HISTORY_AFTER = 0.1  # s after the last sample: its predictions (the identifier's)
 
 
@@ -151,7 +150,7 @@ def run(args: argparse.Namespace) -> int:
     graph.start(NodeProcess('recorder', 'scara_ident_ros.nodes.recorder', [
         '-p', f'output:={bag}', '-p', f'compression:={args.compression}',
         '-p', f'stats_file:={stats / "recorder.json"}',
-        '-p', f'realtime_priority:={REALTIME["recorder"]}']))
+        '-p', f'realtime_priority:={GRAPH_PRIORITIES["recorder"]}']))
     graph.start(NodeProcess(IDENTIFIER, 'scara_ident_ros.nodes.identifier', [
         '-r', f'{JOINT_STATES}:={JOINT_STATES_TOPIC}',
         '-p', f'methods:=[{",".join(args.methods)}]',
@@ -167,7 +166,7 @@ def run(args: argparse.Namespace) -> int:
         '-p', f'stats_file:={stats}/{{method}}.json',
         # the last samples' predictions when the simulator ends, not when the identifier stops
         '-p', f'end_history_after:={END_HISTORY_AFTER}',
-        '-p', f'realtime_priority:={REALTIME[IDENTIFIER]}', *robot_args]))
+        '-p', f'realtime_priority:={GRAPH_PRIORITIES[IDENTIFIER]}', *robot_args]))
     sim = graph.start(NodeProcess(sim_name, f'scara_ident_ros.nodes.{sim_name}', [
         '-p', f'duration:={args.duration}', '-p', f'trajectory:={args.trajectory}',
         '-p', f'seed:={args.seed}', '-p', 'wait_for_subscribers:=2',
@@ -175,7 +174,7 @@ def run(args: argparse.Namespace) -> int:
         '-p', f'wait_for_nodes:=[{RECORDER},/{IDENTIFIER}]',
         '-p', f'wait_timeout:={STARTUP_TIMEOUT}',
         '-p', f'stats_file:={stats / "scara_sim.json"}',
-        '-p', f'realtime_priority:={REALTIME["simulator"]}', *sim_args]))
+        '-p', f'realtime_priority:={GRAPH_PRIORITIES["simulator"]}', *sim_args]))
     print(f'scara-ident run: {args.duration:g} s at 1 kHz, identifying with '
           f'{", ".join(m.upper() for m in args.methods)}, recording {bag}', flush=True)
     with StopSignals() as signals:

@@ -24,7 +24,7 @@ import resource
 
 from scara_ident_ros.parameter_spec import ParamSpec
 
-__all__ = ['REALTIME_PRIORITY', 'use_realtime_priority']
+__all__ = ['GRAPH_PRIORITIES', 'REALTIME_PRIORITY', 'use_realtime_priority']
 
 #: The parameter of every node of the stream (simulator, identifier, recorder).
 REALTIME_PRIORITY = ParamSpec(
@@ -33,6 +33,11 @@ REALTIME_PRIORITY = ParamSpec(
     'of at least this; refused: a warning and normal scheduling); processes it starts '
     'afterwards run at normal priority; 0: normal scheduling', min=0, max=99,
     fixed='set once, when the node is built')
+
+#: The priorities ``scara-ident run`` and the launch file give the graph's nodes, by role:
+#: the simulator's stream first, then the predictions, then the recorder; the learners and
+#: everything else after them.
+GRAPH_PRIORITIES = {'simulator': 30, 'identifier': 20, 'recorder': 10}
 
 TASKS = '/proc/self/task'  # one entry per thread of this process, by thread id
 

@@ -31,7 +31,7 @@ from rosbags.highlevel import AnyReader
 from cdr_readers import READERS, joint_state_fields
 from rostest import NodeProcess
 from ros_domains import claim_domain
-from scara_ident_ros.cli.run import REALTIME
+from scara_ident_ros.nodes.realtime import GRAPH_PRIORITIES
 from scara_ident_ros.nn.presets import METHODS
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
@@ -47,7 +47,8 @@ PROBE = '/probe'  # namespace of the second identifier
 # The run's nodes are real-time (SCHED_FIFO); beside them the second recorder and identifier
 # at normal priority were starved for seconds on a loaded machine (the recorder subscribed to
 # the run's topics after its last sample), so they run as the run's own do
-RECORDER_PRIORITY, IDENTIFIER_PRIORITY = REALTIME['recorder'], REALTIME['identifier']
+RECORDER_PRIORITY, IDENTIFIER_PRIORITY = (GRAPH_PRIORITIES['recorder'],
+                                          GRAPH_PRIORITIES['identifier'])
 
 
 def _stop_group(process: subprocess.Popen[bytes]) -> None:

@@ -85,6 +85,23 @@ def test_it_starts_the_graph_of_scara_ident_run(description: list[StandIn]) -> N
     assert arguments == {'bag', 'sim'}
 
 
+def test_its_nodes_run_and_wait_as_scara_ident_runs_do(description: list[StandIn]) -> None:
+    """The priorities of scara-ident run, and each node waits for the graph's own
+    subscribers by name (another subscriber on the domain does not count as them)."""
+    from scara_ident_ros.nodes.realtime import GRAPH_PRIORITIES
+
+    given = {node.kwargs['executable']: node.kwargs['parameters'][1]
+             for node in of_type(description, 'Node')}
+    for executable, role in (('scara_sim', 'simulator'), ('identifier', 'identifier'),
+                             ('recorder', 'recorder')):
+        assert given[executable]['realtime_priority'] == GRAPH_PRIORITIES[role], executable
+    names = {node.kwargs['executable']: node.kwargs['name'] for node in of_type(description,
+                                                                                'Node')}
+    assert given['scara_sim']['wait_for_nodes'] == [f"/{names['recorder']}",
+                                                    f"/{names['identifier']}"]
+    assert given['identifier']['wait_for_nodes'] == [f"/{names['recorder']}"]
+
+
 class Exited:
     """launch's ProcessExited event, as far as the handlers read it."""
 
