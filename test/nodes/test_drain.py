@@ -45,19 +45,25 @@ def test_drain_waits_for_messages_in_flight_for_the_quiet_time() -> None:
 
 
 def test_a_publisher_that_goes_on_does_not_hold_the_stop_up() -> None:
-    """A backlog, with a timer's event after every second message, then a live stream of
-    one message per 0.5 ms: the backlog is taken whole, the live stream for ``quiet``."""
+    """A backlog, with a timer's event after every second message and a 5 ms pause inside
+    it (the executor had nothing for 3-5 ms within a real backlog), then a live stream of
+    one message per 0.5 ms: the backlog is taken whole, the live stream briefly."""
     class Live(QueueExecutor):
         def __init__(self) -> None:
             super().__init__(3000)
             self.spins = 0
-            self.next_live = None
+            self.next_live: float | None = None
+            self.paused_until: float | None = None
 
         def spin_once(self, timeout_sec: float) -> None:
             self.spins += 1
+            now = time.monotonic()
+            if self.queued == 1500 and self.paused_until is None:
+                self.paused_until = now + 0.005
+            if self.paused_until is not None and now < self.paused_until:
+                return  # nothing delivered for a moment, the backlog still there
             if self.queued and self.spins % 3 == 0:
                 return  # a timer's callback: no message taken
-            now = time.monotonic()
             if not self.queued and self.next_live is None:
                 self.next_live = now
             if self.next_live is not None and now >= self.next_live:
