@@ -101,7 +101,8 @@ END_HISTORY_AFTER = ParamSpec(
     'a stream that ended or paused this much later, not when the node stops; 0: only on stop',
     's', min=0.0, fixed='a timer made at start')
 #: The node's parameters: the identifier's (:mod:`scara_ident_ros.identification.parameters`),
-#: then the node's own: the end of a quiet stream's history, the scheduling of its threads
+#: then the node's own: the end of a quiet stream's history, the scheduling of its threads,
+#: the nodes it waits for
 PARAMETERS = (*IDENTIFIER_PARAMETERS, END_HISTORY_AFTER, REALTIME_PRIORITY, WAIT_FOR_NODES)
 #: contact messages are rare: a few seconds of them at 1 kHz
 CONTACT_QOS = QoSProfile(depth=1000, history=HistoryPolicy.KEEP_LAST,

@@ -10,7 +10,9 @@ a recorder of every topic subscribes as soon as a publisher appears, so counting
 already there does not help). ``wait_for_nodes`` names them: the wait ends once each named
 node (its fully qualified name, e.g. ``/identifier``) has a subscription on the topic and
 the publisher has matched every subscription the graph shows, so that none of them misses
-the first sample.
+the first sample. A subscription the publisher cannot match (a QoS it does not offer, e.g.
+transient local on the simulator's volatile ``/joint_states``) holds the wait until its
+``wait_timeout``, after which the node starts anyway and says so.
 """
 from __future__ import annotations
 
